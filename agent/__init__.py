@@ -1,0 +1,1 @@
+"""lwrl's agents: gradient-descent Sarsa(lambda) with NRBF features, and a CMAC baseline."""

@@ -1,0 +1,1 @@
+"""lwrl's visualisation: episodes streamed or saved to Rerun."""
