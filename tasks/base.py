@@ -1,0 +1,75 @@
+"""The one dm_control `Task` of the suite: it runs any `TaskDefinition` on either plant."""
+
+import collections
+
+import numpy as np
+from dm_control.rl import control
+from dm_env import specs
+
+from tasks.definition import TaskDefinition, check_actions
+
+
+class SuiteTask(control.Task):
+    """Episode set-up, observation, reward and termination of a `TaskDefinition`.
+
+    It calls the definition's array functions with a batch of one. It also counts the
+    episode's steps (the time limit is a truncation with discount 1, decided here so that a
+    terminal state on the last allowed step still ends with discount 0) and its up-time.
+    """
+
+    def __init__(self, definition: TaskDefinition, seed=None):
+        self.definition = definition
+        self.random = np.random.default_rng(seed)
+        self._steps = 0
+        self._uptime = 0.0
+
+    @property
+    def steps(self) -> int:
+        """Steps taken in the current (or just finished) episode."""
+        return self._steps
+
+    @property
+    def uptime(self) -> float:
+        """Up-time in seconds of the current (or just finished) episode; NaN where the task
+        has none."""
+        return self._uptime
+
+    def initialize_episode(self, physics):
+        physics.set_state_vector(self.definition.initial_state(self.random))
+        self._steps = 0
+        self._uptime = 0.0 if self.definition.is_up is not None else float("nan")
+
+    def before_step(self, action, physics):
+        index = check_actions(action, self.definition.num_actions)
+        if index.ndim != 0:
+            raise ValueError(f"action must be one integer index in 0..{self.definition.num_actions - 1}; "
+                             f"got {action!r}")
+        physics.set_control(self.definition.controls[int(index)])
+
+    def after_step(self, physics):
+        self._steps += 1
+        self._uptime += float(self.definition.uptime_increment(physics.state_vector()[None])[0])
+
+    def action_spec(self, physics):
+        return specs.DiscreteArray(num_values=self.definition.num_actions, dtype=np.int64,
+                                   name="action")
+
+    def observation_spec(self, physics):
+        return collections.OrderedDict(
+            (name, specs.Array(shape=(), dtype=np.float64, name=name))
+            for name in self.definition.state_names)
+
+    def get_observation(self, physics):
+        observation = self.definition.observe(physics.state_vector()[None])[0]
+        return collections.OrderedDict(
+            (name, np.array(value)) for name, value in zip(self.definition.state_names, observation))
+
+    def get_reward(self, physics):
+        return float(self.definition.reward(physics.state_vector()[None])[0])
+
+    def get_termination(self, physics):
+        if self.definition.terminal(physics.state_vector()[None])[0]:
+            return 0.0
+        if self._steps >= self.definition.step_limit:
+            return 1.0
+        return None

@@ -1,0 +1,111 @@
+"""B copies of one task on one plant, stepped as arrays.
+
+`BatchedEnv` follows dm_env's conventions with a leading batch axis: environment i has its
+own seed and random start stream, and resets itself on the step after its episode ended
+(that step ignores its action and returns a FIRST time step with reward 0 and discount 1),
+as a dm_env environment does when stepped after LAST. Given the same seeds and actions, B
+batched environments produce exactly the time steps of B single `tasks.load` environments.
+The task's reward, termination and up-time are the same `TaskDefinition` functions the
+single environments call.
+"""
+
+from typing import NamedTuple, Sequence
+
+import dm_env
+import numpy as np
+
+import tasks
+from tasks.definition import check_actions, check_finite_state
+
+FIRST, MID, LAST = (int(t) for t in (dm_env.StepType.FIRST, dm_env.StepType.MID, dm_env.StepType.LAST))
+
+
+class BatchedTimeStep(NamedTuple):
+    """A dm_env TimeStep with a batch axis: every field has leading shape `(B,)`."""
+
+    step_type: np.ndarray
+    """`dm_env.StepType` values (int8)."""
+    reward: np.ndarray
+    """Reward on entering the observed state; 0 on FIRST."""
+    discount: np.ndarray
+    """0 on a terminal step, else 1."""
+    observation: np.ndarray
+    """Observations `(B, d)` in the order of `state_names`."""
+
+    def first(self) -> np.ndarray:
+        return self.step_type == FIRST
+
+    def mid(self) -> np.ndarray:
+        return self.step_type == MID
+
+    def last(self) -> np.ndarray:
+        return self.step_type == LAST
+
+
+class BatchedEnv:
+    """`len(seeds)` environments of `domain.task` on `plant`, stepped together.
+
+    Options are those of `tasks.load`. `uptime` and `steps` hold each environment's
+    current (or just finished) episode's up-time in seconds and step count.
+    """
+
+    def __init__(self, domain: str, task: str, plant=None, seeds: Sequence[int] = (0,), **options):
+        seeds = list(seeds)
+        if not seeds:
+            raise ValueError("seeds must name at least one environment")
+        self.definition, self.plant_name, plant_options = tasks.resolve(domain, task, plant, **options)
+        self.batch_size = len(seeds)
+        self.plant = tasks.DOMAINS[domain].PLANTS.batch(self.plant_name, self.batch_size, **plant_options)
+        self._controls = np.asarray(self.definition.controls)
+        self._rngs = [np.random.default_rng(seed) for seed in seeds]
+        self.state = np.zeros((self.batch_size, len(self.definition.state_names)))
+        self.steps = np.zeros(self.batch_size, dtype=np.int64)
+        self.uptime = np.zeros(self.batch_size)
+        self._needs_reset = np.ones(self.batch_size, dtype=bool)
+
+    @property
+    def num_actions(self) -> int:
+        return self.definition.num_actions
+
+    def _start_episodes(self, which: np.ndarray) -> None:
+        for i in np.flatnonzero(which):
+            self.state[i] = self.definition.initial_state(self._rngs[i])
+        self.steps[which] = 0
+        self.uptime[which] = 0.0 if self.definition.is_up is not None else np.nan
+        self._needs_reset[which] = False
+
+    def set_state(self, state: np.ndarray) -> None:
+        """Overwrite the plants' states `(B, d)` (episodes go on from there)."""
+        self.state[:] = check_finite_state(state, self.definition.state_names)
+
+    def reset(self) -> BatchedTimeStep:
+        """Start a new episode in every environment."""
+        self._start_episodes(np.ones(self.batch_size, dtype=bool))
+        ones = np.ones(self.batch_size)
+        return BatchedTimeStep(np.full(self.batch_size, FIRST, dtype=np.int8), 0 * ones, ones,
+                               self.definition.observe(self.state))
+
+    def step(self, actions) -> BatchedTimeStep:
+        """Apply one action index per environment; environments whose episode ended reset."""
+        actions = check_actions(actions, self.num_actions)
+        if actions.shape != (self.batch_size,):
+            raise ValueError(f"actions must have shape ({self.batch_size},), one per environment; "
+                             f"got shape {actions.shape}")
+        starting = self._needs_reset.copy()
+        self._start_episodes(starting)
+        moving = ~starting
+        definition = self.definition
+        moved = self.plant.step(self.state[moving], self._controls[actions[moving]])
+        self.state[moving] = moved
+        self.steps[moving] += 1
+        self.uptime[moving] += definition.uptime_increment(moved)
+
+        reward = np.zeros(self.batch_size)
+        reward[moving] = definition.reward(moved)
+        terminal = np.zeros(self.batch_size, dtype=bool)
+        terminal[moving] = definition.terminal(moved)
+        last = moving & (terminal | (self.steps >= definition.step_limit))
+        self._needs_reset = last
+        step_type = np.where(starting, FIRST, np.where(last, LAST, MID)).astype(np.int8)
+        return BatchedTimeStep(step_type, reward, np.where(terminal, 0.0, 1.0),
+                               definition.observe(self.state))

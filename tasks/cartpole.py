@@ -1,0 +1,165 @@
+"""Cart-Pole (Barto, Sutton and Anderson 1983), as in Främling (2008), section 4.3.
+
+A pole hinged on a cart must be kept upright by pushing the cart left or right. Two plants:
+`mujoco` (`models/cartpole.xml`) and `analytic` (the paper's equations with Euler's method).
+
+Task `balance`:
+
+- **Actions** (`DiscreteArray`, 2 values): index 0, 1 apply the force F = -10, +10 N to
+  the cart (positive toward +x).
+- **Observations** (float64 scalars): `cart_position` x in m, within +-2.4 while the
+  episode lasts (with the default track limit); `cart_velocity` x_dot in m/s;
+  `pole_angle` theta in rad, 0 upright, within +-12 deg (0.2094 rad) while the episode
+  lasts, positive toward +x; `pole_angular_velocity` theta_dot in rad/s.
+- **Dynamics** (the paper's section 4.3, with sgn(0) = 0):
+  theta_dd = [g sin(theta) + cos(theta) (-F - m l theta_d^2 sin(theta) + mu_c sgn(x_d)) / (mc + m)
+              - mu_p theta_d / (m l)] / [l (4/3 - m cos^2(theta) / (mc + m))],
+  x_dd = [F + m l (theta_d^2 sin(theta) - theta_dd cos(theta)) - mu_c sgn(x_d)] / (mc + m),
+  mc = 1.0 kg, m = 0.1 kg, l = 0.5 m (half the pole's length), g = 9.81 m/s^2,
+  mu_c = 0.0005 N, mu_p = 0.000002 N m s/rad; dt = 0.02 s.
+- **Reward**: 0, and -1 on the failing step.
+- **Start**: all four variables 0.
+- **Episode end**: terminal (discount 0) when |theta| > 12 deg or, unless
+  `track_limit=None`, |x| > `track_limit` (default 2.4 m, as in Barto et al.; the paper
+  names only the angle); truncated (discount 1) after `time_limit` = 240 s (12 000 steps).
+- **Up-time**: seconds before failure (the pole is up while the episode lasts).
+"""
+
+import math
+
+import numpy as np
+from numba.extending import register_jitable
+
+from tasks.definition import TaskDefinition, step_limit
+from tasks.integrators import euler
+from tasks.physics import AnalyticPhysics, MujocoPhysics
+from tasks.plants import DomainPlants
+
+STATE_NAMES = ("cart_position", "cart_velocity", "pole_angle", "pole_angular_velocity")
+FORCES = (-10.0, 10.0)
+"""F (N) of each action."""
+CART_MASS = 1.0
+"""mc (kg)."""
+POLE_MASS = 0.1
+"""m (kg)."""
+HALF_LENGTH = 0.5
+"""l (m): half the pole's length, hinge to the pole's centre of mass."""
+GRAVITY = 9.81
+"""g (m/s^2)."""
+CART_FRICTION = 0.0005
+"""mu_c (N): Coulomb friction of the cart on the track."""
+POLE_FRICTION = 0.000002
+"""mu_p (N m s/rad): viscous friction at the pole's hinge."""
+TOTAL_MASS = CART_MASS + POLE_MASS
+"""mc + m (kg)."""
+POLE_MASS_LENGTH = POLE_MASS * HALF_LENGTH
+"""m l (kg m): a product (Gymnasium's functional cart-pole once had a sum here)."""
+TIMESTEP = 0.02
+"""dt (s) of one agent step."""
+TIME_LIMIT = 240.0
+"""Episode length (s)."""
+FAIL_ANGLE = math.radians(12.0)
+"""The pole has fallen beyond this |theta| (rad)."""
+TRACK_LIMIT = 2.4
+"""The cart has left the track beyond this |x| (m), by default."""
+
+
+@register_jitable
+def accelerations(cart_velocity, pole_angle, pole_angular_velocity, force):
+    """(x_dd, theta_dd) of the paper's Cart-Pole equations (section 4.3)."""
+    sin_theta = np.sin(pole_angle)
+    cos_theta = np.cos(pole_angle)
+    friction = CART_FRICTION * np.sign(cart_velocity)
+    spin = POLE_MASS_LENGTH * pole_angular_velocity * pole_angular_velocity * sin_theta
+    pole_acceleration = (
+        GRAVITY * sin_theta
+        + cos_theta * (-force - spin + friction) / TOTAL_MASS
+        - POLE_FRICTION * pole_angular_velocity / POLE_MASS_LENGTH
+    ) / (HALF_LENGTH * (4.0 / 3.0 - POLE_MASS * cos_theta * cos_theta / TOTAL_MASS))
+    cart_acceleration = (
+        force + spin - POLE_MASS_LENGTH * pole_acceleration * cos_theta - friction) / TOTAL_MASS
+    return cart_acceleration, pole_acceleration
+
+
+@register_jitable
+def step(cart_position, cart_velocity, pole_angle, pole_angular_velocity, force, dt,
+         semi_implicit):
+    """One Euler step of the cart-pole."""
+    cart_acceleration, pole_acceleration = accelerations(
+        cart_velocity, pole_angle, pole_angular_velocity, force)
+    cart_position, cart_velocity_next = euler(
+        cart_position, cart_velocity, cart_acceleration, dt, semi_implicit)
+    pole_angle, pole_angular_velocity = euler(
+        pole_angle, pole_angular_velocity, pole_acceleration, dt, semi_implicit)
+    return cart_position, cart_velocity_next, pole_angle, pole_angular_velocity
+
+
+@register_jitable
+def failed(cart_position, pole_angle, track_limit):
+    """True where the pole has fallen (|theta| > 12 deg) or the cart has left the track
+    (|x| > track_limit; pass `inf` for no limit)."""
+    return (np.abs(pole_angle) > FAIL_ANGLE) | (np.abs(cart_position) > track_limit)
+
+
+def initial_state(rng: np.random.Generator) -> np.ndarray:
+    """All zeros: the paper's start is deterministic."""
+    del rng
+    return np.zeros(len(STATE_NAMES))
+
+
+def balance(time_limit: float = TIME_LIMIT, track_limit=TRACK_LIMIT) -> TaskDefinition:
+    """The paper's balancing task; `time_limit` in seconds, `track_limit` in metres or None."""
+    limit = math.inf if track_limit is None else float(track_limit)
+    if not limit > 0:
+        raise ValueError(f"track_limit must be a positive number of metres or None; got {track_limit!r}")
+
+    def has_failed(state):
+        return failed(state[..., 0], state[..., 2], limit)
+
+    return TaskDefinition(
+        domain="cartpole", task="balance", state_names=STATE_NAMES, controls=FORCES,
+        control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
+        initial_state=initial_state,
+        observe=lambda state: state,
+        reward=lambda state: -1.0 * has_failed(state),
+        terminal=has_failed,
+        is_up=lambda state: ~has_failed(state),
+    )
+
+
+SUITE = {"balance": balance}
+
+
+class _Accessors:
+    def cart_position(self) -> float:
+        """x (m)."""
+        return self.state_vector()[0]
+
+    def cart_velocity(self) -> float:
+        """x_dot (m/s)."""
+        return self.state_vector()[1]
+
+    def pole_angle(self) -> float:
+        """theta (rad), 0 upright."""
+        return self.state_vector()[2]
+
+    def pole_angular_velocity(self) -> float:
+        """theta_dot (rad/s)."""
+        return self.state_vector()[3]
+
+
+class AnalyticPhysicsCartpole(_Accessors, AnalyticPhysics):
+    """The paper's cart-pole equations as a dm_control Physics."""
+
+    STATE_NAMES = STATE_NAMES
+
+
+class MujocoPhysicsCartpole(_Accessors, MujocoPhysics):
+    """The MJCF cart-pole in MuJoCo."""
+
+    STATE_NAMES = STATE_NAMES
+    ACTUATOR = "force"
+
+
+PLANTS = DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=AnalyticPhysicsCartpole,
+                      mujoco_physics=MujocoPhysicsCartpole, model="cartpole")

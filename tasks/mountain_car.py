@@ -1,0 +1,108 @@
+"""Mountain-Car (Moore 1991; Singh and Sutton 1996), as in Främling (2008), section 4.1.
+
+An under-powered car in a valley must back up the left slope to gather the momentum that
+takes it over the right hill. Its physics is the paper's difference equation, run as a custom
+dm_control Physics; there is no MuJoCo plant.
+
+Task `cost_to_go`:
+
+- **Actions** (`DiscreteArray`, 3 values): index 0, 1, 2 apply the thrust a = -1 (reverse),
+  0 (none), +1 (forward).
+- **Observations** (float64 scalars): `position` x in [-1.2, 0.5] (beyond 0.5 only in the
+  terminal state); `velocity` v in [-0.07, 0.07]. The altitude is sin(3x).
+- **Dynamics** (one step): v' = clip(v + 0.001 a - 0.0025 cos(3x), -0.07, 0.07);
+  x' = max(x + v', -1.2), and v' = 0 when the left wall clipped x'.
+- **Reward**: -1 every step, 0 on the step that reaches the goal (cost to go).
+- **Start**: x ~ U[-1.2, 0.5], v ~ U[-0.07, 0.07] (random, unlike Gymnasium's
+  MountainCar-v0).
+- **Episode end**: terminal (discount 0) when x' > 0.5; truncated (discount 1) after
+  `time_limit` steps (default 10 000, a safety cap: the paper has none). A step counts as
+  one unit of time.
+- **Up-time**: none (reported as NaN).
+"""
+
+import numpy as np
+from numba.extending import register_jitable
+
+from tasks.definition import TaskDefinition, step_limit
+from tasks.physics import AnalyticPhysics
+from tasks.plants import DomainPlants
+
+STATE_NAMES = ("position", "velocity")
+THRUSTS = (-1.0, 0.0, 1.0)
+"""Thrust a of each action: reverse, none, forward."""
+THRUST_GAIN = 0.001
+"""Velocity change per step per unit of thrust."""
+GRAVITY = 0.0025
+"""The paper's g: velocity change per step from the slope, times cos(3x)."""
+MIN_POSITION = -1.2
+"""The left wall."""
+GOAL_POSITION = 0.5
+"""Terminal when the position exceeds this."""
+MAX_SPEED = 0.07
+"""The velocity is bounded to [-MAX_SPEED, MAX_SPEED]."""
+STEP_LIMIT = 10_000
+"""Default safety cap on an episode's steps (a truncation)."""
+TIMESTEP = 1.0
+"""One step of the difference equation is one unit of time."""
+
+
+@register_jitable
+def step(position, velocity, thrust):
+    """One step of the paper's Mountain-Car equations (section 4.1); element-wise."""
+    velocity_next = np.minimum(np.maximum(
+        velocity + THRUST_GAIN * thrust - GRAVITY * np.cos(3.0 * position), -MAX_SPEED), MAX_SPEED)
+    unclipped = position + velocity_next
+    position_next = np.maximum(unclipped, MIN_POSITION)
+    velocity_next = velocity_next * (unclipped >= MIN_POSITION)  # the wall stops the car
+    return position_next, velocity_next
+
+
+@register_jitable
+def reached_goal(position):
+    """True past the goal at x = 0.5: the terminal states."""
+    return position > GOAL_POSITION
+
+
+@register_jitable
+def reward(position):
+    """-1 per step, 0 on entering the goal."""
+    return reached_goal(position) - 1.0
+
+
+def initial_state(rng: np.random.Generator) -> np.ndarray:
+    """x ~ U[-1.2, 0.5], v ~ U[-0.07, 0.07]."""
+    return rng.uniform((MIN_POSITION, -MAX_SPEED), (GOAL_POSITION, MAX_SPEED))
+
+
+def cost_to_go(time_limit: float = STEP_LIMIT) -> TaskDefinition:
+    """The paper's Mountain-Car task; `time_limit` caps an episode's steps."""
+    return TaskDefinition(
+        domain="mountain_car", task="cost_to_go", state_names=STATE_NAMES, controls=THRUSTS,
+        control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
+        initial_state=initial_state,
+        observe=lambda state: state,
+        reward=lambda state: reward(state[..., 0]),
+        terminal=lambda state: reached_goal(state[..., 0]),
+    )
+
+
+SUITE = {"cost_to_go": cost_to_go}
+
+
+class Physics(AnalyticPhysics):
+    """Mountain-Car's custom dm_control Physics: the paper's difference equation."""
+
+    STATE_NAMES = STATE_NAMES
+
+    def position(self) -> float:
+        return self.state_vector()[0]
+
+    def velocity(self) -> float:
+        return self.state_vector()[1]
+
+    def altitude(self) -> float:
+        return float(np.sin(3.0 * self.position()))
+
+
+PLANTS = DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=Physics, euler=False)

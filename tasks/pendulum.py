@@ -1,0 +1,135 @@
+"""Pendulum swing-up with limited torque (Doya 2000), as in Främling (2008), section 4.2.
+
+A pendulum hangs from a hinge and must be swung up and balanced upright, with a torque too
+weak to lift it directly. Two plants: `mujoco` (`models/pendulum.xml`) and `analytic` (the
+paper's equation with Euler's method).
+
+Task `swingup`:
+
+- **Actions** (`DiscreteArray`, 2 values): index 0, 1 apply the torque tau = -5, +5 N m.
+- **Observations** (float64 scalars): `angle` theta in rad, wrapped to [-pi, pi], 0 upright,
+  positive toward +x; `angular_velocity` theta_dot in rad/s (unbounded; about +-1.5 in
+  practice near the top, more when swinging).
+- **Dynamics**: m l^2 theta_dd = -mu theta_d + m g l sin(theta) + tau with m = 1 kg,
+  l = 1 m, g = 9.81 m/s^2, mu = 0.01 N m s/rad (the paper prints "-pi theta_d", a slip for
+  mu), integrated at dt = 0.02 s.
+- **Reward** (on entering a state): r1 = cos(theta) - 0.7; where |theta| <= pi/5 it is
+  r1 - |theta_dot| instead.
+- **Start**: theta ~ U[-pi, pi], theta_dot = 0.
+- **Episode end**: no terminal state; truncated (discount 1) after `time_limit` = 60 s
+  (3000 steps).
+- **Up-time**: seconds with |theta| <= pi/2; more than 40 s means balanced to the end.
+"""
+
+import numpy as np
+from numba.extending import register_jitable
+
+from tasks.definition import TaskDefinition, step_limit
+from tasks.integrators import euler
+from tasks.physics import AnalyticPhysics, MujocoPhysics
+from tasks.plants import DomainPlants
+
+STATE_NAMES = ("angle", "angular_velocity")
+TORQUES = (-5.0, 5.0)
+"""tau (N m) of each action."""
+MASS = 1.0
+"""m (kg)."""
+LENGTH = 1.0
+"""l (m), hinge to the point mass."""
+GRAVITY = 9.81
+"""g (m/s^2)."""
+FRICTION = 0.01
+"""mu (N m s/rad), viscous friction at the hinge."""
+TIMESTEP = 0.02
+"""dt (s) of one agent step."""
+TIME_LIMIT = 60.0
+"""Episode length (s)."""
+SHAPING_ANGLE = np.pi / 5
+"""Within this |theta| the reward also penalises the speed."""
+UP_ANGLE = np.pi / 2
+"""Within this |theta| the pendulum counts as up."""
+
+
+@register_jitable
+def angular_acceleration(angle, angular_velocity, torque):
+    """theta_dd from m l^2 theta_dd = -mu theta_d + m g l sin(theta) + tau."""
+    return (-FRICTION * angular_velocity + MASS * GRAVITY * LENGTH * np.sin(angle) + torque) / (
+        MASS * LENGTH * LENGTH)
+
+
+@register_jitable
+def step(angle, angular_velocity, torque, dt, semi_implicit):
+    """One Euler step of the pendulum; the angle is not wrapped (like MuJoCo's hinge)."""
+    return euler(angle, angular_velocity, angular_acceleration(angle, angular_velocity, torque),
+                 dt, semi_implicit)
+
+
+@register_jitable
+def wrap_angle(angle):
+    """The angle mapped to [-pi, pi)."""
+    return (angle + np.pi) % (2.0 * np.pi) - np.pi
+
+
+@register_jitable
+def reward(angle, angular_velocity):
+    """r1 = cos(theta) - 0.7, minus |theta_dot| where |theta| <= pi/5 (section 4.2)."""
+    near_top = np.abs(wrap_angle(angle)) <= SHAPING_ANGLE
+    return np.cos(angle) - 0.7 - np.abs(angular_velocity) * near_top
+
+
+@register_jitable
+def is_up(angle):
+    """True where |theta| <= pi/2: the time counted as up-time."""
+    return np.abs(wrap_angle(angle)) <= UP_ANGLE
+
+
+def initial_state(rng: np.random.Generator) -> np.ndarray:
+    """theta ~ U[-pi, pi], theta_dot = 0."""
+    return np.array([rng.uniform(-np.pi, np.pi), 0.0])
+
+
+def _observe(state):
+    return np.stack([wrap_angle(state[..., 0]), state[..., 1]], axis=-1)
+
+
+def swingup(time_limit: float = TIME_LIMIT) -> TaskDefinition:
+    """The paper's swing-up task; `time_limit` in seconds."""
+    return TaskDefinition(
+        domain="pendulum", task="swingup", state_names=STATE_NAMES, controls=TORQUES,
+        control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
+        initial_state=initial_state,
+        observe=_observe,
+        reward=lambda state: reward(state[..., 0], state[..., 1]),
+        terminal=lambda state: np.zeros(state.shape[:-1], dtype=bool),
+        is_up=lambda state: is_up(state[..., 0]),
+    )
+
+
+SUITE = {"swingup": swingup}
+
+
+class _Accessors:
+    def angle(self) -> float:
+        """theta (rad), wrapped to [-pi, pi)."""
+        return float(wrap_angle(self.state_vector()[0]))
+
+    def angular_velocity(self) -> float:
+        """theta_dot (rad/s)."""
+        return self.state_vector()[1]
+
+
+class AnalyticPhysicsPendulum(_Accessors, AnalyticPhysics):
+    """The paper's pendulum equation as a dm_control Physics."""
+
+    STATE_NAMES = STATE_NAMES
+
+
+class MujocoPhysicsPendulum(_Accessors, MujocoPhysics):
+    """The MJCF pendulum in MuJoCo."""
+
+    STATE_NAMES = STATE_NAMES
+    ACTUATOR = "torque"
+
+
+PLANTS = DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=AnalyticPhysicsPendulum,
+                      mujoco_physics=MujocoPhysicsPendulum, model="pendulum")

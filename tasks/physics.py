@@ -1,0 +1,85 @@
+"""dm_control `Physics` for the suite's two plants, with one state interface.
+
+Both classes expose `state_vector()` / `set_state_vector(s)` in the task's variable order and
+`set_control(u)` for the one actuated quantity, so that one `Task` serves both plants. Domain
+modules add one-line accessors named after the quantities (`pole_angle()`, ...).
+"""
+
+import numpy as np
+from dm_control import mujoco as dm_mujoco
+from dm_control.rl import control
+
+from tasks.definition import check_finite_state
+from tasks.plants import AnalyticPlant
+
+
+class AnalyticPhysics(control.Physics):
+    """A dm_control Physics that steps the paper's equations (a batch of one)."""
+
+    STATE_NAMES: tuple = ()
+
+    def __init__(self, plant: AnalyticPlant):
+        self._plant = plant
+        self.reset()
+
+    def step(self, n_sub_steps=1):
+        for _ in range(n_sub_steps):
+            self._state = self._plant.step(self._state, self._control)
+            self._time += self._plant.timestep
+
+    def time(self):
+        return self._time
+
+    def timestep(self):
+        return self._plant.timestep
+
+    def set_control(self, control_value):
+        self._control = np.array([control_value], dtype=np.float64)
+
+    def reset(self):
+        self._state = np.zeros((1, len(self.STATE_NAMES)))
+        self._control = np.zeros(1)
+        self._time = 0.0
+
+    def after_reset(self):
+        pass
+
+    def check_divergence(self):
+        if not np.all(np.isfinite(self._state)):
+            raise control.PhysicsError(f"state is not finite: {self._state[0].tolist()}")
+
+    def state_vector(self) -> np.ndarray:
+        """The state in the task's variable order, shape `(d,)`."""
+        return self._state[0].copy()
+
+    def set_state_vector(self, state) -> None:
+        self._state = check_finite_state(state, self.STATE_NAMES).reshape(1, -1).copy()
+
+    get_state = state_vector
+    set_state = set_state_vector
+
+
+class MujocoPhysics(dm_mujoco.Physics):
+    """dm_control's MuJoCo Physics with the suite's state interface.
+
+    The state vector interleaves `qpos` and `qvel` joint by joint (joint angles are not
+    wrapped); `set_control` drives the actuator named `ACTUATOR` and leaves any passive
+    actuator (the cart's friction) alone.
+    """
+
+    STATE_NAMES: tuple = ()
+    ACTUATOR: str = ""
+
+    def state_vector(self) -> np.ndarray:
+        return np.column_stack([self.data.qpos, self.data.qvel]).ravel()
+
+    def set_state_vector(self, state) -> None:
+        state = check_finite_state(state, self.STATE_NAMES)
+        self.data.qpos[:] = state[0::2]
+        self.data.qvel[:] = state[1::2]
+        # dm_control's legacy step reuses the position-dependent quantities of the last
+        # mj_step1/mj_forward, so they must describe the state just set.
+        self.forward()
+
+    def set_control(self, control_value):
+        self.named.data.ctrl[self.ACTUATOR] = control_value
