@@ -32,7 +32,7 @@ from numba.extending import register_jitable
 
 from tasks.definition import TaskDefinition, step_limit
 from tasks.integrators import euler
-from tasks.physics import AnalyticPhysics, MujocoPhysics
+from tasks.physics import physics_classes
 from tasks.plants import DomainPlants
 
 STATE_NAMES = ("cart_position", "cart_velocity", "pole_angle", "pole_angular_velocity")
@@ -131,6 +131,8 @@ SUITE = {"balance": balance}
 
 
 class _Accessors:
+    """One-line accessors named after the quantities, for both plants."""
+
     def cart_position(self) -> float:
         """x (m)."""
         return self.state_vector()[0]
@@ -148,18 +150,6 @@ class _Accessors:
         return self.state_vector()[3]
 
 
-class AnalyticPhysicsCartpole(_Accessors, AnalyticPhysics):
-    """The paper's cart-pole equations as a dm_control Physics."""
-
-    STATE_NAMES = STATE_NAMES
-
-
-class MujocoPhysicsCartpole(_Accessors, MujocoPhysics):
-    """The MJCF cart-pole in MuJoCo."""
-
-    STATE_NAMES = STATE_NAMES
-    ACTUATOR = "force"
-
-
+AnalyticPhysicsCartpole, MujocoPhysicsCartpole = physics_classes("Cartpole", _Accessors, STATE_NAMES, "force")
 PLANTS = DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=AnalyticPhysicsCartpole,
                       mujoco_physics=MujocoPhysicsCartpole, model="cartpole")

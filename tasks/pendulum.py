@@ -26,7 +26,7 @@ from numba.extending import register_jitable
 
 from tasks.definition import TaskDefinition, step_limit
 from tasks.integrators import euler
-from tasks.physics import AnalyticPhysics, MujocoPhysics
+from tasks.physics import physics_classes
 from tasks.plants import DomainPlants
 
 STATE_NAMES = ("angle", "angular_velocity")
@@ -109,6 +109,8 @@ SUITE = {"swingup": swingup}
 
 
 class _Accessors:
+    """One-line accessors named after the quantities, for both plants."""
+
     def angle(self) -> float:
         """theta (rad), wrapped to [-pi, pi)."""
         return float(wrap_angle(self.state_vector()[0]))
@@ -118,18 +120,6 @@ class _Accessors:
         return self.state_vector()[1]
 
 
-class AnalyticPhysicsPendulum(_Accessors, AnalyticPhysics):
-    """The paper's pendulum equation as a dm_control Physics."""
-
-    STATE_NAMES = STATE_NAMES
-
-
-class MujocoPhysicsPendulum(_Accessors, MujocoPhysics):
-    """The MJCF pendulum in MuJoCo."""
-
-    STATE_NAMES = STATE_NAMES
-    ACTUATOR = "torque"
-
-
+AnalyticPhysicsPendulum, MujocoPhysicsPendulum = physics_classes("Pendulum", _Accessors, STATE_NAMES, "torque")
 PLANTS = DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=AnalyticPhysicsPendulum,
                       mujoco_physics=MujocoPhysicsPendulum, model="pendulum")
