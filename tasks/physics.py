@@ -55,9 +55,6 @@ class AnalyticPhysics(control.Physics):
     def set_state_vector(self, state) -> None:
         self._state = check_finite_state(state, self.STATE_NAMES).reshape(1, -1).copy()
 
-    get_state = state_vector
-    set_state = set_state_vector
-
 
 class MujocoPhysics(dm_mujoco.Physics):
     """dm_control's MuJoCo Physics with the suite's state interface.
