@@ -1,0 +1,164 @@
+"""Normalised radial basis function (NRBF) features, Främling (2008), section 3.
+
+The state `s` is mapped affinely from its range `[low, high]` to `[0, 1]` per variable (not
+clipped: values outside the range are allowed). The network has `N = n^d` neurons whose
+centroids form a regular grid with `n` points per dimension at the cell midpoints
+`(i + 0.5) / n` (the author's kfnnet code; SPEC.md, "Agent").
+
+- RBF (eq. 8): `phi_i(s) = exp(-||s - c_i||^2 / r^2)`.
+- NRBF (eq. 9): `phibar_i = phi_i / sum_k phi_k`, so `Q(s, a) = sum_i w_ia phibar_i`.
+  The features are >= 0 and sum to 1.
+
+Neuron order: neuron `i` has the per-dimension grid indices `(i_0, ..., i_{d-1})` with
+`i = np.ravel_multi_index((i_0, ..., i_{d-1}), (n,) * d)`, i.e. C (row-major) order: the last
+state variable varies fastest.
+
+Factorised evaluation: the squared distance is a sum over dimensions, so
+`phi_i = prod_j g_j[i_j]` with `g_j[k] = exp(-(s_j - c_k)^2 / r^2)`, and `phibar` is the
+outer product of the per-dimension normalised vectors `g_j / sum_k g_j[k]`: `n * d`
+exponentials instead of `n^d` (24 instead of 1296 on the 6^4 cart-pole grid).
+
+Underflow guard: far outside `[0, 1]` every `g_j[k]` underflows to 0 (e.g. pendulum speeds
+beyond their range). Per dimension, the smallest squared distance is subtracted in the
+exponent; that common factor cancels in the normalisation, so the result is exact, the
+nearest centroid gets `g = 1` and the sum is never 0/0.
+"""
+
+import dataclasses
+
+import numba
+import numpy as np
+from numba.extending import register_jitable
+
+DEFAULT_R2 = 0.01
+"""r^2, the spread of eq. 8; the paper uses 0.01 in all tasks."""
+
+
+@register_jitable
+def normalise(state, low, high):
+    """The affine map of a state from `[low, high]` to `[0, 1]`, not clipped (element-wise)."""
+    return (state - low) / (high - low)
+
+
+@register_jitable
+def centroid(index, n):
+    """Grid point `index` of `n` in one dimension: the cell midpoint `(index + 0.5) / n`."""
+    return (index + 0.5) / n
+
+
+@register_jitable
+def nrbf_features_into(state, low, high, n, r2, out, scratch):
+    """Write the NRBF features (eq. 8 and 9) of one state into `out`; returns None.
+
+    `state`, `low`, `high`: shape `(d,)`, in the task's units; `n`: centroids per dimension;
+    `r2`: the spread r^2; `out`: shape `(n^d,)`, overwritten with the features in C order;
+    `scratch`: shape `(d, n)`, overwritten with the per-dimension normalised factors
+    `g_j / sum_k g_j[k]`. Allocates nothing; runs from Python and inside numba-compiled code.
+    The exponent `((s_j - c_k)^2 - min_k (s_j - c_k)^2) / r^2` is computed as
+    `(|s_j - c_k| - m)(|s_j - c_k| + m) / r^2` (m the smallest distance), which does not
+    overflow to inf - inf = NaN for huge finite states as the squares would.
+    """
+    d = state.shape[0]
+    if low.shape[0] != d or high.shape[0] != d:
+        raise ValueError("state, low and high must all have shape (d,)")
+    if scratch.shape[0] != d or scratch.shape[1] != n:
+        raise ValueError("scratch must have shape (d, n)")
+    if out.shape[0] != n ** d:
+        raise ValueError("out must have shape (n^d,)")
+    for j in range(d):
+        s_j = normalise(state[j], low[j], high[j])
+        nearest = np.inf
+        for k in range(n):
+            scratch[j, k] = np.abs(s_j - centroid(k, n))
+            nearest = min(nearest, scratch[j, k])
+        total = 0.0
+        for k in range(n):
+            distance = scratch[j, k]
+            scratch[j, k] = np.exp(-(distance - nearest) * (distance + nearest) / r2)
+            total += scratch[j, k]
+        for k in range(n):
+            scratch[j, k] /= total
+    # Outer product in place: after dimension j, out[:n^(j+1)] holds the features of the
+    # first j+1 dimensions in C order. Walking backwards, entry `prefix` is read before the
+    # block out[prefix*n : prefix*n + n] it expands into overwrites it.
+    out[0] = 1.0
+    size = 1
+    for j in range(d):
+        for prefix in range(size - 1, -1, -1):
+            weight = out[prefix]
+            for k in range(n - 1, -1, -1):
+                out[prefix * n + k] = weight * scratch[j, k]
+        size *= n
+
+
+@numba.njit
+def _nrbf_features_batch(states, low, high, n, r2, out, scratch):
+    """`nrbf_features_into` for each row of `states` (B, d) into the rows of `out` (B, N)."""
+    for b in range(states.shape[0]):
+        nrbf_features_into(states[b], low, high, n, r2, out[b], scratch)
+
+
+@dataclasses.dataclass(frozen=True)
+class NRBF:
+    """An NRBF network's features (eq. 8 and 9) over the state box `[low, high]`.
+
+    Example: `NRBF(low=(-1.2, -0.07), high=(0.5, 0.07), n=10)` for Mountain-Car's 10 x 10 grid.
+    """
+
+    low: tuple
+    """Lower end of each state variable's range (task units); maps to 0."""
+    high: tuple
+    """Upper end of each state variable's range (task units); maps to 1."""
+    n: int
+    """Centroids per dimension (>= 2); the network has `n^d` neurons."""
+    r2: float = DEFAULT_R2
+    """The spread r^2 of eq. 8, in normalised units (> 0)."""
+
+    def __post_init__(self):
+        low = np.asarray(self.low, dtype=np.float64)
+        high = np.asarray(self.high, dtype=np.float64)
+        if low.ndim != 1 or low.shape != high.shape or low.size == 0:
+            raise ValueError(f"low and high must be 1-D of the same length d >= 1; "
+                             f"got shapes {low.shape} and {high.shape}")
+        if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high)) and np.all(low < high)):
+            raise ValueError(f"low must be finite and below a finite high in every dimension; "
+                             f"got low={low.tolist()}, high={high.tolist()}")
+        if isinstance(self.n, bool) or not isinstance(self.n, (int, np.integer)) or self.n < 2:
+            raise ValueError(f"n (centroids per dimension) must be an integer >= 2; got {self.n!r}")
+        if not (np.isfinite(self.r2) and self.r2 > 0):
+            raise ValueError(f"r2 (the spread r^2) must be finite and > 0; got {self.r2!r}")
+        object.__setattr__(self, "low", tuple(low.tolist()))
+        object.__setattr__(self, "high", tuple(high.tolist()))
+        object.__setattr__(self, "n", int(self.n))
+        object.__setattr__(self, "r2", float(self.r2))
+
+    @property
+    def dim(self) -> int:
+        """d, the number of state variables."""
+        return len(self.low)
+
+    @property
+    def num_features(self) -> int:
+        """N = n^d, the number of neurons."""
+        return self.n ** self.dim
+
+    @property
+    def centroids(self) -> np.ndarray:
+        """The centroids `(N, d)` in normalised units, in neuron (C) order."""
+        grid = centroid(np.arange(self.n), self.n)
+        axes = np.meshgrid(*[grid] * self.dim, indexing="ij")
+        return np.stack(axes, axis=-1).reshape(self.num_features, self.dim)
+
+    def features(self, states) -> np.ndarray:
+        """The NRBF features `(..., N)` of states `(..., d)` in task units (`(d,)`, `(B, d)`)."""
+        states = np.asarray(states, dtype=np.float64)
+        if states.ndim == 0 or states.shape[-1] != self.dim:
+            raise ValueError(f"states must have shape (..., {self.dim}); got {states.shape}")
+        if not np.all(np.isfinite(states)):
+            raise ValueError("states must be finite (out-of-range values are fine)")
+        rows = np.ascontiguousarray(states.reshape(-1, self.dim))
+        out = np.empty((rows.shape[0], self.num_features))
+        scratch = np.empty((self.dim, self.n))
+        _nrbf_features_batch(rows, np.array(self.low), np.array(self.high), self.n, self.r2,
+                             out, scratch)
+        return out.reshape(states.shape[:-1] + (self.num_features,))
