@@ -30,14 +30,10 @@ import numba
 import numpy as np
 from numba.extending import register_jitable
 
+from agent.features import FeatureMap, check_box, check_count, normalise
+
 DEFAULT_R2 = 0.01
 """r^2, the spread of eq. 8; the paper uses 0.01 in all tasks."""
-
-
-@register_jitable
-def normalise(state, low, high):
-    """The affine map of a state from `[low, high]` to `[0, 1]`, not clipped (element-wise)."""
-    return (state - low) / (high - low)
 
 
 @register_jitable
@@ -99,7 +95,7 @@ def _nrbf_features_batch(states, low, high, n, r2, out, scratch):
 
 
 @dataclasses.dataclass(frozen=True)
-class NRBF:
+class NRBF(FeatureMap):
     """An NRBF network's features (eq. 8 and 9) over the state box `[low, high]`.
 
     Example: `NRBF(low=(-1.2, -0.07), high=(0.5, 0.07), n=10)` for Mountain-Car's 10 x 10 grid.
@@ -115,27 +111,13 @@ class NRBF:
     """The spread r^2 of eq. 8, in normalised units (> 0)."""
 
     def __post_init__(self):
-        low = np.asarray(self.low, dtype=np.float64)
-        high = np.asarray(self.high, dtype=np.float64)
-        if low.ndim != 1 or low.shape != high.shape or low.size == 0:
-            raise ValueError(f"low and high must be 1-D of the same length d >= 1; "
-                             f"got shapes {low.shape} and {high.shape}")
-        if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high)) and np.all(low < high)):
-            raise ValueError(f"low must be finite and below a finite high in every dimension; "
-                             f"got low={low.tolist()}, high={high.tolist()}")
-        if isinstance(self.n, bool) or not isinstance(self.n, (int, np.integer)) or self.n < 2:
-            raise ValueError(f"n (centroids per dimension) must be an integer >= 2; got {self.n!r}")
+        low, high = check_box(self.low, self.high)
+        object.__setattr__(self, "low", low)
+        object.__setattr__(self, "high", high)
+        object.__setattr__(self, "n", check_count("n (centroids per dimension)", self.n, 2))
         if not (np.isfinite(self.r2) and self.r2 > 0):
             raise ValueError(f"r2 (the spread r^2) must be finite and > 0; got {self.r2!r}")
-        object.__setattr__(self, "low", tuple(low.tolist()))
-        object.__setattr__(self, "high", tuple(high.tolist()))
-        object.__setattr__(self, "n", int(self.n))
         object.__setattr__(self, "r2", float(self.r2))
-
-    @property
-    def dim(self) -> int:
-        """d, the number of state variables."""
-        return len(self.low)
 
     @property
     def num_features(self) -> int:
@@ -149,16 +131,6 @@ class NRBF:
         axes = np.meshgrid(*[grid] * self.dim, indexing="ij")
         return np.stack(axes, axis=-1).reshape(self.num_features, self.dim)
 
-    def features(self, states) -> np.ndarray:
-        """The NRBF features `(..., N)` of states `(..., d)` in task units (`(d,)`, `(B, d)`)."""
-        states = np.asarray(states, dtype=np.float64)
-        if states.ndim == 0 or states.shape[-1] != self.dim:
-            raise ValueError(f"states must have shape (..., {self.dim}); got {states.shape}")
-        if not np.all(np.isfinite(states)):
-            raise ValueError("states must be finite (out-of-range values are fine)")
-        rows = np.ascontiguousarray(states.reshape(-1, self.dim))
-        out = np.empty((rows.shape[0], self.num_features))
-        scratch = np.empty((self.dim, self.n))
+    def _features_rows(self, rows, out):
         _nrbf_features_batch(rows, np.array(self.low), np.array(self.high), self.n, self.r2,
-                             out, scratch)
-        return out.reshape(states.shape[:-1] + (self.num_features,))
+                             out, np.empty((self.dim, self.n)))
