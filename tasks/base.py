@@ -37,7 +37,7 @@ class SuiteTask(control.Task):
     def initialize_episode(self, physics):
         physics.set_state_vector(self.definition.initial_state(self.random))
         self._steps = 0
-        self._uptime = 0.0 if self.definition.is_up is not None else float("nan")
+        self._uptime = 0.0 if self.definition.has_uptime else float("nan")
 
     def before_step(self, action, physics):
         index = check_actions(action, self.definition.num_actions)

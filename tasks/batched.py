@@ -71,7 +71,7 @@ class BatchedEnv:
         for i in np.flatnonzero(which):
             self.state[i] = self.definition.initial_state(self._rngs[i])
         self.steps[which] = 0
-        self.uptime[which] = 0.0 if self.definition.is_up is not None else np.nan
+        self.uptime[which] = 0.0 if self.definition.has_uptime else np.nan
         self._needs_reset[which] = False
 
     def set_state(self, state: np.ndarray) -> None:

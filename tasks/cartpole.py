@@ -101,6 +101,24 @@ def failed(cart_position, pole_angle, track_limit):
     return (np.abs(pole_angle) > FAIL_ANGLE) | (np.abs(cart_position) > track_limit)
 
 
+@register_jitable
+def outcome(cart_position, cart_velocity, pole_angle, pole_angular_velocity, track_limit):
+    """(reward, terminal, up) on entering a state: failing is terminal with reward -1;
+    the pole is up until then."""
+    fail = failed(cart_position, pole_angle, track_limit)
+    return -1.0 * fail, fail, np.logical_not(fail)
+
+
+@register_jitable
+def transition(state, control, next_state, observation, dt, semi_implicit, params):
+    """One Euler step of one state `(4,)` for compiled loops; `params` = (track_limit,)."""
+    x, x_dot, theta, theta_dot = step(state[0], state[1], state[2], state[3], control, dt,
+                                      semi_implicit)
+    next_state[0], next_state[1], next_state[2], next_state[3] = x, x_dot, theta, theta_dot
+    observation[:] = next_state
+    return outcome(x, x_dot, theta, theta_dot, params[0])
+
+
 def initial_state(rng: np.random.Generator) -> np.ndarray:
     """All zeros: the paper's start is deterministic."""
     del rng
@@ -112,18 +130,11 @@ def balance(time_limit: float = TIME_LIMIT, track_limit=TRACK_LIMIT) -> TaskDefi
     limit = math.inf if track_limit is None else float(track_limit)
     if not limit > 0:
         raise ValueError(f"track_limit must be a positive number of metres or None; got {track_limit!r}")
-
-    def has_failed(state):
-        return failed(state[..., 0], state[..., 2], limit)
-
     return TaskDefinition(
         domain="cartpole", task="balance", state_names=STATE_NAMES, controls=FORCES,
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
         initial_state=initial_state,
-        observe=lambda state: state,
-        reward=lambda state: -1.0 * has_failed(state),
-        terminal=has_failed,
-        is_up=lambda state: ~has_failed(state),
+        observe=lambda state: state, outcome=outcome, transition=transition, params=(limit,),
     )
 
 

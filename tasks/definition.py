@@ -1,14 +1,16 @@
 """What a task is, once, over arrays with a batch dimension.
 
-A `TaskDefinition` holds the array functions of one task: its start distribution, its
-observation, reward, termination and up-time. The dm_env environment (`tasks.base`) calls
-them with a batch of one; the batched stepper (`tasks.batched`) with a batch of B.
+A `TaskDefinition` holds the functions of one task: its start distribution, its observation,
+and its `outcome` (reward, termination and up-time). The dm_env environment (`tasks.base`)
+calls them with a batch of one; the batched stepper (`tasks.batched`) with a batch of B; and
+the domain's `transition`, which compiled loops call, steps the analytic plant and then
+calls the same `outcome`.
 States are arrays of shape `(..., d)` in the order of `state_names`.
 """
 
 import dataclasses
 import math
-from typing import Callable, Optional
+from typing import Callable
 
 import numpy as np
 
@@ -35,13 +37,17 @@ class TaskDefinition:
     """Draws one start state, shape `(d,)`, from a generator."""
     observe: Callable[[np.ndarray], np.ndarray]
     """Maps states `(..., d)` to observations `(..., d)` (e.g. wraps angles)."""
-    reward: Callable[[np.ndarray], np.ndarray]
-    """Reward on entering states `(..., d)`."""
-    terminal: Callable[[np.ndarray], np.ndarray]
-    """True where states `(..., d)` are terminal (the episode ends with discount 0)."""
-    is_up: Optional[Callable[[np.ndarray], np.ndarray]] = None
-    """True where states `(..., d)` count toward the up-time; None where the task has no
-    up-time (Mountain-Car)."""
+    outcome: Callable
+    """`outcome(*state_columns, *params) -> (reward, terminal, up)` on entering a state,
+    element-wise and numba-jitable: the task's reward, termination and up-time, once."""
+    transition: Callable
+    """`transition(state, control, next_state, observation, dt, semi_implicit, params)`:
+    one analytic-plant step of one state `(d,)` for compiled loops. It writes the next state
+    and its observation and returns its `outcome`."""
+    params: tuple = ()
+    """The task options that `outcome` and `transition` read (e.g. the track limit)."""
+    has_uptime: bool = True
+    """False where the task has no up-time (Mountain-Car: reported as NaN)."""
 
     @property
     def name(self) -> str:
@@ -51,11 +57,23 @@ class TaskDefinition:
     def num_actions(self) -> int:
         return len(self.controls)
 
+    def _outcome(self, state: np.ndarray, which: int) -> np.ndarray:
+        value = self.outcome(*np.moveaxis(state, -1, 0), *self.params)[which]
+        return np.broadcast_to(value, np.shape(state)[:-1])
+
+    def reward(self, state: np.ndarray) -> np.ndarray:
+        """Reward on entering states `(..., d)`."""
+        return self._outcome(state, 0).astype(np.float64)
+
+    def terminal(self, state: np.ndarray) -> np.ndarray:
+        """True where states `(..., d)` are terminal (the episode ends with discount 0)."""
+        return self._outcome(state, 1).astype(bool)
+
     def uptime_increment(self, state: np.ndarray) -> np.ndarray:
-        """Seconds of up-time earned by entering `state` (NaN where there is no up-time)."""
-        if self.is_up is None:
+        """Seconds of up-time earned by entering states `(..., d)` (NaN without up-time)."""
+        if not self.has_uptime:
             return np.full(np.shape(state)[:-1], np.nan)
-        return self.control_timestep * self.is_up(state)
+        return self.control_timestep * self._outcome(state, 2)
 
 
 def step_limit(time_limit: float, timestep: float) -> float:

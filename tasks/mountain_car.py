@@ -70,6 +70,21 @@ def reward(position):
     return reached_goal(position) - 1.0
 
 
+@register_jitable
+def outcome(position, velocity):
+    """(reward, terminal, up) on entering a state: the goal is terminal; no up-time."""
+    return reward(position), reached_goal(position), False
+
+
+@register_jitable
+def transition(state, control, next_state, observation, dt, semi_implicit, params):
+    """One step of one state `(2,)` for compiled loops (`dt`, `semi_implicit` and `params`
+    are unused: the paper's equation is its own integrator)."""
+    next_state[0], next_state[1] = step(state[0], state[1], control)
+    observation[:] = next_state
+    return outcome(next_state[0], next_state[1])
+
+
 def initial_state(rng: np.random.Generator) -> np.ndarray:
     """x ~ U[-1.2, 0.5], v ~ U[-0.07, 0.07]."""
     return rng.uniform((MIN_POSITION, -MAX_SPEED), (GOAL_POSITION, MAX_SPEED))
@@ -81,9 +96,7 @@ def cost_to_go(time_limit: float = STEP_LIMIT) -> TaskDefinition:
         domain="mountain_car", task="cost_to_go", state_names=STATE_NAMES, controls=THRUSTS,
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
         initial_state=initial_state,
-        observe=lambda state: state,
-        reward=lambda state: reward(state[..., 0]),
-        terminal=lambda state: reached_goal(state[..., 0]),
+        observe=lambda state: state, outcome=outcome, transition=transition, has_uptime=False,
     )
 
 

@@ -83,6 +83,21 @@ def is_up(angle):
     return np.abs(wrap_angle(angle)) <= UP_ANGLE
 
 
+@register_jitable
+def outcome(angle, angular_velocity):
+    """(reward, terminal, up) on entering a state; no state is terminal."""
+    return reward(angle, angular_velocity), False, is_up(angle)
+
+
+@register_jitable
+def transition(state, control, next_state, observation, dt, semi_implicit, params):
+    """One Euler step of one state `(2,)` for compiled loops."""
+    angle, angular_velocity = step(state[0], state[1], control, dt, semi_implicit)
+    next_state[0], next_state[1] = angle, angular_velocity
+    observation[0], observation[1] = wrap_angle(angle), angular_velocity
+    return outcome(angle, angular_velocity)
+
+
 def initial_state(rng: np.random.Generator) -> np.ndarray:
     """theta ~ U[-pi, pi], theta_dot = 0."""
     return np.array([rng.uniform(-np.pi, np.pi), 0.0])
@@ -98,10 +113,7 @@ def swingup(time_limit: float = TIME_LIMIT) -> TaskDefinition:
         domain="pendulum", task="swingup", state_names=STATE_NAMES, controls=TORQUES,
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
         initial_state=initial_state,
-        observe=_observe,
-        reward=lambda state: reward(state[..., 0], state[..., 1]),
-        terminal=lambda state: np.zeros(state.shape[:-1], dtype=bool),
-        is_up=lambda state: is_up(state[..., 0]),
+        observe=_observe, outcome=outcome, transition=transition,
     )
 
 

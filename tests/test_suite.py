@@ -3,6 +3,7 @@
 import math
 
 import dm_env
+import numba
 import numpy as np
 import pytest
 from dm_env import specs
@@ -262,3 +263,31 @@ def test_physics_accessors_name_the_quantities():
     set_state(env, [-0.5, 0.01])
     assert (env.physics.position(), env.physics.velocity(), env.physics.altitude()) == pytest.approx(
         (-0.5, 0.01, np.sin(-1.5)))
+
+
+@pytest.mark.parametrize("domain, task", tasks.ALL_TASKS)
+@pytest.mark.parametrize("integrator", ["semi_implicit", "explicit"])
+def test_transition_is_the_plant_step_and_the_task(domain, task, integrator):
+    """The compiled loops' `transition` (run here compiled by numba) gives the analytic
+    plant's next state, the task's observation, reward, termination and up-time, exactly."""
+    definition = tasks.definition(domain, task)
+    plant = tasks.DOMAINS[domain].PLANTS.batch("analytic", 200, **(
+        {"integrator": integrator} if domain != "mountain_car" else {}))
+    transition = numba.njit(definition.transition)
+    rng = np.random.default_rng(0)
+    ranges = {"mountain_car": [1.0, 0.08], "pendulum": [4.0, 8.0], "cartpole": [2.6, 3.0, 0.25, 3.0]}
+    states = rng.uniform(-1, 1, size=(200, len(definition.state_names))) * ranges[domain]
+    controls = rng.choice(definition.controls, size=200)
+    expected = plant.step(states, controls)
+    semi_implicit = integrator == "semi_implicit"
+    params = np.array(definition.params)
+    for state, control, next_expected in zip(states, controls, expected):
+        next_state, observation = np.empty_like(state), np.empty_like(state)
+        reward, terminal, up = transition(state, control, next_state, observation,
+                                          plant.timestep, semi_implicit, params)
+        np.testing.assert_array_equal(next_state, next_expected)
+        np.testing.assert_array_equal(observation, definition.observe(next_expected[None])[0])
+        assert reward == definition.reward(next_expected[None])[0]
+        assert terminal == definition.terminal(next_expected[None])[0]
+        if definition.has_uptime:
+            assert up * plant.timestep == definition.uptime_increment(next_expected[None])[0]
