@@ -74,16 +74,19 @@ def nrbf_features_into(state, low, high, n, r2, out, scratch):
             total += scratch[j, k]
         for k in range(n):
             scratch[j, k] /= total
-    # Outer product in place: after dimension j, out[:n^(j+1)] holds the features of the
-    # first j+1 dimensions in C order. Walking backwards, entry `prefix` is read before the
-    # block out[prefix*n : prefix*n + n] it expands into overwrites it.
+    # Outer product in place, from the last dimension to the first: after dimension j,
+    # out[:size] holds the features of dimensions j..d-1 in C order, and dimension j's
+    # factor k scales that block into out[k*size : (k+1)*size]. Blocks k >= 1 lie past
+    # out[:size] and are written first; block 0 is scaled in place last. The inner loop is
+    # contiguous, which compilers vectorise.
     out[0] = 1.0
     size = 1
-    for j in range(d):
-        for prefix in range(size - 1, -1, -1):
-            weight = out[prefix]
-            for k in range(n - 1, -1, -1):
-                out[prefix * n + k] = weight * scratch[j, k]
+    for j in range(d - 1, -1, -1):
+        for k in range(n - 1, -1, -1):
+            factor = scratch[j, k]
+            base = k * size
+            for r in range(size):
+                out[base + r] = factor * out[r]
         size *= n
 
 
