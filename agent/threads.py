@@ -1,0 +1,32 @@
+"""Agents in parallel: contiguous ranges of a batch on a pool of threads.
+
+The compiled kernels release the GIL (`nogil=True`), so threads run them on every core
+without numba's parallel compilation, which more than doubles compile time. Agents are
+independent (each has its own random stream), so results do not depend on the split.
+"""
+
+import concurrent.futures
+import os
+
+_POOL = None
+
+
+def workers() -> int:
+    """Threads used: the cores this process may run on."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+def run_in_chunks(kernel, batch_size: int, *args, min_chunk: int = 16) -> None:
+    """Call `kernel(start, stop, *args)` over contiguous ranges covering `range(batch_size)`,
+    one range per worker thread (a single call when the batch is small)."""
+    global _POOL
+    chunks = max(1, min(workers(), batch_size // min_chunk))
+    if chunks == 1:
+        kernel(0, batch_size, *args)
+        return
+    if _POOL is None or _POOL._max_workers < chunks:
+        _POOL = concurrent.futures.ThreadPoolExecutor(max_workers=chunks, thread_name_prefix="lwrl")
+    bounds = [round(batch_size * c / chunks) for c in range(chunks + 1)]
+    futures = [_POOL.submit(kernel, lo, hi, *args) for lo, hi in zip(bounds[:-1], bounds[1:])]
+    for future in futures:
+        future.result()
