@@ -1,0 +1,255 @@
+"""The agent-environment loop: B agents, each on its own copy of a task, for K episodes.
+
+Three ways to run the same thing, giving the same numbers for the same seeds (tested):
+
+- `run_dm_env`: one agent on one dm_env environment (`tasks.load`), step by step;
+- `run_batched`: B agents on a `tasks.batched.BatchedEnv` (any plant), one array step at a
+  time;
+- `run_compiled`: B agents on the analytic plant in one numba-compiled loop that calls the
+  task's own `transition` and the agent's own `agent_step`, in parallel over agents.
+
+An agent stops after K episodes, or when it diverges (its weights are frozen, the episode it
+diverged in is cut there and its later episodes are not run: NaN).
+"""
+
+import dataclasses
+import functools
+
+import numba
+import numpy as np
+
+import tasks
+from agent.sarsa import BatchedSarsa, agent_step
+from agent.threads import run_in_chunks
+from tasks.batched import BatchedEnv
+from tasks.integrators import check_integrator
+
+
+@dataclasses.dataclass
+class EpisodeResults:
+    """Per-agent, per-episode results; arrays `(B, K)` unless noted."""
+
+    steps: np.ndarray
+    """Agent steps in the episode (float: NaN where not run)."""
+    returns: np.ndarray
+    """Sum of the episode's rewards."""
+    uptime: np.ndarray
+    """Seconds up (NaN where the task has none or the episode was not run)."""
+    truncated: np.ndarray
+    """True where the episode hit the time limit (not a terminal state)."""
+    diverged_episode: np.ndarray
+    """`(B,)`: the episode in which the agent diverged, -1 if it did not."""
+
+    @classmethod
+    def empty(cls, agents: int, episodes: int) -> "EpisodeResults":
+        nan = np.full((agents, episodes), np.nan)
+        return cls(nan.copy(), nan.copy(), nan.copy(), np.zeros((agents, episodes), dtype=bool),
+                   np.full(agents, -1, dtype=np.int64))
+
+    @property
+    def diverged(self) -> np.ndarray:
+        """`(B, K)`: True from the episode in which the agent diverged on."""
+        episodes = np.arange(self.steps.shape[1])
+        return (self.diverged_episode[:, None] >= 0) & (episodes >= self.diverged_episode[:, None])
+
+    def rows(self):
+        """One `dict` per agent and episode with the columns of `episodes.csv`."""
+        diverged = self.diverged
+        for agent in range(self.steps.shape[0]):
+            for episode in range(self.steps.shape[1]):
+                yield {"agent": agent, "episode": episode, "steps": self.steps[agent, episode],
+                       "return": self.returns[agent, episode],
+                       "uptime_s": self.uptime[agent, episode],
+                       "truncated": bool(self.truncated[agent, episode]),
+                       "diverged": bool(diverged[agent, episode])}
+
+
+def _check_episodes(episodes) -> int:
+    if isinstance(episodes, bool) or not isinstance(episodes, (int, np.integer)) or episodes < 1:
+        raise ValueError(f"episodes must be a positive integer; got {episodes!r}")
+    return int(episodes)
+
+
+def run_dm_env(env, agent: BatchedSarsa, episodes: int, learn: bool = True) -> EpisodeResults:
+    """One agent (`agent.batch_size == 1`) on one dm_env environment of the suite."""
+    episodes = _check_episodes(episodes)
+    if agent.batch_size != 1:
+        raise ValueError(f"run_dm_env runs one agent; got a batch of {agent.batch_size}")
+    results = EpisodeResults.empty(1, episodes)
+    for episode in range(episodes):
+        ts = env.reset()
+        total = 0.0
+        while True:
+            observation = np.array([list(ts.observation.values())])
+            first = ts.first()
+            action = agent.step([first], [0.0 if first else ts.reward],
+                                [1.0 if first else ts.discount], observation, learn=learn)
+            if agent.diverged[0]:
+                results.diverged_episode[0] = episode
+            if ts.last() or agent.diverged[0]:
+                break
+            ts = env.step(int(action[0]))
+            total += ts.reward
+        results.steps[0, episode] = env.task.steps
+        results.returns[0, episode] = total
+        results.uptime[0, episode] = env.task.uptime
+        results.truncated[0, episode] = ts.last() and ts.discount == 1.0
+        if agent.diverged[0]:
+            break
+    return results
+
+
+def run_batched(env: BatchedEnv, agent: BatchedSarsa, episodes: int, learn: bool = True,
+                progress=None) -> EpisodeResults:
+    """B agents on a batched environment of B copies; `progress(done_episodes)` is called
+    as episodes finish."""
+    episodes = _check_episodes(episodes)
+    if env.batch_size != agent.batch_size:
+        raise ValueError(f"environment batch {env.batch_size} and agent batch "
+                         f"{agent.batch_size} differ")
+    batch = env.batch_size
+    results = EpisodeResults.empty(batch, episodes)
+    done = np.zeros(batch, dtype=np.int64)  # finished episodes per agent
+    running = np.ones(batch, dtype=bool)
+    returns = np.zeros(batch)
+    ts = env.reset()
+    while running.any():
+        actions = agent.step(ts.first(), ts.reward, ts.discount, ts.observation,
+                             active=running, learn=learn)
+        newly_diverged = running & agent.diverged
+        ended = running & (ts.last() | newly_diverged)
+        for b in np.flatnonzero(ended):
+            k = done[b]
+            results.steps[b, k] = env.steps[b]
+            results.returns[b, k] = returns[b]
+            results.uptime[b, k] = env.uptime[b]
+            results.truncated[b, k] = ts.last()[b] and ts.discount[b] == 1.0
+            if newly_diverged[b]:
+                results.diverged_episode[b] = k
+        done += ended
+        running &= (done < episodes) & ~agent.diverged
+        if progress is not None and ended.any():
+            progress(int(ended.sum()))
+        if not running.any():
+            break
+        ts = env.step(actions)
+        returns = np.where(ts.first(), 0.0, returns + ts.reward)
+    return results
+
+
+@functools.lru_cache(maxsize=None)
+def _compiled_loop(transition):
+    """The whole learning loop compiled around one task's `transition`: agents
+    `start..stop-1` run episodes `first..first+count-1` (their starts given) unless diverged."""
+
+    @numba.njit(nogil=True)
+    def loop(start, stop, first, count, starts, start_observations, controls, dt,
+             semi_implicit, params, step_limit, learn, memory, hyper, spec, steps, returns,
+             uptime, truncated, diverged_episode):
+        dim = starts.shape[2]
+        for b in range(start, stop):
+            state = np.empty(dim)
+            next_state = np.empty(dim)
+            observation = np.empty(dim)
+            for k in range(first, first + count):
+                if memory.diverged[b]:
+                    break
+                state[:] = starts[b, k]
+                action = agent_step(b, True, 0.0, 1.0, start_observations[b, k], learn,
+                                    memory, hyper, spec)
+                n, total, up, terminal = 0, 0.0, 0.0, False
+                while True:
+                    reward, terminal, is_up = transition(state, controls[action], next_state,
+                                                         observation, dt, semi_implicit, params)
+                    n += 1
+                    total += reward
+                    up += dt * is_up  # summed as the environments sum it
+                    state[:] = next_state
+                    action = agent_step(b, False, reward, 0.0 if terminal else 1.0, observation,
+                                        learn, memory, hyper, spec)
+                    if terminal or n >= step_limit or memory.diverged[b]:
+                        break
+                steps[b, k] = n
+                returns[b, k] = total
+                uptime[b, k] = up
+                truncated[b, k] = not terminal and n >= step_limit
+                if memory.diverged[b]:
+                    diverged_episode[b] = k
+
+    return loop
+
+
+def episode_starts(definition, seeds, episodes: int) -> np.ndarray:
+    """`(B, K, d)`: the start of each agent's episodes, drawn as `BatchedEnv` and `tasks.load`
+    draw them (one generator per seed, one draw per episode)."""
+    starts = np.empty((len(seeds), episodes, len(definition.state_names)))
+    for b, seed in enumerate(seeds):
+        rng = np.random.default_rng(seed)
+        for k in range(episodes):
+            starts[b, k] = definition.initial_state(rng)
+    return starts
+
+
+def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, seeds,
+                 learn: bool = True, integrator: str = "semi_implicit", progress=None,
+                 **options) -> EpisodeResults:
+    """B agents on the analytic plant of `domain.task`, in one compiled loop; environment b
+    is seeded with `seeds[b]` as in `BatchedEnv`. Episodes run in about 20 blocks, after each
+    of which `progress(episodes_done)` is called."""
+    episodes = _check_episodes(episodes)
+    plant_options = {"integrator": integrator} if tasks.DOMAINS[domain].PLANTS.euler else {}
+    definition, _, _ = tasks.resolve(domain, task, "analytic", **options, **plant_options)
+    semi_implicit = check_integrator(integrator)
+    seeds = list(seeds)
+    if len(seeds) != agent.batch_size:
+        raise ValueError(f"{len(seeds)} seeds for a batch of {agent.batch_size} agents")
+    batch = agent.batch_size
+    results = EpisodeResults.empty(batch, episodes)
+    steps = np.zeros((batch, episodes), dtype=np.int64)
+    starts = episode_starts(definition, seeds, episodes)
+    step_limit = definition.step_limit if np.isfinite(definition.step_limit) else np.iinfo(np.int64).max
+    loop = _compiled_loop(definition.transition)
+    block = max(1, episodes // 20)
+    for first in range(0, episodes, block):
+        count = min(block, episodes - first)
+        run_in_chunks(
+            loop, batch, first, count, starts, definition.observe(starts),
+            np.asarray(definition.controls, dtype=np.float64),
+            tasks.DOMAINS[domain].PLANTS.timestep, semi_implicit,
+            np.asarray(definition.params, dtype=np.float64), int(step_limit), bool(learn),
+            agent.memory, agent.hyper, agent.spec, steps, results.returns, results.uptime,
+            results.truncated, results.diverged_episode, min_chunk=1)
+        if progress is not None:
+            progress(batch * count)
+    ran = np.arange(episodes)[None, :] <= np.where(
+        results.diverged_episode >= 0, results.diverged_episode, episodes)[:, None]
+    results.steps = np.where(ran, steps, np.nan)
+    if not definition.has_uptime:
+        results.uptime[:] = np.nan
+    return results
+
+
+def make_agent(config) -> BatchedSarsa:
+    """The `config.agents` agents of a `RunConfig`, with zero weights."""
+    definition = tasks.definition(config.domain, config.task_name)
+    return BatchedSarsa(config.feature_map(), definition.num_actions, alpha=config.alpha,
+                        lam=config.lam, epsilon=config.epsilon, trace=config.trace,
+                        gamma=config.gamma, seeds=config.seeds)
+
+
+def run(config, agent: BatchedSarsa | None = None, learn: bool = True,
+        progress=None) -> tuple[BatchedSarsa, EpisodeResults]:
+    """Run a `RunConfig`: the compiled loop on the analytic plant, the batched stepper on
+    MuJoCo. Returns the agents (new ones unless given) and their results."""
+    agent = make_agent(config) if agent is None else agent
+    domain, task = config.domain, config.task_name
+    plant = config.plant or tasks.PLANTS[domain][0]
+    plant_options = {"integrator": config.integrator} if (
+        plant == "analytic" and tasks.DOMAINS[domain].PLANTS.euler) else {}
+    if plant == "analytic":
+        results = run_compiled(domain, task, agent, config.episodes, config.seeds, learn=learn,
+                               progress=progress, **plant_options)
+    else:
+        env = BatchedEnv(domain, task, plant, config.seeds, **plant_options)
+        results = run_batched(env, agent, config.episodes, learn=learn, progress=progress)
+    return agent, results
