@@ -1,0 +1,96 @@
+"""Save and load a batch of agents: one `.npz` file, no pickle.
+
+The file holds the weights `(B, N, A)`, each agent's random stream and divergence flag, and
+one JSON document (stored as a string array) with the feature map, the hyper-parameters and
+any metadata the caller adds (e.g. the run's configuration). `load` refuses a file that is
+not such a file, or whose parts do not fit together, with one line saying what is wrong.
+"""
+
+import json
+import os
+import zipfile
+
+import numpy as np
+
+from agent.cmac import CMAC
+from agent.nrbf import NRBF
+from agent.sarsa import BatchedSarsa
+from agent.traces import TRACES
+
+FORMAT = "lwrl-agent/1"
+
+
+def _feature_description(features) -> dict:
+    if isinstance(features, NRBF):
+        return {"kind": "nrbf", "low": features.low, "high": features.high, "n": features.n,
+                "r2": features.r2}
+    return {"kind": "cmac", "low": features.low, "high": features.high,
+            "intervals": features.intervals, "tilings": features.tilings,
+            "normalise_alpha": features.normalise_alpha}
+
+
+def _feature_map(description: dict):
+    kind = description.pop("kind")
+    if kind == "nrbf":
+        return NRBF(**description)
+    if kind == "cmac":
+        return CMAC(**description)
+    raise ValueError(f"unknown feature kind {kind!r}")
+
+
+def save(path, agent: BatchedSarsa, metadata: dict | None = None) -> None:
+    """Write `agent` (and JSON-serialisable `metadata`) to `path` (a `.npz` file)."""
+    hyper = agent.hyper
+    document = {
+        "format": FORMAT,
+        "features": _feature_description(agent.features),
+        "num_actions": agent.num_actions,
+        "alpha": (hyper.alpha / agent.features.alpha_scale).tolist(),
+        "lambda": hyper.lam.tolist(),
+        "epsilon": hyper.epsilon.tolist(),
+        "gamma": hyper.gamma.tolist(),
+        "trace": [TRACES[t] for t in hyper.trace],
+        "metadata": metadata or {},
+    }
+    with open(path, "wb") as file:
+        np.savez_compressed(file, weights=agent.weights, streams=agent.memory.streams,
+                            diverged=agent.diverged, document=np.array(json.dumps(document)))
+
+
+def load(path) -> tuple[BatchedSarsa, dict]:
+    """Read agents saved by `save`; return them and their metadata."""
+    if not os.path.isfile(path):
+        raise ValueError(f"{path}: no such agent file")
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            arrays = {name: archive[name] for name in archive.files}
+    except (OSError, ValueError, zipfile.BadZipFile):
+        raise ValueError(f"{path} is not an lwrl agent file (not a NumPy .npz archive of plain arrays)") from None
+    missing = {"weights", "streams", "diverged", "document"} - set(arrays)
+    if missing:
+        raise ValueError(f"{path} is not an lwrl agent file (missing {', '.join(sorted(missing))})")
+    try:
+        document = json.loads(str(arrays["document"]))
+    except json.JSONDecodeError:
+        raise ValueError(f"{path} is not an lwrl agent file (unreadable description)") from None
+    if not isinstance(document, dict) or document.get("format") != FORMAT:
+        raise ValueError(f"{path} is not an lwrl agent file (format {document.get('format')!r}, "
+                         f"expected {FORMAT!r})" if isinstance(document, dict) else
+                         f"{path} is not an lwrl agent file")
+    try:
+        features = _feature_map(dict(document["features"]))
+        weights, streams, diverged = arrays["weights"], arrays["streams"], arrays["diverged"]
+        expected = (len(streams), features.num_features, document["num_actions"])
+        if weights.shape != expected or diverged.shape != (len(streams),):
+            raise ValueError(f"weights of shape {weights.shape} do not fit {len(streams)} agents "
+                             f"of {features.num_features} features and {document['num_actions']} actions")
+        agent = BatchedSarsa(features, document["num_actions"], alpha=document["alpha"],
+                             lam=document["lambda"], epsilon=document["epsilon"],
+                             gamma=document["gamma"], trace=document["trace"],
+                             seeds=np.zeros(len(streams), dtype=np.uint64))
+    except (KeyError, TypeError, ValueError) as error:
+        raise ValueError(f"{path}: malformed agent file ({error})") from None
+    agent.weights[:] = weights
+    agent.memory.streams[:] = streams
+    agent.memory.diverged[:] = diverged
+    return agent, document["metadata"]

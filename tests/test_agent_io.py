@@ -1,0 +1,88 @@
+"""Saving and loading agents: one .npz file, no pickle, bad files refused in one line."""
+
+import json
+
+import numpy as np
+import pytest
+
+from agent import io as agent_io
+from agent.cmac import CMAC
+from agent.sarsa import BatchedSarsa
+from experiments.config import RunConfig
+from experiments.run import make_agent, run_compiled
+
+
+@pytest.fixture
+def trained(tmp_path):
+    """Three Mountain-Car agents after 5 episodes, saved with their configuration."""
+    config = RunConfig(task="mountain_car.cost_to_go", plant="analytic", agents=3, episodes=5,
+                       trace="accumulating", alpha=[1.0, 2.0, 3.0][0], lam=0.8)
+    agent = make_agent(config)
+    run_compiled("mountain_car", "cost_to_go", agent, 5, config.seeds)
+    path = tmp_path / "agent.npz"
+    agent_io.save(path, agent, {"config": {"task": config.task}})
+    return agent, path
+
+
+def test_round_trip_keeps_everything_and_learning_continues_identically(trained):
+    agent, path = trained
+    loaded, metadata = agent_io.load(path)
+    assert metadata == {"config": {"task": "mountain_car.cost_to_go"}}
+    np.testing.assert_array_equal(loaded.weights, agent.weights)
+    np.testing.assert_array_equal(loaded.memory.streams, agent.memory.streams)
+    for field in agent.hyper._fields:
+        np.testing.assert_array_equal(getattr(loaded.hyper, field), getattr(agent.hyper, field))
+    assert loaded.features == agent.features
+    more = run_compiled("mountain_car", "cost_to_go", agent, 3, [7, 8, 9])
+    more_loaded = run_compiled("mountain_car", "cost_to_go", loaded, 3, [7, 8, 9])
+    np.testing.assert_array_equal(more.steps, more_loaded.steps)
+    np.testing.assert_array_equal(loaded.weights, agent.weights)
+
+
+def test_cmac_agents_round_trip(tmp_path):
+    cmac = CMAC((-1.2, -0.07), (0.5, 0.07), tilings=10, normalise_alpha=True)
+    agent = BatchedSarsa(cmac, 3, alpha=0.5, lam=0.9, epsilon=0.0, trace="replacing_reset", seeds=[4])
+    agent_io.save(tmp_path / "cmac.npz", agent)
+    loaded, _ = agent_io.load(tmp_path / "cmac.npz")
+    assert loaded.features == cmac
+    np.testing.assert_array_equal(loaded.hyper.alpha, agent.hyper.alpha)  # 0.05 both
+
+
+def rewrite(path, **changes):
+    """The saved archive with some arrays replaced (None removes one)."""
+    with np.load(path) as archive:
+        arrays = {name: archive[name] for name in archive.files}
+    for name, value in changes.items():
+        if value is None:
+            del arrays[name]
+        else:
+            arrays[name] = value
+    np.savez(path, **arrays)
+
+
+def document_with(path, **changes):
+    with np.load(path) as archive:
+        document = json.loads(str(archive["document"]))
+    document.update(changes)
+    return np.array(json.dumps(document))
+
+
+@pytest.mark.parametrize("damage, message", [
+    (lambda p: p.write_text("not an archive"), "not a NumPy .npz archive"),
+    (lambda p: rewrite(p, document=None), "missing document"),
+    (lambda p: rewrite(p, weights=np.zeros((3, 64, 2))), r"weights of shape \(3, 64, 2\) do not fit"),
+    (lambda p: rewrite(p, document=np.array("{not json")), "unreadable description"),
+    (lambda p: rewrite(p, document=document_with(p, format="lwrl-agent/99")), "format 'lwrl-agent/99'"),
+    (lambda p: rewrite(p, document=document_with(p, trace=["dutch"] * 3)), "unknown trace 'dutch'"),
+    (lambda p: np.savez(p, weights=np.array([{"a": 1}], dtype=object)), "not a NumPy .npz archive"),
+])
+def test_bad_files_are_refused(trained, damage, message):
+    _, path = trained
+    damage(path)
+    with pytest.raises(ValueError, match=message):
+        agent_io.load(path)
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(ValueError, match="no such agent file"):
+        agent_io.load(tmp_path / "absent.npz")
