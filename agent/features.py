@@ -40,6 +40,8 @@ class FeatureMap:
 
     low: tuple
     high: tuple
+    alpha_scale = 1.0
+    """The factor the learner applies to alpha (the CMAC may divide it by its tilings)."""
 
     @property
     def dim(self) -> int:

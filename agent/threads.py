@@ -27,6 +27,14 @@ def run_in_chunks(kernel, batch_size: int, *args, min_chunk: int = 16) -> None:
     if _POOL is None or _POOL._max_workers < chunks:
         _POOL = concurrent.futures.ThreadPoolExecutor(max_workers=chunks, thread_name_prefix="lwrl")
     bounds = [round(batch_size * c / chunks) for c in range(chunks + 1)]
-    futures = [_POOL.submit(kernel, lo, hi, *args) for lo, hi in zip(bounds[:-1], bounds[1:])]
-    for future in futures:
-        future.result()
+    futures = []
+    try:
+        for lo, hi in zip(bounds[:-1], bounds[1:]):
+            futures.append(_POOL.submit(kernel, lo, hi, *args))
+        for future in futures:
+            future.result()
+    except KeyboardInterrupt:
+        # Compiled kernels cannot be stopped: let the started ones finish writing before
+        # the interrupt reaches the caller, which may then save what is complete.
+        concurrent.futures.wait(futures)
+        raise

@@ -39,6 +39,8 @@ class EpisodeResults:
     """True where the episode hit the time limit (not a terminal state)."""
     diverged_episode: np.ndarray
     """`(B,)`: the episode in which the agent diverged, -1 if it did not."""
+    interrupted: bool = False
+    """True if the run was interrupted (Ctrl-C): episodes not run are NaN."""
 
     @classmethod
     def empty(cls, agents: int, episodes: int) -> "EpisodeResults":
@@ -113,27 +115,30 @@ def run_batched(env: BatchedEnv, agent: BatchedSarsa, episodes: int, learn: bool
     running = np.ones(batch, dtype=bool)
     returns = np.zeros(batch)
     ts = env.reset()
-    while running.any():
-        actions = agent.step(ts.first(), ts.reward, ts.discount, ts.observation,
-                             active=running, learn=learn)
-        newly_diverged = running & agent.diverged
-        ended = running & (ts.last() | newly_diverged)
-        for b in np.flatnonzero(ended):
-            k = done[b]
-            results.steps[b, k] = env.steps[b]
-            results.returns[b, k] = returns[b]
-            results.uptime[b, k] = env.uptime[b]
-            results.truncated[b, k] = ts.last()[b] and ts.discount[b] == 1.0
-            if newly_diverged[b]:
-                results.diverged_episode[b] = k
-        done += ended
-        running &= (done < episodes) & ~agent.diverged
-        if progress is not None and ended.any():
-            progress(int(ended.sum()))
-        if not running.any():
-            break
-        ts = env.step(actions)
-        returns = np.where(ts.first(), 0.0, returns + ts.reward)
+    try:
+        while True:
+            actions = agent.step(ts.first(), ts.reward, ts.discount, ts.observation,
+                                 active=running, learn=learn)
+            newly_diverged = running & agent.diverged
+            ended = running & (ts.last() | newly_diverged)
+            for b in np.flatnonzero(ended):
+                k = done[b]
+                results.steps[b, k] = env.steps[b]
+                results.returns[b, k] = returns[b]
+                results.uptime[b, k] = env.uptime[b]
+                results.truncated[b, k] = ts.last()[b] and ts.discount[b] == 1.0
+                if newly_diverged[b]:
+                    results.diverged_episode[b] = k
+            done += ended
+            running &= (done < episodes) & ~agent.diverged
+            if progress is not None and ended.any():
+                progress(int(ended.sum()))
+            if not running.any():
+                break
+            ts = env.step(actions)
+            returns = np.where(ts.first(), 0.0, returns + ts.reward)
+    except KeyboardInterrupt:
+        results.interrupted = True
     return results
 
 
@@ -145,7 +150,7 @@ def _compiled_loop(transition):
     @numba.njit(nogil=True)
     def loop(start, stop, first, count, starts, start_observations, controls, dt,
              semi_implicit, params, step_limit, learn, memory, hyper, spec, steps, returns,
-             uptime, truncated, diverged_episode):
+             uptime, truncated, diverged_episode, done):
         dim = starts.shape[2]
         for b in range(start, stop):
             state = np.empty(dim)
@@ -173,6 +178,7 @@ def _compiled_loop(transition):
                 returns[b, k] = total
                 uptime[b, k] = up
                 truncated[b, k] = not terminal and n >= step_limit
+                done[b] = k + 1
                 if memory.diverged[b]:
                     diverged_episode[b] = k
 
@@ -209,21 +215,26 @@ def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, see
     starts = episode_starts(definition, seeds, episodes)
     step_limit = definition.step_limit if np.isfinite(definition.step_limit) else np.iinfo(np.int64).max
     loop = _compiled_loop(definition.transition)
+    done = np.zeros(batch, dtype=np.int64)  # episodes each agent has finished
     block = max(1, episodes // 20)
-    for first in range(0, episodes, block):
-        count = min(block, episodes - first)
-        run_in_chunks(
-            loop, batch, first, count, starts, definition.observe(starts),
-            np.asarray(definition.controls, dtype=np.float64),
-            tasks.DOMAINS[domain].PLANTS.timestep, semi_implicit,
-            np.asarray(definition.params, dtype=np.float64), int(step_limit), bool(learn),
-            agent.memory, agent.hyper, agent.spec, steps, results.returns, results.uptime,
-            results.truncated, results.diverged_episode, min_chunk=1)
-        if progress is not None:
-            progress(batch * count)
-    ran = np.arange(episodes)[None, :] <= np.where(
-        results.diverged_episode >= 0, results.diverged_episode, episodes)[:, None]
+    try:
+        for first in range(0, episodes, block):
+            count = min(block, episodes - first)
+            run_in_chunks(
+                loop, batch, first, count, starts, definition.observe(starts),
+                np.asarray(definition.controls, dtype=np.float64),
+                tasks.DOMAINS[domain].PLANTS.timestep, semi_implicit,
+                np.asarray(definition.params, dtype=np.float64), int(step_limit), bool(learn),
+                agent.memory, agent.hyper, agent.spec, steps, results.returns, results.uptime,
+                results.truncated, results.diverged_episode, done, min_chunk=1)
+            if progress is not None:
+                progress(batch * count)
+    except KeyboardInterrupt:
+        results.interrupted = True
+    ran = np.arange(episodes)[None, :] < done[:, None]
     results.steps = np.where(ran, steps, np.nan)
+    results.returns[~ran] = np.nan
+    results.uptime[~ran] = np.nan
     if not definition.has_uptime:
         results.uptime[:] = np.nan
     return results

@@ -114,3 +114,27 @@ def test_pendulum_agents_balance_within_30_episodes():
     agent after about 10); their mean up-time over episodes 0 to 29 is 25.9 s."""
     _, results = run(config_for("pendulum.swingup", agents=10, episodes=30))
     assert np.sum(np.any(results.uptime > 40.0, axis=1)) >= 5
+
+
+@pytest.mark.parametrize("path", ["compiled", "batched"])
+def test_an_interrupted_run_keeps_what_it_finished(path):
+    """Ctrl-C during a run (here raised by the progress callback after the first finished
+    episodes): the run returns marked interrupted, with the finished episodes as they
+    would have been and the rest NaN."""
+    config = config_for("mountain_car.cost_to_go", agents=4, episodes=40)
+
+    def interrupt(_):
+        raise KeyboardInterrupt
+
+    full = run(config)[1]
+    if path == "compiled":
+        cut = run_compiled("mountain_car", "cost_to_go", make_agent(config), 40, config.seeds,
+                           progress=interrupt)
+    else:
+        cut = run_batched(BatchedEnv("mountain_car", "cost_to_go", "analytic", config.seeds),
+                          make_agent(config), 40, progress=interrupt)
+    assert cut.interrupted and not full.interrupted
+    finished = np.isfinite(cut.steps)
+    assert 0 < finished.sum() < finished.size
+    np.testing.assert_array_equal(cut.steps[finished], full.steps[finished])
+    assert np.all(np.isnan(cut.returns[~finished]))
