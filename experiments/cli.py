@@ -3,16 +3,27 @@
     lwrl tasks                                     list the suite's tasks and plants
     lwrl rollout DOMAIN.TASK [--plant P] [--steps N] [--seed S]
                                                    run a uniformly random policy
+    lwrl train DOMAIN.TASK [--trace T] [--alpha A] [--lambda L] [--episodes K] ...
+                                                   train NRBF Sarsa(lambda) agents
+    lwrl eval PATH [--episodes K] [--seed S]       run saved agents greedily
 
 Bad input ends with one line on standard error and exit status 2.
 """
 
 import argparse
+import dataclasses
+import os
 import sys
 
 import numpy as np
+import tqdm
 
 import tasks
+from agent import io as agent_io
+from agent.traces import TRACES
+from experiments import summary
+from experiments.config import PAPER, RunConfig
+from experiments.run import make_agent, run
 
 
 def _split_name(name: str):
@@ -30,6 +41,16 @@ def _positive_int(text: str) -> int:
         value = 0
     if value <= 0:
         raise argparse.ArgumentTypeError(f"must be a positive integer; got {text!r}")
+    return value
+
+
+def _non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a non-negative integer; got {text!r}")
     return value
 
 
@@ -73,11 +94,100 @@ def cmd_rollout(args) -> None:
         print("no episode finished within the step budget")
 
 
+def _report(config, results, seeds, title: str) -> None:
+    """Print a run's block table, its divergences and any interruption."""
+    if title:
+        print(title)
+    print(summary.format_rows(summary.block_rows(results), tasks.definition(
+        config.domain, config.task_name).has_uptime))
+    print(f"means ± standard errors over agents (seeds {seeds[0]}..{seeds[-1]})")
+    print(summary.divergence_note(results, seeds))
+    truncated = int(results.truncated.sum())
+    if truncated:
+        print(f"{truncated} episodes hit the time limit (truncated)")
+    if results.interrupted:
+        print("interrupted: episodes not run are left empty", file=sys.stderr)
+
+
+def _progress_bar(total: int, description: str):
+    bar = tqdm.tqdm(total=total, desc=description, unit="episode", file=sys.stderr,
+                    disable=None, leave=False)
+    return bar, bar.update
+
+
+def cmd_train(args) -> int:
+    """Train agents and print per-block means with standard errors; write and save on
+    request (also after Ctrl-C, with what was complete)."""
+    config = RunConfig(task=args.task, plant=args.plant, integrator=args.integrator,
+                       trace=args.trace, alpha=args.alpha, lam=args.lam, epsilon=args.epsilon,
+                       features=args.features, n=args.n, episodes=args.episodes,
+                       agents=args.agents, seed=args.seed)
+    config.plant = tasks.resolve(config.domain, config.task_name, config.plant)[1]
+    agent = make_agent(config)  # checks the hyper-parameters before anything runs
+    print(f"{config.task} on the {config.plant} plant: {config.agents} agents, {config.trace} "
+          f"traces, alpha {config.alpha:g}, lambda {config.lam:g}, epsilon {config.epsilon:g}, "
+          f"{config.features} {config.n}^{len(config.feature_map().low)}, "
+          f"{config.episodes} episodes")
+    bar, update = _progress_bar(config.agents * config.episodes, "training")
+    with bar:
+        agent, results = run(config, agent=agent, progress=update)
+    _report(config, results, config.seeds, "")
+    if args.out:
+        os.makedirs(args.out, exist_ok=True)
+        with open(os.path.join(args.out, "config.json"), "w") as file:
+            file.write(config.to_json() + "\n")
+        summary.write_csv(os.path.join(args.out, "episodes.csv"), results, config.seeds)
+        print(f"wrote {args.out}/config.json and {args.out}/episodes.csv")
+    if args.save:
+        agent_io.save(args.save, agent, {"config": dataclasses.asdict(config)})
+        print(f"saved the agents to {args.save}")
+    return 130 if results.interrupted else 0
+
+
+def cmd_eval(args) -> int:
+    """Run saved agents greedily (epsilon 0, no learning) and print the same summary."""
+    agent, metadata = agent_io.load(args.path)
+    try:
+        fields = dict(metadata["config"])
+        fields.update(episodes=args.episodes, agents=agent.batch_size, seed=args.seed)
+        if args.plant:
+            fields["plant"] = args.plant
+        config = RunConfig(**fields)
+    except (KeyError, TypeError) as error:
+        raise ValueError(f"{args.path}: no usable run configuration in the file ({error})") from None
+    agent.hyper.epsilon[:] = 0.0
+    bar, update = _progress_bar(config.agents * config.episodes, "evaluating")
+    with bar:
+        _, results = run(config, agent=agent, learn=False, progress=update)
+    _report(config, results, config.seeds,
+            f"{config.task} on the {config.plant} plant: {config.agents} saved agents, greedy")
+    return 130 if results.interrupted else 0
+
+
 class _Parser(argparse.ArgumentParser):
     """An argument parser whose errors are one line: `lwrl COMMAND: error: ...`."""
 
     def error(self, message):
         self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _add_train_arguments(train) -> None:
+    train.add_argument("task", metavar="DOMAIN.TASK", choices=list(PAPER),
+                       help="one of: " + ", ".join(PAPER))
+    train.add_argument("--plant", help="mujoco or analytic (default: the domain's first)")
+    train.add_argument("--integrator", choices=("semi_implicit", "explicit"),
+                       default="semi_implicit", help="Euler scheme of the analytic plant")
+    train.add_argument("--trace", choices=TRACES, help="trace rule (default: the paper's best)")
+    train.add_argument("--alpha", type=float, help="learning rate (default: the paper's best)")
+    train.add_argument("--lambda", dest="lam", type=float, help="trace decay (default: the paper's best)")
+    train.add_argument("--epsilon", type=float, help="exploration rate (default: SPEC.md's per task)")
+    train.add_argument("--features", choices=("nrbf", "cmac"), default="nrbf")
+    train.add_argument("--n", type=_positive_int, help="NRBF centroids (or CMAC intervals) per dimension")
+    train.add_argument("--episodes", type=_positive_int, help="episodes per agent")
+    train.add_argument("--agents", type=_positive_int, help="agents (seeds SEED, SEED+1, ...)")
+    train.add_argument("--seed", type=_non_negative_int, default=0, help="seed of the first agent")
+    train.add_argument("--out", metavar="DIR", help="write config.json and episodes.csv here")
+    train.add_argument("--save", metavar="PATH", help="save the trained agents (.npz)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -95,6 +205,22 @@ def build_parser() -> argparse.ArgumentParser:
     rollout.add_argument("--steps", type=_positive_int, default=1000, help="agent steps (default 1000)")
     rollout.add_argument("--seed", type=int, default=0, help="seeds the starts and the policy")
     rollout.set_defaults(run=cmd_rollout)
+
+    train = commands.add_parser(
+        "train", help="train NRBF Sarsa(lambda) agents on a task",
+        description="Train agents with the paper's settings unless told otherwise; print the "
+                    "mean and standard error over agents per block of episodes.")
+    _add_train_arguments(train)
+    train.set_defaults(run=cmd_train)
+
+    evaluate = commands.add_parser("eval", help="run saved agents greedily")
+    evaluate.add_argument("path", metavar="PATH", help="a file written by lwrl train --save")
+    evaluate.add_argument("--episodes", type=_positive_int, default=10, help="episodes per agent (default 10)")
+    evaluate.add_argument("--seed", type=_non_negative_int, default=1_000_000,
+                          help="seed of the first agent's environment (default 1000000, "
+                               "away from training seeds)")
+    evaluate.add_argument("--plant", help="evaluate on another plant than the one trained on")
+    evaluate.set_defaults(run=cmd_eval)
     return parser
 
 
@@ -102,14 +228,13 @@ def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        args.run(args)
+        return args.run(args) or 0
     except ValueError as error:
         print(f"lwrl {args.command}: error: {error}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"lwrl {args.command}: interrupted", file=sys.stderr)
         return 130
-    return 0
 
 
 if __name__ == "__main__":

@@ -1,5 +1,7 @@
 """Smoke tests of the `lwrl` command with tiny budgets."""
 
+import csv
+import json
 import subprocess
 import sys
 
@@ -41,6 +43,13 @@ def test_rollout_reports_finished_cartpole_episodes(capsys):
     (["rollout", "mountain_car.cost_to_go", "--plant", "mujoco"], "unknown plant 'mujoco'"),
     (["rollout", "pendulum.swingup", "--steps", "0"], "must be a positive integer"),
     (["frobnicate"], "invalid choice"),
+    (["train", "cartpole.balance", "--alpha", "0"], "alpha must be in (0.0, inf]; got 0.0"),
+    (["train", "cartpole.balance", "--lambda", "1.5"], "lambda must be in [0.0, 1.0]; got 1.5"),
+    (["train", "cartpole.balance", "--epsilon", "2"], "epsilon must be in [0.0, 1.0]; got 2.0"),
+    (["train", "cartpole.balance", "--trace", "dutch"], "invalid choice: 'dutch'"),
+    (["train", "cartpole.balance", "--n", "1"], "must be an integer >= 2; got 1"),
+    (["train", "pendulum.swing"], "invalid choice: 'pendulum.swing'"),
+    (["eval", "/nonexistent.npz"], "no such agent file"),
 ])
 def test_bad_input_is_one_line_and_status_2(argv, message):
     """No traceback: one line on standard error naming what is wrong, exit status 2."""
@@ -51,9 +60,36 @@ def test_bad_input_is_one_line_and_status_2(argv, message):
     assert len(lines) == 1 and message in lines[0], result.stderr
 
 
-@pytest.mark.parametrize("argv", [["--help"], ["rollout", "--help"], ["tasks", "--help"]])
+@pytest.mark.parametrize("argv", [["--help"], ["rollout", "--help"], ["tasks", "--help"],
+                                  ["train", "--help"], ["eval", "--help"]])
 def test_help(capsys, argv):
     with pytest.raises(SystemExit) as exit_info:
         cli.main(argv)
     assert exit_info.value.code == 0
     assert "usage: lwrl" in capsys.readouterr().out
+
+
+def test_train_writes_config_and_episodes_and_eval_reads_the_agents(tmp_path, capsys):
+    """A tiny training run: per-block means with standard errors, config.json and
+    episodes.csv with one row per agent and episode, and a saved agent file that
+    `lwrl eval` runs greedily."""
+    out, saved = tmp_path / "run", tmp_path / "agents.npz"
+    assert cli.main(["train", "mountain_car.cost_to_go", "--episodes", "4", "--agents", "3",
+                     "--seed", "5", "--out", str(out), "--save", str(saved)]) == 0
+    printed = capsys.readouterr().out
+    assert "± " in printed and "seeds 5..7" in printed and "no agent diverged" in printed
+    config = json.loads((out / "config.json").read_text())
+    assert config["task"] == "mountain_car.cost_to_go" and config["alpha"] == 3.9
+    with open(out / "episodes.csv") as file:
+        rows = list(csv.DictReader(file))
+    assert len(rows) == 12
+    assert set(rows[0]) >= {"agent", "episode", "steps", "return", "uptime_s", "diverged"}
+    assert all(int(row["steps"]) == -float(row["return"]) + 1 for row in rows if row["truncated"] == "0")
+    assert cli.main(["eval", str(saved), "--episodes", "2"]) == 0
+    assert "3 saved agents, greedy" in capsys.readouterr().out
+
+
+def test_train_reports_diverged_agents(capsys):
+    assert cli.main(["train", "mountain_car.cost_to_go", "--trace", "accumulating", "--alpha", "40",
+                     "--lambda", "0.99", "--episodes", "10", "--agents", "2"]) == 0
+    assert "2 of 2 agents diverged and were frozen: agent 0 (seed 0, episode" in capsys.readouterr().out
