@@ -187,13 +187,9 @@ def _compiled_loop(transition):
 
 def episode_starts(definition, seeds, episodes: int) -> np.ndarray:
     """`(B, K, d)`: the start of each agent's episodes, drawn as `BatchedEnv` and `tasks.load`
-    draw them (one generator per seed, one draw per episode)."""
-    starts = np.empty((len(seeds), episodes, len(definition.state_names)))
-    for b, seed in enumerate(seeds):
-        rng = np.random.default_rng(seed)
-        for k in range(episodes):
-            starts[b, k] = definition.initial_state(rng)
-    return starts
+    draw them (one generator per seed, the episodes' starts in order)."""
+    return np.stack([definition.initial_states(np.random.default_rng(seed), episodes)
+                     for seed in seeds])
 
 
 def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, seeds,

@@ -35,7 +35,7 @@ class SuiteTask(control.Task):
         return self._uptime
 
     def initialize_episode(self, physics):
-        physics.set_state_vector(self.definition.initial_state(self.random))
+        physics.set_state_vector(self.definition.initial_states(self.random, 1)[0])
         self._steps = 0
         self._uptime = 0.0 if self.definition.has_uptime else float("nan")
 

@@ -69,7 +69,7 @@ class BatchedEnv:
 
     def _start_episodes(self, which: np.ndarray) -> None:
         for i in np.flatnonzero(which):
-            self.state[i] = self.definition.initial_state(self._rngs[i])
+            self.state[i] = self.definition.initial_states(self._rngs[i], 1)[0]
         self.steps[which] = 0
         self.uptime[which] = 0.0 if self.definition.has_uptime else np.nan
         self._needs_reset[which] = False

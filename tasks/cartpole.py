@@ -119,10 +119,10 @@ def transition(state, control, next_state, observation, dt, semi_implicit, param
     return outcome(x, x_dot, theta, theta_dot, params[0])
 
 
-def initial_state(rng: np.random.Generator) -> np.ndarray:
-    """All zeros: the paper's start is deterministic."""
+def initial_states(rng: np.random.Generator, count: int) -> np.ndarray:
+    """All zeros, `(count, 4)`: the paper's start is deterministic."""
     del rng
-    return np.zeros(len(STATE_NAMES))
+    return np.zeros((count, len(STATE_NAMES)))
 
 
 def balance(time_limit: float = TIME_LIMIT, track_limit=TRACK_LIMIT) -> TaskDefinition:
@@ -133,7 +133,7 @@ def balance(time_limit: float = TIME_LIMIT, track_limit=TRACK_LIMIT) -> TaskDefi
     return TaskDefinition(
         domain="cartpole", task="balance", state_names=STATE_NAMES, controls=FORCES,
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
-        initial_state=initial_state,
+        initial_states=initial_states,
         observe=lambda state: state, outcome=outcome, transition=transition, params=(limit,),
     )
 

@@ -33,8 +33,9 @@ class TaskDefinition:
     """Seconds (or, for Mountain-Car, steps) per agent step."""
     step_limit: float
     """Steps after which an episode is truncated (discount 1); `inf` for none."""
-    initial_state: Callable[[np.random.Generator], np.ndarray]
-    """Draws one start state, shape `(d,)`, from a generator."""
+    initial_states: Callable[[np.random.Generator, int], np.ndarray]
+    """`initial_states(rng, count)` draws `count` start states `(count, d)`; the same
+    generator gives the same starts whether drawn one at a time or all at once."""
     observe: Callable[[np.ndarray], np.ndarray]
     """Maps states `(..., d)` to observations `(..., d)` (e.g. wraps angles)."""
     outcome: Callable

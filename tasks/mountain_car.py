@@ -85,9 +85,9 @@ def transition(state, control, next_state, observation, dt, semi_implicit, param
     return outcome(next_state[0], next_state[1])
 
 
-def initial_state(rng: np.random.Generator) -> np.ndarray:
-    """x ~ U[-1.2, 0.5], v ~ U[-0.07, 0.07]."""
-    return rng.uniform((MIN_POSITION, -MAX_SPEED), (GOAL_POSITION, MAX_SPEED))
+def initial_states(rng: np.random.Generator, count: int) -> np.ndarray:
+    """x ~ U[-1.2, 0.5], v ~ U[-0.07, 0.07], `(count, 2)`."""
+    return rng.uniform((MIN_POSITION, -MAX_SPEED), (GOAL_POSITION, MAX_SPEED), size=(count, 2))
 
 
 def cost_to_go(time_limit: float = STEP_LIMIT) -> TaskDefinition:
@@ -95,7 +95,7 @@ def cost_to_go(time_limit: float = STEP_LIMIT) -> TaskDefinition:
     return TaskDefinition(
         domain="mountain_car", task="cost_to_go", state_names=STATE_NAMES, controls=THRUSTS,
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
-        initial_state=initial_state,
+        initial_states=initial_states,
         observe=lambda state: state, outcome=outcome, transition=transition, has_uptime=False,
     )
 

@@ -98,9 +98,9 @@ def transition(state, control, next_state, observation, dt, semi_implicit, param
     return outcome(angle, angular_velocity)
 
 
-def initial_state(rng: np.random.Generator) -> np.ndarray:
-    """theta ~ U[-pi, pi], theta_dot = 0."""
-    return np.array([rng.uniform(-np.pi, np.pi), 0.0])
+def initial_states(rng: np.random.Generator, count: int) -> np.ndarray:
+    """theta ~ U[-pi, pi], theta_dot = 0, `(count, 2)`."""
+    return np.stack([rng.uniform(-np.pi, np.pi, size=count), np.zeros(count)], axis=-1)
 
 
 def _observe(state):
@@ -112,7 +112,7 @@ def swingup(time_limit: float = TIME_LIMIT) -> TaskDefinition:
     return TaskDefinition(
         domain="pendulum", task="swingup", state_names=STATE_NAMES, controls=TORQUES,
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
-        initial_state=initial_state,
+        initial_states=initial_states,
         observe=_observe, outcome=outcome, transition=transition,
     )
 
