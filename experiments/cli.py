@@ -102,9 +102,9 @@ def _report(config, results, seeds, title: str) -> None:
         config.domain, config.task_name).has_uptime))
     print(f"means ± standard errors over agents (seeds {seeds[0]}..{seeds[-1]})")
     print(summary.divergence_note(results, seeds))
-    truncated = int(results.truncated.sum())
+    truncated, run_episodes = int(results.truncated.sum()), int(np.isfinite(results.steps).sum())
     if truncated:
-        print(f"{truncated} episodes hit the time limit (truncated)")
+        print(f"{truncated} of {run_episodes} episodes ended at the time limit (truncated)")
     if results.interrupted:
         print("interrupted: episodes not run are left empty", file=sys.stderr)
 
