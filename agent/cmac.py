@@ -18,7 +18,7 @@ import numba
 import numpy as np
 from numba.extending import register_jitable
 
-from agent.features import FeatureMap, check_box, check_count, normalise
+from agent.features import FeatureMap, check_count, normalise
 
 
 @register_jitable
@@ -62,9 +62,7 @@ class CMAC(FeatureMap):
     """Divide alpha by the number of tilings (Sutton's code) when true."""
 
     def __post_init__(self):
-        low, high = check_box(self.low, self.high)
-        object.__setattr__(self, "low", low)
-        object.__setattr__(self, "high", high)
+        super().__post_init__()
         object.__setattr__(self, "intervals", check_count("intervals", self.intervals, 1))
         object.__setattr__(self, "tilings", check_count("tilings", self.tilings, 1))
 

@@ -35,13 +35,19 @@ def check_count(name: str, value, minimum: int) -> int:
 
 
 class FeatureMap:
-    """Batch evaluation for a feature map with `low`, `high`, `num_features` and a compiled
+    """Base of the frozen feature-map dataclasses: the checked state box `low`, `high` and
+    batch evaluation through the subclass's `num_features` and compiled
     `_features_rows(rows (B, d), out (B, N))`."""
 
     low: tuple
     high: tuple
     alpha_scale = 1.0
     """The factor the learner applies to alpha (the CMAC may divide it by its tilings)."""
+
+    def __post_init__(self):
+        low, high = check_box(self.low, self.high)
+        object.__setattr__(self, "low", low)
+        object.__setattr__(self, "high", high)
 
     @property
     def dim(self) -> int:

@@ -30,7 +30,7 @@ import numba
 import numpy as np
 from numba.extending import register_jitable
 
-from agent.features import FeatureMap, check_box, check_count, normalise
+from agent.features import FeatureMap, check_count, normalise
 
 DEFAULT_R2 = 0.01
 """r^2, the spread of eq. 8; the paper uses 0.01 in all tasks."""
@@ -114,9 +114,7 @@ class NRBF(FeatureMap):
     """The spread r^2 of eq. 8, in normalised units (> 0)."""
 
     def __post_init__(self):
-        low, high = check_box(self.low, self.high)
-        object.__setattr__(self, "low", low)
-        object.__setattr__(self, "high", high)
+        super().__post_init__()
         object.__setattr__(self, "n", check_count("n (centroids per dimension)", self.n, 2))
         if not (np.isfinite(self.r2) and self.r2 > 0):
             raise ValueError(f"r2 (the spread r^2) must be finite and > 0; got {self.r2!r}")

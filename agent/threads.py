@@ -9,6 +9,7 @@ import concurrent.futures
 import os
 
 _POOL = None
+_POOL_SIZE = 0
 
 
 def workers() -> int:
@@ -19,13 +20,14 @@ def workers() -> int:
 def run_in_chunks(kernel, batch_size: int, *args, min_chunk: int = 16) -> None:
     """Call `kernel(start, stop, *args)` over contiguous ranges covering `range(batch_size)`,
     one range per worker thread (a single call when the batch is small)."""
-    global _POOL
+    global _POOL, _POOL_SIZE
     chunks = max(1, min(workers(), batch_size // min_chunk))
     if chunks == 1:
         kernel(0, batch_size, *args)
         return
-    if _POOL is None or _POOL._max_workers < chunks:
+    if _POOL_SIZE < chunks:
         _POOL = concurrent.futures.ThreadPoolExecutor(max_workers=chunks, thread_name_prefix="lwrl")
+        _POOL_SIZE = chunks
     bounds = [round(batch_size * c / chunks) for c in range(chunks + 1)]
     futures = []
     try:
