@@ -37,6 +37,20 @@ DEFAULT_R2 = 0.01
 
 
 @register_jitable
+def clamp_margin(n, r2):
+    """M = 400 n r^2: a normalised value is limited to [-M, 1 + M], which changes no feature.
+
+    Beyond 1 + M the nearest centroid is the last, `(n - 0.5) / n`, at distance m > M; the
+    next is 1/n farther, so its exponent is `(1/n)(2m + 1/n) / r^2 > 2M / (n r^2) = 800`,
+    and exp(-800) is 0 in float64: the features are exactly those at the limit. The other
+    centroids are farther still, and the low side is symmetric. Without the limit, values
+    so large (about 1e14 and up) that float64 cannot tell the centroids' distances apart
+    would spread the features evenly instead of onto the edge centroid.
+    """
+    return 400.0 * n * r2
+
+
+@register_jitable
 def centroid(index, n):
     """Grid point `index` of `n` in one dimension: the cell midpoint `(index + 0.5) / n`."""
     return (index + 0.5) / n
@@ -61,8 +75,9 @@ def nrbf_features_into(state, low, high, n, r2, out, scratch):
         raise ValueError("scratch must have shape (d, n)")
     if out.shape[0] != n ** d:
         raise ValueError("out must have shape (n^d,)")
+    margin = clamp_margin(n, r2)
     for j in range(d):
-        s_j = normalise(state[j], low[j], high[j])
+        s_j = min(max(normalise(state[j], low[j], high[j]), -margin), 1.0 + margin)
         nearest = np.inf
         for k in range(n):
             scratch[j, k] = np.abs(s_j - centroid(k, n))
