@@ -16,7 +16,7 @@ from experiments.run import make_agent, run_compiled
 def trained(tmp_path):
     """Three Mountain-Car agents after 5 episodes, saved with their configuration."""
     config = RunConfig(task="mountain_car.cost_to_go", plant="analytic", agents=3, episodes=5,
-                       trace="accumulating", alpha=[1.0, 2.0, 3.0][0], lam=0.8)
+                       trace="accumulating", alpha=1.0, lam=0.8)
     agent = make_agent(config)
     run_compiled("mountain_car", "cost_to_go", agent, 5, config.seeds)
     path = tmp_path / "agent.npz"
