@@ -10,11 +10,20 @@ import os
 
 _POOL = None
 _POOL_SIZE = 0
+_WORKERS = None
 
 
 def workers() -> int:
-    """Threads used: the cores this process may run on."""
+    """Threads used: the cores this process may run on, unless `set_workers` said fewer."""
+    if _WORKERS is not None:
+        return _WORKERS
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+def set_workers(count: int) -> None:
+    """Use `count` threads from now on."""
+    global _WORKERS
+    _WORKERS = int(count)
 
 
 def run_in_chunks(kernel, batch_size: int, *args, min_chunk: int = 16) -> None:

@@ -59,6 +59,8 @@ class RunConfig:
     """NRBF spread r^2 (eq. 8)."""
     tilings: int = 5
     """CMAC tilings."""
+    normalise_alpha: bool = False
+    """CMAC only: divide alpha by the tilings (Sutton's code) when true."""
     episodes: int | None = None
     """Episodes per agent."""
     agents: int | None = None
@@ -102,14 +104,15 @@ class RunConfig:
         """The agents' features over the task's normalisation ranges."""
         paper = PAPER[self.task]
         if self.features == "cmac":
-            return CMAC(paper["low"], paper["high"], intervals=self.n, tilings=self.tilings)
+            return CMAC(paper["low"], paper["high"], intervals=self.n, tilings=self.tilings,
+                        normalise_alpha=self.normalise_alpha)
         return NRBF(paper["low"], paper["high"], self.n, self.r2)
 
     @property
     def name(self) -> str:
         """Task, plant, trace, alpha, lambda and seed, for directory names."""
-        return (f"{self.task}-{self.plant or 'default'}-{self.trace}-a{self.alpha:g}"
-                f"-l{self.lam:g}-s{self.seed}")
+        return (f"{self.task}-{self.plant or 'default'}-{self.features}-{self.trace}"
+                f"-a{self.alpha:g}-l{self.lam:g}-s{self.seed}")
 
     def to_json(self) -> str:
         return json.dumps(dataclasses.asdict(self), indent=2)

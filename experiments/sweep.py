@@ -1,0 +1,131 @@
+"""Sweeps: many runs (one `RunConfig` each), written to disk as they finish, resumable.
+
+Each run's per-agent, per-episode results go to `OUT/runs/<key>.csv.gz`, where the key is
+the run's name and a hash of its whole configuration; the file appears whole (written to a
+temporary name, then renamed) only once the run has finished. Running the same sweep again
+skips every run whose file exists, so an interrupted sweep (Ctrl-C, kill, power cut)
+resumes where it stopped and recomputes nothing that finished. A diverged run is a finished
+run: its agents' `diverged` column says so.
+
+Backends: `local` runs one run at a time on this machine, each on all its cores (the
+learner's threads); `ray` sends runs to a Ray cluster (`pip install -e '.[ray]'`), one task
+per run, and writes their results here as they come back.
+"""
+
+import dataclasses
+import hashlib
+import json
+import os
+import sys
+
+import numpy as np
+import pandas as pd
+import tqdm
+
+from agent import threads
+from experiments.config import RunConfig
+from experiments.run import run
+
+CONFIG_COLUMNS = ("task", "plant", "integrator", "features", "trace", "alpha", "lam", "epsilon",
+                  "gamma", "n", "r2", "tilings", "normalise_alpha", "episodes")
+"""Configuration fields repeated on every row of the results table."""
+BACKENDS = ("local", "ray")
+
+
+def run_key(config: RunConfig) -> str:
+    """A file name for a run: readable, and unique to its whole configuration."""
+    digest = hashlib.sha1(config.to_json().encode()).hexdigest()[:12]
+    return f"{config.name}-{digest}"
+
+
+def run_table(config: RunConfig) -> pd.DataFrame:
+    """Run `config` and return its results as a tidy table, one row per agent and episode."""
+    _, results = run(config)
+    if results.interrupted:
+        raise KeyboardInterrupt
+    agents, episodes = results.steps.shape
+    table = pd.DataFrame({
+        "agent": np.repeat(np.arange(agents), episodes),
+        "seed": np.repeat(config.seeds, episodes),
+        "episode": np.tile(np.arange(1, episodes + 1), agents),
+        "steps": results.steps.ravel(),
+        "return": results.returns.ravel(),
+        "uptime_s": results.uptime.ravel(),
+        "truncated": results.truncated.ravel(),
+        "diverged": results.diverged.ravel(),
+    })
+    fields = dataclasses.asdict(config)
+    for column in reversed(CONFIG_COLUMNS):
+        table.insert(0, column, fields[column])
+    table.insert(0, "run", run_key(config))
+    return table
+
+
+def _write_atomically(table: pd.DataFrame, path: str) -> None:
+    partial = f"{path}.partial"
+    table.to_csv(partial, index=False, compression="gzip")
+    os.replace(partial, path)
+
+
+def _local(configs):
+    for config in configs:
+        yield config, run_table(config)
+
+
+def _ray(configs, address):
+    try:
+        import ray
+    except ImportError:
+        raise ValueError("the ray backend needs Ray: pip install -e '.[ray]'") from None
+    ray.init(address=address, ignore_reinit_error=True, include_dashboard=False,
+             log_to_driver=False)
+    remote = ray.remote(run_table)
+    pending = {remote.remote(config): config for config in configs}
+    try:
+        while pending:
+            done, _ = ray.wait(list(pending), num_returns=1)
+            config = pending.pop(done[0])
+            yield config, ray.get(done[0])
+    finally:
+        for ref in pending:
+            ray.cancel(ref, force=True)
+
+
+def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None = None,
+              address: str | None = None, description: str = "sweep") -> pd.DataFrame:
+    """Run every configuration not already in `out_dir`; return all their results.
+
+    `workers` caps the threads of the local backend; `address` is the Ray cluster's
+    (default: start a local Ray instance).
+    """
+    if backend not in BACKENDS:
+        raise ValueError(f"unknown backend {backend!r}; allowed: {', '.join(BACKENDS)}")
+    if workers is not None:
+        if workers < 1:
+            raise ValueError(f"workers must be a positive integer; got {workers}")
+        threads.set_workers(workers)
+    runs_dir = os.path.join(out_dir, "runs")
+    os.makedirs(runs_dir, exist_ok=True)
+    paths = {run_key(config): os.path.join(runs_dir, run_key(config) + ".csv.gz") for config in configs}
+    pending = [config for config in configs if not os.path.exists(paths[run_key(config)])]
+    total = sum(config.agents * config.episodes for config in configs)
+    left = sum(config.agents * config.episodes for config in pending)
+    with tqdm.tqdm(total=total, initial=total - left, desc=description, unit="agent-episode",
+                   file=sys.stderr, disable=None, smoothing=0.05) as bar:
+        finished = _local(pending) if backend == "local" else _ray(pending, address)
+        for config, table in finished:
+            _write_atomically(table, paths[run_key(config)])
+            bar.update(config.agents * config.episodes)
+    return load_results([paths[run_key(config)] for config in configs])
+
+
+def load_results(paths) -> pd.DataFrame:
+    """The results table of the given run files, concatenated."""
+    return pd.concat([pd.read_csv(path) for path in paths], ignore_index=True)
+
+
+def write_configs(configs, path: str) -> None:
+    """Every run's full configuration, one JSON object per line, with its key."""
+    with open(path, "w") as file:
+        for config in configs:
+            file.write(json.dumps({"run": run_key(config), **dataclasses.asdict(config)}) + "\n")
