@@ -6,6 +6,9 @@
     lwrl train DOMAIN.TASK [--trace T] [--alpha A] [--lambda L] [--episodes K] ...
                                                    train NRBF Sarsa(lambda) agents
     lwrl eval PATH [--episodes K] [--seed S]       run saved agents greedily
+    lwrl reproduce {fig2,fig3,fig5,fig6,fig8,table1,all} [--plant P] [--quick] [--out DIR]
+                                                   the paper's figures and table, and a report
+    lwrl export PATH --c OUT_DIR [--agent I]       a saved agent as a C99 controller
 
 Bad input ends with one line on standard error and exit status 2.
 """
@@ -21,7 +24,7 @@ import tqdm
 import tasks
 from agent import io as agent_io
 from agent.traces import TRACES
-from experiments import summary
+from experiments import export_c, summary
 from experiments.config import PAPER, RunConfig
 from experiments.run import make_agent, run
 
@@ -164,6 +167,37 @@ def cmd_eval(args) -> int:
     return 130 if results.interrupted else 0
 
 
+def cmd_reproduce(args) -> int:
+    """Run the paper's protocols (resuming whatever an earlier run finished) and report."""
+    try:
+        from experiments.reproduce import reproduce
+    except ImportError as error:
+        raise ValueError(f"lwrl reproduce needs the 'paper' extra ({error.name} is missing): "
+                         "pip install -e '.[paper]'") from None
+    path = reproduce(args.item, args.out, plant=args.plant, quick=args.quick,
+                     integrator=args.integrator, backend=args.backend, workers=args.workers,
+                     address=args.address)
+    print(f"wrote {path}, the figures in {os.path.join(args.out, 'figures')} and each item's "
+          f"results under {args.out}")
+    return 0
+
+
+def cmd_export(args) -> int:
+    """Write a saved agent as C99 source and header; report its flash size and speed."""
+    written = export_c.export_c(args.path, args.c, agent_index=args.agent, dtype=args.real)
+    print(f"wrote {written['source']} and {written['header']}: {written['task']}, "
+          f"{written['weight_bytes']} bytes of weights and {written['constant_bytes']} of constants")
+    try:
+        measured = export_c.measure(args.c)
+    except ValueError as error:
+        print(f"not measured: {error}")
+        return 0
+    print(f"compiled with {measured['compiler']}: {measured['code_bytes']} bytes of code (-Os), "
+          f"{measured['rodata_bytes']} of read-only data; "
+          f"{measured['ns_per_decision']:.0f} ns per decision (-O2, this machine)")
+    return 0
+
+
 class _Parser(argparse.ArgumentParser):
     """An argument parser whose errors are one line: `lwrl COMMAND: error: ...`."""
 
@@ -221,6 +255,33 @@ def build_parser() -> argparse.ArgumentParser:
                                "away from training seeds)")
     evaluate.add_argument("--plant", help="evaluate on another plant than the one trained on")
     evaluate.set_defaults(run=cmd_eval)
+
+    paper = commands.add_parser(
+        "reproduce", help="reproduce the paper's figures and table",
+        description="Run the paper's protocols, writing each run as it finishes (the same "
+                    "command resumes an interrupted run), then the figures and a report "
+                    "beside the paper's numbers.")
+    paper.add_argument("item", choices=("fig2", "fig3", "fig5", "fig6", "fig8", "table1", "all"))
+    paper.add_argument("--plant", choices=("analytic", "mujoco"), default="analytic",
+                       help="plant of the pendulum and cart-pole (Mountain-Car has only the analytic one)")
+    paper.add_argument("--integrator", choices=("semi_implicit", "explicit"), default="semi_implicit",
+                       help="Euler scheme of the analytic plant")
+    paper.add_argument("--quick", action="store_true", help="tiny grids: a smoke test in seconds")
+    paper.add_argument("--out", metavar="DIR", default="reproduction", help="output directory (default: reproduction)")
+    paper.add_argument("--workers", type=_positive_int, help="threads of the local backend (default: all cores)")
+    paper.add_argument("--backend", choices=("local", "ray"), default="local")
+    paper.add_argument("--address", help="Ray cluster address (default: start a local Ray instance)")
+    paper.set_defaults(run=cmd_reproduce)
+
+    export = commands.add_parser("export", help="write a saved agent as a C99 controller")
+    export.add_argument("path", metavar="PATH", help="a file written by lwrl train --save")
+    export.add_argument("--c", metavar="OUT_DIR", required=True,
+                        help="directory for lwrl_policy.c and lwrl_policy.h")
+    export.add_argument("--agent", type=_non_negative_int, default=0,
+                        help="which agent of the saved batch (default 0)")
+    export.add_argument("--real", choices=("float", "double"), default="float",
+                        help="C floating-point type of the weights and arithmetic")
+    export.set_defaults(run=cmd_export)
     return parser
 
 

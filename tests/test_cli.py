@@ -50,6 +50,8 @@ def test_rollout_reports_finished_cartpole_episodes(capsys):
     (["train", "cartpole.balance", "--n", "1"], "must be an integer >= 2; got 1"),
     (["train", "pendulum.swing"], "invalid choice: 'pendulum.swing'"),
     (["eval", "/nonexistent.npz"], "no such agent file"),
+    (["export", "/nonexistent.npz", "--c", "/tmp/unused"], "no such agent file"),
+    (["reproduce", "fig4"], "invalid choice: 'fig4'"),
 ])
 def test_bad_input_is_one_line_and_status_2(argv, message):
     """No traceback: one line on standard error naming what is wrong, exit status 2."""
@@ -61,7 +63,8 @@ def test_bad_input_is_one_line_and_status_2(argv, message):
 
 
 @pytest.mark.parametrize("argv", [["--help"], ["rollout", "--help"], ["tasks", "--help"],
-                                  ["train", "--help"], ["eval", "--help"]])
+                                  ["train", "--help"], ["eval", "--help"],
+                                  ["reproduce", "--help"], ["export", "--help"]])
 def test_help(capsys, argv):
     with pytest.raises(SystemExit) as exit_info:
         cli.main(argv)
@@ -87,6 +90,9 @@ def test_train_writes_config_and_episodes_and_eval_reads_the_agents(tmp_path, ca
     assert all(int(row["steps"]) == -float(row["return"]) + 1 for row in rows if row["truncated"] == "0")
     assert cli.main(["eval", str(saved), "--episodes", "2"]) == 0
     assert "3 saved agents, greedy" in capsys.readouterr().out
+    assert cli.main(["export", str(saved), "--c", str(tmp_path / "c"), "--agent", "2"]) == 0
+    assert "768 bytes of weights" in capsys.readouterr().out  # 8 x 8 neurons x 3 actions x 4 B
+    assert (tmp_path / "c" / "lwrl_policy.c").exists() and (tmp_path / "c" / "lwrl_policy.h").exists()
 
 
 def test_train_reports_diverged_agents(capsys):
