@@ -39,10 +39,11 @@ FeatureSpec = collections.namedtuple("FeatureSpec", "kind low high n r2 tilings"
 """A feature map as compiled code sees it (`n` is the CMAC's intervals)."""
 Hyper = collections.namedtuple("Hyper", "alpha gamma lam epsilon trace")
 """Per-agent hyper-parameters, each an array `(B,)`."""
-Memory = collections.namedtuple("Memory", "weights traces phi slot action streams diverged q scratch")
+Memory = collections.namedtuple("Memory", "weights traces phi slot action streams diverged q delta scratch")
 """Per-agent learning state and scratch space, each with a leading axis B; weights and
 traces are stored action-major, `(B, A, N)`; `phi` `(B, 2, N)` holds the features of the
-last two observations, the latest in `phi[b, slot[b]]`."""
+last two observations, the latest in `phi[b, slot[b]]`; `q[b]` holds Q at the latest
+observation and `delta[b]` the TD error of the latest update (NaN if it made none)."""
 
 
 def feature_spec(features) -> FeatureSpec:
@@ -100,6 +101,7 @@ def agent_step(b, first, reward, discount, observation, learn, memory, hyper, sp
         q_t[a] = action_value(w, phi_t, a)
     bootstrap = first or discount > 0.0
     a_t = epsilon_greedy(q_t, hyper.epsilon[b], memory.streams, b) if bootstrap else 0
+    memory.delta[b] = np.nan
     if first:
         memory.traces[b][:] = 0.0
     elif learn and not memory.diverged[b]:
@@ -108,6 +110,7 @@ def agent_step(b, first, reward, discount, observation, learn, memory, hyper, sp
         delta = reward - action_value(w, phi_tm1, a_tm1)
         if bootstrap:
             delta += hyper.gamma[b] * discount * q_t[a_t]
+        memory.delta[b] = delta
         if not np.isfinite(delta):
             memory.diverged[b] = True
         else:
@@ -177,6 +180,7 @@ class BatchedSarsa:
             streams=streams,
             diverged=np.zeros(batch, dtype=bool),
             q=np.zeros((batch, num_actions)),
+            delta=np.full(batch, np.nan),
             scratch=np.zeros((batch, features.dim, scratch_width)),
         )
 

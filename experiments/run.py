@@ -22,6 +22,7 @@ import tasks
 from agent.sarsa import BatchedSarsa, agent_step
 from agent.threads import run_in_chunks
 from tasks.batched import BatchedEnv
+from experiments.recording import make_tape, recordings
 from tasks.integrators import check_integrator
 
 
@@ -41,6 +42,8 @@ class EpisodeResults:
     """`(B,)`: the episode in which the agent diverged, -1 if it did not."""
     interrupted: bool = False
     """True if the run was interrupted (Ctrl-C): episodes not run are NaN."""
+    recordings: list = dataclasses.field(default_factory=list)
+    """`EpisodeRecording`s of the episodes asked for with `record`."""
 
     @classmethod
     def empty(cls, agents: int, episodes: int) -> "EpisodeResults":
@@ -102,9 +105,10 @@ def run_dm_env(env, agent: BatchedSarsa, episodes: int, learn: bool = True) -> E
 
 
 def run_batched(env: BatchedEnv, agent: BatchedSarsa, episodes: int, learn: bool = True,
-                progress=None) -> EpisodeResults:
+                progress=None, record=()) -> EpisodeResults:
     """B agents on a batched environment of B copies; `progress(done_episodes)` is called
-    as episodes finish."""
+    as episodes finish. The `(agent, episode)` pairs in `record` are recorded step by step
+    (`results.recordings`), as `run_compiled` records them."""
     episodes = _check_episodes(episodes)
     if env.batch_size != agent.batch_size:
         raise ValueError(f"environment batch {env.batch_size} and agent batch "
@@ -114,11 +118,28 @@ def run_batched(env: BatchedEnv, agent: BatchedSarsa, episodes: int, learn: bool
     done = np.zeros(batch, dtype=np.int64)  # finished episodes per agent
     running = np.ones(batch, dtype=bool)
     returns = np.zeros(batch)
+    definition = env.definition
+    tape = make_tape(record, batch, episodes, definition.step_limit, len(definition.state_names),
+                     agent.num_actions, agent.features.num_features)
+    actions = np.zeros(batch, dtype=np.int64)
     ts = env.reset()
     try:
         while True:
+            previous = actions
             actions = agent.step(ts.first(), ts.reward, ts.discount, ts.observation,
                                  active=running, learn=learn)
+            rows = np.where(running, tape.slot[np.arange(batch), np.minimum(done, episodes - 1)], -1)
+            for b in np.flatnonzero(rows >= 0):
+                r, n = rows[b], env.steps[b]
+                tape.states[r, n] = env.state[b]
+                tape.observations[r, n] = ts.observation[b]
+                tape.q_values[r, n] = agent.memory.q[b]
+                if n > 0:
+                    tape.actions[r, n - 1] = previous[b]
+                    tape.rewards[r, n - 1] = ts.reward[b]
+                    tape.td_errors[r, n - 1] = agent.memory.delta[b]
+                    tape.length[r] = n
+                    tape.weights[r] = agent.memory.weights[b]
             newly_diverged = running & agent.diverged
             ended = running & (ts.last() | newly_diverged)
             for b in np.flatnonzero(ended):
@@ -139,6 +160,7 @@ def run_batched(env: BatchedEnv, agent: BatchedSarsa, episodes: int, learn: bool
             returns = np.where(ts.first(), 0.0, returns + ts.reward)
     except KeyboardInterrupt:
         results.interrupted = True
+    results.recordings = recordings(tape, definition, env.plant_name, env.seeds)
     return results
 
 
@@ -150,7 +172,7 @@ def _compiled_loop(transition):
     @numba.njit(nogil=True)
     def loop(start, stop, first, count, starts, start_observations, controls, dt,
              semi_implicit, params, step_limit, learn, memory, hyper, spec, steps, returns,
-             uptime, truncated, diverged_episode, done):
+             uptime, truncated, diverged_episode, done, tape):
         dim = starts.shape[2]
         for b in range(start, stop):
             state = np.empty(dim)
@@ -162,8 +184,15 @@ def _compiled_loop(transition):
                 state[:] = starts[b, k]
                 action = agent_step(b, True, 0.0, 1.0, start_observations[b, k], learn,
                                     memory, hyper, spec)
+                r = tape.slot[b, k]
+                if r >= 0:
+                    tape.states[r, 0] = state
+                    tape.observations[r, 0] = start_observations[b, k]
+                    tape.q_values[r, 0] = memory.q[b]
                 n, total, up, terminal = 0, 0.0, 0.0, False
                 while True:
+                    if r >= 0:
+                        tape.actions[r, n] = action
                     reward, terminal, is_up = transition(state, controls[action], next_state,
                                                          observation, dt, semi_implicit, params)
                     n += 1
@@ -172,8 +201,17 @@ def _compiled_loop(transition):
                     state[:] = next_state
                     action = agent_step(b, False, reward, 0.0 if terminal else 1.0, observation,
                                         learn, memory, hyper, spec)
+                    if r >= 0:
+                        tape.states[r, n] = state
+                        tape.observations[r, n] = observation
+                        tape.rewards[r, n - 1] = reward
+                        tape.td_errors[r, n - 1] = memory.delta[b]
+                        tape.q_values[r, n] = memory.q[b]
                     if terminal or n >= step_limit or memory.diverged[b]:
                         break
+                if r >= 0:
+                    tape.length[r] = n
+                    tape.weights[r] = memory.weights[b]
                 steps[b, k] = n
                 returns[b, k] = total
                 uptime[b, k] = up
@@ -194,10 +232,11 @@ def episode_starts(definition, seeds, episodes: int) -> np.ndarray:
 
 def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, seeds,
                  learn: bool = True, integrator: str = "semi_implicit", progress=None,
-                 **options) -> EpisodeResults:
+                 record=(), **options) -> EpisodeResults:
     """B agents on the analytic plant of `domain.task`, in one compiled loop; environment b
     is seeded with `seeds[b]` as in `BatchedEnv`. Episodes run in about 20 blocks, after each
-    of which `progress(episodes_done)` is called."""
+    of which `progress(episodes_done)` is called. The `(agent, episode)` pairs in `record`
+    are recorded step by step (`results.recordings`)."""
     episodes = _check_episodes(episodes)
     plant_options = {"integrator": integrator} if tasks.DOMAINS[domain].PLANTS.euler else {}
     definition, _, _ = tasks.resolve(domain, task, "analytic", **options, **plant_options)
@@ -211,6 +250,8 @@ def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, see
     starts = episode_starts(definition, seeds, episodes)
     step_limit = definition.step_limit if np.isfinite(definition.step_limit) else np.iinfo(np.int64).max
     loop = _compiled_loop(definition.transition)
+    tape = make_tape(record, batch, episodes, definition.step_limit, starts.shape[2],
+                     agent.num_actions, agent.features.num_features)
     done = np.zeros(batch, dtype=np.int64)  # episodes each agent has finished
     block = max(1, episodes // 20)
     try:
@@ -222,7 +263,7 @@ def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, see
                 tasks.DOMAINS[domain].PLANTS.timestep, semi_implicit,
                 np.asarray(definition.params, dtype=np.float64), int(step_limit), bool(learn),
                 agent.memory, agent.hyper, agent.spec, steps, results.returns, results.uptime,
-                results.truncated, results.diverged_episode, done, min_chunk=1)
+                results.truncated, results.diverged_episode, done, tape, min_chunk=1)
             if progress is not None:
                 progress(batch * count)
     except KeyboardInterrupt:
@@ -233,6 +274,7 @@ def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, see
     results.uptime[~ran] = np.nan
     if not definition.has_uptime:
         results.uptime[:] = np.nan
+    results.recordings = recordings(tape, definition, "analytic", seeds)
     return results
 
 
@@ -245,9 +287,10 @@ def make_agent(config) -> BatchedSarsa:
 
 
 def run(config, agent: BatchedSarsa | None = None, learn: bool = True,
-        progress=None) -> tuple[BatchedSarsa, EpisodeResults]:
+        progress=None, record=()) -> tuple[BatchedSarsa, EpisodeResults]:
     """Run a `RunConfig`: the compiled loop on the analytic plant, the batched stepper on
-    MuJoCo. Returns the agents (new ones unless given) and their results."""
+    MuJoCo. Returns the agents (new ones unless given) and their results, with recordings of
+    the `(agent, episode)` pairs in `record`."""
     agent = make_agent(config) if agent is None else agent
     domain, task = config.domain, config.task_name
     plant = config.plant or tasks.PLANTS[domain][0]
@@ -255,8 +298,9 @@ def run(config, agent: BatchedSarsa | None = None, learn: bool = True,
         plant == "analytic" and tasks.DOMAINS[domain].PLANTS.euler) else {}
     if plant == "analytic":
         results = run_compiled(domain, task, agent, config.episodes, config.seeds, learn=learn,
-                               progress=progress, **plant_options)
+                               progress=progress, record=record, **plant_options)
     else:
         env = BatchedEnv(domain, task, plant, config.seeds, **plant_options)
-        results = run_batched(env, agent, config.episodes, learn=learn, progress=progress)
+        results = run_batched(env, agent, config.episodes, learn=learn, progress=progress,
+                              record=record)
     return agent, results

@@ -57,6 +57,7 @@ class BatchedEnv:
         self.batch_size = len(seeds)
         self.plant = tasks.DOMAINS[domain].PLANTS.batch(self.plant_name, self.batch_size, **plant_options)
         self._controls = np.asarray(self.definition.controls)
+        self.seeds = seeds
         self._rngs = [np.random.default_rng(seed) for seed in seeds]
         self.state = np.zeros((self.batch_size, len(self.definition.state_names)))
         self.steps = np.zeros(self.batch_size, dtype=np.int64)
