@@ -106,7 +106,7 @@ def outcome(cart_position, cart_velocity, pole_angle, pole_angular_velocity, tra
     """(reward, terminal, up) on entering a state: failing is terminal with reward -1;
     the pole is up until then."""
     fail = failed(cart_position, pole_angle, track_limit)
-    return -1.0 * fail, fail, np.logical_not(fail)
+    return 0.0 - 1.0 * fail, fail, np.logical_not(fail)  # 0.0 - 0.0 is +0.0, not -0.0
 
 
 @register_jitable

@@ -66,7 +66,7 @@ def step(angle, angular_velocity, torque, dt, semi_implicit):
 
 @register_jitable
 def wrap_angle(angle):
-    """The angle mapped to [-pi, pi)."""
+    """The angle mapped to [-pi, pi] (+pi only through rounding, e.g. of -1e-20)."""
     return (angle + np.pi) % (2.0 * np.pi) - np.pi
 
 
@@ -124,7 +124,7 @@ class _Accessors:
     """One-line accessors named after the quantities, for both plants."""
 
     def angle(self) -> float:
-        """theta (rad), wrapped to [-pi, pi)."""
+        """theta (rad), wrapped to [-pi, pi]."""
         return float(wrap_angle(self.state_vector()[0]))
 
     def angular_velocity(self) -> float:
