@@ -92,8 +92,9 @@ def _ray(configs, address):
 
 
 def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None = None,
-              address: str | None = None, description: str = "sweep") -> pd.DataFrame:
-    """Run every configuration not already in `out_dir`; return all their results.
+              address: str | None = None, description: str = "sweep") -> tuple[pd.DataFrame, int]:
+    """Run every configuration not already in `out_dir`; return all their results and how
+    many runs this call computed.
 
     `workers` caps the threads of the local backend; `address` is the Ray cluster's
     (default: start a local Ray instance).
@@ -116,7 +117,7 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
         for config, table in finished:
             _write_atomically(table, paths[run_key(config)])
             bar.update(config.agents * config.episodes)
-    return load_results([paths[run_key(config)] for config in configs])
+    return load_results([paths[run_key(config)] for config in configs]), len(pending)
 
 
 def load_results(paths) -> pd.DataFrame:

@@ -21,7 +21,7 @@ from experiments.config import RunConfig
 configs = [RunConfig(task="mountain_car.cost_to_go", plant="analytic", trace=trace, alpha=alpha,
                      lam=0.9, agents=10, episodes=30, seed=seed)
            for trace in ("replacing", "accumulating") for alpha in (0.5, 2.0) for seed in (0, 10, 20, 30)]
-sweep.run_sweep(configs, sys.argv[1]).to_csv(sys.argv[2], index=False)
+sweep.run_sweep(configs, sys.argv[1])[0].to_csv(sys.argv[2], index=False)
 """
 """16 runs of Mountain-Car agents, each a fraction of a second: a sweep to interrupt."""
 
@@ -86,6 +86,7 @@ def test_ray_backend_gives_the_local_results(tmp_path):
     """The same runs on a local Ray instance and on the local backend: equal tables."""
     configs = [RunConfig(task="mountain_car.cost_to_go", plant="analytic", alpha=alpha, lam=0.9,
                          agents=3, episodes=5) for alpha in (1.0, 3.9)]
-    local = sweep.run_sweep(configs, str(tmp_path / "local"))
-    on_ray = sweep.run_sweep(configs, str(tmp_path / "ray"), backend="ray")
+    local, _ = sweep.run_sweep(configs, str(tmp_path / "local"))
+    on_ray, computed = sweep.run_sweep(configs, str(tmp_path / "ray"), backend="ray")
+    assert computed == 2
     pd.testing.assert_frame_equal(local, on_ray)
