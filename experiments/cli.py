@@ -9,6 +9,7 @@
     lwrl reproduce {fig2,fig3,fig5,fig6,fig8,table1,all} [--plant P] [--quick] [--out DIR]
                                                    the paper's figures and table, and a report
     lwrl export PATH --c OUT_DIR [--agent I]       a saved agent as a C99 controller
+    lwrl view PATH [--web]                         open a Rerun recording of lwrl train --rrd
 
 Bad input ends with one line on standard error and exit status 2.
 """
@@ -24,7 +25,7 @@ import tqdm
 import tasks
 from agent import io as agent_io
 from agent.traces import TRACES
-from experiments import export_c, summary
+from experiments import export_c, logging_rerun, summary
 from experiments.config import PAPER, RunConfig
 from experiments.run import make_agent, run
 
@@ -127,14 +128,27 @@ def cmd_train(args) -> int:
                        agents=args.agents, seed=args.seed)
     config.plant = tasks.resolve(config.domain, config.task_name, config.plant)[1]
     agent = make_agent(config)  # checks the hyper-parameters before anything runs
+    logging = args.rrd or args.rerun
+    if logging:
+        logged_agents = logging_rerun.parse_agents(args.log_agents, config.agents)
+        logged = logging_rerun.episodes_to_log(args.log_episodes, config.episodes)
+        record = ([] if logged == "best" else
+                  [(agent_index, episode) for agent_index in logged_agents for episode in logged])
     print(f"{config.task} on the {config.plant} plant: {config.agents} agents, {config.trace} "
           f"traces, alpha {config.alpha:g}, lambda {config.lam:g}, epsilon {config.epsilon:g}, "
           f"{config.features} {config.n}^{len(config.feature_map().low)}, "
           f"{config.episodes} episodes")
     bar, update = _progress_bar(config.agents * config.episodes, "training")
     with bar:
-        agent, results = run(config, agent=agent, progress=update)
+        agent, results = run(config, agent=agent, progress=update, record=record if logging else ())
+    if logging and logged == "best":  # runs are deterministic: run again to record the best
+        _, results = run(config, record=logging_rerun.best_episodes(results, logged_agents))
     _report(config, results, config.seeds, "")
+    if logging:
+        logging_rerun.send_run(config, results, rrd_path=args.rrd, spawn=args.rerun)
+        where = f"saved the recording to {args.rrd}" if args.rrd else "sent the recording"
+        print(f"{where}: {len(results.recordings)} episodes of agents "
+              f"{', '.join(map(str, logged_agents))}")
     if args.out:
         os.makedirs(args.out, exist_ok=True)
         with open(os.path.join(args.out, "config.json"), "w") as file:
@@ -182,6 +196,18 @@ def cmd_reproduce(args) -> int:
     return 0
 
 
+def cmd_view(args) -> int:
+    """Open a saved Rerun recording in the viewer, or serve the web viewer on 127.0.0.1."""
+    from viz import rerun as viz
+
+    try:
+        return viz.view(args.path, web=args.web, web_port=args.port)
+    except FileNotFoundError as error:
+        raise ValueError(str(error)) from None
+    except viz.ViewerUnavailable as error:
+        raise ValueError(str(error)) from None
+
+
 def cmd_export(args) -> int:
     """Write a saved agent as C99 source and header; report its flash size and speed."""
     written = export_c.export_c(args.path, args.c, agent_index=args.agent, dtype=args.real)
@@ -222,6 +248,14 @@ def _add_train_arguments(train) -> None:
     train.add_argument("--seed", type=_non_negative_int, default=0, help="seed of the first agent")
     train.add_argument("--out", metavar="DIR", help="write config.json and episodes.csv here")
     train.add_argument("--save", metavar="PATH", help="save the trained agents (.npz)")
+    train.add_argument("--rerun", action="store_true",
+                       help="stream episodes to a Rerun viewer (spawned; needs a display)")
+    train.add_argument("--rrd", metavar="PATH", help="save episodes to a Rerun recording instead")
+    train.add_argument("--log-episodes", default="every:10", metavar="WHICH",
+                       help="episodes to log: every:K, last, best, all or numbers like 1,5,20 "
+                            "(default every:10)")
+    train.add_argument("--log-agents", default="0", metavar="LIST",
+                       help="agents to log, by index (default 0)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -275,6 +309,13 @@ def build_parser() -> argparse.ArgumentParser:
     paper.add_argument("--backend", choices=("local", "ray"), default="local")
     paper.add_argument("--address", help="Ray cluster address (default: start a local Ray instance)")
     paper.set_defaults(run=cmd_reproduce)
+
+    view = commands.add_parser("view", help="open a saved Rerun recording")
+    view.add_argument("path", metavar="PATH", help="an .rrd file (lwrl train --rrd)")
+    view.add_argument("--web", action="store_true",
+                      help="serve the web viewer on http://127.0.0.1 instead of a native window")
+    view.add_argument("--port", type=_positive_int, help="web viewer port (default 9090)")
+    view.set_defaults(run=cmd_view)
 
     export = commands.add_parser("export", help="write a saved agent as a C99 controller")
     export.add_argument("path", metavar="PATH", help="a file written by lwrl train --save")

@@ -99,3 +99,18 @@ def test_train_reports_diverged_agents(capsys):
     assert cli.main(["train", "mountain_car.cost_to_go", "--trace", "accumulating", "--alpha", "40",
                      "--lambda", "0.99", "--episodes", "10", "--agents", "2"]) == 0
     assert "2 of 2 agents diverged and were frozen: agent 0 (seed 0, episode" in capsys.readouterr().out
+
+
+def test_train_saves_a_rerun_recording(tmp_path, capsys):
+    """`--rrd` writes a recording of the chosen episodes that Rerun can read back."""
+    import rerun as rr
+
+    path = tmp_path / "run.rrd"
+    assert cli.main(["train", "pendulum.swingup", "--plant", "analytic", "--episodes", "3",
+                     "--agents", "2", "--rrd", str(path), "--log-episodes", "1,3",
+                     "--log-agents", "1"]) == 0
+    printed = capsys.readouterr().out
+    assert f"saved the recording to {path}: 2 episodes of agents 1" in printed
+    entities = {chunk.entity_path for chunk in rr.chunk.RrdReader(str(path)).stream()}
+    assert any(entity.startswith("/signals/reward/agent1_ep0002") for entity in entities)
+    assert any(entity.startswith("/scene/pendulum") for entity in entities)

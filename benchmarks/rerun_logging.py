@@ -1,0 +1,165 @@
+"""What logging to Rerun costs.
+
+1. Per episode: `log_episode` (one `send_columns` per entity) against the per-step
+   alternative (`set_time` and one `rr.log` per entity and step).
+2. Per training run: the paper's pendulum and cart-pole runs (10 agents x 200 episodes,
+   analytic plant) trained plainly, and trained recording agent 0 every 10th episode and
+   sending everything `lwrl train --rrd` sends (episodes, value functions, learning curves)
+   to an .rrd; the difference over the plain time is what logging adds.
+
+    python -m benchmarks.rerun_logging [--steps-cartpole 12000] [--steps-pendulum 3000]
+
+Both write to a temporary .rrd and include the final flush (Rerun encodes and writes in
+background threads, which compete with the caller on a small machine). The recordings are
+synthetic arrays of the right shapes: the cost does not depend on the values.
+"""
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import rerun as rr
+
+import tasks
+from experiments.config import RunConfig
+from experiments.logging_rerun import episodes_to_log, send_run
+from experiments.recording import EpisodeRecording
+from experiments.run import run
+from viz import names
+from viz import rerun as viz
+from viz import scene
+from viz.scene import scene_poses
+from viz.value import paper_task
+
+
+def synthetic_recording(task: str, steps: int, seed: int = 0, plant: str | None = None,
+                        episode: int = 0) -> EpisodeRecording:
+    """An `EpisodeRecording` of `steps` steps with random arrays and NRBF-sized weights."""
+    key = paper_task(task)
+    domain, name = key.split(".")
+    definition = tasks.definition(domain, name)
+    rng = np.random.default_rng(seed)
+    dim, actions = len(definition.state_names), definition.num_actions
+    states = rng.normal(scale=0.1, size=(steps + 1, dim)).cumsum(axis=0)
+    features = RunConfig(task=key).feature_map()
+    return EpisodeRecording(
+        task=key, plant=plant or tasks.PLANTS[domain][0], agent=0, seed=seed, episode=episode,
+        timestep=float(definition.control_timestep), state_names=definition.state_names,
+        controls=definition.controls, states=states, observations=states.copy(),
+        actions=rng.integers(actions, size=steps), rewards=-rng.random(steps),
+        td_errors=rng.normal(size=steps), q_values=rng.normal(size=(steps + 1, actions)),
+        uptime=np.arange(1, steps + 1) * definition.control_timestep if definition.has_uptime
+        else np.full(steps, np.nan),
+        weights=rng.normal(size=(features.num_features, actions)))
+
+
+def time_columns(recording: EpisodeRecording, directory) -> tuple[float, float, float]:
+    """`(call, wall, cpu)` seconds to `log_episode` a recording into a fresh .rrd: the call
+    alone (what the caller waits for), wall time to the end of the flush, and the CPU time of
+    all the process's threads (Rerun's encoder and writer included) to the end of the flush."""
+    rec = viz.open_recording("lwrl_speed", rrd_path=Path(directory) / "columns.rrd")
+    viz.log_task_scene(rec, recording.task)
+    rec.flush()
+    model = viz.load_model(recording.task) if scene.has_model(recording.task) else None
+    start, cpu = time.perf_counter(), time.process_time()
+    viz.log_episode(rec, recording, model=model)
+    call = time.perf_counter() - start
+    rec.flush()
+    wall, cpu = time.perf_counter() - start, time.process_time() - cpu
+    viz.close_recording(rec)
+    return call, wall, cpu
+
+
+def time_per_step(recording: EpisodeRecording, directory) -> float:
+    """Seconds to log the same data row by row: `set_time` and `rr.log` per entity and step."""
+    rec = viz.open_recording("lwrl_speed", rrd_path=Path(directory) / "rows.rrd")
+    viz.log_task_scene(rec, recording.task)
+    rec.flush()
+    start = time.perf_counter()
+    poses = scene_poses(recording.task, recording.states)  # the same kinematics, vectorised
+    run = names.run_name(recording.agent, recording.episode)
+    controls = np.asarray(recording.controls)
+    returns = recording.returns
+    for t in range(recording.steps + 1):
+        rec.set_time(names.STEP, sequence=t)
+        rec.set_time(names.SIM_TIME, duration=t * recording.timestep)
+        rec.set_time(names.EPISODE, sequence=recording.episode)
+        for path, (translation, quaternion) in poses.items():
+            rec.log(path, rr.Transform3D(translation=translation[t], quaternion=quaternion[t]))
+        for j, variable in enumerate(recording.state_names):
+            rec.log(names.state_path(variable, run), rr.Scalars(recording.states[t, j]))
+        rec.log(f"{names.Q}/{run}", rr.Scalars(recording.q_values[t]))
+        if t < recording.steps:
+            a = int(recording.actions[t])
+            rec.log(f"{names.ACTION}/{run}", rr.Scalars(a))
+            rec.log(f"{names.CONTROL}/{run}", rr.Scalars(controls[a]))
+        if t > 0:
+            rec.log(f"{names.REWARD}/{run}", rr.Scalars(recording.rewards[t - 1]))
+            rec.log(f"{names.RETURN}/{run}", rr.Scalars(returns[t - 1]))
+            rec.log(f"{names.TD_ERROR}/{run}", rr.Scalars(recording.td_errors[t - 1]))
+            if np.isfinite(recording.uptime[t - 1]):
+                rec.log(f"{names.UPTIME}/{run}", rr.Scalars(recording.uptime[t - 1]))
+    rec.flush()
+    elapsed = time.perf_counter() - start
+    viz.close_recording(rec)
+    return elapsed
+
+
+def measure(task: str, steps: int, repeats: int = 5, per_step: bool = True) -> dict:
+    """Median over `repeats` of `time_columns` (call, wall, CPU seconds), and one per-step run."""
+    recording = synthetic_recording(task, steps)
+    with tempfile.TemporaryDirectory() as directory:
+        call, wall, cpu = np.median([time_columns(recording, directory) for _ in range(repeats)], axis=0)
+        rows = time_per_step(recording, directory) if per_step else float("nan")
+    return {"task": task, "steps": steps, "call_s": call, "wall_s": wall, "cpu_s": cpu,
+            "per_step_s": rows}
+
+
+def training_overhead(task: str, every: int = 10) -> dict:
+    """Seconds of a paper run of `task` trained plainly and trained with agent 0's every
+    `every`-th episode recorded and sent to an .rrd (compilation excluded)."""
+    config = RunConfig(task=task, plant="analytic")
+    run(RunConfig(task=task, plant="analytic", agents=1, episodes=1), record=[(0, 0)])  # compile
+    start = time.perf_counter()
+    run(config)
+    plain = time.perf_counter() - start
+    record = [(0, episode) for episode in episodes_to_log(f"every:{every}", config.episodes)]
+    with tempfile.TemporaryDirectory() as directory:
+        start = time.perf_counter()
+        _, results = run(config, record=record)
+        send_run(config, results, rrd_path=Path(directory) / "run.rrd")
+        logged = time.perf_counter() - start
+    return {"task": task, "episodes_logged": len(record), "plain_s": plain, "logged_s": logged}
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps-cartpole", type=int, default=12_000)
+    parser.add_argument("--steps-pendulum", type=int, default=3_000)
+    parser.add_argument("--steps-mountain-car", type=int, default=1_000)
+    parser.add_argument("--no-per-step", action="store_true", help="skip the slow per-step run")
+    args = parser.parse_args(argv)
+    print("| task | steps | log_episode call | to flushed (wall) | CPU, all threads | CPU per step "
+          "| per-step rr.log (wall, flushed) |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    for task, steps in (("cartpole.balance", args.steps_cartpole),
+                        ("pendulum.swingup", args.steps_pendulum),
+                        ("mountain_car.cost_to_go", args.steps_mountain_car)):
+        result = measure(task, steps, per_step=not args.no_per_step)
+        print(f"| {task} | {steps} | {result['call_s'] * 1e3:.1f} ms | {result['wall_s'] * 1e3:.1f} ms "
+              f"| {result['cpu_s'] * 1e3:.1f} ms | {result['cpu_s'] / steps * 1e6:.2f} us "
+              f"| {result['per_step_s']:.2f} s |")
+    print("\n| paper run (10 agents x 200 episodes) | episodes logged | training | training + "
+          "logging | logging adds |")
+    print("|---|---:|---:|---:|---:|")
+    for task in ("pendulum.swingup", "cartpole.balance"):
+        result = training_overhead(task)
+        print(f"| {task} | {result['episodes_logged']} | {result['plain_s']:.2f} s "
+              f"| {result['logged_s']:.2f} s "
+              f"| {100 * (result['logged_s'] / result['plain_s'] - 1):.1f} % |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,68 @@
+"""Which training episodes go to Rerun, and sending a run there (`lwrl train --rrd/--rerun`).
+
+`--log-episodes` says which episodes of the logged agents are recorded: `every:K` (the
+first and every K-th after it, and the last), `last`, `best` (the highest return; found by
+running once, then running again, identically, to record it), `all`, or a comma list of
+episode numbers (from 1). `--log-agents` is a comma list of agent indices (default 0).
+"""
+
+import numpy as np
+
+from viz import rerun as viz
+
+
+def parse_agents(text: str, agents: int) -> list:
+    """Agent indices from `0,3,5`, each below `agents`."""
+    try:
+        chosen = sorted({int(part) for part in text.split(",")})
+    except ValueError:
+        chosen = []
+    if not chosen or chosen[0] < 0 or chosen[-1] >= agents:
+        raise ValueError(f"--log-agents must be agent indices from 0 to {agents - 1}, "
+                         f"separated by commas; got {text!r}")
+    return chosen
+
+
+def episodes_to_log(spec: str, episodes: int) -> list | str:
+    """Episode indices (from 0) for `spec`, or `"best"` (decided after a first run)."""
+    if spec == "best":
+        return "best"
+    if spec == "last":
+        return [episodes - 1]
+    if spec == "all":
+        return list(range(episodes))
+    if spec.startswith("every:"):
+        try:
+            step = int(spec[len("every:"):])
+        except ValueError:
+            step = 0
+        if step >= 1:
+            return sorted(set(range(0, episodes, step)) | {episodes - 1})
+    else:
+        try:
+            chosen = sorted({int(part) - 1 for part in spec.split(",")})
+        except ValueError:
+            chosen = []
+        if chosen and chosen[0] >= 0 and chosen[-1] < episodes:
+            return chosen
+    raise ValueError(f"--log-episodes must be every:K (K >= 1), last, best, all or episode "
+                     f"numbers from 1 to {episodes} separated by commas; got {spec!r}")
+
+
+def best_episodes(results, agents: list) -> list:
+    """`(agent, episode)` of each agent's highest-return episode."""
+    return [(agent, int(np.nanargmax(results.returns[agent]))) for agent in agents]
+
+
+def send_run(config, results, rrd_path=None, spawn: bool = False) -> None:
+    """The run's recorded episodes, value functions and learning curves to Rerun."""
+    rec = viz.open_recording("lwrl", rrd_path=rrd_path, spawn=spawn)
+    viz.send_blueprint(rec, config.task)
+    viz.log_task_scene(rec, config.task)
+    model = viz.load_model(config.task) if config.domain != "mountain_car" else None
+    features = config.feature_map()
+    for recording in results.recordings:
+        viz.log_episode(rec, recording, model=model)
+        viz.log_value_function(rec, config.task, features, recording.weights, recording.episode)
+    viz.log_learning_curves(rec, results, config.seeds)
+    viz.close_recording(rec)

@@ -1,0 +1,337 @@
+"""The 3-D scene: the MuJoCo models' geometry (static) and the bodies' poses per step.
+
+Geometry is read from the compiled model's geoms (box, capsule, sphere, cylinder, ellipsoid,
+plane) with their rgba colours and logged once, static, in its body's frame under
+`scene/<body>/<geom>`. A moving body's pose is a Transform3D on `scene/<body>`, one row per
+state of an episode, computed from the recorded states: `qpos` is the state's positions (the
+state vector interleaves qpos and qvel joint by joint, for both plants), and the poses are
+MuJoCo's forward kinematics of it. Mountain-Car has no MuJoCo model: its scene is the hill
+z = sin(3x), x in [-1.2, 0.5], drawn in the x-z plane, and the car moving along it.
+
+`body_poses` evaluates MuJoCo's kinematics (`mj_kinematics`: body offsets, then each joint's
+slide or rotation about its anchor) over all the states at once in NumPy; it is checked
+against `mujoco.mj_kinematics` state by state (`body_poses_mujoco`, and the tests), and
+models with other joints than hinges and slides go through that loop.
+"""
+
+import mujoco
+import numpy as np
+import rerun as rr
+
+import models
+from viz import names
+from viz.columns import episode_indexes, log_static, send
+
+MUJOCO_MODELS = {"pendulum": "pendulum", "cartpole": "cartpole"}
+"""Domain -> MJCF model of `models` (Mountain-Car has none)."""
+
+PLANE_EXTENT = 5.0
+"""Half-size drawn for an infinite MuJoCo plane (size 0)."""
+PLANE_THICKNESS = 0.005
+"""A plane is drawn as a slab this thick, its top at the plane."""
+GRID_SPACING = 0.5
+"""Spacing of the grid lines drawn on a plane (m)."""
+
+# Mountain-Car's scene (task units: x in [-1.2, 0.5], altitude sin(3x)).
+HILL_LOW, HILL_HIGH = -1.2, 0.5
+HILL_POINTS = 200
+CAR_HALF_SIZES = (0.06, 0.04, 0.03)
+HILL_COLOR = (90, 160, 90)
+CAR_COLOR = (200, 60, 50)
+GOAL_COLOR = (240, 200, 40)
+WALL_COLOR = (110, 110, 110)
+
+
+def has_model(task: str) -> bool:
+    """True for the domains drawn from a MuJoCo model (pendulum, cart-pole)."""
+    return names.domain_of(task) in MUJOCO_MODELS
+
+
+def load_model(task: str) -> mujoco.MjModel:
+    """The compiled MuJoCo model of a task's domain (`DOMAIN` or `DOMAIN.TASK`)."""
+    domain = names.domain_of(task)
+    if domain not in MUJOCO_MODELS:
+        raise ValueError(f"{domain} has no MuJoCo model; models exist for {', '.join(MUJOCO_MODELS)}")
+    return mujoco.MjModel.from_xml_string(models.read(MUJOCO_MODELS[domain]))
+
+
+def body_name(model: mujoco.MjModel, body: int) -> str:
+    return model.body(body).name or f"body{body}"
+
+
+def geom_name(model: mujoco.MjModel, geom: int) -> str:
+    return model.geom(geom).name or f"geom{geom}"
+
+
+def _xyzw(quat_wxyz) -> np.ndarray:
+    """MuJoCo's (w, x, y, z) quaternions as Rerun's (x, y, z, w)."""
+    quat_wxyz = np.asarray(quat_wxyz, dtype=np.float64)
+    return quat_wxyz[..., [1, 2, 3, 0]]
+
+
+def quat_mul(a, b) -> np.ndarray:
+    """Hamilton products of (w, x, y, z) quaternions, broadcast over leading axes."""
+    aw, ax, ay, az = np.moveaxis(np.asarray(a, dtype=np.float64), -1, 0)
+    bw, bx, by, bz = np.moveaxis(np.asarray(b, dtype=np.float64), -1, 0)
+    return np.stack([aw * bw - ax * bx - ay * by - az * bz,
+                     aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx,
+                     aw * bz + ax * by - ay * bx + az * bw], axis=-1)
+
+
+def quat_rotate(q, v) -> np.ndarray:
+    """Rotate vectors `v` by unit (w, x, y, z) quaternions `q`, broadcast over leading axes."""
+    q = np.asarray(q, dtype=np.float64)
+    v = np.asarray(v, dtype=np.float64)
+    w, u = q[..., :1], q[..., 1:]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+def _axis_angle(axis, angle) -> np.ndarray:
+    """(w, x, y, z) quaternions of rotations by `angle` (T,) about the unit `axis` (3,)."""
+    half = 0.5 * np.asarray(angle, dtype=np.float64)
+    return np.concatenate([np.cos(half)[:, None], np.sin(half)[:, None] * np.asarray(axis)], axis=1)
+
+
+def qpos_of(model: mujoco.MjModel, states) -> np.ndarray:
+    """`(T, nq)` joint positions of `(T, 2 nq)` states that interleave qpos and qvel per joint."""
+    states = np.asarray(states, dtype=np.float64)
+    if states.ndim != 2 or states.shape[1] != 2 * model.nq or model.nq != model.nv:
+        raise ValueError(f"states must have shape (T, {2 * model.nq}) (qpos and qvel of each "
+                         f"one-dof joint, interleaved); got {states.shape}")
+    return states[:, 0::2]
+
+
+def body_poses_mujoco(model: mujoco.MjModel, qpos) -> tuple[np.ndarray, np.ndarray]:
+    """`(xpos (T, nbody, 3), xquat (T, nbody, 4) w-first)` from `mujoco.mj_kinematics`, state by state."""
+    qpos = np.asarray(qpos, dtype=np.float64).reshape(-1, model.nq)
+    data = mujoco.MjData(model)
+    xpos = np.empty((len(qpos), model.nbody, 3))
+    xquat = np.empty((len(qpos), model.nbody, 4))
+    for t, q in enumerate(qpos):
+        data.qpos[:] = q
+        mujoco.mj_kinematics(model, data)
+        xpos[t] = data.xpos
+        xquat[t] = data.xquat
+    return xpos, xquat
+
+
+def _vectorisable(model: mujoco.MjModel) -> bool:
+    joint_types = {int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)}
+    return (all(int(t) in joint_types for t in model.jnt_type)
+            and not np.any(model.body_mocapid >= 0))
+
+
+def body_poses(model: mujoco.MjModel, qpos) -> tuple[np.ndarray, np.ndarray]:
+    """`(xpos (T, nbody, 3), xquat (T, nbody, 4) w-first)` of every body for joint positions
+    `(T, nq)`: `mj_kinematics` evaluated over all T states at once (hinge and slide joints;
+    other models fall back to `body_poses_mujoco`)."""
+    qpos = np.asarray(qpos, dtype=np.float64).reshape(-1, model.nq)
+    if not _vectorisable(model):
+        return body_poses_mujoco(model, qpos)
+    steps = len(qpos)
+    # Poses are kept as (1, .) arrays while they do not depend on the state (the world, and
+    # bodies whose chain has no joint yet), so that only the joints' work is done T times.
+    positions = [np.zeros((1, 3))]
+    quaternions = [np.array([[1.0, 0.0, 0.0, 0.0]])]
+    for body in range(1, model.nbody):  # parents come before their children
+        parent = model.body_parentid[body]
+        # Offsets that are zero or the identity (the common case) change nothing: skipped.
+        pos, quat = positions[parent], quaternions[parent]
+        if np.any(model.body_pos[body]):
+            pos = pos + quat_rotate(quat, model.body_pos[body])
+        if not np.array_equal(model.body_quat[body], [1, 0, 0, 0]):
+            quat = quat_mul(quat, model.body_quat[body])
+        start = model.body_jntadr[body]
+        for joint in range(start, start + model.body_jntnum[body]):
+            angle = qpos[:, model.jnt_qposadr[joint]] - model.qpos0[model.jnt_qposadr[joint]]
+            axis = model.jnt_axis[joint]
+            offset = model.jnt_pos[joint]
+            if model.jnt_type[joint] == mujoco.mjtJoint.mjJNT_SLIDE:
+                pos = pos + quat_rotate(quat, axis) * angle[:, None]
+            else:  # hinge: rotate about the axis through the anchor
+                anchor = pos + quat_rotate(quat, offset) if np.any(offset) else pos
+                quat = quat_mul(quat, _axis_angle(axis, angle))
+                quat /= np.linalg.norm(quat, axis=1, keepdims=True)
+                pos = anchor - quat_rotate(quat, offset) if np.any(offset) else anchor
+        positions.append(pos)
+        quaternions.append(quat / np.linalg.norm(quat, axis=1, keepdims=True))
+    xpos = np.stack([np.broadcast_to(p, (steps, 3)) for p in positions], axis=1)
+    xquat = np.stack([np.broadcast_to(q, (steps, 4)) for q in quaternions], axis=1)
+    return xpos, xquat
+
+
+def moving_bodies(model: mujoco.MjModel) -> list[int]:
+    """Bodies that move with the joints (not welded to the world)."""
+    return [b for b in range(1, model.nbody) if model.body_weldid[b] != 0]
+
+
+def _rgba(model, geom) -> np.ndarray:
+    return np.round(np.clip(model.geom_rgba[geom], 0.0, 1.0) * 255).astype(np.uint8)
+
+
+def _plane_grid(half_x: float, half_y: float, pos, quat, color) -> rr.LineStrips3D:
+    xs = np.arange(-half_x, half_x + 1e-9, GRID_SPACING)
+    ys = np.arange(-half_y, half_y + 1e-9, GRID_SPACING)
+    strips = [[(x, -half_y, 0.0), (x, half_y, 0.0)] for x in xs]
+    strips += [[(-half_x, y, 0.0), (half_x, y, 0.0)] for y in ys]
+    strips = pos + quat_rotate(quat, np.array(strips))
+    return rr.LineStrips3D(strips, radii=0.004, colors=color)
+
+
+def geom_archetypes(model: mujoco.MjModel, geom: int) -> list[tuple[str, object]]:
+    """`(entity suffix, archetype)` pairs drawing one geom in its body's frame ('' for the
+    geom's own entity); empty for geom types not drawn (meshes, height fields)."""
+    kind = model.geom_type[geom]
+    size = model.geom_size[geom]
+    pos = model.geom_pos[geom]
+    quat = model.geom_quat[geom]
+    color = _rgba(model, geom)
+    xyzw = [_xyzw(quat)]
+    solid = rr.components.FillMode.Solid
+    G = mujoco.mjtGeom
+    if kind == G.mjGEOM_BOX:
+        return [("", rr.Boxes3D(half_sizes=[size], centers=[pos], quaternions=xyzw,
+                                colors=[color], fill_mode=solid))]
+    if kind == G.mjGEOM_SPHERE:
+        return [("", rr.Ellipsoids3D(half_sizes=[[size[0]] * 3], centers=[pos], quaternions=xyzw,
+                                     colors=[color], fill_mode=solid))]
+    if kind == G.mjGEOM_ELLIPSOID:
+        return [("", rr.Ellipsoids3D(half_sizes=[size], centers=[pos], quaternions=xyzw,
+                                     colors=[color], fill_mode=solid))]
+    if kind == G.mjGEOM_CAPSULE:
+        # MuJoCo: centred on pos along the local z, half-length size[1]; Rerun: from its
+        # origin to (0, 0, length).
+        start = pos - quat_rotate(quat, [0.0, 0.0, size[1]])
+        return [("", rr.Capsules3D(lengths=[2 * size[1]], radii=[size[0]], translations=[start],
+                                   quaternions=xyzw, colors=[color]))]
+    if kind == G.mjGEOM_CYLINDER:
+        return [("", rr.Cylinders3D(lengths=[2 * size[1]], radii=[size[0]], centers=[pos],
+                                    quaternions=xyzw, colors=[color], fill_mode=solid))]
+    if kind == G.mjGEOM_PLANE:
+        half_x = size[0] if size[0] > 0 else PLANE_EXTENT
+        half_y = size[1] if size[1] > 0 else PLANE_EXTENT
+        centre = pos - quat_rotate(quat, [0.0, 0.0, PLANE_THICKNESS / 2])
+        line_color = np.concatenate([(color[:3] * 0.6).astype(np.uint8), [255]])
+        return [("", rr.Boxes3D(half_sizes=[[half_x, half_y, PLANE_THICKNESS / 2]], centers=[centre],
+                                quaternions=xyzw, colors=[color], fill_mode=solid)),
+                ("grid", _plane_grid(half_x, half_y, pos + quat_rotate(quat, [0, 0, 1e-3]), quat,
+                                     line_color))]
+    return []
+
+
+def log_model_geometry(rec: rr.RecordingStream, model: mujoco.MjModel) -> list[str]:
+    """Log every drawable geom, static, under `scene/<body>/<geom>`; return the paths.
+
+    Bodies welded to the world get their (fixed) pose as a static transform.
+    """
+    paths = []
+    for geom in range(model.ngeom):
+        body = model.geom_bodyid[geom]
+        base = f"{names.body_path(body_name(model, body))}/{geom_name(model, geom)}"
+        for suffix, archetype in geom_archetypes(model, geom):
+            path = f"{base}/{suffix}" if suffix else base
+            log_static(rec, path, archetype)
+            paths.append(path)
+    fixed = [b for b in range(1, model.nbody) if model.body_weldid[b] == 0]
+    if fixed:
+        xpos, xquat = body_poses(model, model.qpos0[None])
+        for body in fixed:
+            log_static(rec, names.body_path(body_name(model, body)),
+                       rr.Transform3D(translation=xpos[0, body], quaternion=_xyzw(xquat[0, body])))
+    return paths
+
+
+def hill_altitude(x) -> np.ndarray:
+    """Mountain-Car's altitude sin(3x)."""
+    return np.sin(3.0 * np.asarray(x, dtype=np.float64))
+
+
+def log_mountain_car_geometry(rec: rr.RecordingStream) -> list[str]:
+    """The hill, the goal flag, the left wall and the car's body (static)."""
+    x = np.linspace(HILL_LOW, HILL_HIGH, HILL_POINTS)
+    hill = np.stack([x, np.zeros_like(x), hill_altitude(x)], axis=1)
+    goal_z = float(hill_altitude(HILL_HIGH))
+    wall_z = float(hill_altitude(HILL_LOW))
+    items = {
+        f"{names.WORLD}/hill": rr.LineStrips3D([hill], radii=0.008, colors=HILL_COLOR),
+        f"{names.WORLD}/goal": rr.Boxes3D(
+            half_sizes=[[0.004, 0.004, 0.12], [0.05, 0.004, 0.03]],
+            centers=[[HILL_HIGH, 0.0, goal_z + 0.12], [HILL_HIGH + 0.05, 0.0, goal_z + 0.21]],
+            colors=[WALL_COLOR, GOAL_COLOR], fill_mode=rr.components.FillMode.Solid),
+        f"{names.WORLD}/wall": rr.Boxes3D(
+            half_sizes=[[0.01, 0.05, 0.15]], centers=[[HILL_LOW - 0.01, 0.0, wall_z + 0.1]],
+            colors=[WALL_COLOR], fill_mode=rr.components.FillMode.Solid),
+        f"{names.body_path('car')}/body": rr.Boxes3D(
+            half_sizes=[CAR_HALF_SIZES], centers=[[0.0, 0.0, CAR_HALF_SIZES[2]]],
+            colors=[CAR_COLOR], fill_mode=rr.components.FillMode.Solid),
+    }
+    for path, archetype in items.items():
+        log_static(rec, path, archetype)
+    return list(items)
+
+
+def log_task_scene(rec: rr.RecordingStream, task: str) -> list[str]:
+    """Log a task's static scene (z up); return the entity paths of its geometry."""
+    log_static(rec, names.SCENE, rr.ViewCoordinates.RIGHT_HAND_Z_UP)
+    if has_model(task):
+        return log_model_geometry(rec, load_model(task))
+    if names.domain_of(task) == "mountain_car":
+        return log_mountain_car_geometry(rec)
+    raise ValueError(f"no scene for task {task!r}")
+
+
+def mountain_car_poses(positions) -> tuple[np.ndarray, np.ndarray]:
+    """`(translation (T, 3), quaternion (T, 4) x-first)` of the car on the hill: at
+    (x, 0, sin 3x), pitched along the slope 3 cos(3x)."""
+    x = np.asarray(positions, dtype=np.float64)
+    translation = np.stack([x, np.zeros_like(x), hill_altitude(x)], axis=1)
+    pitch = -np.arctan(3.0 * np.cos(3.0 * x))  # about +y: a rising slope lifts the nose
+    zeros = np.zeros_like(x)
+    quaternion = np.stack([zeros, np.sin(pitch / 2), zeros, np.cos(pitch / 2)], axis=1)
+    return translation, quaternion
+
+
+def scene_poses(task: str, states, model: mujoco.MjModel | None = None) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """`{entity path: (translation (T, 3), quaternion (T, 4) x-first)}` of the moving bodies
+    for `(T, d)` states (`model`: the task's compiled model, to skip compiling it again)."""
+    states = np.asarray(states, dtype=np.float64)
+    if has_model(task):
+        model = load_model(task) if model is None else model
+        xpos, xquat = body_poses(model, qpos_of(model, states))
+        return {names.body_path(body_name(model, b)): (xpos[:, b], _xyzw(xquat[:, b]))
+                for b in moving_bodies(model)}
+    if names.domain_of(task) == "mountain_car":
+        return {names.body_path("car"): mountain_car_poses(states[:, 0])}
+    raise ValueError(f"no scene for task {task!r}")
+
+
+def log_scene_poses(rec: rr.RecordingStream, recording, model: mujoco.MjModel | None = None,
+                    indexes: list | None = None) -> list[str]:
+    """Send the poses of the moving bodies at every state of an `EpisodeRecording` (steps 0
+    to T), one `send_columns` per body; return the bodies' paths. `model` (the task's
+    compiled model) and `indexes` (the time columns of steps 0..T) save rebuilding them."""
+    poses = scene_poses(recording.task, recording.states, model)
+    if indexes is None:
+        indexes = episode_indexes(np.arange(len(recording.states)), recording.timestep,
+                                  recording.episode)
+    for path, (translation, quaternion) in poses.items():
+        send(rec, path, indexes, rr.Transform3D.columns(translation=translation, quaternion=quaternion))
+    return list(poses)
+
+
+def eye(task: str) -> tuple[tuple, tuple]:
+    """A default camera `(position, look_target)` for the task's 3-D view: from -y, like the
+    models' `front` camera."""
+    domain = names.domain_of(task)
+    if domain == "mountain_car":
+        return (-0.35, -2.2, 0.3), (-0.35, 0.0, 0.0)
+    if domain == "pendulum":
+        return (0.0, -5.0, 1.6), (0.0, 0.0, 1.3)
+    return (0.0, -6.0, 1.2), (0.0, 0.0, 0.5)
+
+
+__all__ = ["MUJOCO_MODELS", "body_poses", "body_poses_mujoco", "eye", "has_model", "load_model",
+           "log_scene_poses", "log_task_scene", "mountain_car_poses", "moving_bodies", "qpos_of",
+           "scene_poses"]

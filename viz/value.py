@@ -1,0 +1,260 @@
+"""The value function over a 2-D grid of states, as images.
+
+For a task's two plotted state variables (Mountain-Car and pendulum: position or angle
+across, velocity up; cart-pole: the slice over pole angle and angular velocity at
+x = x_dot = 0), a `size x size` grid of cell-centre states over the task's ranges (`PAPER`)
+is evaluated with the agent's features and weights (N, A): `value/max_q` is max_a Q as an
+RGB image (viridis, scaled to that image's own min..max, which the entity also carries as
+`max_q_min` / `max_q_max`), `value/greedy_action` the greedy action as a segmentation image
+(class a + 1 for action a, class 0 where actions tie, as with all-zero weights), and
+`value/centroids` the NRBF centroids projected on the plane, in the images' pixel
+coordinates (pixel (0, 0)'s top-left corner at the origin, u across, v down).
+
+Images are logged on the `episode` timeline and also at step 0 / sim_time 0, so the `step`
+timeline shows the most recently logged one. `log_value_path` adds an episode's states over
+the images: `value/state` per step and `value/trajectory` as a whole.
+"""
+
+import dataclasses
+
+import numpy as np
+import rerun as rr
+
+from agent.nrbf import NRBF
+from experiments.config import PAPER
+from viz import names
+from viz.columns import episode_indexes, log_static, one_row, send
+
+GRID = 100
+"""Default cells per side of the value images."""
+VALUE_AXES = {"mountain_car": (0, 1), "pendulum": (0, 1), "cartpole": (2, 3)}
+"""Domain -> the two state variables across (u) and up (v) the images."""
+BLOCK = 1024
+"""States evaluated at a time (bounds the features' memory: cart-pole has 1296)."""
+
+# Viridis, sampled at 0, 1/8, ..., 1.
+_VIRIDIS = np.array([(68, 1, 84), (71, 44, 122), (59, 81, 139), (44, 113, 142), (33, 144, 141),
+                     (39, 173, 129), (92, 200, 99), (170, 220, 50), (253, 231, 37)], dtype=np.float64)
+TIE_COLOR = (60, 60, 60)
+NEGATIVE_COLOR = (50, 110, 220)
+ZERO_COLOR = (170, 170, 170)
+POSITIVE_COLOR = (220, 70, 50)
+CENTROID_COLOR = (255, 255, 255, 170)
+STATE_COLOR = (255, 60, 200)
+TRAJECTORY_COLOR = (255, 140, 220, 200)
+
+
+def paper_task(task: str) -> str:
+    """The `PAPER` key of `DOMAIN.TASK` or of a bare domain."""
+    if task in PAPER:
+        return task
+    matches = [key for key in PAPER if key.split(".")[0] == task]
+    if len(matches) != 1:
+        raise ValueError(f"unknown task {task!r}; available: {', '.join(PAPER)}")
+    return matches[0]
+
+
+@dataclasses.dataclass(frozen=True)
+class ValueGrid:
+    """A `height x width` grid over two state variables `axes` of a task; the other
+    variables are held at `fixed`."""
+
+    axes: tuple
+    low: np.ndarray
+    """`(d,)` the task's ranges' lower ends; the grid spans [low, high] on its two axes."""
+    high: np.ndarray
+    width: int
+    height: int
+    fixed: np.ndarray
+    """`(d,)` the state the slice goes through (its `axes` entries are ignored)."""
+
+    def states(self) -> np.ndarray:
+        """`(height, width, d)` the cell-centre states, v (rows) from high to low velocity."""
+        u, v = self.axes
+        xs = self.low[u] + (np.arange(self.width) + 0.5) / self.width * (self.high[u] - self.low[u])
+        ys = self.high[v] - (np.arange(self.height) + 0.5) / self.height * (self.high[v] - self.low[v])
+        grid = np.broadcast_to(self.fixed, (self.height, self.width, len(self.fixed))).copy()
+        grid[:, :, u] = xs[None, :]
+        grid[:, :, v] = ys[:, None]
+        return grid
+
+    def to_pixels(self, states) -> np.ndarray:
+        """`(n, 2)` pixel coordinates (u, v) of states `(n, d)` (their two axes)."""
+        states = np.asarray(states, dtype=np.float64)
+        u, v = self.axes
+        pu = (states[:, u] - self.low[u]) / (self.high[u] - self.low[u]) * self.width
+        pv = (self.high[v] - states[:, v]) / (self.high[v] - self.low[v]) * self.height
+        return np.stack([pu, pv], axis=1)
+
+
+def value_grid(task: str, size: int = GRID, ranges=None) -> ValueGrid:
+    """The grid of a task: `size x size` over `ranges` (`(low, high)`, default the task's
+    `PAPER` ranges), through the zero state on the other variables."""
+    key = paper_task(task)
+    low, high = ranges if ranges is not None else (PAPER[key]["low"], PAPER[key]["high"])
+    low, high = np.asarray(low, dtype=np.float64), np.asarray(high, dtype=np.float64)
+    if size < 1:
+        raise ValueError(f"size must be >= 1; got {size}")
+    return ValueGrid(VALUE_AXES[key.split(".")[0]], low, high, int(size), int(size), np.zeros(len(low)))
+
+
+def nrbf_factors(features: NRBF, dim: int, values) -> np.ndarray:
+    """`(m, n)` the normalised per-dimension factors g_j / sum_k g_j[k] of an NRBF's features
+    for `m` values of state variable `dim` (agent.nrbf: the features are their outer product
+    over the dimensions), with the same guard against underflow."""
+    low, high = features.low[dim], features.high[dim]
+    centres = (np.arange(features.n) + 0.5) / features.n
+    distance = np.abs((np.asarray(values, dtype=np.float64)[:, None] - low) / (high - low) - centres)
+    nearest = distance.min(axis=1, keepdims=True)
+    g = np.exp(-(distance - nearest) * (distance + nearest) / features.r2)
+    return g / g.sum(axis=1, keepdims=True)
+
+
+def _q_nrbf(grid: ValueGrid, features: NRBF, weights) -> np.ndarray:
+    """Q over the grid from the NRBF's factorisation: the weights `(n,) * d + (A,)` are
+    contracted with the factors of the fixed variables, then of the two plotted ones, with no
+    `(cells, N)` feature matrix (cart-pole: 10 000 x 1296)."""
+    dim = features.dim
+    tensor = weights.reshape((features.n,) * dim + (weights.shape[1],))
+    u, v = grid.axes
+    states = grid.states()
+    letters = "ijklmnopqrstuvwxyz"[:dim]
+    operands, terms = [tensor], [letters + "a"]
+    for j in range(dim):
+        if j == u:
+            operands.append(nrbf_factors(features, j, states[0, :, j]))
+            terms.append("W" + letters[j])
+        elif j == v:
+            operands.append(nrbf_factors(features, j, states[:, 0, j]))
+            terms.append("H" + letters[j])
+        else:
+            operands.append(nrbf_factors(features, j, grid.fixed[j:j + 1])[0])
+            terms.append(letters[j])
+    return np.einsum(",".join(terms) + "->HWa", *operands, optimize=True)
+
+
+def q_on_grid(grid: ValueGrid, features, weights) -> np.ndarray:
+    """`(height, width, A)` Q(s, a) = phi(s) . w_a over the grid's states (an NRBF through its
+    factorisation, other feature maps state by state)."""
+    weights = np.asarray(weights, dtype=np.float64)
+    if weights.ndim != 2 or weights.shape[0] != features.num_features:
+        raise ValueError(f"weights must have shape ({features.num_features}, A); got {weights.shape}")
+    if isinstance(features, NRBF):
+        return _q_nrbf(grid, features, weights)
+    states = grid.states().reshape(-1, len(grid.low))
+    q = np.empty((len(states), weights.shape[1]))
+    for start in range(0, len(states), BLOCK):
+        q[start:start + BLOCK] = features.features(states[start:start + BLOCK]) @ weights
+    return q.reshape(grid.height, grid.width, -1)
+
+
+def viridis(values, low: float, high: float) -> np.ndarray:
+    """`values` as uint8 RGB, low..high mapped through viridis (a constant image is mid-scale)."""
+    values = np.asarray(values, dtype=np.float64)
+    scaled = np.full(values.shape, 0.5) if not high > low else np.clip((values - low) / (high - low), 0, 1)
+    samples = np.linspace(0.0, 1.0, len(_VIRIDIS))
+    rgb = np.stack([np.interp(scaled, samples, _VIRIDIS[:, c]) for c in range(3)], axis=-1)
+    return np.round(rgb).astype(np.uint8)
+
+
+def greedy_classes(q) -> np.ndarray:
+    """`(..., )` uint8: greedy action + 1, or 0 where several actions share the maximum."""
+    q = np.asarray(q)
+    best = q.max(axis=-1, keepdims=True)
+    ties = (q == best).sum(axis=-1) > 1
+    classes = np.argmax(q, axis=-1) + 1
+    classes[ties] = 0
+    return classes.astype(np.uint8)
+
+
+def action_colors(controls) -> list:
+    """A colour per action by the sign of its control: negative blue, zero grey, positive red."""
+    return [NEGATIVE_COLOR if u < 0 else POSITIVE_COLOR if u > 0 else ZERO_COLOR for u in controls]
+
+
+def greedy_annotations(controls) -> rr.AnnotationContext:
+    """Class 0 (tie) and class a + 1 (action a, labelled with its control)."""
+    classes = [(0, "tie", TIE_COLOR)]
+    classes += [(a + 1, f"a={a}: u={float(u):+g}", color)
+                for a, (u, color) in enumerate(zip(controls, action_colors(controls)))]
+    return rr.AnnotationContext(classes)
+
+
+def centroid_states(features, grid: ValueGrid) -> np.ndarray | None:
+    """The NRBF centroids in task units, projected on the grid's plane (distinct points), or
+    None for feature maps without centroids."""
+    centroids = getattr(features, "centroids", None)
+    if centroids is None:
+        return None
+    low, high = np.asarray(features.low), np.asarray(features.high)
+    states = low + np.asarray(centroids) * (high - low)
+    plane = np.unique(states[:, list(grid.axes)], axis=0)
+    out = np.broadcast_to(grid.fixed, (len(plane), len(grid.fixed))).copy()
+    out[:, list(grid.axes)] = plane
+    return out
+
+
+def _controls(task: str):
+    import tasks  # the suite, only for its controls
+
+    domain, name = paper_task(task).split(".")
+    return tasks.definition(domain, name).controls
+
+
+def _times(episode: int) -> list:
+    """One row at `episode`, step 0 and sim_time 0."""
+    return [rr.TimeColumn(names.EPISODE, sequence=[int(episode)]),
+            rr.TimeColumn(names.STEP, sequence=[0]),
+            rr.TimeColumn(names.SIM_TIME, duration=np.array([0.0]))]
+
+
+def log_value_function(rec: rr.RecordingStream, task: str, features, weights, episode: int, *,
+                       size: int = GRID, ranges=None) -> dict:
+    """Log max_a Q, the greedy action and the centroids of `features` (a `FeatureMap`) with
+    `weights` `(N, A)` over the task's grid at `episode`. Returns `{"max_q": (h, w) array,
+    "greedy": (h, w) classes, "centroids": (n, 2) pixels or None}`."""
+    grid = value_grid(task, size, ranges)
+    q = q_on_grid(grid, features, weights)
+    max_q = q.max(axis=-1)
+    low, high = float(max_q.min()), float(max_q.max())
+    classes = greedy_classes(q)
+    controls = _controls(task)
+    if len(controls) != q.shape[-1]:
+        raise ValueError(f"weights have {q.shape[-1]} actions; {task} has {len(controls)}")
+    times = _times(episode)
+    send(rec, names.MAX_Q, times, one_row(rr.Image(viridis(max_q, low, high)))
+         + one_row(rr.AnyValues(max_q_min=low, max_q_max=high)))
+    log_static(rec, names.GREEDY_ACTION, greedy_annotations(controls))
+    send(rec, names.GREEDY_ACTION, times, one_row(rr.SegmentationImage(classes)))
+    centroids = centroid_states(features, grid)
+    pixels = None
+    if centroids is not None:
+        pixels = grid.to_pixels(centroids)
+        log_static(rec, names.CENTROIDS, rr.Points2D(pixels, radii=0.6, colors=CENTROID_COLOR))
+    return {"max_q": max_q, "greedy": classes, "centroids": pixels}
+
+
+def _split_wraps(pixels, grid: ValueGrid) -> list:
+    """The path cut where it jumps more than half the image (the pendulum's wrapped angle)."""
+    if len(pixels) < 2:
+        return [pixels]
+    jumps = np.abs(np.diff(pixels, axis=0))
+    cuts = np.flatnonzero((jumps[:, 0] > grid.width / 2) | (jumps[:, 1] > grid.height / 2)) + 1
+    return [piece for piece in np.split(pixels, cuts) if len(piece) > 1]
+
+
+def log_value_path(rec: rr.RecordingStream, recording, *, size: int = GRID, ranges=None,
+                   indexes: list | None = None) -> None:
+    """An episode's observed states over the value images: `value/state` at each step and the
+    whole `value/trajectory` (at the episode, step 0 and sim_time 0). `indexes`: the time
+    columns of steps 0..T, if already built."""
+    grid = value_grid(recording.task, size, ranges)
+    pixels = grid.to_pixels(recording.observations).astype(np.float32)  # float64 is 100x slower
+    if indexes is None:
+        indexes = episode_indexes(np.arange(len(pixels)), recording.timestep, recording.episode)
+    send(rec, names.VALUE_STATE, indexes, rr.Points2D.columns(positions=pixels))
+    log_static(rec, names.VALUE_STATE, rr.Points2D.from_fields(radii=1.5, colors=STATE_COLOR))
+    strips = _split_wraps(pixels, grid)
+    if strips:
+        send(rec, names.TRAJECTORY, _times(recording.episode),
+             one_row(rr.LineStrips2D(strips, radii=0.3, colors=TRAJECTORY_COLOR)))
