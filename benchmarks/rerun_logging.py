@@ -3,9 +3,10 @@
 1. Per episode: `log_episode` (one `send_columns` per entity) against the per-step
    alternative (`set_time` and one `rr.log` per entity and step).
 2. Per training run: the paper's pendulum and cart-pole runs (10 agents x 200 episodes,
-   analytic plant) trained plainly, and trained recording agent 0 every 10th episode and
-   sending everything `lwrl train --rrd` sends (episodes, value functions, learning curves)
-   to an .rrd; the difference over the plain time is what logging adds.
+   analytic plant) trained plainly, and trained recording agent 0's episodes as
+   `lwrl train --rrd` does by default (every 20th) and sending everything it sends
+   (episodes, value functions, learning curves) to an .rrd; the difference over the plain
+   time is what logging adds.
 
     python -m benchmarks.rerun_logging [--steps-cartpole 12000] [--steps-pendulum 3000]
 
@@ -24,7 +25,7 @@ import rerun as rr
 
 import tasks
 from experiments.config import RunConfig
-from experiments.logging_rerun import episodes_to_log, send_run
+from experiments.logging_rerun import DEFAULT_EPISODES, episodes_to_log, send_run
 from experiments.recording import EpisodeRecording
 from experiments.run import run
 from viz import names
@@ -117,21 +118,25 @@ def measure(task: str, steps: int, repeats: int = 5, per_step: bool = True) -> d
             "per_step_s": rows}
 
 
-def training_overhead(task: str, every: int = 10) -> dict:
-    """Seconds of a paper run of `task` trained plainly and trained with agent 0's every
-    `every`-th episode recorded and sent to an .rrd (compilation excluded)."""
+def training_overhead(task: str, which: str = DEFAULT_EPISODES, repeats: int = 3) -> dict:
+    """Median seconds of a paper run of `task` trained plainly and trained with agent 0's
+    episodes `which` (as `--log-episodes`) recorded and sent to an .rrd, over `repeats`
+    alternating pairs (compilation excluded)."""
     config = RunConfig(task=task, plant="analytic")
     run(RunConfig(task=task, plant="analytic", agents=1, episodes=1), record=[(0, 0)])  # compile
-    start = time.perf_counter()
-    run(config)
-    plain = time.perf_counter() - start
-    record = [(0, episode) for episode in episodes_to_log(f"every:{every}", config.episodes)]
+    record = [(0, episode) for episode in episodes_to_log(which, config.episodes)]
+    plain, logged = [], []
     with tempfile.TemporaryDirectory() as directory:
-        start = time.perf_counter()
-        _, results = run(config, record=record)
-        send_run(config, results, rrd_path=Path(directory) / "run.rrd")
-        logged = time.perf_counter() - start
-    return {"task": task, "episodes_logged": len(record), "plain_s": plain, "logged_s": logged}
+        for repeat in range(repeats):
+            start = time.perf_counter()
+            run(config)
+            plain.append(time.perf_counter() - start)
+            start = time.perf_counter()
+            _, results = run(config, record=record)
+            send_run(config, results, rrd_path=Path(directory) / f"run{repeat}.rrd")
+            logged.append(time.perf_counter() - start)
+    return {"task": task, "episodes_logged": len(record), "plain_s": float(np.median(plain)),
+            "logged_s": float(np.median(logged))}
 
 
 def main(argv=None) -> None:
@@ -151,8 +156,8 @@ def main(argv=None) -> None:
         print(f"| {task} | {steps} | {result['call_s'] * 1e3:.1f} ms | {result['wall_s'] * 1e3:.1f} ms "
               f"| {result['cpu_s'] * 1e3:.1f} ms | {result['cpu_s'] / steps * 1e6:.2f} us "
               f"| {result['per_step_s']:.2f} s |")
-    print("\n| paper run (10 agents x 200 episodes) | episodes logged | training | training + "
-          "logging | logging adds |")
+    print("\n| paper run (10 agents x 200 episodes; medians of 3) | episodes logged | training "
+          "| training + logging | logging adds |")
     print("|---|---:|---:|---:|---:|")
     for task in ("pendulum.swingup", "cartpole.balance"):
         result = training_overhead(task)

@@ -251,9 +251,9 @@ def _add_train_arguments(train) -> None:
     train.add_argument("--rerun", action="store_true",
                        help="stream episodes to a Rerun viewer (spawned; needs a display)")
     train.add_argument("--rrd", metavar="PATH", help="save episodes to a Rerun recording instead")
-    train.add_argument("--log-episodes", default="every:10", metavar="WHICH",
+    train.add_argument("--log-episodes", default=logging_rerun.DEFAULT_EPISODES, metavar="WHICH",
                        help="episodes to log: every:K, last, best, all or numbers like 1,5,20 "
-                            "(default every:10)")
+                            f"(default {logging_rerun.DEFAULT_EPISODES})")
     train.add_argument("--log-agents", default="0", metavar="LIST",
                        help="agents to log, by index (default 0)")
 

@@ -10,6 +10,10 @@ import numpy as np
 
 from viz import rerun as viz
 
+DEFAULT_EPISODES = "every:20"
+"""What `--log-episodes` logs by default: it keeps logging under a tenth of a paper run's
+training time (`python -m benchmarks.rerun_logging`)."""
+
 
 def parse_agents(text: str, agents: int) -> list:
     """Agent indices from `0,3,5`, each below `agents`."""
