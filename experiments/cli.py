@@ -6,7 +6,7 @@
     lwrl train DOMAIN.TASK [--trace T] [--alpha A] [--lambda L] [--episodes K] ...
                                                    train NRBF Sarsa(lambda) agents
     lwrl eval PATH [--episodes K] [--seed S]       run saved agents greedily
-    lwrl reproduce {fig2,fig3,fig5,fig6,fig8,table1,all} [--plant P] [--quick] [--out DIR]
+    lwrl reproduce {fig2,fig3,fig5,fig6,fig8,table1,all}... [--plant P] [--quick] [--out DIR]
                                                    the paper's figures and table, and a report
     lwrl export PATH --c OUT_DIR [--agent I]       a saved agent as a C99 controller
     lwrl view PATH [--web]                         open a Rerun recording of lwrl train --rrd
@@ -295,7 +295,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Run the paper's protocols, writing each run as it finishes (the same "
                     "command resumes an interrupted run), then the figures and a report "
                     "beside the paper's numbers.")
-    paper.add_argument("item", choices=("fig2", "fig3", "fig5", "fig6", "fig8", "table1", "all"))
+    paper.add_argument("item", nargs="+", choices=("fig2", "fig3", "fig5", "fig6", "fig8", "table1", "all"),
+                       help="one or more items, or all")
     paper.add_argument("--plant", choices=("analytic", "mujoco"), default="analytic",
                        help="plant of the pendulum and cart-pole (Mountain-Car has only the analytic one)")
     paper.add_argument("--integrator", choices=("semi_implicit", "explicit"), default="semi_implicit",
