@@ -128,20 +128,21 @@ def cmd_train(args) -> int:
                        agents=args.agents, seed=args.seed)
     config.plant = tasks.resolve(config.domain, config.task_name, config.plant)[1]
     agent = make_agent(config)  # checks the hyper-parameters before anything runs
-    logging = args.rrd or args.rerun
+    logging = bool(args.rrd or args.rerun)
+    record, logged_agents, best = (), [], False
     if logging:
         logged_agents = logging_rerun.parse_agents(args.log_agents, config.agents)
         logged = logging_rerun.episodes_to_log(args.log_episodes, config.episodes)
-        record = ([] if logged == "best" else
-                  [(agent_index, episode) for agent_index in logged_agents for episode in logged])
+        best = logged == "best"
+        record = [] if best else [(b, episode) for b in logged_agents for episode in logged]
     print(f"{config.task} on the {config.plant} plant: {config.agents} agents, {config.trace} "
           f"traces, alpha {config.alpha:g}, lambda {config.lam:g}, epsilon {config.epsilon:g}, "
           f"{config.features} {config.n}^{len(config.feature_map().low)}, "
           f"{config.episodes} episodes")
     bar, update = _progress_bar(config.agents * config.episodes, "training")
     with bar:
-        agent, results = run(config, agent=agent, progress=update, record=record if logging else ())
-    if logging and logged == "best":  # runs are deterministic: run again to record the best
+        agent, results = run(config, agent=agent, progress=update, record=record)
+    if best:  # runs are deterministic: run again to record each logged agent's best episode
         _, results = run(config, record=logging_rerun.best_episodes(results, logged_agents))
     _report(config, results, config.seeds, "")
     if logging:
