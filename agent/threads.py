@@ -26,17 +26,21 @@ def set_workers(count: int) -> None:
     _WORKERS = int(count)
 
 
-def run_in_chunks(kernel, batch_size: int, *args, min_chunk: int = 16) -> None:
-    """Call `kernel(start, stop, *args)` over contiguous ranges covering `range(batch_size)`,
-    one range per worker thread (a single call when the batch is small)."""
+def run_in_chunks(kernel, batch_size: int, *args, min_chunk: int = 16,
+                  chunks_per_worker: int = 1) -> None:
+    """Call `kernel(start, stop, *args)` over contiguous ranges covering `range(batch_size)`
+    on the worker threads (a single call when the batch is small). With
+    `chunks_per_worker` > 1 there are more ranges than threads, each thread taking the next
+    as it finishes one: long runs whose agents differ in cost stay balanced."""
     global _POOL, _POOL_SIZE
-    chunks = max(1, min(workers(), batch_size // min_chunk))
+    threads = workers()
+    chunks = max(1, min(threads * chunks_per_worker, batch_size // min_chunk))
     if chunks == 1:
         kernel(0, batch_size, *args)
         return
-    if _POOL_SIZE < chunks:
-        _POOL = concurrent.futures.ThreadPoolExecutor(max_workers=chunks, thread_name_prefix="lwrl")
-        _POOL_SIZE = chunks
+    if _POOL_SIZE < threads:
+        _POOL = concurrent.futures.ThreadPoolExecutor(max_workers=threads, thread_name_prefix="lwrl")
+        _POOL_SIZE = threads
     bounds = [round(batch_size * c / chunks) for c in range(chunks + 1)]
     futures = []
     try:

@@ -51,6 +51,14 @@ class EpisodeResults:
         return cls(nan.copy(), nan.copy(), nan.copy(), np.zeros((agents, episodes), dtype=bool),
                    np.full(agents, -1, dtype=np.int64))
 
+    def agents(self, start: int, stop: int) -> "EpisodeResults":
+        """The results of agents `start..stop-1` (recordings renumbered from 0)."""
+        return EpisodeResults(
+            self.steps[start:stop], self.returns[start:stop], self.uptime[start:stop],
+            self.truncated[start:stop], self.diverged_episode[start:stop], self.interrupted,
+            [dataclasses.replace(r, agent=r.agent - start) for r in self.recordings
+             if start <= r.agent < stop])
+
     @property
     def diverged(self) -> np.ndarray:
         """`(B, K)`: True from the episode in which the agent diverged on."""
@@ -263,7 +271,8 @@ def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, see
                 tasks.DOMAINS[domain].PLANTS.timestep, semi_implicit,
                 np.asarray(definition.params, dtype=np.float64), int(step_limit), bool(learn),
                 agent.memory, agent.hyper, agent.spec, steps, results.returns, results.uptime,
-                results.truncated, results.diverged_episode, done, tape, min_chunk=1)
+                results.truncated, results.diverged_episode, done, tape, min_chunk=1,
+                chunks_per_worker=8)
             if progress is not None:
                 progress(batch * count)
     except KeyboardInterrupt:
@@ -287,20 +296,22 @@ def make_agent(config) -> BatchedSarsa:
 
 
 def run(config, agent: BatchedSarsa | None = None, learn: bool = True,
-        progress=None, record=()) -> tuple[BatchedSarsa, EpisodeResults]:
+        progress=None, record=(), seeds=None) -> tuple[BatchedSarsa, EpisodeResults]:
     """Run a `RunConfig`: the compiled loop on the analytic plant, the batched stepper on
     MuJoCo. Returns the agents (new ones unless given) and their results, with recordings of
-    the `(agent, episode)` pairs in `record`."""
+    the `(agent, episode)` pairs in `record`. `seeds` (one per agent of a given `agent`)
+    replaces the configuration's, for batches that join several configurations."""
     agent = make_agent(config) if agent is None else agent
+    seeds = config.seeds if seeds is None else list(seeds)
     domain, task = config.domain, config.task_name
     plant = config.plant or tasks.PLANTS[domain][0]
     plant_options = {"integrator": config.integrator} if (
         plant == "analytic" and tasks.DOMAINS[domain].PLANTS.euler) else {}
     if plant == "analytic":
-        results = run_compiled(domain, task, agent, config.episodes, config.seeds, learn=learn,
+        results = run_compiled(domain, task, agent, config.episodes, seeds, learn=learn,
                                progress=progress, record=record, **plant_options)
     else:
-        env = BatchedEnv(domain, task, plant, config.seeds, **plant_options)
+        env = BatchedEnv(domain, task, plant, seeds, **plant_options)
         results = run_batched(env, agent, config.episodes, learn=learn, progress=progress,
                               record=record)
     return agent, results

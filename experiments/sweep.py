@@ -7,9 +7,12 @@ skips every run whose file exists, so an interrupted sweep (Ctrl-C, kill, power 
 resumes where it stopped and recomputes nothing that finished. A diverged run is a finished
 run: its agents' `diverged` column says so.
 
-Backends: `local` runs one run at a time on this machine, each on all its cores (the
-learner's threads); `ray` sends runs to a Ray cluster (`pip install -e '.[ray]'`), one task
-per run, and writes their results here as they come back.
+Runs that differ only in trace, alpha, lambda, epsilon and seeds are joined into batches
+that one learner and one stepper run together (the learner takes those per agent, and an
+agent's numbers do not depend on its batch): a grid of small runs costs about as much as
+one large one. Backends: `local` runs one batch at a time on this machine, on all its cores
+(the learner's threads); `ray` sends batches to a Ray cluster (`pip install -e '.[ray]'`),
+one task each, and writes their results here as they come back.
 """
 
 import dataclasses
@@ -22,8 +25,11 @@ import numpy as np
 import pandas as pd
 import tqdm
 
+import tasks
+
 from agent import threads
 from experiments.config import RunConfig
+from agent.sarsa import BatchedSarsa
 from experiments.run import run
 
 CONFIG_COLUMNS = ("task", "plant", "integrator", "features", "trace", "alpha", "lam", "epsilon",
@@ -38,11 +44,56 @@ def run_key(config: RunConfig) -> str:
     return f"{config.name}-{digest}"
 
 
-def run_table(config: RunConfig) -> pd.DataFrame:
-    """Run `config` and return its results as a tidy table, one row per agent and episode."""
-    _, results = run(config)
+BATCHED_FIELDS = ("trace", "alpha", "lam", "epsilon", "agents", "seed")
+"""Fields in which the runs of one batch may differ: the learner takes them per agent."""
+MAX_BATCH_AGENTS = 2048
+"""Agents in one batch at most (memory: about 60 kB per cart-pole agent)."""
+
+
+def batches(configs, max_agents: int = MAX_BATCH_AGENTS) -> list:
+    """The configurations grouped into batches that one learner and one stepper can run:
+    same task, plant, features and protocol; at most `max_agents` agents (a run larger than
+    that is a batch of its own). Order is kept within a batch."""
+    groups = {}
+    for config in configs:
+        fields = dataclasses.asdict(config)
+        key = tuple((name, fields[name]) for name in sorted(fields) if name not in BATCHED_FIELDS)
+        groups.setdefault(key, []).append(config)
+    result = []
+    for group in groups.values():
+        batch, size = [], 0
+        for config in group:
+            if batch and size + config.agents > max_agents:
+                result.append(batch)
+                batch, size = [], 0
+            batch.append(config)
+            size += config.agents
+        result.append(batch)
+    return result
+
+
+def run_batch(configs) -> list:
+    """Run several configurations as one batch of agents; one tidy table per configuration,
+    equal to running each alone (agents are independent)."""
+    base = configs[0]
+    per_agent = [config for config in configs for _ in range(config.agents)]
+    seeds = [seed for config in configs for seed in config.seeds]
+    num_actions = tasks.definition(base.domain, base.task_name).num_actions
+    agent = BatchedSarsa(base.feature_map(), num_actions, alpha=[c.alpha for c in per_agent], lam=[c.lam for c in per_agent],
+                         epsilon=[c.epsilon for c in per_agent], trace=[c.trace for c in per_agent],
+                         gamma=base.gamma, seeds=seeds)
+    _, results = run(base, agent=agent, seeds=seeds)
     if results.interrupted:
         raise KeyboardInterrupt
+    tables, start = [], 0
+    for config in configs:
+        tables.append(results_table(config, results.agents(start, start + config.agents)))
+        start += config.agents
+    return tables
+
+
+def results_table(config: RunConfig, results) -> pd.DataFrame:
+    """A run's `EpisodeResults` as a tidy table with its configuration on every row."""
     agents, episodes = results.steps.shape
     table = pd.DataFrame({
         "agent": np.repeat(np.arange(agents), episodes),
@@ -68,8 +119,8 @@ def _write_atomically(table: pd.DataFrame, path: str) -> None:
 
 
 def _local(configs):
-    for config in configs:
-        yield config, run_table(config)
+    for batch in batches(configs):
+        yield from zip(batch, run_batch(batch))
 
 
 def _ray(configs, address):
@@ -79,13 +130,13 @@ def _ray(configs, address):
         raise ValueError("the ray backend needs Ray: pip install -e '.[ray]'") from None
     ray.init(address=address, ignore_reinit_error=True, include_dashboard=False,
              log_to_driver=False)
-    remote = ray.remote(run_table)
-    pending = {remote.remote(config): config for config in configs}
+    remote = ray.remote(run_batch)
+    pending = {remote.remote(batch): batch for batch in batches(configs)}
     try:
         while pending:
             done, _ = ray.wait(list(pending), num_returns=1)
-            config = pending.pop(done[0])
-            yield config, ray.get(done[0])
+            batch = pending.pop(done[0])
+            yield from zip(batch, ray.get(done[0]))
     finally:
         for ref in pending:
             ray.cancel(ref, force=True)

@@ -90,3 +90,28 @@ def test_ray_backend_gives_the_local_results(tmp_path):
     on_ray, computed = sweep.run_sweep(configs, str(tmp_path / "ray"), backend="ray")
     assert computed == 2
     pd.testing.assert_frame_equal(local, on_ray)
+
+
+def test_batched_runs_equal_runs_alone(tmp_path):
+    """A sweep joins runs that differ in trace, alpha, lambda, epsilon and seeds into one
+    batch; each run's table equals that of the run alone."""
+    configs = [RunConfig(task="mountain_car.cost_to_go", plant="analytic", trace=trace,
+                         alpha=alpha, lam=lam, epsilon=epsilon, agents=agents, episodes=6, seed=seed)
+               for trace, alpha, lam, epsilon, agents, seed in (
+                   ("replacing", 3.9, 0.9, 0.0, 3, 0), ("accumulating", 1.0, 0.5, 0.1, 2, 7),
+                   ("replacing", 2.0, 0.0, 0.0, 1, 3))]
+    assert len(sweep.batches(configs)) == 1
+    assert [len(batch) for batch in sweep.batches(configs, max_agents=4)] == [1, 2]
+    table, computed = sweep.run_sweep(configs, str(tmp_path))
+    assert computed == 3
+    alone = pd.concat([sweep.run_batch([config])[0] for config in configs], ignore_index=True)
+    pd.testing.assert_frame_equal(table, alone)
+
+
+def test_mujoco_runs_batch_too(tmp_path):
+    """On the MuJoCo plant (the batched stepper) as well."""
+    configs = [RunConfig(task="cartpole.balance", plant="mujoco", alpha=alpha, lam=0.7,
+                         agents=2, episodes=3) for alpha in (0.5, 1.0)]
+    table, _ = sweep.run_sweep(configs, str(tmp_path))
+    alone = pd.concat([sweep.run_batch([config])[0] for config in configs], ignore_index=True)
+    pd.testing.assert_frame_equal(table, alone)
