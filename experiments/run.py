@@ -65,16 +65,16 @@ class EpisodeResults:
         episodes = np.arange(self.steps.shape[1])
         return (self.diverged_episode[:, None] >= 0) & (episodes >= self.diverged_episode[:, None])
 
-    def rows(self):
-        """One `dict` per agent and episode with the columns of `episodes.csv`."""
-        diverged = self.diverged
-        for agent in range(self.steps.shape[0]):
-            for episode in range(self.steps.shape[1]):
-                yield {"agent": agent, "episode": episode, "steps": self.steps[agent, episode],
-                       "return": self.returns[agent, episode],
-                       "uptime_s": self.uptime[agent, episode],
-                       "truncated": bool(self.truncated[agent, episode]),
-                       "diverged": bool(diverged[agent, episode])}
+    def columns(self, seeds) -> dict:
+        """Flat columns, one entry per agent and episode (episodes numbered from 1), agent
+        b seeded with `seeds[b]`: the results tables and `episodes.csv` are made of them."""
+        agents, episodes = self.steps.shape
+        return {"agent": np.repeat(np.arange(agents), episodes),
+                "seed": np.repeat(np.asarray(seeds), episodes),
+                "episode": np.tile(np.arange(1, episodes + 1), agents),
+                "steps": self.steps.ravel(), "return": self.returns.ravel(),
+                "uptime_s": self.uptime.ravel(), "truncated": self.truncated.ravel(),
+                "diverged": self.diverged.ravel()}
 
 
 def _check_episodes(episodes) -> int:

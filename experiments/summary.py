@@ -64,8 +64,8 @@ def write_csv(path, results, seeds) -> None:
     with open(path, "w", newline="") as file:
         writer = csv.writer(file)
         writer.writerow(COLUMNS)
-        for row in results.rows():
-            writer.writerow([row["agent"], seeds[row["agent"]], row["episode"] + 1,
-                             "" if math.isnan(row["steps"]) else int(row["steps"]),
-                             row["return"], row["uptime_s"], int(row["truncated"]),
-                             int(row["diverged"])])
+        columns = results.columns(seeds)
+        for row in zip(*(columns[name] for name in COLUMNS)):
+            agent, seed, episode, steps, total, uptime, truncated, diverged = row
+            writer.writerow([agent, seed, episode, "" if math.isnan(steps) else int(steps),
+                             total, uptime, int(truncated), int(diverged)])

@@ -21,7 +21,6 @@ import json
 import os
 import sys
 
-import numpy as np
 import pandas as pd
 import tqdm
 
@@ -94,17 +93,7 @@ def run_batch(configs) -> list:
 
 def results_table(config: RunConfig, results) -> pd.DataFrame:
     """A run's `EpisodeResults` as a tidy table with its configuration on every row."""
-    agents, episodes = results.steps.shape
-    table = pd.DataFrame({
-        "agent": np.repeat(np.arange(agents), episodes),
-        "seed": np.repeat(config.seeds, episodes),
-        "episode": np.tile(np.arange(1, episodes + 1), agents),
-        "steps": results.steps.ravel(),
-        "return": results.returns.ravel(),
-        "uptime_s": results.uptime.ravel(),
-        "truncated": results.truncated.ravel(),
-        "diverged": results.diverged.ravel(),
-    })
+    table = pd.DataFrame(results.columns(config.seeds))
     fields = dataclasses.asdict(config)
     for column in reversed(CONFIG_COLUMNS):
         table.insert(0, column, fields[column])
