@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from agent.cmac import CMAC
+from agent.features import check_count
 from agent.nrbf import DEFAULT_R2, NRBF
 from agent.traces import TRACES
 
@@ -81,9 +82,7 @@ class RunConfig:
         if self.features not in ("nrbf", "cmac"):
             raise ValueError(f"unknown features {self.features!r}; allowed: nrbf, cmac")
         for name in ("episodes", "agents"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-                raise ValueError(f"{name} must be a positive integer; got {value!r}")
+            check_count(name, getattr(self, name), 1)
         if not (isinstance(self.seed, (int, np.integer)) and self.seed >= 0):
             raise ValueError(f"seed must be a non-negative integer; got {self.seed!r}")
 

@@ -19,6 +19,7 @@ import numba
 import numpy as np
 
 import tasks
+from agent.features import check_count
 from agent.sarsa import BatchedSarsa, agent_step
 from agent.threads import run_in_chunks
 from tasks.batched import BatchedEnv
@@ -77,15 +78,9 @@ class EpisodeResults:
                 "diverged": self.diverged.ravel()}
 
 
-def _check_episodes(episodes) -> int:
-    if isinstance(episodes, bool) or not isinstance(episodes, (int, np.integer)) or episodes < 1:
-        raise ValueError(f"episodes must be a positive integer; got {episodes!r}")
-    return int(episodes)
-
-
 def run_dm_env(env, agent: BatchedSarsa, episodes: int, learn: bool = True) -> EpisodeResults:
     """One agent (`agent.batch_size == 1`) on one dm_env environment of the suite."""
-    episodes = _check_episodes(episodes)
+    episodes = check_count("episodes", episodes, 1)
     if agent.batch_size != 1:
         raise ValueError(f"run_dm_env runs one agent; got a batch of {agent.batch_size}")
     results = EpisodeResults.empty(1, episodes)
@@ -117,7 +112,7 @@ def run_batched(env: BatchedEnv, agent: BatchedSarsa, episodes: int, learn: bool
     """B agents on a batched environment of B copies; `progress(done_episodes)` is called
     as episodes finish. The `(agent, episode)` pairs in `record` are recorded step by step
     (`results.recordings`), as `run_compiled` records them."""
-    episodes = _check_episodes(episodes)
+    episodes = check_count("episodes", episodes, 1)
     if env.batch_size != agent.batch_size:
         raise ValueError(f"environment batch {env.batch_size} and agent batch "
                          f"{agent.batch_size} differ")
@@ -245,7 +240,7 @@ def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, see
     is seeded with `seeds[b]` as in `BatchedEnv`. Episodes run in about 20 blocks, after each
     of which `progress(episodes_done)` is called. The `(agent, episode)` pairs in `record`
     are recorded step by step (`results.recordings`)."""
-    episodes = _check_episodes(episodes)
+    episodes = check_count("episodes", episodes, 1)
     plant_options = {"integrator": integrator} if tasks.DOMAINS[domain].PLANTS.euler else {}
     definition, _, _ = tasks.resolve(domain, task, "analytic", **options, **plant_options)
     semi_implicit = check_integrator(integrator)
