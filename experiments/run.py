@@ -124,6 +124,7 @@ def run_batched(env: BatchedEnv, agent: BatchedSarsa, episodes: int, learn: bool
     definition = env.definition
     tape = make_tape(record, batch, episodes, definition.step_limit, len(definition.state_names),
                      agent.num_actions, agent.features.num_features)
+    recording = bool(len(record))  # else the step loop skips the tape entirely
     actions = np.zeros(batch, dtype=np.int64)
     ts = env.reset()
     try:
@@ -131,18 +132,9 @@ def run_batched(env: BatchedEnv, agent: BatchedSarsa, episodes: int, learn: bool
             previous = actions
             actions = agent.step(ts.first(), ts.reward, ts.discount, ts.observation,
                                  active=running, learn=learn)
-            rows = np.where(running, tape.slot[np.arange(batch), np.minimum(done, episodes - 1)], -1)
-            for b in np.flatnonzero(rows >= 0):
-                r, n = rows[b], env.steps[b]
-                tape.states[r, n] = env.state[b]
-                tape.observations[r, n] = ts.observation[b]
-                tape.q_values[r, n] = agent.memory.q[b]
-                if n > 0:
-                    tape.actions[r, n - 1] = previous[b]
-                    tape.rewards[r, n - 1] = ts.reward[b]
-                    tape.td_errors[r, n - 1] = agent.memory.delta[b]
-                    tape.length[r] = n
-                    tape.weights[r] = agent.memory.weights[b]
+            if recording:
+                rows = np.where(running, tape.slot[np.arange(batch), np.minimum(done, episodes - 1)], -1)
+                _record_step(tape, rows, env, ts, agent, previous)
             newly_diverged = running & agent.diverged
             ended = running & (ts.last() | newly_diverged)
             for b in np.flatnonzero(ended):
@@ -165,6 +157,23 @@ def run_batched(env: BatchedEnv, agent: BatchedSarsa, episodes: int, learn: bool
         results.interrupted = True
     results.recordings = recordings(tape, definition, env.plant_name, env.seeds)
     return results
+
+
+def _record_step(tape, rows, env, ts, agent, previous) -> None:
+    """Write this step of the environments with a tape row (`rows[b] >= 0`) to the tape:
+    the state and observation reached, Q there, and the action, reward and TD error that
+    led to it."""
+    for b in np.flatnonzero(rows >= 0):
+        r, n = rows[b], env.steps[b]
+        tape.states[r, n] = env.state[b]
+        tape.observations[r, n] = ts.observation[b]
+        tape.q_values[r, n] = agent.memory.q[b]
+        if n > 0:
+            tape.actions[r, n - 1] = previous[b]
+            tape.rewards[r, n - 1] = ts.reward[b]
+            tape.td_errors[r, n - 1] = agent.memory.delta[b]
+            tape.length[r] = n
+            tape.weights[r] = agent.memory.weights[b]
 
 
 @functools.lru_cache(maxsize=None)
