@@ -66,7 +66,7 @@ def send_run(config, results, rrd_path=None, spawn: bool = False) -> None:
     model = viz.load_model(config.task) if config.domain != "mountain_car" else None
     features = config.feature_map()
     for recording in results.recordings:
-        viz.log_episode(rec, recording, model=model)
+        viz.log_episode(rec, recording, model=model, value_ranges=(features.low, features.high))
         viz.log_value_function(rec, config.task, features, recording.weights, recording.episode)
     viz.log_learning_curves(rec, results, config.seeds)
     viz.close_recording(rec)

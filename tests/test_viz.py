@@ -118,7 +118,8 @@ def saved(task_plant, tmp_path):
     rec = viz.open_recording("lwrl_test", rrd_path=path)
     viz.send_blueprint(rec, name)
     geometry = viz.log_task_scene(rec, name)
-    logged = [viz.log_episode(rec, episode) for episode in episodes]
+    ranges = (features.low, features.high)
+    logged = [viz.log_episode(rec, episode, value_ranges=ranges) for episode in episodes]
     images = viz.log_value_function(rec, name, features, episodes[1].weights, episode=7)
     curves = viz.log_learning_curves(rec, results, seeds=[10, 11, 12])
     viz.close_recording(rec)
@@ -277,7 +278,9 @@ def test_episodes_recorded_by_training(tmp_path):
     viz.send_blueprint(rec, config.task)
     viz.log_task_scene(rec, config.task)
     model = viz.load_model(config.task)
-    logged = [viz.log_episode(rec, r, model=model) for r in results.recordings]
+    features = config.feature_map()
+    logged = [viz.log_episode(rec, r, model=model, value_ranges=(features.low, features.high))
+              for r in results.recordings]
     images = viz.log_value_function(rec, config.task, config.feature_map(),
                                     results.recordings[0].weights, episode=1)
     viz.log_learning_curves(rec, results, config.seeds)
@@ -290,8 +293,8 @@ def test_episodes_recorded_by_training(tmp_path):
         np.testing.assert_array_equal(scalars(temporal(chunks, paths["state/angle"]))[:, 0],
                                       recording.states[:, 0])
         np.testing.assert_array_equal(scalars(temporal(chunks, paths["uptime"]))[:, 0], recording.uptime)
-    expected_q = value.q_on_grid(value.value_grid(config.task), config.feature_map(),
-                                 agent.weights[0]).max(axis=-1)
+    grid = value.value_grid(config.task, features.low, features.high)
+    expected_q = value.q_on_grid(grid, features, agent.weights[0]).max(axis=-1)
     np.testing.assert_allclose(images["max_q"], expected_q)
     np.testing.assert_array_equal(scalars(temporal(chunks, "curves/steps/agent1"))[:, 0], results.steps[1])
 
@@ -362,7 +365,7 @@ def test_value_grid_q_and_pixels(task):
     """Q over the grid is phi(s) . w at each cell's state; a state maps to the pixel whose
     cell holds it; all-zero weights make every action tie (class 0)."""
     features = RunConfig(task=task).feature_map()
-    grid = value.value_grid(task, size=20)
+    grid = value.value_grid(task, features.low, features.high, size=20)
     weights = np.random.default_rng(2).normal(size=(features.num_features, 3))
     q = value.q_on_grid(grid, features, weights)
     states = grid.states()
@@ -385,17 +388,35 @@ def test_q_on_grid_equals_the_feature_maps(task, kind):
     features = RunConfig(task=task, features=kind).feature_map()
     weights = np.random.default_rng(3).normal(size=(features.num_features, 2))
     low, high = np.array(PAPER[task]["low"]), np.array(PAPER[task]["high"])
-    for ranges in (None, (low * 40, high * 40)):
-        grid = value.value_grid(task, size=17, ranges=ranges)
+    for scale in (1, 40):
+        grid = value.value_grid(task, low * scale, high * scale, size=17)
         expected = features.features(grid.states().reshape(-1, features.dim)) @ weights
         np.testing.assert_allclose(value.q_on_grid(grid, features, weights).reshape(-1, 2),
                                    expected, rtol=1e-12, atol=1e-12)
     assert (value.centroid_states(features, grid) is None) == (kind == "cmac")
 
 
+def test_task_names_resolve_through_the_suite():
+    assert names.task_definition("cartpole").name == "cartpole.balance"
+    assert names.task_definition("pendulum.swingup").controls == (-5.0, 5.0)
+    with pytest.raises(ValueError, match="unknown task 'cartpole.swingup'; available: mountain_car"):
+        names.task_definition("cartpole.swingup")
+
+
+def test_an_episode_without_value_ranges_has_no_value_path(tmp_path):
+    path = tmp_path / "plain.rrd"
+    rec = viz.open_recording("lwrl_test", rrd_path=path)
+    viz.log_episode(rec, rollout("pendulum", "swingup", "analytic", steps=5))
+    viz.close_recording(rec)
+    chunks = read_chunks(path)
+    assert names.VALUE_STATE not in chunks and names.TRAJECTORY not in chunks
+    assert any(entity.startswith(names.STATE) for entity in chunks)
+
+
 def test_cartpole_slice_goes_through_the_centre():
     """The cart-pole images slice (theta, theta_dot) at x = x_dot = 0."""
-    states = value.value_grid("cartpole.balance", size=8).states()
+    features = RunConfig(task="cartpole.balance").feature_map()
+    states = value.value_grid("cartpole.balance", features.low, features.high, size=8).states()
     assert np.all(states[..., :2] == 0)
     assert states[..., 2].min() > -math.radians(12) and states[..., 2].max() < math.radians(12)
 
@@ -486,9 +507,9 @@ def test_headless_render_is_not_blank(tmp_path):
     viz.send_blueprint(rec, "pendulum.swingup")
     viz.log_task_scene(rec, "pendulum.swingup")
     recording = rollout("pendulum", "swingup", "mujoco", steps=60)
-    viz.log_episode(rec, recording)
-    viz.log_value_function(rec, "pendulum.swingup", RunConfig(task="pendulum.swingup").feature_map(),
-                           recording.weights, episode=0)
+    features = RunConfig(task="pendulum.swingup").feature_map()
+    viz.log_episode(rec, recording, value_ranges=(features.low, features.high))
+    viz.log_value_function(rec, "pendulum.swingup", features, recording.weights, episode=0)
     viz.close_recording(rec)
     png = viz.screenshot(path, tmp_path / "shot.png", window_size="960x600")
     pixels = np.asarray(Image.open(png).convert("RGB"), dtype=np.float64)

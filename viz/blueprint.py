@@ -21,15 +21,6 @@ from viz import names, scene
 from viz.value import GRID, VALUE_AXES
 
 
-def _task_names(task: str):
-    import tasks  # the suite, for the task's variable names and controls
-
-    from viz.value import paper_task
-
-    domain, name = paper_task(task).split(".")
-    return tasks.definition(domain, name)
-
-
 def _plot(name: str, path: str, steps: bool = False) -> rrb.TimeSeriesView:
     """A plot of every series under `path`; `steps`: drawn as a step function (actions)."""
     defaults = [rr.SeriesLines.from_fields(interpolation_mode="StepAfter")] if steps else None
@@ -39,7 +30,7 @@ def _plot(name: str, path: str, steps: bool = False) -> rrb.TimeSeriesView:
 
 def signal_views(task: str) -> list:
     """A plot per signal of an episode (every logged episode is a series in it)."""
-    definition = _task_names(task)
+    definition = names.task_definition(task)
     views = [_plot(name, f"{names.STATE}/{name}") for name in definition.state_names]
     views += [_plot("action", names.ACTION, steps=True), _plot("control", names.CONTROL, steps=True),
               _plot("reward", names.REWARD), _plot("return so far", names.RETURN),
@@ -53,7 +44,7 @@ def curve_views(task: str) -> list:
     """Learning curves: steps, returns (and up-time) per episode."""
     views = [rrb.TimeSeriesView(name="steps per episode", origin=names.CURVE_STEPS),
              rrb.TimeSeriesView(name="return per episode", origin=names.CURVE_RETURNS)]
-    if _task_names(task).has_uptime:
+    if names.task_definition(task).has_uptime:
         views.append(rrb.TimeSeriesView(name="up-time per episode (s)", origin=names.CURVE_UPTIME))
     return views
 
@@ -80,7 +71,7 @@ def blueprint(task: str, size: int = GRID) -> rrb.Blueprint:
     """The default layout for `task` (`DOMAIN.TASK` or a bare domain); `size` is the value
     images' side (`log_value_function`'s)."""
     left = [scene_view(task)]
-    if _task_names(task).domain in VALUE_AXES:
+    if names.task_definition(task).domain in VALUE_AXES:
         left.append(rrb.Horizontal(*value_views(task, size)))
     left_column = rrb.Vertical(*left, row_shares=[3, 2][:len(left)])
     right = rrb.Tabs(rrb.Grid(*signal_views(task), grid_columns=2, name="episode signals (step)"),

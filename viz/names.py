@@ -91,3 +91,14 @@ def agent_curve(kind: str, agent: int) -> str:
 def domain_of(task: str) -> str:
     """`cartpole` of `cartpole.balance` (a bare domain is returned as it is)."""
     return task.split(".")[0]
+
+
+def task_definition(task: str):
+    """The suite's `TaskDefinition` of `DOMAIN.TASK`, or of a bare domain that has one task."""
+    import tasks  # the suite, for the task's variable names and controls
+
+    matches = [pair for pair in tasks.ALL_TASKS if ".".join(pair) == task or pair[0] == task]
+    if len(matches) != 1:
+        available = ", ".join(".".join(pair) for pair in tasks.ALL_TASKS)
+        raise ValueError(f"unknown task {task!r}; available: {available}")
+    return tasks.definition(*matches[0])

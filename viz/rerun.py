@@ -144,12 +144,13 @@ def close_recording(rec: rr.RecordingStream) -> None:
     rec.disconnect()
 
 
-def log_episode(rec: rr.RecordingStream, recording, *, value_path: bool = True,
-                model: mujoco.MjModel | None = None) -> dict:
+def log_episode(rec: rr.RecordingStream, recording, *, model: mujoco.MjModel | None = None,
+                value_ranges=None) -> dict:
     """Log one `EpisodeRecording`: the moving bodies' poses (`scene/<body>`), its signals
-    (`signals/...`) and, for the tasks with value images, its states over them
-    (`value/state`, `value/trajectory`). Returns `{quantity: entity path}` of the signals
-    plus `"bodies"`: the bodies' paths.
+    (`signals/...`) and, given `value_ranges` `(low, high)` (the ranges of the value images,
+    the feature map's) for a task with value images, its states over them (`value/state`,
+    `value/trajectory`). Returns `{quantity: entity path}` of the signals plus `"bodies"`:
+    the bodies' paths.
 
     `model`: the task's MuJoCo model from `load_model(task)`, compiled once by the caller
     for a run's episodes (compiling it costs 1 to 5 ms an episode otherwise)."""
@@ -157,8 +158,8 @@ def log_episode(rec: rr.RecordingStream, recording, *, value_path: bool = True,
     paths = log_signals(rec, recording)
     indexes = episode_indexes(np.arange(recording.steps + 1), recording.timestep, recording.episode)
     paths["bodies"] = log_scene_poses(rec, recording, model, indexes)
-    if value_path and names.domain_of(recording.task) in VALUE_AXES:
-        log_value_path(rec, recording, indexes=indexes)
+    if value_ranges is not None and names.domain_of(recording.task) in VALUE_AXES:
+        log_value_path(rec, recording, *value_ranges, indexes=indexes)
     return paths
 
 

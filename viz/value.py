@@ -2,8 +2,8 @@
 
 For a task's two plotted state variables (Mountain-Car and pendulum: position or angle
 across, velocity up; cart-pole: the slice over pole angle and angular velocity at
-x = x_dot = 0), a `size x size` grid of cell-centre states over the task's ranges (`PAPER`)
-is evaluated with the agent's features and weights (N, A): `value/max_q` is max_a Q as an
+x = x_dot = 0), a `size x size` grid of cell-centre states over the feature map's
+normalisation ranges (the box its centroids span) is evaluated with the agent's features and weights (N, A): `value/max_q` is max_a Q as an
 RGB image (viridis, scaled to that image's own min..max, which the entity also carries as
 `max_q_min` / `max_q_max`), `value/greedy_action` the greedy action as a segmentation image
 (class a + 1 for action a, class 0 where actions tie, as with all-zero weights), and
@@ -21,7 +21,6 @@ import numpy as np
 import rerun as rr
 
 from agent.nrbf import NRBF
-from experiments.config import PAPER
 from viz import names
 from viz.columns import episode_indexes, log_static, one_row, send
 
@@ -42,16 +41,6 @@ POSITIVE_COLOR = (220, 70, 50)
 CENTROID_COLOR = (255, 255, 255, 170)
 STATE_COLOR = (255, 60, 200)
 TRAJECTORY_COLOR = (255, 140, 220, 200)
-
-
-def paper_task(task: str) -> str:
-    """The `PAPER` key of `DOMAIN.TASK` or of a bare domain."""
-    if task in PAPER:
-        return task
-    matches = [key for key in PAPER if key.split(".")[0] == task]
-    if len(matches) != 1:
-        raise ValueError(f"unknown task {task!r}; available: {', '.join(PAPER)}")
-    return matches[0]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -87,15 +76,15 @@ class ValueGrid:
         return np.stack([pu, pv], axis=1)
 
 
-def value_grid(task: str, size: int = GRID, ranges=None) -> ValueGrid:
-    """The grid of a task: `size x size` over `ranges` (`(low, high)`, default the task's
-    `PAPER` ranges), through the zero state on the other variables."""
-    key = paper_task(task)
-    low, high = ranges if ranges is not None else (PAPER[key]["low"], PAPER[key]["high"])
+def value_grid(task: str, low, high, size: int = GRID) -> ValueGrid:
+    """The `size x size` grid of a task (`DOMAIN.TASK` or a bare domain) over the ranges
+    `low..high` (per state variable; a feature map's box), through the zero state on the
+    variables not plotted."""
     low, high = np.asarray(low, dtype=np.float64), np.asarray(high, dtype=np.float64)
     if size < 1:
         raise ValueError(f"size must be >= 1; got {size}")
-    return ValueGrid(VALUE_AXES[key.split(".")[0]], low, high, int(size), int(size), np.zeros(len(low)))
+    return ValueGrid(VALUE_AXES[names.domain_of(task)], low, high, int(size), int(size),
+                     np.zeros(len(low)))
 
 
 def nrbf_factors(features: NRBF, dim: int, values) -> np.ndarray:
@@ -194,13 +183,6 @@ def centroid_states(features, grid: ValueGrid) -> np.ndarray | None:
     return out
 
 
-def _controls(task: str):
-    import tasks  # the suite, only for its controls
-
-    domain, name = paper_task(task).split(".")
-    return tasks.definition(domain, name).controls
-
-
 def _times(episode: int) -> list:
     """One row at `episode`, step 0 and sim_time 0."""
     return [rr.TimeColumn(names.EPISODE, sequence=[int(episode)]),
@@ -209,16 +191,16 @@ def _times(episode: int) -> list:
 
 
 def log_value_function(rec: rr.RecordingStream, task: str, features, weights, episode: int, *,
-                       size: int = GRID, ranges=None) -> dict:
+                       size: int = GRID) -> dict:
     """Log max_a Q, the greedy action and the centroids of `features` (a `FeatureMap`) with
-    `weights` `(N, A)` over the task's grid at `episode`. Returns `{"max_q": (h, w) array,
-    "greedy": (h, w) classes, "centroids": (n, 2) pixels or None}`."""
-    grid = value_grid(task, size, ranges)
+    `weights` `(N, A)` over the task's grid on the features' ranges at `episode`. Returns
+    `{"max_q": (h, w) array, "greedy": (h, w) classes, "centroids": (n, 2) pixels or None}`."""
+    grid = value_grid(task, features.low, features.high, size)
     q = q_on_grid(grid, features, weights)
     max_q = q.max(axis=-1)
     low, high = float(max_q.min()), float(max_q.max())
     classes = greedy_classes(q)
-    controls = _controls(task)
+    controls = names.task_definition(task).controls
     if len(controls) != q.shape[-1]:
         raise ValueError(f"weights have {q.shape[-1]} actions; {task} has {len(controls)}")
     times = _times(episode)
@@ -243,12 +225,12 @@ def _split_wraps(pixels, grid: ValueGrid) -> list:
     return [piece for piece in np.split(pixels, cuts) if len(piece) > 1]
 
 
-def log_value_path(rec: rr.RecordingStream, recording, *, size: int = GRID, ranges=None,
+def log_value_path(rec: rr.RecordingStream, recording, low, high, *, size: int = GRID,
                    indexes: list | None = None) -> None:
-    """An episode's observed states over the value images: `value/state` at each step and the
-    whole `value/trajectory` (at the episode, step 0 and sim_time 0). `indexes`: the time
-    columns of steps 0..T, if already built."""
-    grid = value_grid(recording.task, size, ranges)
+    """An episode's observed states over the value images on the ranges `low..high`:
+    `value/state` at each step and the whole `value/trajectory` (at the episode, step 0 and
+    sim_time 0). `indexes`: the time columns of steps 0..T, if already built."""
+    grid = value_grid(recording.task, low, high, size)
     pixels = grid.to_pixels(recording.observations).astype(np.float32)  # float64 is 100x slower
     if indexes is None:
         indexes = episode_indexes(np.arange(len(pixels)), recording.timestep, recording.episode)
