@@ -11,7 +11,7 @@ Runs that differ only in trace, alpha, lambda, epsilon and seeds are joined into
 that one learner and one stepper run together (the learner takes those per agent, and an
 agent's numbers do not depend on its batch): a grid of small runs costs about as much as
 one large one. Backends: `local` runs one batch at a time on this machine, on all its cores
-(the learner's threads); `ray` sends batches to a Ray cluster (`pip install -e '.[ray]'`),
+(the learner's threads), its progress bar moving as episodes finish; `ray` sends batches to a Ray cluster (`pip install -e '.[ray]'`),
 one task each, and writes their results here as they come back.
 """
 
@@ -71,9 +71,10 @@ def batches(configs, max_agents: int = MAX_BATCH_AGENTS) -> list:
     return result
 
 
-def run_batch(configs) -> list:
+def run_batch(configs, progress=None) -> list:
     """Run several configurations as one batch of agents; one tidy table per configuration,
-    equal to running each alone (agents are independent)."""
+    equal to running each alone (agents are independent). `progress(agent_episodes)` is
+    called as episodes finish."""
     base = configs[0]
     per_agent = [config for config in configs for _ in range(config.agents)]
     seeds = [seed for config in configs for seed in config.seeds]
@@ -81,7 +82,7 @@ def run_batch(configs) -> list:
     agent = BatchedSarsa(base.feature_map(), num_actions, alpha=[c.alpha for c in per_agent], lam=[c.lam for c in per_agent],
                          epsilon=[c.epsilon for c in per_agent], trace=[c.trace for c in per_agent],
                          gamma=base.gamma, seeds=seeds)
-    _, results = run(base, agent=agent, seeds=seeds)
+    _, results = run(base, agent=agent, seeds=seeds, progress=progress)
     if results.interrupted:
         raise KeyboardInterrupt
     tables, start = [], 0
@@ -107,12 +108,16 @@ def _write_atomically(table: pd.DataFrame, path: str) -> None:
     os.replace(partial, path)
 
 
-def _local(configs):
+def _agent_episodes(configs) -> int:
+    return sum(config.agents * config.episodes for config in configs)
+
+
+def _local(configs, progress):
     for batch in batches(configs):
-        yield from zip(batch, run_batch(batch))
+        yield from zip(batch, run_batch(batch, progress))
 
 
-def _ray(configs, address):
+def _ray(configs, address, progress):
     try:
         import ray
     except ImportError:
@@ -125,7 +130,9 @@ def _ray(configs, address):
         while pending:
             done, _ = ray.wait(list(pending), num_returns=1)
             batch = pending.pop(done[0])
-            yield from zip(batch, ray.get(done[0]))
+            tables = ray.get(done[0])
+            progress(_agent_episodes(batch))
+            yield from zip(batch, tables)
     finally:
         for ref in pending:
             ray.cancel(ref, force=True)
@@ -149,14 +156,13 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
     os.makedirs(runs_dir, exist_ok=True)
     paths = {run_key(config): os.path.join(runs_dir, run_key(config) + ".csv.gz") for config in configs}
     pending = [config for config in configs if not os.path.exists(paths[run_key(config)])]
-    total = sum(config.agents * config.episodes for config in configs)
-    left = sum(config.agents * config.episodes for config in pending)
+    total, left = _agent_episodes(configs), _agent_episodes(pending)
     with tqdm.tqdm(total=total, initial=total - left, desc=description, unit="agent-episode",
                    file=sys.stderr, disable=None, smoothing=0.05) as bar:
-        finished = _local(pending) if backend == "local" else _ray(pending, address)
+        finished = (_local(pending, bar.update) if backend == "local"
+                    else _ray(pending, address, bar.update))
         for config, table in finished:
             _write_atomically(table, paths[run_key(config)])
-            bar.update(config.agents * config.episodes)
     return load_results([paths[run_key(config)] for config in configs]), len(pending)
 
 
