@@ -55,6 +55,22 @@ _positive_int = _integer_at_least(1, "positive")
 _non_negative_int = _integer_at_least(0, "non-negative")
 
 
+def _reading(text: str) -> tuple:
+    """`NAME=VALUE` of `--set`: VALUE `none`, a number, numbers separated by commas (a tuple)
+    or a word."""
+    name, equals, value = text.partition("=")
+    if not equals or not name or not value:
+        raise argparse.ArgumentTypeError(f"must be NAME=VALUE (e.g. r2=0.05, epsilon=0, "
+                                         f"track_limit=none, centroids=edges); got {text!r}")
+    if value.lower() == "none":
+        return name, None
+    try:
+        numbers = tuple(float(part) for part in value.split(","))
+    except ValueError:
+        return name, value
+    return name, numbers if len(numbers) > 1 else numbers[0]
+
+
 def cmd_tasks(args) -> None:
     """Print every task with its plants, the default first."""
     del args
@@ -188,7 +204,7 @@ def cmd_reproduce(args) -> int:
                          "pip install -e '.[paper]'") from None
     path = reproduce(args.item, args.out, plant=args.plant, quick=args.quick,
                      integrator=args.integrator, backend=args.backend, workers=args.workers,
-                     address=args.address, r2=args.r2)
+                     address=args.address, readings=dict(args.readings))
     print(f"wrote {path}, the figures in {os.path.join(args.out, 'figures')} and each item's "
           f"results under {args.out}")
     return 0
@@ -299,9 +315,11 @@ def build_parser() -> argparse.ArgumentParser:
                        help="plant of the pendulum and cart-pole (Mountain-Car has only the analytic one)")
     paper.add_argument("--integrator", choices=("semi_implicit", "explicit"), default="semi_implicit",
                        help="Euler scheme of the analytic plant")
-    paper.add_argument("--r2", type=float, default=0.01,
-                       help="NRBF spread r^2 of every run (the paper's 0.01; the author's "
-                            "cart-pole script used 0.05)")
+    paper.add_argument("--set", metavar="NAME=VALUE", type=_reading, action="append", default=[],
+                       dest="readings",
+                       help="a reading of an open point for every run that has it (repeatable): "
+                            "r2=0.05, epsilon=0, centroids=edges, low=A,B,.., high=A,B,.. or a "
+                            "task option such as track_limit=none")
     paper.add_argument("--quick", action="store_true", help="tiny grids: a smoke test in seconds")
     paper.add_argument("--out", metavar="DIR", default="reproduction", help="output directory (default: reproduction)")
     paper.add_argument("--workers", type=_positive_int, help="threads of the local backend (default: all cores)")

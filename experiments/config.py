@@ -29,6 +29,11 @@ PAPER = {
 the cart-pole, the author's script) reports; epsilon; and the protocol's episodes and agents."""
 
 
+CENTROID_PLACEMENTS = ("midpoints", "edges")
+OPTIONAL_FIELDS = ("low", "high", "centroids", "task_options")
+"""Readings of SPEC.md's open points that a run sets only to depart from the default."""
+
+
 @dataclasses.dataclass
 class RunConfig:
     """One run: B agents of one configuration, each with its own seed, on one task and plant.
@@ -68,19 +73,37 @@ class RunConfig:
     """Number of agents B; agent b is seeded with `seed + b`."""
     seed: int = 0
     """Seed of agent 0 (its starts and its random stream)."""
+    low: tuple | None = None
+    """Lower ends of the normalisation ranges (None: the paper's, `PAPER`)."""
+    high: tuple | None = None
+    """Upper ends of the normalisation ranges (default: the paper's)."""
+    centroids: str = "midpoints"
+    """NRBF centroid placement: `midpoints` of n cells, `(i + 0.5) / n` (the author's code),
+    or `edges`, `i / (n - 1)`, from one end of each range to the other (SPEC.md leaves it
+    open: the paper says "regularly spaced")."""
+    task_options: dict = dataclasses.field(default_factory=dict)
+    """Options of the task (e.g. the cart-pole's `track_limit`; `tasks.resolve` checks them)."""
 
     def __post_init__(self):
         if self.task not in PAPER:
             raise ValueError(f"unknown task {self.task!r}; available: {', '.join(PAPER)}")
         for name, value in PAPER[self.task].items():
-            if name in ("low", "high"):
-                continue
-            if getattr(self, name) is None:
+            if getattr(self, name) is None and name not in ("low", "high"):
                 setattr(self, name, value)
         if self.trace not in TRACES:
             raise ValueError(f"unknown trace {self.trace!r}; allowed: {', '.join(TRACES)}")
         if self.features not in ("nrbf", "cmac"):
             raise ValueError(f"unknown features {self.features!r}; allowed: nrbf, cmac")
+        if self.centroids not in CENTROID_PLACEMENTS:
+            raise ValueError(f"unknown centroid placement {self.centroids!r}; allowed: "
+                             f"{', '.join(CENTROID_PLACEMENTS)}")
+        for name in ("low", "high"):
+            if getattr(self, name) is None:
+                continue
+            if len(getattr(self, name)) != len(PAPER[self.task]["low"]):
+                raise ValueError(f"{name} must have one value per state variable of {self.task} "
+                                 f"({len(PAPER[self.task]['low'])}); got {getattr(self, name)!r}")
+            setattr(self, name, tuple(float(value) for value in getattr(self, name)))
         for name in ("episodes", "agents"):
             check_count(name, getattr(self, name), 1)
         if not (isinstance(self.seed, (int, np.integer)) and self.seed >= 0):
@@ -99,13 +122,29 @@ class RunConfig:
         """One seed per agent: `seed`, `seed + 1`, ..."""
         return list(range(self.seed, self.seed + self.agents))
 
-    def feature_map(self):
-        """The agents' features over the task's normalisation ranges."""
+    @property
+    def ranges(self) -> tuple:
+        """`(low, high)`: the normalisation ranges set here, else the paper's."""
         paper = PAPER[self.task]
+        return (self.low if self.low is not None else tuple(paper["low"]),
+                self.high if self.high is not None else tuple(paper["high"]))
+
+    def feature_map(self):
+        """The agents' features over the normalisation ranges.
+
+        Centroids at the `edges` are the midpoint grid of `agent.nrbf` over ranges widened by
+        half a spacing, `(high - low) / (2 (n - 1))`, at each end, with r^2 scaled by
+        `((n - 1) / n)^2`: in those units the distances, and so the features, are the same."""
+        low, high = self.ranges
         if self.features == "cmac":
-            return CMAC(paper["low"], paper["high"], intervals=self.n, tilings=self.tilings,
+            return CMAC(low, high, intervals=self.n, tilings=self.tilings,
                         normalise_alpha=self.normalise_alpha)
-        return NRBF(paper["low"], paper["high"], self.n, self.r2)
+        if self.centroids == "edges":
+            low, high = np.array(low), np.array(high)
+            half = (high - low) / (2 * (self.n - 1))
+            return NRBF(tuple(low - half), tuple(high + half), self.n,
+                        self.r2 * ((self.n - 1) / self.n) ** 2)
+        return NRBF(low, high, self.n, self.r2)
 
     @property
     def name(self) -> str:
@@ -115,3 +154,15 @@ class RunConfig:
 
     def to_json(self) -> str:
         return json.dumps(dataclasses.asdict(self), indent=2)
+
+    def key_json(self) -> str:
+        """The JSON that identifies the run's results: every field, but the readings in
+        `OPTIONAL_FIELDS` only where set, so that results computed before those options
+        existed keep their identity."""
+        fields = dataclasses.asdict(self)
+        for field in dataclasses.fields(self):
+            default = (field.default if field.default_factory is dataclasses.MISSING
+                       else field.default_factory())
+            if field.name in OPTIONAL_FIELDS and fields[field.name] == default:
+                del fields[field.name]
+        return json.dumps(fields, indent=2)

@@ -16,8 +16,7 @@ import json
 import os
 import time
 
-from agent.nrbf import DEFAULT_R2
-
+import tasks
 from experiments import sweep
 from experiments.paper import ITEMS
 
@@ -45,14 +44,45 @@ def selected(items) -> list:
     return [name for name in ITEMS if name in names or "all" in names]
 
 
+NRBF_READINGS = ("r2", "centroids")
+"""Readings that only NRBF runs have (the CMAC baseline's runs keep theirs)."""
+CONFIG_READINGS = NRBF_READINGS + ("epsilon", "low", "high")
+"""RunConfig fields `readings` may set; any other name must be an option of a task."""
+
+
+def with_readings(configs, readings: dict) -> list:
+    """The runs with `readings` (`{name: value}`) in place of the defaults: the fields in
+    `CONFIG_READINGS` and the options of the runs' tasks (e.g. the cart-pole's
+    `track_limit`), each applied to the runs that have it. A name no run has is an error."""
+    used = set()
+    configs = list(configs)
+    for index, config in enumerate(configs):
+        options = tasks.task_options(config.domain, config.task_name)
+        fields, task_options = {}, dict(config.task_options)
+        for name, value in readings.items():
+            if name in CONFIG_READINGS and (config.features == "nrbf" or name not in NRBF_READINGS):
+                fields[name] = value
+            elif name in options:
+                task_options[name] = value
+            else:
+                continue
+            used.add(name)
+        configs[index] = dataclasses.replace(config, **fields, task_options=task_options)
+    unused = sorted(set(readings) - used)
+    if unused:
+        raise ValueError(f"no run of these items has the reading {unused[0]!r}; allowed: "
+                         f"{', '.join(CONFIG_READINGS)} and the tasks' options")
+    return configs
+
+
 def reproduce(item, out_dir: str, plant: str = "analytic", quick: bool = False,
               integrator: str = "semi_implicit", backend: str = "local",
               workers: int | None = None, address: str | None = None,
-              r2: float = DEFAULT_R2) -> str:
+              readings: dict | None = None) -> str:
     """Run and analyse `item` (a name, `all`, or a list of names); return the report's path.
 
-    `r2` is the NRBF spread of every run (the paper's 0.01; the author's cart-pole script
-    used 0.05). The wall time of each item is kept in `timings.json` from the invocation
+    `readings` sets SPEC.md's open points for every run that has them (`with_readings`),
+    e.g. `{"r2": 0.05}`: the author's cart-pole script's spread. The wall time of each item is kept in `timings.json` from the invocation
     that computed its runs (a resumed item: only the resumed part), so that re-analysing
     finished runs does not overwrite it.
     """
@@ -63,8 +93,7 @@ def reproduce(item, out_dir: str, plant: str = "analytic", quick: bool = False,
     timings = json.load(open(timings_path)) if os.path.exists(timings_path) else {}
     sections = {}
     for name in names:
-        configs = [dataclasses.replace(config, r2=r2) if config.features == "nrbf" else config
-                   for config in ITEMS[name].configs(plant, quick, integrator)]
+        configs = with_readings(ITEMS[name].configs(plant, quick, integrator), readings or {})
         start = time.perf_counter()
         results, computed = sweep.run_sweep(configs, out_dir, backend=backend, workers=workers,
                                             address=address, description=name)
@@ -80,16 +109,24 @@ def reproduce(item, out_dir: str, plant: str = "analytic", quick: bool = False,
         sections[name] = (ITEMS[name].analyse(results, figure_dir), len(configs), len(results))
     path = os.path.join(out_dir, "report.md")
     with open(path, "w") as file:
-        file.write(report(sections, timings, plant, integrator, quick, out_dir, r2))
+        file.write(report(sections, timings, plant, integrator, quick, out_dir, readings or {}))
     return path
 
 
+def describe_readings(readings: dict) -> str:
+    """`readings` for the report's header (the defaults: SPEC.md's readings, listed below)."""
+    if not readings:
+        return "every open point at its default reading (below)"
+    return "readings departing from the defaults: " + ", ".join(
+        f"{name} = {value}" for name, value in readings.items())
+
+
 def report(sections: dict, timings: dict, plant: str, integrator: str, quick: bool,
-           out_dir: str, r2: float) -> str:
+           out_dir: str, readings: dict) -> str:
     """The Markdown report: a headline table, then each item's numbers beside the paper's."""
     lines = [f"# Reproduction of Främling (2008){' — quick smoke run' if quick else ''}", "",
              f"Plant: **{plant}** (Mountain-Car always analytic); Euler scheme: {integrator}; "
-             f"NRBF spread r² = {r2:g}. Written {datetime.date.today().isoformat()}. Wall time: "
+             f"{describe_readings(readings)}. Written {datetime.date.today().isoformat()}. Wall time: "
              "of the invocation that computed the item's runs, on this machine (an item that "
              "shares another's runs, like Table 1, or resumed an interrupted run shows less).",
              "", "| item | reproduces? | runs | rows | wall time (s) |", "|---|---|---|---|---|"]

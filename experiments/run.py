@@ -293,7 +293,7 @@ def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, see
 
 def make_agent(config) -> BatchedSarsa:
     """The `config.agents` agents of a `RunConfig`, with zero weights."""
-    definition = tasks.definition(config.domain, config.task_name)
+    definition = tasks.definition(config.domain, config.task_name, **config.task_options)
     return BatchedSarsa(config.feature_map(), definition.num_actions, alpha=config.alpha,
                         lam=config.lam, epsilon=config.epsilon, trace=config.trace,
                         gamma=config.gamma, seeds=config.seeds)
@@ -313,9 +313,10 @@ def run(config, agent: BatchedSarsa | None = None, learn: bool = True,
         plant == "analytic" and tasks.DOMAINS[domain].PLANTS.euler) else {}
     if plant == "analytic":
         results = run_compiled(domain, task, agent, config.episodes, seeds, learn=learn,
-                               progress=progress, record=record, **plant_options)
+                               progress=progress, record=record, **plant_options,
+                               **config.task_options)
     else:
-        env = BatchedEnv(domain, task, plant, seeds, **plant_options)
+        env = BatchedEnv(domain, task, plant, seeds, **plant_options, **config.task_options)
         results = run_batched(env, agent, config.episodes, learn=learn, progress=progress,
                               record=record)
     return agent, results

@@ -39,7 +39,7 @@ BACKENDS = ("local", "ray")
 
 def run_key(config: RunConfig) -> str:
     """A file name for a run: readable, and unique to its whole configuration."""
-    digest = hashlib.sha1(config.to_json().encode()).hexdigest()[:12]
+    digest = hashlib.sha1(config.key_json().encode()).hexdigest()[:12]
     return f"{config.name}-{digest}"
 
 
@@ -56,7 +56,7 @@ def batches(configs, max_agents: int = MAX_BATCH_AGENTS) -> list:
     groups = {}
     for config in configs:
         fields = dataclasses.asdict(config)
-        key = tuple((name, fields[name]) for name in sorted(fields) if name not in BATCHED_FIELDS)
+        key = json.dumps({name: fields[name] for name in sorted(fields) if name not in BATCHED_FIELDS})
         groups.setdefault(key, []).append(config)
     result = []
     for group in groups.values():

@@ -36,31 +36,37 @@ def _domain(domain: str):
     return DOMAINS[domain]
 
 
+def task_options(domain: str, task: str) -> list:
+    """The names of a task's options (e.g. `time_limit`, `track_limit`)."""
+    module = _domain(domain)
+    if task not in module.SUITE:
+        raise ValueError(f"unknown task {task!r} of domain {domain!r}; available: "
+                         f"{', '.join(module.SUITE)}")
+    return list(inspect.signature(module.SUITE[task]).parameters)
+
+
 def resolve(domain: str, task: str, plant=None, **options):
     """Check a task, a plant and options; return `(definition, plant, plant_options)`.
 
     Options are the task's (e.g. `time_limit`, `track_limit`) and, for the analytic plant
     of pendulum and cartpole, `integrator`.
     """
+    task_option_names = task_options(domain, task)
     module = _domain(domain)
-    if task not in module.SUITE:
-        raise ValueError(f"unknown task {task!r} of domain {domain!r}; available: "
-                         f"{', '.join(module.SUITE)}")
     plants = module.PLANTS.names
     plant = plants[0] if plant is None else plant
     if plant not in plants:
         raise ValueError(f"unknown plant {plant!r} for {domain}; available: {', '.join(plants)}")
-    task_options = list(inspect.signature(module.SUITE[task]).parameters)
     plant_options = ["integrator"] if plant == "analytic" and module.PLANTS.euler else []
-    unknown = sorted(set(options) - set(task_options) - set(plant_options))
+    unknown = sorted(set(options) - set(task_option_names) - set(plant_options))
     if unknown:
-        allowed = ", ".join(["plant", "seed"] + task_options + plant_options)
+        allowed = ", ".join(["plant", "seed"] + task_option_names + plant_options)
         raise ValueError(f"unknown option {unknown[0]!r} for {domain}.{task} on the {plant} "
                          f"plant; allowed: {allowed}")
     if "time_limit" in options and not (isinstance(options["time_limit"], (int, float))
                                         and 0 < options["time_limit"] <= math.inf):
         raise ValueError(f"time_limit must be a positive number; got {options['time_limit']!r}")
-    definition = module.SUITE[task](**{k: v for k, v in options.items() if k in task_options})
+    definition = module.SUITE[task](**{k: v for k, v in options.items() if k in task_option_names})
     return definition, plant, {k: v for k, v in options.items() if k in plant_options}
 
 

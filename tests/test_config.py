@@ -1,0 +1,90 @@
+"""Run configurations: the open readings of SPEC.md they can set, and the keys of results."""
+
+import itertools
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from experiments import sweep
+from experiments.config import RunConfig
+from experiments.paper import ITEMS
+from experiments.reproduce import with_readings
+from experiments.run import run
+
+
+def test_edge_centroids_are_the_grid_from_end_to_end():
+    """`centroids="edges"`: features of centroids at i / (n - 1) over the ranges, with the
+    configuration's r^2, computed directly here."""
+    config = RunConfig(task="cartpole.balance", centroids="edges", r2=0.02)
+    low, high = map(np.array, config.ranges)
+    centres = np.array(list(itertools.product(*[np.arange(6) / 5] * 4)))
+    states = np.random.default_rng(1).uniform(-1.3, 1.3, (50, 4)) * high
+    distances = ((((states - low) / (high - low))[:, None, :] - centres[None]) ** 2).sum(axis=2)
+    phi = np.exp(-distances / 0.02)
+    np.testing.assert_allclose(config.feature_map().features(states),
+                               phi / phi.sum(axis=1, keepdims=True), atol=1e-12)
+    midpoints = RunConfig(task="cartpole.balance", r2=0.02).feature_map().features(states)
+    assert np.abs(midpoints - config.feature_map().features(states)).max() > 0.1
+
+
+def test_ranges_default_to_the_paper_and_can_be_set():
+    config = RunConfig(task="pendulum.swingup", low=(-3, -3), high=(3, 3))
+    assert config.feature_map().low == (-3.0, -3.0) and config.feature_map().high == (3.0, 3.0)
+    assert RunConfig(task="pendulum.swingup").feature_map().high[1] == 1.5
+    with pytest.raises(ValueError, match="low must have one value per state variable of "
+                                         "pendulum.swingup \\(2\\)"):
+        RunConfig(task="pendulum.swingup", low=(-1, -1, -1))
+    with pytest.raises(ValueError, match="unknown centroid placement 'corners'; allowed: midpoints, edges"):
+        RunConfig(task="pendulum.swingup", centroids="corners")
+
+
+def test_optional_readings_enter_a_runs_key_only_when_set():
+    """Results computed before a reading existed keep their key; setting it changes the key."""
+    plain = RunConfig(task="cartpole.balance")
+    assert "centroids" not in plain.key_json() and "task_options" not in plain.key_json()
+    keys = {sweep.run_key(config) for config in (
+        plain, RunConfig(task="cartpole.balance", centroids="edges"),
+        RunConfig(task="cartpole.balance", task_options={"track_limit": None}),
+        RunConfig(task="cartpole.balance", low=(-3, -2, -0.3, -3)))}
+    assert len(keys) == 4
+
+
+def test_task_options_reach_the_task_on_both_plants():
+    """A 0.1 s time limit (5 steps; the pole cannot fall that fast from upright) cuts every
+    episode at 5 steps, on both plants."""
+    for plant in ("analytic", "mujoco"):
+        config = RunConfig(task="cartpole.balance", plant=plant, agents=3, episodes=2,
+                           task_options={"time_limit": 0.1})
+        results = run(config)[1]
+        assert np.all(results.steps == 5) and results.truncated.all()
+    with pytest.raises(ValueError, match="unknown option 'friction' for cartpole.balance"):
+        run(RunConfig(task="cartpole.balance", agents=1, episodes=1, task_options={"friction": 0}))
+
+
+def test_readings_apply_to_the_runs_that_have_them():
+    configs = ITEMS["fig2"].configs("analytic", True, "semi_implicit") + \
+        ITEMS["fig8"].configs("analytic", True, "semi_implicit")
+    changed = with_readings(configs, {"r2": 0.05, "epsilon": 0.0, "track_limit": None})
+    for before, after in zip(configs, changed):
+        assert after.r2 == (0.05 if before.features == "nrbf" else before.r2)
+        assert after.epsilon == 0.0
+        assert after.task_options == ({"track_limit": None} if before.domain == "cartpole" else {})
+    with pytest.raises(ValueError, match="no run of these items has the reading 'track_limit'"):
+        with_readings(ITEMS["fig2"].configs("analytic", True, "semi_implicit"), {"track_limit": 3})
+
+
+def test_reproduce_sets_readings_from_the_command_line(tmp_path):
+    result = subprocess.run(
+        [sys.executable, "-m", "experiments.cli", "reproduce", "fig8", "--quick", "--out",
+         str(tmp_path), "--set", "track_limit=none", "--set", "centroids=edges"],
+        capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    report = (tmp_path / "report.md").read_text()
+    assert "readings departing from the defaults: track_limit = None, centroids = edges" in report
+    configs = (tmp_path / "fig8" / "configs.jsonl").read_text()
+    assert '"track_limit": null' in configs and '"centroids": "edges"' in configs
+    bad = subprocess.run([sys.executable, "-m", "experiments.cli", "reproduce", "fig8", "--quick",
+                          "--out", str(tmp_path), "--set", "r2"], capture_output=True, text=True)
+    assert bad.returncode == 2 and "must be NAME=VALUE" in bad.stderr.strip().splitlines()[-1]
