@@ -153,6 +153,11 @@ def markdown_table(table: pd.DataFrame) -> list[str]:
     return lines + ["| " + " | ".join(map(str, row)) + " |" for row in table.itertuples(index=False)]
 
 
+def _block(text: str, table: pd.DataFrame, figure: str | None = None) -> list[str]:
+    """A paragraph, its table and (optionally) its figure, as report lines."""
+    return [text, ""] + markdown_table(table) + [""] + ([figure, ""] if figure else [])
+
+
 def report(comparison, figures: dict, paper_sections: dict, out_dir: str) -> str:
     """The Markdown report of a `compare.Comparison`."""
     open_result, closed_result = comparison.open_loop, comparison.closed_loop
@@ -172,27 +177,27 @@ def report(comparison, figures: dict, paper_sections: dict, out_dir: str) -> str
              "Wall time on this machine: " + ", ".join(
                  f"{part} {seconds:.0f} s" for part, seconds in comparison.timings.items()) + ".",
              "", "Plants: " + "; ".join(f"`{name}` {label}" for name, label in ol.LABELS.items()) + ".",
-             "", "## Open loop", "",
-             f"Each trial starts from the task's start (seed s) and applies the same "
-             f"{open_result.horizon} uniformly random actions ({open_result.horizon * open_result.timestep:g} s) "
-             f"on every plant, ignoring terminations. Tolerance: {tolerance} from the other plant "
-             "(angles compared modulo 2π). The reference is MuJoCo's RK4 with "
-             f"{open_result.substeps} steps per control step; `reference_2x` halves its step again, "
-             "so the last row bounds the reference's own error.", ""]
-    lines += markdown_table(divergence_table(open_result))
-    lines += ["", figure("divergence"), "",
-              "Energy: zero action from the task's start (the cart-pole's pole tilted by "
-              "θ ~ U[−12°, 12°]), with the paper's friction; drift is the plant's mechanical "
-              "energy minus the reference's, mean ± standard error over the trials.", ""]
-    lines += markdown_table(energy_table(open_result))
-    lines += ["", "## Closed loop", "",
-              f"{len(seeds)} agents per plant, {config.trace} traces, α {config.alpha:g}, "
-              f"λ {config.lam:g}, ε {config.epsilon:g}, NRBF {config.n}^d with r² {config.r2:g}, "
-              f"{config.episodes} episodes (the paper's settings, `experiments/config.py`); "
-              "means ± standard errors over agents of each agent's mean up-time.", ""]
-    lines += markdown_table(learning_table(closed_result))
-    lines += ["", figure("learning_curves"), "",
-              "MuJoCo and the analytic semi-implicit plant agree to round-off, so their agents "
+             "", "## Open loop", ""]
+    lines += _block(
+        f"Each trial starts from the task's start (seed s) and applies the same "
+        f"{open_result.horizon} uniformly random actions ({open_result.horizon * open_result.timestep:g} s) "
+        f"on every plant, ignoring terminations. Tolerance: {tolerance} from the other plant "
+        "(angles compared modulo 2π). The reference is MuJoCo's RK4 with "
+        f"{open_result.substeps} steps per control step; `reference_2x` halves its step again, "
+        "so the last row bounds the reference's own error.",
+        divergence_table(open_result), figure("divergence"))
+    lines += _block(
+        "Energy: zero action from the task's start (the cart-pole's pole tilted by "
+        "θ ~ U[−12°, 12°]), with the paper's friction; drift is the plant's mechanical "
+        "energy minus the reference's, mean ± standard error over the trials.",
+        energy_table(open_result))
+    lines += ["## Closed loop", ""] + _block(
+        f"{len(seeds)} agents per plant, {config.trace} traces, α {config.alpha:g}, "
+        f"λ {config.lam:g}, ε {config.epsilon:g}, NRBF {config.n}^d with r² {config.r2:g}, "
+        f"{config.episodes} episodes (the paper's settings, `experiments/config.py`); "
+        "means ± standard errors over agents of each agent's mean up-time.",
+        learning_table(closed_result), figure("learning_curves"))
+    lines += ["MuJoCo and the analytic semi-implicit plant agree to round-off, so their agents "
               "live the same episodes until a round-off difference flips an action: the first "
               "episode whose steps or return differ, per seed: "
               + ", ".join(f"seed {seed}: {'never' if np.isnan(e) else int(e)}"
@@ -202,11 +207,10 @@ def report(comparison, figures: dict, paper_sections: dict, out_dir: str) -> str
                   "| quantity | ours | paper |", "|---|---|---|"]
         lines += [f"| {quantity} | {ours} | {paper} |" for quantity, ours, paper in section.rows]
         lines.append("")
-    lines += ["## Transfer", "",
-              f"Each trained batch run greedily (ε = 0, no learning) for "
-              f"{closed_result.transfer['episode'].max()} episode(s) per agent on every plant, "
-              f"from starts of seeds {cl.EVAL_SEED}.. (away from training); up-time per episode "
-              "(s), mean ± standard error over agents.", ""]
-    lines += markdown_table(transfer_table(transfer_statistics(closed_result)))
-    lines += ["", figure("transfer"), ""]
+    lines += ["## Transfer", ""] + _block(
+        f"Each trained batch run greedily (ε = 0, no learning) for "
+        f"{closed_result.transfer['episode'].max()} episode(s) per agent on every plant, "
+        f"from starts of seeds {cl.EVAL_SEED}.. (away from training); up-time per episode "
+        "(s), mean ± standard error over agents.",
+        transfer_table(transfer_statistics(closed_result)), figure("transfer"))
     return "\n".join(lines) + "\n"
