@@ -8,6 +8,8 @@
     lwrl eval PATH [--episodes K] [--seed S]       run saved agents greedily
     lwrl reproduce {fig2,fig3,fig5,fig6,fig8,table1,all}... [--plant P] [--quick] [--out DIR]
                                                    the paper's figures and table, and a report
+    lwrl compare DOMAIN.TASK [--seeds N] [--episodes K] [--out DIR] [--rrd PATH] [--quick]
+                                                   the analytic and MuJoCo plants compared
     lwrl export PATH --c OUT_DIR [--agent I]       a saved agent as a C99 controller
     lwrl view PATH [--web]                         open a Rerun recording of lwrl train --rrd
 
@@ -210,6 +212,30 @@ def cmd_reproduce(args) -> int:
     return 0
 
 
+def cmd_compare(args) -> int:
+    """Compare the plants of a task open loop, closed loop and in transfer; write a report."""
+    try:
+        from experiments import closed_loop, compare
+    except ImportError as error:
+        raise ValueError(f"lwrl compare needs the 'paper' extra ({error.name} is missing): "
+                         "pip install -e '.[paper]'") from None
+    compare.check_task(args.task)
+    episodes = compare.QUICK["episodes"] if args.quick else args.episodes
+    total = closed_loop.total_episodes(args.task, args.seeds, episodes,
+                                       compare.QUICK["eval_episodes"] if args.quick else None)
+    print(f"comparing the plants of {args.task} with seeds 0..{args.seeds - 1}"
+          f"{' (quick)' if args.quick else ''}")
+    bar, update = _progress_bar(total, "closed loop")
+    with bar:
+        result = compare.compare(args.task, seeds=args.seeds, episodes=args.episodes,
+                                 out_dir=args.out, rrd_path=args.rrd, quick=args.quick,
+                                 progress=update)
+    print(f"wrote {result.report_path}, the tables and figures under {args.out}"
+          + (f" and the recording {args.rrd}" if args.rrd else ""))
+    print("wall time: " + ", ".join(f"{part} {seconds:.0f} s" for part, seconds in result.timings.items()))
+    return 0
+
+
 def cmd_view(args) -> int:
     """Open a saved Rerun recording in the viewer, or serve the web viewer on 127.0.0.1."""
     from viz import rerun as viz
@@ -326,6 +352,23 @@ def build_parser() -> argparse.ArgumentParser:
     paper.add_argument("--backend", choices=("local", "ray"), default="local")
     paper.add_argument("--address", help="Ray cluster address (default: start a local Ray instance)")
     paper.set_defaults(run=cmd_reproduce)
+
+    comparison = commands.add_parser(
+        "compare", help="compare the analytic and MuJoCo plants of a task",
+        description="Open loop (divergence from an RK4 reference, energy drift), closed loop "
+                    "(the paper's agent learning on each plant) and transfer (trained on one "
+                    "plant, run greedily on the others), written as a report with figures.")
+    comparison.add_argument("task", metavar="DOMAIN.TASK",
+                            help="a task with a MuJoCo plant: pendulum.swingup or cartpole.balance")
+    comparison.add_argument("--seeds", type=_positive_int, default=10,
+                            help="open-loop trials and agents per plant, seeds 0..N-1 (default 10)")
+    comparison.add_argument("--episodes", type=_positive_int,
+                            help="training episodes per agent (default: the paper's)")
+    comparison.add_argument("--out", metavar="DIR", default="compare", help="output directory (default: compare)")
+    comparison.add_argument("--rrd", metavar="PATH",
+                            help="save a Rerun recording of the plants' trajectories from one start")
+    comparison.add_argument("--quick", action="store_true", help="short horizons: a smoke test in seconds")
+    comparison.set_defaults(run=cmd_compare)
 
     view = commands.add_parser("view", help="open a saved Rerun recording")
     view.add_argument("path", metavar="PATH", help="an .rrd file (lwrl train --rrd)")

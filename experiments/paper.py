@@ -123,11 +123,12 @@ def plot_against_lambda(best: pd.DataFrame, ylabel: str, title: str, log: bool =
     return figure
 
 
-def plot_learning_curve(results: pd.DataFrame, value: str, ylabel: str, title: str):
-    """Mean over agents per episode, with a band of one standard error."""
+def plot_learning_curve(results: pd.DataFrame, value: str, ylabel: str, title: str, axes=None):
+    """Mean over agents per episode, with a band of one standard error; on `axes` if given
+    (a panel of a larger figure), else on a figure of its own."""
     curve = results.groupby("episode")[value].agg(["mean", "std", "count"])
     error = curve["std"] / np.sqrt(curve["count"])
-    figure, axes = plt.subplots(figsize=(6, 4))
+    figure, axes = plt.subplots(figsize=(6, 4)) if axes is None else (axes.figure, axes)
     axes.plot(curve.index, curve["mean"], label="mean over agents")
     axes.fill_between(curve.index, curve["mean"] - error, curve["mean"] + error, alpha=0.3,
                       label="± one standard error")

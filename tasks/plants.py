@@ -35,16 +35,18 @@ class AnalyticPlant:
 class MujocoPlant:
     """B copies of an MJCF model stepped with `mujoco.rollout`, one thread per core.
 
-    The model's timestep must equal the control step (one `mj_step` per agent step). The
-    full physics state is time, qpos and qvel: the models have no activations and no
-    contacts, so nothing else carries over between steps.
+    One agent step is `substeps` calls of `mj_step` with the control held (default 1: the
+    model's timestep is the control step; more, with a smaller timestep, for a fine
+    reference). The full physics state is time, qpos and qvel: the models have no
+    activations and no contacts, so nothing else carries over between steps.
     """
 
     _STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
 
-    def __init__(self, model: mujoco.MjModel, actuator: str, batch_size: int):
+    def __init__(self, model: mujoco.MjModel, actuator: str, batch_size: int, substeps: int = 1):
         self.model = model
-        self.timestep = float(model.opt.timestep)
+        self.substeps = int(substeps)
+        self.timestep = float(model.opt.timestep) * self.substeps
         self._actuator = model.actuator(actuator).id
         threads = max(1, min(batch_size, os.cpu_count() or 1))
         self._datas = [mujoco.MjData(model) for _ in range(threads)]
@@ -59,12 +61,13 @@ class MujocoPlant:
         physics_state = np.zeros((len(state), 1 + nq + self.model.nv))
         physics_state[:, 1:1 + nq] = state[:, 0::2]
         physics_state[:, 1 + nq:] = state[:, 1::2]
-        controls = np.zeros((len(state), 1, self.model.nu))
-        controls[:, 0, self._actuator] = control
-        after, _ = self._rollout.rollout(self.model, self._datas, physics_state, controls, nstep=1)
+        controls = np.zeros((len(state), self.substeps, self.model.nu))
+        controls[:, :, self._actuator] = np.asarray(control)[:, None]
+        after, _ = self._rollout.rollout(self.model, self._datas, physics_state, controls,
+                                         nstep=self.substeps)
         next_state = np.empty_like(state)
-        next_state[:, 0::2] = after[:, 0, 1:1 + nq]
-        next_state[:, 1::2] = after[:, 0, 1 + nq:]
+        next_state[:, 0::2] = after[:, -1, 1:1 + nq]
+        next_state[:, 1::2] = after[:, -1, 1 + nq:]
         return next_state
 
 

@@ -29,6 +29,9 @@ Entity paths (`RUN` is `agent{agent}_ep{episode:04d}`, one per logged episode):
   `value/centroids` (NRBF centroids, pixel coordinates), `value/state` (the agent's state
   per step), `value/trajectory` (the episode's path over the image).
 - `curves/<steps|returns|uptime>/agent<b>` and `.../mean`: learning curves on `episode`.
+- A comparison of plants (`lwrl compare --rrd`): `scene/<plant>/<body>` each plant's copy
+  of the moving bodies, `signals/state/<variable>/<plant>`, `signals/energy/<plant>` and
+  `signals/error/<variable>/<plant>`, on `step` and `sim_time` (episode 0).
 """
 
 STEP = "step"
@@ -53,6 +56,10 @@ RETURN = f"{SIGNALS}/return"
 TD_ERROR = f"{SIGNALS}/td_error"
 Q = f"{SIGNALS}/q"
 UPTIME = f"{SIGNALS}/uptime"
+ENERGY = f"{SIGNALS}/energy"
+"""A comparison of plants: mechanical energy, one series per plant."""
+ERROR = f"{SIGNALS}/error"
+"""A comparison of plants: |error| of each variable against the reference, per plant."""
 
 VALUE = "value"
 MAX_Q = f"{VALUE}/max_q"
@@ -74,9 +81,15 @@ def run_name(agent: int, episode: int) -> str:
     return f"agent{int(agent)}_ep{int(episode):04d}"
 
 
-def body_path(body: str) -> str:
-    """The entity of a MuJoCo body (`world` for the world body)."""
-    return f"{SCENE}/{body}"
+def body_path(body: str, root: str = SCENE) -> str:
+    """The entity of a MuJoCo body (`world` for the world body); `root` is the scene, or a
+    plant's copy of it in a comparison (`plant_root`)."""
+    return f"{root}/{body}"
+
+
+def plant_root(plant: str) -> str:
+    """The subtree of one plant's bodies in a recording that compares plants."""
+    return f"{SCENE}/{plant}"
 
 
 def state_path(variable: str, run: str) -> str:

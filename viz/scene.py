@@ -180,14 +180,15 @@ def _plane_grid(half_x: float, half_y: float, pos, quat, color) -> rr.LineStrips
     return rr.LineStrips3D(strips, radii=0.004, colors=color)
 
 
-def geom_archetypes(model: mujoco.MjModel, geom: int) -> list[tuple[str, object]]:
+def geom_archetypes(model: mujoco.MjModel, geom: int, rgba=None) -> list[tuple[str, object]]:
     """`(entity suffix, archetype)` pairs drawing one geom in its body's frame ('' for the
-    geom's own entity); empty for geom types not drawn (meshes, height fields)."""
+    geom's own entity); empty for geom types not drawn (meshes, height fields). `rgba`
+    (0-255) replaces the model's colour."""
     kind = model.geom_type[geom]
     size = model.geom_size[geom]
     pos = model.geom_pos[geom]
     quat = model.geom_quat[geom]
-    color = _rgba(model, geom)
+    color = _rgba(model, geom) if rgba is None else np.asarray(rgba, dtype=np.uint8)
     xyzw = [_xyzw(quat)]
     solid = rr.components.FillMode.Solid
     G = mujoco.mjtGeom
@@ -221,26 +222,50 @@ def geom_archetypes(model: mujoco.MjModel, geom: int) -> list[tuple[str, object]
     return []
 
 
-def log_model_geometry(rec: rr.RecordingStream, model: mujoco.MjModel) -> list[str]:
-    """Log every drawable geom, static, under `scene/<body>/<geom>`; return the paths.
-
-    Bodies welded to the world get their (fixed) pose as a static transform.
-    """
+def _log_geoms(rec: rr.RecordingStream, model: mujoco.MjModel, bodies, root: str,
+               rgba=None) -> list[str]:
+    """Log the drawable geoms of `bodies`, static, under `root/<body>/<geom>`."""
     paths = []
     for geom in range(model.ngeom):
         body = model.geom_bodyid[geom]
-        base = f"{names.body_path(body_name(model, body))}/{geom_name(model, geom)}"
-        for suffix, archetype in geom_archetypes(model, geom):
+        if body not in bodies:
+            continue
+        base = f"{names.body_path(body_name(model, body), root)}/{geom_name(model, geom)}"
+        for suffix, archetype in geom_archetypes(model, geom, rgba):
             path = f"{base}/{suffix}" if suffix else base
             log_static(rec, path, archetype)
             paths.append(path)
-    fixed = [b for b in range(1, model.nbody) if model.body_weldid[b] == 0]
+    return paths
+
+
+def log_fixed_geometry(rec: rr.RecordingStream, model: mujoco.MjModel) -> list[str]:
+    """Log the geoms of the world and of the bodies welded to it, static, under
+    `scene/<body>/<geom>`, with the welded bodies' (fixed) poses; return the geoms' paths."""
+    moving = set(moving_bodies(model))
+    fixed = [b for b in range(1, model.nbody) if b not in moving]
+    paths = _log_geoms(rec, model, {0, *fixed}, names.SCENE)
     if fixed:
         xpos, xquat = body_poses(model, model.qpos0[None])
         for body in fixed:
             log_static(rec, names.body_path(body_name(model, body)),
                        rr.Transform3D(translation=xpos[0, body], quaternion=_xyzw(xquat[0, body])))
     return paths
+
+
+def log_moving_geometry(rec: rr.RecordingStream, model: mujoco.MjModel, root: str = names.SCENE,
+                        rgba=None) -> list[str]:
+    """Log the geoms of the moving bodies, static, in their bodies' frames under
+    `root/<body>/<geom>` (a plant's copy of them under `names.plant_root(plant)`), in the
+    model's colours or `rgba`; return the paths."""
+    return _log_geoms(rec, model, set(moving_bodies(model)), root, rgba)
+
+
+def log_model_geometry(rec: rr.RecordingStream, model: mujoco.MjModel) -> list[str]:
+    """Log every drawable geom, static, under `scene/<body>/<geom>`; return the paths.
+
+    Bodies welded to the world get their (fixed) pose as a static transform.
+    """
+    return log_fixed_geometry(rec, model) + log_moving_geometry(rec, model)
 
 
 def hill_altitude(x) -> np.ndarray:
@@ -293,14 +318,16 @@ def mountain_car_poses(positions) -> tuple[np.ndarray, np.ndarray]:
     return translation, quaternion
 
 
-def scene_poses(task: str, states, model: mujoco.MjModel | None = None) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+def scene_poses(task: str, states, model: mujoco.MjModel | None = None,
+                root: str = names.SCENE) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """`{entity path: (translation (T, 3), quaternion (T, 4) x-first)}` of the moving bodies
-    for `(T, d)` states (`model`: the task's compiled model, to skip compiling it again)."""
+    for `(T, d)` states (`model`: the task's compiled model, to skip compiling it again;
+    `root`: where the bodies are, for the MuJoCo models)."""
     states = np.asarray(states, dtype=np.float64)
     if has_model(task):
         model = load_model(task) if model is None else model
         xpos, xquat = body_poses(model, qpos_of(model, states))
-        return {names.body_path(body_name(model, b)): (xpos[:, b], _xyzw(xquat[:, b]))
+        return {names.body_path(body_name(model, b), root): (xpos[:, b], _xyzw(xquat[:, b]))
                 for b in moving_bodies(model)}
     if names.domain_of(task) == "mountain_car":
         return {names.body_path("car"): mountain_car_poses(states[:, 0])}
