@@ -155,7 +155,7 @@ class OpenLoop:
     trials: pd.DataFrame
     """Per pair and seed: the step and time at which the trial left the tolerance
     (`left`: False where it stayed within it to the horizon), and per variable the maximum
-    |error| over the first 50 steps, the first second and the whole horizon."""
+    |error| over the first second, the first ten seconds and the whole horizon."""
     energy: pd.DataFrame
     """Per plant and seed, zero action: the reference's energy change over the horizon
     (`reference_change_J`, friction), and the plant's energy minus the reference's at the
@@ -198,14 +198,14 @@ def open_loop(task: str, seeds, steps: int | None = None,
                 pair, variable=variable, step=np.arange(steps + 1),
                 time_s=np.arange(steps + 1) * timestep, median=quartiles[1], q25=quartiles[0],
                 q75=quartiles[2], max=values.max(axis=0))))
-        one_second = int(round(1.0 / timestep))
+        windows = {f"{seconds}_s": int(round(seconds / timestep)) for seconds in (1, 10)}
         for b, seed in enumerate(seeds):
             row = dict(pair, seed=seed, left=bool(leaves[b] >= 0),
                        steps_within=int(leaves[b]) if leaves[b] >= 0 else steps,
                        time_within_s=(leaves[b] if leaves[b] >= 0 else steps) * timestep)
             for variable, values in error.items():
-                row[f"{variable}_max_50_steps"] = values[b, :51].max()
-                row[f"{variable}_max_1_s"] = values[b, :one_second + 1].max()
+                for window, window_steps in windows.items():
+                    row[f"{variable}_max_{window}"] = values[b, :window_steps + 1].max()
                 row[f"{variable}_max_horizon"] = values[b].max()
             trial_rows.append(row)
     reference = energies[REFERENCE]

@@ -36,7 +36,7 @@ def pair(result, plant, against):
 
 
 def angle_column(task):
-    return "angle_max_50_steps" if task.startswith("pendulum") else "pole_angle_max_50_steps"
+    return "angle_max_1_s" if task.startswith("pendulum") else "pole_angle_max_1_s"
 
 
 def test_open_loop_numbers_are_finite_and_bounded(measured):
