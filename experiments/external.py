@@ -56,12 +56,12 @@ EXTERNAL_PRESETS = {
     # box covers the upper half of the circle finely; swing-up needs all of it.
     "dmc:cartpole.balance": dict(
         low=(-1.8, 0.7, -0.7, -3.0, -5.0), high=(1.8, 1.0, 0.7, 3.0, 5.0), actions=(-1.0, 0.0, 1.0),
-        n=6, trace="replacing", alpha=0.5, lam=0.7, epsilon=0.05, gamma=0.99, episodes=100,
+        n=5, trace="replacing", alpha=1.0, lam=0.9, epsilon=0.05, gamma=0.99, episodes=200,
         agents=5),
     "dmc:cartpole.swingup": dict(
         low=(-1.8, -1.0, -1.0, -5.0, -10.0), high=(1.8, 1.0, 1.0, 5.0, 10.0),
-        actions=(-1.0, 0.0, 1.0), n=6, trace="replacing", alpha=0.5, lam=0.7, epsilon=0.05,
-        gamma=0.99, episodes=100, agents=5),
+        actions=(-1.0, 0.0, 1.0), n=5, trace="replacing", alpha=1.0, lam=0.9, epsilon=0.05,
+        gamma=0.99, episodes=200, agents=5),
     # cos, sin, theta'.
     "dmc:pendulum.swingup": dict(
         low=(-1.0, -1.0, -8.0), high=(1.0, 1.0, 8.0), actions=(-1.0, 0.0, 1.0), n=10,

@@ -210,3 +210,17 @@ def test_an_episode_ending_in_a_terminal_state_has_discount_0():
     ts = adapter.step(1)
     assert ts.last() and ts.discount == 0.0
     np.testing.assert_array_equal(ts.observation, [1.0, 0.0, 0.0])
+
+
+@needs_gymnasium
+def test_learning_curves_of_a_run(tmp_path, capsys):
+    """`experiments.external_curves` draws a run's curve and states its first and final tenth."""
+    from experiments.external_curves import plot_run
+
+    run_dir = tmp_path / "car"
+    assert cli.main(["train", "gym:MountainCar-v0", "--episodes", "10", "--agents", "2",
+                     "--out", str(run_dir)]) == 0
+    line = plot_run(str(run_dir), str(tmp_path / "figures"))
+    assert line.startswith("gym:MountainCar-v0: return -200.0 ± 0.0 in episodes 1-1, ")
+    assert line.endswith("in episodes 10-10 (2 agents, seeds 0..1)")
+    assert (tmp_path / "figures" / "car.png").exists() and (tmp_path / "figures" / "car.svg").exists()
