@@ -5,6 +5,8 @@
                                                    run a uniformly random policy
     lwrl train DOMAIN.TASK [--trace T] [--alpha A] [--lambda L] [--episodes K] ...
                                                    train NRBF Sarsa(lambda) agents
+    lwrl train dmc:DOMAIN.TASK|gym:ID [--obs-range LOW,HIGH ...] [--actions V,V,...] ...
+                                                   ... on dm_control's or Gymnasium's
     lwrl eval PATH [--episodes K] [--seed S]       run saved agents greedily
     lwrl reproduce {fig2,fig3,fig5,fig6,fig8,table1,all}... [--plant P] [--quick] [--out DIR]
                                                    the paper's figures and table, and a report
@@ -19,6 +21,7 @@ Bad input ends with one line on standard error and exit status 2.
 import argparse
 import dataclasses
 import os
+import re
 import sys
 
 import numpy as np
@@ -27,9 +30,9 @@ import tqdm
 import tasks
 from agent import io as agent_io
 from agent.traces import TRACES
-from experiments import export_c, logging_rerun, summary
+from experiments import export_c, external, logging_rerun, summary
 from experiments.config import PAPER, RunConfig
-from experiments.run import make_agent, run
+from experiments.run import make_agent, run, run_batched
 
 
 def _split_name(name: str):
@@ -73,6 +76,33 @@ def _reading(text: str) -> tuple:
     return name, numbers if len(numbers) > 1 else numbers[0]
 
 
+def _train_task(name: str) -> str:
+    """An argparse type for `lwrl train`'s task: one of the suite's or another suite's."""
+    if name in PAPER or external.is_external(name):
+        return name
+    raise argparse.ArgumentTypeError(f"invalid choice: {name!r} (choose from {', '.join(PAPER)}, "
+                                     "or dmc:DOMAIN.TASK, gym:ID)")
+
+
+def _numbers(text: str) -> tuple:
+    """An argparse type for comma-separated numbers."""
+    try:
+        values = tuple(float(part) for part in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be comma-separated numbers; got {text!r}") from None
+    if not all(map(np.isfinite, values)):
+        raise argparse.ArgumentTypeError(f"must be finite numbers; got {text!r}")
+    return values
+
+
+def _range(text: str) -> tuple:
+    """An argparse type for one observation range `LOW,HIGH` with LOW < HIGH."""
+    values = _numbers(text)
+    if len(values) != 2 or values[0] >= values[1]:
+        raise argparse.ArgumentTypeError(f"must be LOW,HIGH with LOW < HIGH; got {text!r}")
+    return values
+
+
 def cmd_tasks(args) -> None:
     """Print every task with its plants, the default first."""
     del args
@@ -113,12 +143,11 @@ def cmd_rollout(args) -> None:
         print("no episode finished within the step budget")
 
 
-def _report(config, results, seeds, title: str) -> None:
+def _report(results, seeds, title: str, with_uptime: bool) -> None:
     """Print a run's block table, its divergences and any interruption."""
     if title:
         print(title)
-    print(summary.format_rows(summary.block_rows(results), tasks.definition(
-        config.domain, config.task_name).has_uptime))
+    print(summary.format_rows(summary.block_rows(results), with_uptime))
     print(f"means ± standard errors over agents (seeds {seeds[0]}..{seeds[-1]})")
     print(summary.divergence_note(results, seeds))
     truncated, run_episodes = int(results.truncated.sum()), int(np.isfinite(results.steps).sum())
@@ -134,13 +163,28 @@ def _progress_bar(total: int, description: str):
     return bar, bar.update
 
 
+def _write_run(out: str, config, results) -> None:
+    """`--out DIR`: the run's config.json and episodes.csv."""
+    os.makedirs(out, exist_ok=True)
+    with open(os.path.join(out, "config.json"), "w") as file:
+        file.write(config.to_json() + "\n")
+    summary.write_csv(os.path.join(out, "episodes.csv"), results, config.seeds)
+    print(f"wrote {out}/config.json and {out}/episodes.csv")
+
+
 def cmd_train(args) -> int:
     """Train agents and print per-block means with standard errors; write and save on
     request (also after Ctrl-C, with what was complete)."""
+    if external.is_external(args.task):
+        return _train_external(args)
+    if args.obs_range or args.actions:
+        raise ValueError("--obs-range and --actions apply to dmc: and gym: environments only; "
+                         f"{args.task} has its own")
     config = RunConfig(task=args.task, plant=args.plant, integrator=args.integrator,
                        trace=args.trace, alpha=args.alpha, lam=args.lam, epsilon=args.epsilon,
                        features=args.features, n=args.n, episodes=args.episodes,
-                       agents=args.agents, seed=args.seed)
+                       agents=args.agents, seed=args.seed,
+                       **({} if args.gamma is None else {"gamma": args.gamma}))
     config.plant = tasks.resolve(config.domain, config.task_name, config.plant)[1]
     agent = make_agent(config)  # checks the hyper-parameters before anything runs
     logging = bool(args.rrd or args.rerun)
@@ -159,21 +203,43 @@ def cmd_train(args) -> int:
         agent, results = run(config, agent=agent, progress=update, record=record)
     if best:  # runs are deterministic: run again to record each logged agent's best episode
         _, results = run(config, record=logging_rerun.best_episodes(results, logged_agents))
-    _report(config, results, config.seeds, "")
+    _report(results, config.seeds, "", tasks.definition(config.domain, config.task_name).has_uptime)
     if logging:
         logging_rerun.send_run(config, results, rrd_path=args.rrd, spawn=args.rerun)
         where = f"saved the recording to {args.rrd}" if args.rrd else "sent the recording"
         print(f"{where}: {len(results.recordings)} episodes of agents "
               f"{', '.join(map(str, logged_agents))}")
     if args.out:
-        os.makedirs(args.out, exist_ok=True)
-        with open(os.path.join(args.out, "config.json"), "w") as file:
-            file.write(config.to_json() + "\n")
-        summary.write_csv(os.path.join(args.out, "episodes.csv"), results, config.seeds)
-        print(f"wrote {args.out}/config.json and {args.out}/episodes.csv")
+        _write_run(args.out, config, results)
     if args.save:
         agent_io.save(args.save, agent, {"config": dataclasses.asdict(config)})
         print(f"saved the agents to {args.save}")
+    return 130 if results.interrupted else 0
+
+
+def _train_external(args) -> int:
+    """`lwrl train` on a dm_control or Gymnasium environment (`experiments.external`)."""
+    for flag, given in (("--plant", args.plant), ("--features cmac", args.features != "nrbf"),
+                        ("--save", args.save), ("--rerun", args.rerun), ("--rrd", args.rrd)):
+        if given:
+            raise ValueError(f"{flag} applies to lwrl's own tasks only, not to {args.task}")
+    low, high = zip(*args.obs_range) if args.obs_range else (None, None)
+    config = external.ExternalConfig(
+        env=args.task, low=low, high=high, actions=args.actions, n=args.n, trace=args.trace,
+        alpha=args.alpha, lam=args.lam, epsilon=args.epsilon, gamma=args.gamma,
+        episodes=args.episodes, agents=args.agents, seed=args.seed)
+    config, agent, envs = external.prepare(config)
+    actions = (", ".join(f"{value:g}" for value in config.actions) if config.actions
+               else f"{agent.num_actions} discrete")
+    print(f"{config.env}: {config.agents} agents, {config.trace} traces, alpha {config.alpha:g}, "
+          f"lambda {config.lam:g}, epsilon {config.epsilon:g}, gamma {config.gamma:g}, "
+          f"nrbf {config.n}^{len(config.low)}, actions {actions}, {config.episodes} episodes")
+    bar, update = _progress_bar(config.agents * config.episodes, "training")
+    with bar:
+        results = run_batched(envs, agent, config.episodes, progress=update)
+    _report(results, config.seeds, "", with_uptime=False)
+    if args.out:
+        _write_run(args.out, config, results)
     return 130 if results.interrupted else 0
 
 
@@ -192,8 +258,9 @@ def cmd_eval(args) -> int:
     bar, update = _progress_bar(config.agents * config.episodes, "evaluating")
     with bar:
         _, results = run(config, agent=agent, learn=False, progress=update)
-    _report(config, results, config.seeds,
-            f"{config.task} on the {config.plant} plant: {config.agents} saved agents, greedy")
+    _report(results, config.seeds,
+            f"{config.task} on the {config.plant} plant: {config.agents} saved agents, greedy",
+            tasks.definition(config.domain, config.task_name).has_uptime)
     return 130 if results.interrupted else 0
 
 
@@ -272,8 +339,10 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _add_train_arguments(train) -> None:
-    train.add_argument("task", metavar="DOMAIN.TASK", choices=list(PAPER),
-                       help="one of: " + ", ".join(PAPER))
+    train.add_argument("task", metavar="DOMAIN.TASK", type=_train_task,
+                       help="one of: " + ", ".join(PAPER) + "; or dmc:DOMAIN.TASK (dm_control's "
+                            "suite) or gym:ID (Gymnasium), presets for "
+                            + ", ".join(external.EXTERNAL_PRESETS))
     train.add_argument("--plant", help="mujoco or analytic (default: the domain's first)")
     train.add_argument("--integrator", choices=("semi_implicit", "explicit"),
                        default="semi_implicit", help="Euler scheme of the analytic plant")
@@ -282,7 +351,16 @@ def _add_train_arguments(train) -> None:
     train.add_argument("--lambda", dest="lam", type=float, help="trace decay (default: the paper's best)")
     train.add_argument("--epsilon", type=float, help="exploration rate (default: SPEC.md's per task)")
     train.add_argument("--features", choices=("nrbf", "cmac"), default="nrbf")
-    train.add_argument("--n", type=_positive_int, help="NRBF centroids (or CMAC intervals) per dimension")
+    train.add_argument("--n", "--centroids", dest="n", type=_positive_int,
+                       help="NRBF centroids (or CMAC intervals) per dimension")
+    train.add_argument("--gamma", type=float, help="discount rate (default: 1, or the "
+                       "environment's preset)")
+    train.add_argument("--obs-range", action="append", type=_range, metavar="LOW,HIGH",
+                       help="dmc:/gym: only: the NRBF range of one observation dimension, given "
+                            "once per dimension in order (default: the preset, or the "
+                            "observation space's finite bounds)")
+    train.add_argument("--actions", type=_numbers, metavar="V,V,...",
+                       help="dmc:/gym: only: values a continuous action is discretised into")
     train.add_argument("--episodes", type=_positive_int, help="episodes per agent")
     train.add_argument("--agents", type=_positive_int, help="agents (seeds SEED, SEED+1, ...)")
     train.add_argument("--seed", type=_non_negative_int, default=0, help="seed of the first agent")
@@ -319,6 +397,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Train agents with the paper's settings unless told otherwise; print the "
                     "mean and standard error over agents per block of episodes.")
     _add_train_arguments(train)
+    # Let "--actions -1,0,1" and "--obs-range -1.2,0.6" read as values, not as options.
+    train._negative_number_matcher = re.compile(r"^-\.?\d[\d.eE+-]*(,-?\.?\d[\d.eE+-]*)*$")
     train.set_defaults(run=cmd_train)
 
     evaluate = commands.add_parser("eval", help="run saved agents greedily")

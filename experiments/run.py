@@ -2,7 +2,8 @@
 
 Three ways to run the same thing, giving the same numbers for the same seeds (tested):
 
-- `run_dm_env`: one agent on one dm_env environment (`tasks.load`), step by step;
+- `run_dm_env`: one agent on one dm_env environment (`tasks.load`), step by step (through
+  `run_batched` and `tasks.batched.SteppedEnvs`, which any dm_env environments can use);
 - `run_batched`: B agents on a `tasks.batched.BatchedEnv` (any plant), one array step at a
   time;
 - `run_compiled`: B agents on the analytic plant in one numba-compiled loop that calls the
@@ -22,7 +23,7 @@ import tasks
 from agent.features import check_count
 from agent.sarsa import BatchedSarsa, agent_step
 from agent.threads import run_in_chunks
-from tasks.batched import BatchedEnv
+from tasks.batched import BatchedEnv, SteppedEnvs
 from experiments.recording import make_tape, recordings
 from tasks.integrators import check_integrator
 
@@ -79,39 +80,20 @@ class EpisodeResults:
 
 
 def run_dm_env(env, agent: BatchedSarsa, episodes: int, learn: bool = True) -> EpisodeResults:
-    """One agent (`agent.batch_size == 1`) on one dm_env environment of the suite."""
-    episodes = check_count("episodes", episodes, 1)
+    """One agent (`agent.batch_size == 1`) on one dm_env environment of the suite (`tasks.load`),
+    step by step: `run_batched` on the environment alone."""
     if agent.batch_size != 1:
         raise ValueError(f"run_dm_env runs one agent; got a batch of {agent.batch_size}")
-    results = EpisodeResults.empty(1, episodes)
-    for episode in range(episodes):
-        ts = env.reset()
-        total = 0.0
-        while True:
-            observation = np.array([list(ts.observation.values())])
-            first = ts.first()
-            action = agent.step([first], [0.0 if first else ts.reward],
-                                [1.0 if first else ts.discount], observation, learn=learn)
-            if agent.diverged[0]:
-                results.diverged_episode[0] = episode
-            if ts.last() or agent.diverged[0]:
-                break
-            ts = env.step(int(action[0]))
-            total += ts.reward
-        results.steps[0, episode] = env.task.steps
-        results.returns[0, episode] = total
-        results.uptime[0, episode] = env.task.uptime
-        results.truncated[0, episode] = ts.last() and ts.discount == 1.0
-        if agent.diverged[0]:
-            break
-    return results
+    return run_batched(SteppedEnvs([env], uptime=lambda single: single.task.uptime), agent,
+                       episodes, learn=learn)
 
 
 def run_batched(env: BatchedEnv, agent: BatchedSarsa, episodes: int, learn: bool = True,
                 progress=None, record=()) -> EpisodeResults:
-    """B agents on a batched environment of B copies; `progress(done_episodes)` is called
-    as episodes finish. The `(agent, episode)` pairs in `record` are recorded step by step
-    (`results.recordings`), as `run_compiled` records them."""
+    """B agents on a batched environment of B copies (a `BatchedEnv`, or `SteppedEnvs` of B
+    dm_env environments); `progress(done_episodes)` is called as episodes finish. The
+    `(agent, episode)` pairs in `record` are recorded step by step (`results.recordings`), as
+    `run_compiled` records them; recording needs a `BatchedEnv`."""
     episodes = check_count("episodes", episodes, 1)
     if env.batch_size != agent.batch_size:
         raise ValueError(f"environment batch {env.batch_size} and agent batch "
@@ -121,10 +103,12 @@ def run_batched(env: BatchedEnv, agent: BatchedSarsa, episodes: int, learn: bool
     done = np.zeros(batch, dtype=np.int64)  # finished episodes per agent
     running = np.ones(batch, dtype=bool)
     returns = np.zeros(batch)
-    definition = env.definition
-    tape = make_tape(record, batch, episodes, definition.step_limit, len(definition.state_names),
-                     agent.num_actions, agent.features.num_features)
     recording = bool(len(record))  # else the step loop skips the tape entirely
+    if recording:
+        definition = env.definition
+        tape = make_tape(record, batch, episodes, definition.step_limit,
+                         len(definition.state_names), agent.num_actions,
+                         agent.features.num_features)
     actions = np.zeros(batch, dtype=np.int64)
     ts = env.reset()
     try:
@@ -155,7 +139,8 @@ def run_batched(env: BatchedEnv, agent: BatchedSarsa, episodes: int, learn: bool
             returns = np.where(ts.first(), 0.0, returns + ts.reward)
     except KeyboardInterrupt:
         results.interrupted = True
-    results.recordings = recordings(tape, definition, env.plant_name, env.seeds)
+    if recording:
+        results.recordings = recordings(tape, definition, env.plant_name, env.seeds)
     return results
 
 

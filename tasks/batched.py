@@ -110,3 +110,65 @@ class BatchedEnv:
         step_type = np.where(starting, FIRST, np.where(last, LAST, MID)).astype(np.int8)
         return BatchedTimeStep(step_type, reward, np.where(terminal, 0.0, 1.0),
                                definition.observe(self.state))
+
+
+def flatten_observation(observation) -> np.ndarray:
+    """A dm_env observation as one float64 vector `(d,)`: an array raveled, or a mapping of
+    scalars and arrays concatenated in key order."""
+    if hasattr(observation, "values"):
+        parts = [np.ravel(np.asarray(value, dtype=np.float64)) for value in observation.values()]
+        return np.concatenate(parts) if parts else np.zeros(0)
+    return np.ravel(np.asarray(observation, dtype=np.float64))
+
+
+class SteppedEnvs:
+    """B dm_env environments of any kind, each stepped on its own, behind `BatchedEnv`'s
+    interface (`batch_size`, `reset`, `step`, `steps`, `uptime`).
+
+    Environment b takes action `actions[b]` as given. Observations are flattened
+    (`flatten_observation`); a FIRST time step has reward 0 and discount 1. As in
+    `BatchedEnv`, an environment whose episode ended is reset on the next step, which
+    ignores its action. `uptime(env)` reads an environment's up-time so far in seconds
+    (without it, `uptime` is NaN).
+    """
+
+    def __init__(self, envs, uptime=None):
+        self.envs = list(envs)
+        if not self.envs:
+            raise ValueError("envs must hold at least one environment")
+        self.batch_size = len(self.envs)
+        self.steps = np.zeros(self.batch_size, dtype=np.int64)
+        self._read_uptime = uptime
+        self._ended = np.zeros(self.batch_size, dtype=bool)
+
+    @property
+    def uptime(self) -> np.ndarray:
+        if self._read_uptime is None:
+            return np.full(self.batch_size, np.nan)
+        return np.array([self._read_uptime(env) for env in self.envs], dtype=np.float64)
+
+    def reset(self) -> BatchedTimeStep:
+        """Start a new episode in every environment."""
+        self.steps[:] = 0
+        return self._batch([env.reset() for env in self.envs])
+
+    def step(self, actions) -> BatchedTimeStep:
+        """Step each environment with its action; those whose episode ended reset."""
+        timesteps = []
+        for b, env in enumerate(self.envs):
+            if self._ended[b]:
+                self.steps[b] = 0
+                timesteps.append(env.reset())
+            else:
+                self.steps[b] += 1
+                timesteps.append(env.step(actions[b]))
+        return self._batch(timesteps)
+
+    def _batch(self, timesteps) -> BatchedTimeStep:
+        first = np.array([ts.first() for ts in timesteps])
+        self._ended = np.array([ts.last() for ts in timesteps])
+        return BatchedTimeStep(
+            np.array([int(ts.step_type) for ts in timesteps], dtype=np.int8),
+            np.array([0.0 if f else ts.reward for f, ts in zip(first, timesteps)], dtype=np.float64),
+            np.array([1.0 if f else ts.discount for f, ts in zip(first, timesteps)], dtype=np.float64),
+            np.stack([flatten_observation(ts.observation) for ts in timesteps]))
