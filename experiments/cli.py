@@ -273,7 +273,7 @@ def cmd_reproduce(args) -> int:
                          "pip install -e '.[paper]'") from None
     path = reproduce(args.item, args.out, plant=args.plant, quick=args.quick,
                      integrator=args.integrator, backend=args.backend, workers=args.workers,
-                     address=args.address, readings=dict(args.readings))
+                     address=args.address, readings=dict(args.readings), alphas=args.alphas)
     print(f"wrote {path}, the figures in {os.path.join(args.out, 'figures')} and each item's "
           f"results under {args.out}")
     return 0
@@ -426,6 +426,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help="a reading of an open point for every run that has it (repeatable): "
                             "r2=0.05, epsilon=0, centroids=edges, low=A,B,.., high=A,B,.. or a "
                             "task option such as track_limit=none")
+    paper.add_argument("--alphas", metavar="A,A,...", type=_numbers,
+                       help="the NRBF runs' alpha grid instead of the items' own (the CMAC "
+                            "baseline keeps its grid)")
     paper.add_argument("--quick", action="store_true", help="tiny grids: a smoke test in seconds")
     paper.add_argument("--out", metavar="DIR", default="reproduction", help="output directory (default: reproduction)")
     paper.add_argument("--workers", type=_positive_int, help="threads of the local backend (default: all cores)")

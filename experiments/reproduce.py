@@ -75,14 +75,32 @@ def with_readings(configs, readings: dict) -> list:
     return configs
 
 
+def with_alphas(configs, alphas) -> list:
+    """The runs with the NRBF runs' alpha grid replaced by `alphas`: each distinct NRBF run
+    but for alpha, once per alpha, in the order first met (the CMAC baseline's runs, on
+    their own scale of alpha, stay as they are)."""
+    if not alphas:
+        raise ValueError("alphas must name at least one learning rate")
+    result, seen = [], set()
+    for config in configs:
+        variants = ([dataclasses.replace(config, alpha=float(alpha)) for alpha in alphas]
+                    if config.features == "nrbf" else [config])
+        for variant in variants:
+            if variant.key_json() not in seen:
+                seen.add(variant.key_json())
+                result.append(variant)
+    return result
+
+
 def reproduce(item, out_dir: str, plant: str = "analytic", quick: bool = False,
               integrator: str = "semi_implicit", backend: str = "local",
               workers: int | None = None, address: str | None = None,
-              readings: dict | None = None) -> str:
+              readings: dict | None = None, alphas=None) -> str:
     """Run and analyse `item` (a name, `all`, or a list of names); return the report's path.
 
     `readings` sets SPEC.md's open points for every run that has them (`with_readings`),
-    e.g. `{"r2": 0.05}`: the author's cart-pole script's spread. The wall time of each item is kept in `timings.json` from the invocation
+    e.g. `{"r2": 0.05}`: the author's cart-pole script's spread. `alphas` replaces the
+    items' alpha grids of the NRBF runs (`with_alphas`). The wall time of each item is kept in `timings.json` from the invocation
     that computed its runs (a resumed item: only the resumed part), so that re-analysing
     finished runs does not overwrite it.
     """
@@ -94,6 +112,8 @@ def reproduce(item, out_dir: str, plant: str = "analytic", quick: bool = False,
     sections = {}
     for name in names:
         configs = with_readings(ITEMS[name].configs(plant, quick, integrator), readings or {})
+        if alphas is not None:
+            configs = with_alphas(configs, alphas)
         start = time.perf_counter()
         results, computed = sweep.run_sweep(configs, out_dir, backend=backend, workers=workers,
                                             address=address, description=name)
@@ -109,7 +129,8 @@ def reproduce(item, out_dir: str, plant: str = "analytic", quick: bool = False,
         sections[name] = (ITEMS[name].analyse(results, figure_dir), len(configs), len(results))
     path = os.path.join(out_dir, "report.md")
     with open(path, "w") as file:
-        file.write(report(sections, timings, plant, integrator, quick, out_dir, readings or {}))
+        file.write(report(sections, timings, plant, integrator, quick, out_dir, readings or {},
+                          alphas))
     return path
 
 
@@ -122,11 +143,12 @@ def describe_readings(readings: dict) -> str:
 
 
 def report(sections: dict, timings: dict, plant: str, integrator: str, quick: bool,
-           out_dir: str, readings: dict) -> str:
+           out_dir: str, readings: dict, alphas=None) -> str:
     """The Markdown report: a headline table, then each item's numbers beside the paper's."""
     lines = [f"# Reproduction of Främling (2008){' — quick smoke run' if quick else ''}", "",
              f"Plant: **{plant}** (Mountain-Car always analytic); Euler scheme: {integrator}; "
-             f"{describe_readings(readings)}. Written {datetime.date.today().isoformat()}. Wall time: "
+             f"{describe_readings(readings)}"
+             f"{'' if alphas is None else '; NRBF α grid ' + ', '.join(f'{a:g}' for a in alphas)}. Written {datetime.date.today().isoformat()}. Wall time: "
              "of the invocation that computed the item's runs, on this machine (an item that "
              "shares another's runs, like Table 1, or resumed an interrupted run shows less).",
              "", "| item | reproduces? | runs | rows | wall time (s) |", "|---|---|---|---|---|"]

@@ -10,7 +10,7 @@ import pytest
 from experiments import sweep
 from experiments.config import RunConfig
 from experiments.paper import ITEMS
-from experiments.reproduce import with_readings
+from experiments.reproduce import with_alphas, with_readings
 from experiments.run import run
 
 
@@ -75,14 +75,29 @@ def test_readings_apply_to_the_runs_that_have_them():
         with_readings(ITEMS["fig2"].configs("analytic", True, "semi_implicit"), {"track_limit": 3})
 
 
+def test_an_alpha_grid_replaces_the_nrbf_runs_alphas_only():
+    configs = ITEMS["fig2"].configs("analytic", True, "semi_implicit")
+    changed = with_alphas(configs, (0.05, 0.1))
+    nrbf = [c for c in configs if c.features == "nrbf"]
+    cmac = [c for c in configs if c.features == "cmac"]
+    distinct = {(c.trace, c.lam) for c in nrbf}
+    assert [c for c in changed if c.features == "cmac"] == cmac
+    assert sorted((c.trace, c.lam, c.alpha) for c in changed if c.features == "nrbf") == \
+        sorted((trace, lam, alpha) for trace, lam in distinct for alpha in (0.05, 0.1))
+    with pytest.raises(ValueError, match="alphas must name at least one learning rate"):
+        with_alphas(configs, ())
+
+
 def test_reproduce_sets_readings_from_the_command_line(tmp_path):
     result = subprocess.run(
         [sys.executable, "-m", "experiments.cli", "reproduce", "fig8", "--quick", "--out",
-         str(tmp_path), "--set", "track_limit=none", "--set", "centroids=edges"],
+         str(tmp_path), "--set", "track_limit=none", "--set", "centroids=edges", "--alphas",
+         "0.05,0.1"],
         capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
     report = (tmp_path / "report.md").read_text()
-    assert "readings departing from the defaults: track_limit = None, centroids = edges" in report
+    assert ("readings departing from the defaults: track_limit = None, centroids = edges; "
+            "NRBF α grid 0.05, 0.1") in report
     configs = (tmp_path / "fig8" / "configs.jsonl").read_text()
     assert '"track_limit": null' in configs and '"centroids": "edges"' in configs
     bad = subprocess.run([sys.executable, "-m", "experiments.cli", "reproduce", "fig8", "--quick",
