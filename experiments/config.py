@@ -76,7 +76,7 @@ class RunConfig:
     low: tuple | None = None
     """Lower ends of the normalisation ranges (None: the paper's, `PAPER`)."""
     high: tuple | None = None
-    """Upper ends of the normalisation ranges (default: the paper's)."""
+    """Upper ends of the normalisation ranges (None: the paper's)."""
     centroids: str = "midpoints"
     """NRBF centroid placement: `midpoints` of n cells, `(i + 0.5) / n` (the author's code),
     or `edges`, `i / (n - 1)`, from one end of each range to the other (SPEC.md leaves it

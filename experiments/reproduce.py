@@ -100,9 +100,9 @@ def reproduce(item, out_dir: str, plant: str = "analytic", quick: bool = False,
 
     `readings` sets SPEC.md's open points for every run that has them (`with_readings`),
     e.g. `{"r2": 0.05}`: the author's cart-pole script's spread. `alphas` replaces the
-    items' alpha grids of the NRBF runs (`with_alphas`). The wall time of each item is kept in `timings.json` from the invocation
-    that computed its runs (a resumed item: only the resumed part), so that re-analysing
-    finished runs does not overwrite it.
+    items' alpha grids of the NRBF runs (`with_alphas`). The wall time of each item is kept
+    in `timings.json` from the invocation that computed its runs (a resumed item: only the
+    resumed part), so that re-analysing finished runs does not overwrite it.
     """
     names = selected(item)
     figure_dir = os.path.join(out_dir, "figures")
@@ -142,13 +142,18 @@ def describe_readings(readings: dict) -> str:
         f"{name} = {value}" for name, value in readings.items())
 
 
+def describe_alphas(alphas) -> str:
+    """The alpha grid for the report's header, where one replaced the items' own."""
+    return "" if alphas is None else "; NRBF α grid " + ", ".join(f"{a:g}" for a in alphas)
+
+
 def report(sections: dict, timings: dict, plant: str, integrator: str, quick: bool,
            out_dir: str, readings: dict, alphas=None) -> str:
     """The Markdown report: a headline table, then each item's numbers beside the paper's."""
     lines = [f"# Reproduction of Främling (2008){' — quick smoke run' if quick else ''}", "",
              f"Plant: **{plant}** (Mountain-Car always analytic); Euler scheme: {integrator}; "
-             f"{describe_readings(readings)}"
-             f"{'' if alphas is None else '; NRBF α grid ' + ', '.join(f'{a:g}' for a in alphas)}. Written {datetime.date.today().isoformat()}. Wall time: "
+             f"{describe_readings(readings)}{describe_alphas(alphas)}. "
+             f"Written {datetime.date.today().isoformat()}. Wall time: "
              "of the invocation that computed the item's runs, on this machine (an item that "
              "shares another's runs, like Table 1, or resumed an interrupted run shows less).",
              "", "| item | reproduces? | runs | rows | wall time (s) |", "|---|---|---|---|---|"]

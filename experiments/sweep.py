@@ -5,15 +5,16 @@ the run's name and a hash of its whole configuration; the file appears whole (wr
 temporary name, then renamed) only once the run has finished. Running the same sweep again
 skips every run whose file exists, so an interrupted sweep (Ctrl-C, kill, power cut)
 resumes where it stopped and recomputes nothing that finished (a batch that was running
-when interrupted runs again whole). A diverged run is a finished
-run: its agents' `diverged` column says so.
+when interrupted runs again whole). A diverged run is a finished run: its agents'
+`diverged` column says so.
 
 Runs that differ only in trace, alpha, lambda, epsilon and seeds are joined into batches
 that one learner and one stepper run together (the learner takes those per agent, and an
 agent's numbers do not depend on its batch): a grid of small runs costs about as much as
 one large one. Backends: `local` runs one batch at a time on this machine, on all its cores
-(the learner's threads), its progress bar moving as episodes finish; `ray` sends batches to a Ray cluster (`pip install -e '.[ray]'`),
-one task each, and writes their results here as they come back.
+(the learner's threads), its progress bar moving as episodes finish; `ray` sends batches
+to a Ray cluster (`pip install -e '.[ray]'`), one task each, and writes their results here
+as they come back.
 """
 
 import dataclasses
