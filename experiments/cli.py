@@ -264,13 +264,18 @@ def cmd_eval(args) -> int:
     return 130 if results.interrupted else 0
 
 
+def _paper_extra_missing(command: str, error: ImportError) -> ValueError:
+    """The one-line error of a command whose 'paper' extra (pandas, matplotlib) is missing."""
+    return ValueError(f"lwrl {command} needs the 'paper' extra ({error.name} is missing): "
+                      "pip install -e '.[paper]'")
+
+
 def cmd_reproduce(args) -> int:
     """Run the paper's protocols (resuming whatever an earlier run finished) and report."""
     try:
         from experiments.reproduce import reproduce
     except ImportError as error:
-        raise ValueError(f"lwrl reproduce needs the 'paper' extra ({error.name} is missing): "
-                         "pip install -e '.[paper]'") from None
+        raise _paper_extra_missing("reproduce", error) from None
     path = reproduce(args.item, args.out, plant=args.plant, quick=args.quick,
                      integrator=args.integrator, backend=args.backend, workers=args.workers,
                      address=args.address, readings=dict(args.readings), alphas=args.alphas)
@@ -284,8 +289,7 @@ def cmd_compare(args) -> int:
     try:
         from experiments import closed_loop, compare
     except ImportError as error:
-        raise ValueError(f"lwrl compare needs the 'paper' extra ({error.name} is missing): "
-                         "pip install -e '.[paper]'") from None
+        raise _paper_extra_missing("compare", error) from None
     compare.check_task(args.task)
     episodes = compare.QUICK["episodes"] if args.quick else args.episodes
     total = closed_loop.total_episodes(args.task, args.seeds, episodes,
