@@ -55,7 +55,8 @@ def mountain_car_plant(state, thrust):
 
 def cartpole_plant(state, force):
     """(next state, reward, terminal) through `tasks.cartpole`'s own functions."""
-    next_state = cartpole.step(*state, force, dt=cartpole.TIMESTEP, semi_implicit=True)
+    next_state = cartpole.step(*state, force, dt=cartpole.TIMESTEP, semi_implicit=True,
+                               slips=False)
     reward, terminal, _ = cartpole.outcome(*next_state, track_limit=cartpole.TRACK_LIMIT)
     return next_state, reward, terminal
 

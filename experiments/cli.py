@@ -28,6 +28,7 @@ import numpy as np
 import tqdm
 
 import tasks
+from tasks.plants import EQUATIONS
 from agent import io as agent_io
 from agent.traces import TRACES
 from experiments import export_c, external, logging_rerun, summary
@@ -113,7 +114,8 @@ def cmd_tasks(args) -> None:
 def cmd_rollout(args) -> None:
     """Run a uniformly random policy and print one line per episode and a summary."""
     domain, task = _split_name(args.task)
-    options = {"integrator": args.integrator} if args.integrator else {}
+    options = {name: getattr(args, name) for name in ("integrator", "equations")
+               if getattr(args, name)}
     env = tasks.load(domain, task, plant=args.plant, seed=args.seed, **options)
     rng = np.random.default_rng(args.seed)
     num_actions = env.action_spec().num_values
@@ -181,7 +183,7 @@ def cmd_train(args) -> int:
         raise ValueError("--obs-range and --actions apply to dmc: and gym: environments only; "
                          f"{args.task} has its own")
     config = RunConfig(task=args.task, plant=args.plant, integrator=args.integrator,
-                       trace=args.trace, alpha=args.alpha, lam=args.lam, epsilon=args.epsilon,
+                       equations=args.equations, trace=args.trace, alpha=args.alpha, lam=args.lam, epsilon=args.epsilon,
                        features=args.features, n=args.n, episodes=args.episodes,
                        agents=args.agents, seed=args.seed,
                        **({} if args.gamma is None else {"gamma": args.gamma}))
@@ -350,6 +352,9 @@ def _add_train_arguments(train) -> None:
     train.add_argument("--plant", help="mujoco or analytic (default: the domain's first)")
     train.add_argument("--integrator", choices=("semi_implicit", "explicit"),
                        default="semi_implicit", help="Euler scheme of the analytic plant")
+    train.add_argument("--equations", choices=EQUATIONS, default="paper",
+                       help="the analytic plant's equations: the paper's, or kfnnet with the "
+                            "author's code's suspected slips")
     train.add_argument("--trace", choices=TRACES, help="trace rule (default: the paper's best)")
     train.add_argument("--alpha", type=float, help="learning rate (default: the paper's best)")
     train.add_argument("--lambda", dest="lam", type=float, help="trace decay (default: the paper's best)")
@@ -392,6 +397,8 @@ def build_parser() -> argparse.ArgumentParser:
     rollout.add_argument("--plant", help="mujoco or analytic (default: the domain's first)")
     rollout.add_argument("--integrator", choices=("semi_implicit", "explicit"),
                          help="Euler scheme of the analytic plant (default semi_implicit)")
+    rollout.add_argument("--equations", choices=EQUATIONS,
+                         help="the analytic plant's equations (default paper)")
     rollout.add_argument("--steps", type=_positive_int, default=1000, help="agent steps (default 1000)")
     rollout.add_argument("--seed", type=int, default=0, help="seeds the starts and the policy")
     rollout.set_defaults(run=cmd_rollout)
@@ -428,8 +435,8 @@ def build_parser() -> argparse.ArgumentParser:
     paper.add_argument("--set", metavar="NAME=VALUE", type=_reading, action="append", default=[],
                        dest="readings",
                        help="a reading of an open point for every run that has it (repeatable): "
-                            "r2=0.05, epsilon=0, centroids=edges, low=A,B,.., high=A,B,.. or a "
-                            "task option such as track_limit=none")
+                            "r2=0.05, epsilon=0, centroids=edges, low=A,B,.., high=A,B,.., "
+                            "equations=kfnnet or a task option such as track_limit=none")
     paper.add_argument("--alphas", metavar="A,A,...", type=_numbers,
                        help="the NRBF runs' alpha grid instead of the items' own (the CMAC "
                             "baseline keeps its grid)")

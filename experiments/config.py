@@ -11,6 +11,8 @@ from agent.cmac import CMAC
 from agent.features import check_count
 from agent.nrbf import DEFAULT_R2, NRBF
 from agent.traces import TRACES
+import tasks
+from tasks.plants import check_equations
 
 PAPER = {
     # task: NRBF grid, normalisation ranges, and the paper's best agent (SPEC.md).
@@ -30,7 +32,7 @@ the cart-pole, the author's script) reports; epsilon; and the protocol's episode
 
 
 CENTROID_PLACEMENTS = ("midpoints", "edges")
-OPTIONAL_FIELDS = ("low", "high", "centroids", "task_options")
+OPTIONAL_FIELDS = ("low", "high", "centroids", "task_options", "equations")
 """Readings of SPEC.md's open points that a run sets only to depart from the default."""
 
 
@@ -47,6 +49,9 @@ class RunConfig:
     """`analytic` or `mujoco` (default: the domain's first, MuJoCo where there is one)."""
     integrator: str = "semi_implicit"
     """Euler scheme of the analytic plant: `semi_implicit` (MuJoCo's) or `explicit`."""
+    equations: str = "paper"
+    """Equations of the analytic plant (pendulum and cart-pole): the paper's, or `kfnnet`,
+    with the suspected slips of the author's code (`tasks.plants.EQUATIONS`)."""
     trace: str | None = None
     """`replacing` (eq. 6), `accumulating` (eq. 2) or `replacing_reset` (eq. 5)."""
     alpha: float | None = None
@@ -94,6 +99,11 @@ class RunConfig:
             raise ValueError(f"unknown trace {self.trace!r}; allowed: {', '.join(TRACES)}")
         if self.features not in ("nrbf", "cmac"):
             raise ValueError(f"unknown features {self.features!r}; allowed: nrbf, cmac")
+        check_equations(self.equations)
+        plant = self.plant or tasks.PLANTS[self.domain][0]
+        if self.equations != "paper" and "equations" not in tasks.plant_option_names(self.domain, plant):
+            raise ValueError(f"equations {self.equations!r} need the analytic plant of pendulum or "
+                             f"cartpole; got {self.task} on the {plant} plant")
         if self.centroids not in CENTROID_PLACEMENTS:
             raise ValueError(f"unknown centroid placement {self.centroids!r}; allowed: "
                              f"{', '.join(CENTROID_PLACEMENTS)}")

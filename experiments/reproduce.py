@@ -46,7 +46,9 @@ def selected(items) -> list:
 
 NRBF_READINGS = ("r2", "centroids")
 """Readings that only NRBF runs have (the CMAC baseline's runs keep theirs)."""
-CONFIG_READINGS = NRBF_READINGS + ("epsilon", "low", "high")
+PLANT_READINGS = ("equations",)
+"""Readings that only runs on the analytic plant of pendulum and cart-pole have."""
+CONFIG_READINGS = NRBF_READINGS + PLANT_READINGS + ("epsilon", "low", "high")
 """RunConfig fields `readings` may set; any other name must be an option of a task."""
 
 
@@ -58,9 +60,13 @@ def with_readings(configs, readings: dict) -> list:
     configs = list(configs)
     for index, config in enumerate(configs):
         options = tasks.task_options(config.domain, config.task_name)
+        plant_options = tasks.plant_option_names(
+            config.domain, config.plant or tasks.PLANTS[config.domain][0])
         fields, task_options = {}, dict(config.task_options)
         for name, value in readings.items():
-            if name in CONFIG_READINGS and (config.features == "nrbf" or name not in NRBF_READINGS):
+            applies = ((config.features == "nrbf" or name not in NRBF_READINGS)
+                       and (name in plant_options or name not in PLANT_READINGS))
+            if name in CONFIG_READINGS and applies:
                 fields[name] = value
             elif name in options:
                 task_options[name] = value

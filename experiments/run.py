@@ -26,6 +26,7 @@ from agent.threads import run_in_chunks
 from tasks.batched import BatchedEnv, SteppedEnvs
 from experiments.recording import make_tape, recordings
 from tasks.integrators import check_integrator
+from tasks.plants import check_equations
 
 
 @dataclasses.dataclass
@@ -168,7 +169,7 @@ def _compiled_loop(transition):
 
     @numba.njit(nogil=True)
     def loop(start, stop, first, count, starts, start_observations, controls, dt,
-             semi_implicit, params, step_limit, learn, memory, hyper, spec, steps, returns,
+             semi_implicit, slips, params, step_limit, learn, memory, hyper, spec, steps, returns,
              uptime, truncated, diverged_episode, done, tape):
         dim = starts.shape[2]
         for b in range(start, stop):
@@ -191,7 +192,8 @@ def _compiled_loop(transition):
                     if r >= 0:
                         tape.actions[r, n] = action
                     reward, terminal, is_up = transition(state, controls[action], next_state,
-                                                         observation, dt, semi_implicit, params)
+                                                         observation, dt, semi_implicit, slips,
+                                                         params)
                     n += 1
                     total += reward
                     up += dt * is_up  # summed as the environments sum it
@@ -228,16 +230,17 @@ def episode_starts(definition, seeds, episodes: int) -> np.ndarray:
 
 
 def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, seeds,
-                 learn: bool = True, integrator: str = "semi_implicit", progress=None,
-                 record=(), **options) -> EpisodeResults:
+                 learn: bool = True, integrator: str = "semi_implicit", equations: str = "paper",
+                 progress=None, record=(), **options) -> EpisodeResults:
     """B agents on the analytic plant of `domain.task`, in one compiled loop; environment b
     is seeded with `seeds[b]` as in `BatchedEnv`. Episodes run in about 20 blocks, after each
     of which `progress(episodes_done)` is called. The `(agent, episode)` pairs in `record`
     are recorded step by step (`results.recordings`)."""
     episodes = check_count("episodes", episodes, 1)
-    plant_options = {"integrator": integrator} if tasks.DOMAINS[domain].PLANTS.euler else {}
+    plant_options = ({"integrator": integrator, "equations": equations}
+                     if tasks.DOMAINS[domain].PLANTS.euler else {})
     definition, _, _ = tasks.resolve(domain, task, "analytic", **options, **plant_options)
-    semi_implicit = check_integrator(integrator)
+    semi_implicit, slips = check_integrator(integrator), check_equations(equations)
     seeds = list(seeds)
     if len(seeds) != agent.batch_size:
         raise ValueError(f"{len(seeds)} seeds for a batch of {agent.batch_size} agents")
@@ -257,7 +260,7 @@ def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, see
             run_in_chunks(
                 loop, batch, first, count, starts, definition.observe(starts),
                 np.asarray(definition.controls, dtype=np.float64),
-                tasks.DOMAINS[domain].PLANTS.timestep, semi_implicit,
+                tasks.DOMAINS[domain].PLANTS.timestep, semi_implicit, slips,
                 np.asarray(definition.params, dtype=np.float64), int(step_limit), bool(learn),
                 agent.memory, agent.hyper, agent.spec, steps, results.returns, results.uptime,
                 results.truncated, results.diverged_episode, done, tape, min_chunk=1,
@@ -294,7 +297,7 @@ def run(config, agent: BatchedSarsa | None = None, learn: bool = True,
     seeds = config.seeds if seeds is None else list(seeds)
     domain, task = config.domain, config.task_name
     plant = config.plant or tasks.PLANTS[domain][0]
-    plant_options = {"integrator": config.integrator} if (
+    plant_options = {"integrator": config.integrator, "equations": config.equations} if (
         plant == "analytic" and tasks.DOMAINS[domain].PLANTS.euler) else {}
     if plant == "analytic":
         results = run_compiled(domain, task, agent, config.episodes, seeds, learn=learn,

@@ -45,11 +45,18 @@ def task_options(domain: str, task: str) -> list:
     return list(inspect.signature(module.SUITE[task]).parameters)
 
 
+def plant_option_names(domain: str, plant: str) -> list:
+    """The options of a domain's plant: `integrator` and `equations` on the analytic plant
+    of the domains integrated with Euler's method (pendulum and cartpole), else none."""
+    return (["integrator", "equations"] if plant == "analytic" and _domain(domain).PLANTS.euler
+            else [])
+
+
 def resolve(domain: str, task: str, plant=None, **options):
     """Check a task, a plant and options; return `(definition, plant, plant_options)`.
 
     Options are the task's (e.g. `time_limit`, `track_limit`) and, for the analytic plant
-    of pendulum and cartpole, `integrator`.
+    of pendulum and cartpole, `integrator` and `equations` (`tasks.plants.EQUATIONS`).
     """
     task_option_names = task_options(domain, task)
     module = _domain(domain)
@@ -57,7 +64,7 @@ def resolve(domain: str, task: str, plant=None, **options):
     plant = plants[0] if plant is None else plant
     if plant not in plants:
         raise ValueError(f"unknown plant {plant!r} for {domain}; available: {', '.join(plants)}")
-    plant_options = ["integrator"] if plant == "analytic" and module.PLANTS.euler else []
+    plant_options = plant_option_names(domain, plant)
     unknown = sorted(set(options) - set(task_option_names) - set(plant_options))
     if unknown:
         allowed = ", ".join(["plant", "seed"] + task_option_names + plant_options)

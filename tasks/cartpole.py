@@ -65,12 +65,16 @@ TRACK_LIMIT = 2.4
 
 
 @register_jitable
-def accelerations(cart_velocity, pole_angle, pole_angular_velocity, force):
-    """(x_dd, theta_dd) of the paper's Cart-Pole equations (section 4.3)."""
+def accelerations(cart_velocity, pole_angle, pole_angular_velocity, force, slips):
+    """(x_dd, theta_dd) of the paper's Cart-Pole equations (section 4.3).
+
+    With `slips` (the author's kfnnet code, SPEC.md "Known traps"), the theta_d^2 term takes
+    the cart's mass for the pole's, mc l theta_d^2 sin(theta), in both equations."""
     sin_theta = np.sin(pole_angle)
     cos_theta = np.cos(pole_angle)
     friction = CART_FRICTION * np.sign(cart_velocity)
-    spin = POLE_MASS_LENGTH * pole_angular_velocity * pole_angular_velocity * sin_theta
+    spin_mass_length = CART_MASS * HALF_LENGTH if slips else POLE_MASS_LENGTH
+    spin = spin_mass_length * pole_angular_velocity * pole_angular_velocity * sin_theta
     pole_acceleration = (
         GRAVITY * sin_theta
         + cos_theta * (-force - spin + friction) / TOTAL_MASS
@@ -83,10 +87,10 @@ def accelerations(cart_velocity, pole_angle, pole_angular_velocity, force):
 
 @register_jitable
 def step(cart_position, cart_velocity, pole_angle, pole_angular_velocity, force, dt,
-         semi_implicit):
-    """One Euler step of the cart-pole."""
+         semi_implicit, slips):
+    """One Euler step of the cart-pole (`slips`: see `accelerations`)."""
     cart_acceleration, pole_acceleration = accelerations(
-        cart_velocity, pole_angle, pole_angular_velocity, force)
+        cart_velocity, pole_angle, pole_angular_velocity, force, slips)
     cart_position, cart_velocity_next = euler(
         cart_position, cart_velocity, cart_acceleration, dt, semi_implicit)
     pole_angle, pole_angular_velocity = euler(
@@ -110,10 +114,10 @@ def outcome(cart_position, cart_velocity, pole_angle, pole_angular_velocity, tra
 
 
 @register_jitable
-def transition(state, control, next_state, observation, dt, semi_implicit, params):
+def transition(state, control, next_state, observation, dt, semi_implicit, slips, params):
     """One Euler step of one state `(4,)` for compiled loops; `params` = (track_limit,)."""
     x, x_dot, theta, theta_dot = step(state[0], state[1], state[2], state[3], control, dt,
-                                      semi_implicit)
+                                      semi_implicit, slips)
     next_state[0], next_state[1], next_state[2], next_state[3] = x, x_dot, theta, theta_dot
     observation[:] = next_state
     return outcome(x, x_dot, theta, theta_dot, params[0])

@@ -42,8 +42,9 @@ class TaskDefinition:
     """`outcome(*state_columns, *params) -> (reward, terminal, up)` on entering a state,
     element-wise and numba-jitable: the task's reward, termination and up-time, once."""
     transition: Callable
-    """`transition(state, control, next_state, observation, dt, semi_implicit, params)`:
-    one analytic-plant step of one state `(d,)` for compiled loops. It writes the next state
+    """`transition(state, control, next_state, observation, dt, semi_implicit, slips, params)`:
+    one analytic-plant step of one state `(d,)` for compiled loops, with the Euler scheme
+    and the equations (`tasks.plants.EQUATIONS`) bound as flags. It writes the next state
     and its observation and returns its `outcome`."""
     params: tuple = ()
     """The task options that `outcome` and `transition` read (e.g. the track limit)."""

@@ -43,12 +43,12 @@ needed and is idempotent.
   NaN != NaN), `steps` (steps of the episode) and `plant`.
 - **Rendering**: none (`render_mode=None` only): the suite runs without an OpenGL display.
 - **make() kwargs**: the task's and plant's options (`time_limit`, `track_limit`,
-  `integrator`) as in `tasks.load`; unknown ones raise a `ValueError` naming the allowed.
+  `integrator`, `equations`) as in `tasks.load`; unknown ones raise a `ValueError` naming
+  the allowed.
   `seed` is not one (use `reset(seed=...)`), and kwargs cannot change the id's domain,
   task or plant.
 """
 
-import inspect
 import math
 
 try:
@@ -103,9 +103,7 @@ def observation_bounds(definition) -> tuple:
 def _options(domain: str, task: str, plant: str) -> list:
     """The make() kwargs that `domain.task` on `plant` takes (those `tasks.resolve` allows,
     less `plant` and `seed`, which the id and `reset` set)."""
-    module = tasks.DOMAINS[domain]
-    names = list(inspect.signature(module.SUITE[task]).parameters)
-    return names + (["integrator"] if plant == "analytic" and module.PLANTS.euler else [])
+    return tasks.task_options(domain, task) + tasks.plant_option_names(domain, plant)
 
 
 class SuiteEnv(gymnasium.Env):

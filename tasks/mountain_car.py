@@ -77,9 +77,9 @@ def outcome(position, velocity):
 
 
 @register_jitable
-def transition(state, control, next_state, observation, dt, semi_implicit, params):
-    """One step of one state `(2,)` for compiled loops (`dt`, `semi_implicit` and `params`
-    are unused: the paper's equation is its own integrator)."""
+def transition(state, control, next_state, observation, dt, semi_implicit, slips, params):
+    """One step of one state `(2,)` for compiled loops (`dt`, `semi_implicit`, `slips` and
+    `params` are unused: the paper's equation is its own integrator)."""
     next_state[0], next_state[1] = step(state[0], state[1], control)
     observation[:] = next_state
     return outcome(next_state[0], next_state[1])

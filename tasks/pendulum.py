@@ -58,10 +58,15 @@ def angular_acceleration(angle, angular_velocity, torque):
 
 
 @register_jitable
-def step(angle, angular_velocity, torque, dt, semi_implicit):
-    """One Euler step of the pendulum; the angle is not wrapped (like MuJoCo's hinge)."""
-    return euler(angle, angular_velocity, angular_acceleration(angle, angular_velocity, torque),
-                 dt, semi_implicit)
+def step(angle, angular_velocity, torque, dt, semi_implicit, slips):
+    """One Euler step of the pendulum; the angle is not wrapped (like MuJoCo's hinge).
+
+    With `slips` (the author's kfnnet code, SPEC.md "Known traps"), the acceleration is
+    scaled by dt once more: theta_d' = theta_d + dt^2 theta_dd."""
+    acceleration = angular_acceleration(angle, angular_velocity, torque)
+    if slips:
+        acceleration = acceleration * dt
+    return euler(angle, angular_velocity, acceleration, dt, semi_implicit)
 
 
 @register_jitable
@@ -90,9 +95,9 @@ def outcome(angle, angular_velocity):
 
 
 @register_jitable
-def transition(state, control, next_state, observation, dt, semi_implicit, params):
+def transition(state, control, next_state, observation, dt, semi_implicit, slips, params):
     """One Euler step of one state `(2,)` for compiled loops."""
-    angle, angular_velocity = step(state[0], state[1], control, dt, semi_implicit)
+    angle, angular_velocity = step(state[0], state[1], control, dt, semi_implicit, slips)
     next_state[0], next_state[1] = angle, angular_velocity
     observation[0], observation[1] = wrap_angle(angle), angular_velocity
     return outcome(angle, angular_velocity)

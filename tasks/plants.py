@@ -16,11 +16,23 @@ import numpy as np
 import models
 from tasks.integrators import check_integrator
 
+EQUATIONS = ("paper", "kfnnet")
+"""The analytic plant's equations: the paper's, or with the suspected slips of the author's
+R code, kfnnet (SPEC.md, "Known traps"; each domain's `step` says what they change)."""
+
+
+def check_equations(equations: str) -> bool:
+    """Return True for `kfnnet` (the slips), False for `paper`; reject anything else."""
+    if equations not in EQUATIONS:
+        raise ValueError(f"unknown equations {equations!r}; allowed: {', '.join(EQUATIONS)}")
+    return equations == "kfnnet"
+
+
 class AnalyticPlant:
     """The paper's difference equations as array functions.
 
     `step_columns(*state_columns, control)` returns the next state's columns; it is the
-    domain's own `step` with its time step and integrator bound.
+    domain's own `step` with its time step, integrator and equations bound.
     """
 
     def __init__(self, step_columns: Callable, timestep: float):
@@ -76,8 +88,8 @@ class DomainPlants:
     """How a domain builds its plants, batched (`batch`) or as a dm_control Physics
     (`physics`).
 
-    `step(*state_columns, control[, dt, semi_implicit])` is the domain's analytic step; it
-    takes the Euler time step and scheme when `euler` is true.
+    `step(*state_columns, control[, dt, semi_implicit, slips])` is the domain's analytic
+    step; it takes the Euler time step, scheme and equations when `euler` is true.
     """
 
     step: Callable
@@ -95,19 +107,21 @@ class DomainPlants:
         """The domain's plants, the default first."""
         return ("mujoco", "analytic") if self.model else ("analytic",)
 
-    def batch(self, plant: str, batch_size: int, integrator: str = "semi_implicit"):
+    def batch(self, plant: str, batch_size: int, integrator: str = "semi_implicit",
+              equations: str = "paper"):
         """A plant stepping `batch_size` states at once."""
         if plant == "mujoco":
             model = mujoco.MjModel.from_xml_string(models.read(self.model))
             return MujocoPlant(model, self.mujoco_physics.ACTUATOR, batch_size)
         if not self.euler:
             return AnalyticPlant(self.step, self.timestep)
-        semi_implicit = check_integrator(integrator)
+        semi_implicit, slips = check_integrator(integrator), check_equations(equations)
         return AnalyticPlant(
-            lambda *columns: self.step(*columns, self.timestep, semi_implicit), self.timestep)
+            lambda *columns: self.step(*columns, self.timestep, semi_implicit, slips),
+            self.timestep)
 
-    def physics(self, plant: str, integrator: str = "semi_implicit"):
+    def physics(self, plant: str, integrator: str = "semi_implicit", equations: str = "paper"):
         """The dm_control Physics of one environment."""
         if plant == "mujoco":
             return self.mujoco_physics.from_xml_string(models.read(self.model))
-        return self.analytic_physics(self.batch("analytic", 1, integrator))
+        return self.analytic_physics(self.batch("analytic", 1, integrator, equations))

@@ -21,6 +21,7 @@ def test_tasks_lists_every_task_and_plant(capsys):
 @pytest.mark.parametrize("argv", [
     ["rollout", "cartpole.balance", "--plant", "mujoco", "--steps", "60", "--seed", "1"],
     ["rollout", "pendulum.swingup", "--plant", "analytic", "--integrator", "explicit", "--steps", "20"],
+    ["rollout", "cartpole.balance", "--plant", "analytic", "--equations", "kfnnet", "--steps", "20"],
     ["rollout", "mountain_car.cost_to_go", "--steps", "20"],
 ])
 def test_rollout_prints_a_summary(capsys, argv):

@@ -75,6 +75,27 @@ def test_readings_apply_to_the_runs_that_have_them():
         with_readings(ITEMS["fig2"].configs("analytic", True, "semi_implicit"), {"track_limit": 3})
 
 
+def test_the_author_codes_equations_apply_to_analytic_pendulum_and_cartpole_runs():
+    configs = ITEMS["fig2"].configs("analytic", True, "semi_implicit") + \
+        ITEMS["fig6"].configs("analytic", True, "semi_implicit")
+    changed = with_readings(configs, {"equations": "kfnnet"})
+    assert [c.equations for c in changed] == [
+        "kfnnet" if c.domain == "pendulum" else "paper" for c in configs]
+    assert '"equations": "kfnnet"' in changed[-1].key_json()
+    assert "equations" not in configs[-1].key_json()
+    with pytest.raises(ValueError, match="no run of these items has the reading 'equations'"):
+        with_readings(ITEMS["fig6"].configs("mujoco", True, "semi_implicit"), {"equations": "kfnnet"})
+    with pytest.raises(ValueError, match="equations 'kfnnet' need the analytic plant of pendulum "
+                                         "or cartpole; got cartpole.balance on the mujoco plant"):
+        RunConfig(task="cartpole.balance", equations="kfnnet")
+    with pytest.raises(ValueError, match="unknown equations 'R'; allowed: paper, kfnnet"):
+        RunConfig(task="cartpole.balance", plant="analytic", equations="R")
+    paper, kfnnet = (run(RunConfig(task="cartpole.balance", plant="analytic", agents=2,
+                                   episodes=3, equations=equations))[1]
+                     for equations in ("paper", "kfnnet"))
+    assert not np.array_equal(paper.steps, kfnnet.steps)
+
+
 def test_an_alpha_grid_replaces_the_nrbf_runs_alphas_only():
     configs = ITEMS["fig2"].configs("analytic", True, "semi_implicit")
     changed = with_alphas(configs, (0.05, 0.1))

@@ -186,7 +186,7 @@ BOX_CASES = [
     ("lwrl/cartpole-balance-mujoco-v0", {"time_limit": 20.0}),
     ("lwrl/cartpole-balance-analytic-v0", {"time_limit": 20.0}),
     ("lwrl/cartpole-balance-analytic-v0", {"integrator": "explicit", "track_limit": 0.3,
-                                           "time_limit": 20.0}),
+                                           "time_limit": 20.0, "equations": "kfnnet"}),
     ("lwrl/cartpole-balance-analytic-v0", {"track_limit": None, "time_limit": 10.0}),
 ]
 

@@ -176,7 +176,8 @@ def _analytic_swing(start):
     angle, angular_velocity = start, 0.0
     angles = [start]
     for _ in range(PERIOD_STEPS):
-        angle, angular_velocity = pendulum.step(angle, angular_velocity, 0.0, PERIOD_TIMESTEP, True)
+        angle, angular_velocity = pendulum.step(angle, angular_velocity, 0.0, PERIOD_TIMESTEP, True,
+                                                False)
         angles.append(angle)
     return np.array(angles)
 
@@ -270,7 +271,7 @@ def test_explicit_euler_adds_energy(start, gain):
         angle, angular_velocity = start, 0.0
         for _ in range(ENERGY_STEPS):
             angle, angular_velocity = pendulum.step(
-                angle, angular_velocity, 0.0, pendulum.TIMESTEP, semi_implicit)
+                angle, angular_velocity, 0.0, pendulum.TIMESTEP, semi_implicit, False)
         final_energy[semi_implicit] = _energy(angle, angular_velocity)
     initial_energy = _energy(start, 0.0)
     assert final_energy[False] - initial_energy > gain

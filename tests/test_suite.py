@@ -146,6 +146,44 @@ def test_cartpole_track_limit_option():
     assert env.task.get_termination(env.physics) == 0.0
 
 
+def _one_step(domain, task, state, action, **options):
+    env = tasks.load(domain, task, plant="analytic", **options)
+    env.reset()
+    set_state(env, state)
+    env.step(action)
+    return env.physics.state_vector()
+
+
+def test_kfnnet_pendulum_scales_the_acceleration_by_dt_twice():
+    """The author's code's suspected slip (SPEC.md, "Known traps"): theta_d' = theta_d +
+    dt^2 theta_dd, with theta_dd of m l^2 theta_dd = -mu theta_d + m g l sin(theta) + tau
+    (m = l = 1); the paper's equations take dt once."""
+    state, dt = [0.5, 1.2], 0.02
+    acceleration = -0.01 * 1.2 + 9.81 * math.sin(0.5) + 5.0
+    for equations, gain in (("paper", dt), ("kfnnet", dt * dt)):
+        velocity = 1.2 + gain * acceleration
+        np.testing.assert_allclose(_one_step("pendulum", "swingup", state, 1, equations=equations),
+                                   [0.5 + dt * velocity, velocity], rtol=1e-13)
+
+
+def test_kfnnet_cartpole_takes_the_cart_mass_in_the_spin_term():
+    """The author's code's suspected slip: mc l theta_d^2 sin(theta) where the paper has
+    m l theta_d^2 sin(theta), in both equations (section 4.3, written out here)."""
+    x_dot, theta, theta_dot, force = 0.3, 0.1, -2.0, 10.0
+    for equations, spin_mass in (("paper", 0.1), ("kfnnet", 1.0)):
+        spin = spin_mass * 0.5 * theta_dot ** 2 * math.sin(theta)
+        theta_dd = (9.81 * math.sin(theta) + math.cos(theta) * (-force - spin + 0.0005) / 1.1
+                    - 0.000002 * theta_dot / 0.05) / (0.5 * (4 / 3 - 0.1 * math.cos(theta) ** 2 / 1.1))
+        x_dd = (force + spin - 0.05 * theta_dd * math.cos(theta) - 0.0005) / 1.1
+        expected_velocities = [x_dot + 0.02 * x_dd, theta_dot + 0.02 * theta_dd]
+        state = _one_step("cartpole", "balance", [0.0, x_dot, theta, theta_dot], 1,
+                          equations=equations)
+        np.testing.assert_allclose(state[1::2], expected_velocities, rtol=1e-12)
+    at_rest = [_one_step("cartpole", "balance", [0.0, 0.3, 0.1, 0.0], 1, equations=equations)
+               for equations in ("paper", "kfnnet")]
+    np.testing.assert_array_equal(*at_rest)  # without spin the equations are the same
+
+
 def test_cartpole_failing_step_ends_the_episode():
     """Pushing one way from rest tips the pole over: the episode ends on the failing step
     with reward -1 and discount 0, and the up-time counts the steps before it."""
@@ -212,6 +250,8 @@ def test_pendulum_observation_wraps_the_angle():
     (lambda: tasks.load("mountain_car", "cost_to_go", plant="mujoco"), "unknown plant 'mujoco' for mountain_car; available: analytic"),
     (lambda: tasks.load("cartpole", "balance", plant="mujoco", integrator="explicit"), "unknown option 'integrator'"),
     (lambda: tasks.load("cartpole", "balance", plant="analytic", integrator="rk4"), "unknown integrator 'rk4'; allowed: semi_implicit, explicit"),
+    (lambda: tasks.load("pendulum", "swingup", plant="mujoco", equations="kfnnet"), "unknown option 'equations'"),
+    (lambda: tasks.load("pendulum", "swingup", plant="analytic", equations="R"), "unknown equations 'R'; allowed: paper, kfnnet"),
     (lambda: tasks.load("pendulum", "swingup", frobnicate=1), "allowed: plant, seed, time_limit"),
     (lambda: tasks.load("pendulum", "swingup", time_limit=-1), "time_limit must be a positive number"),
     (lambda: tasks.load("cartpole", "balance", track_limit=0), "track_limit must be a positive number"),
@@ -267,12 +307,13 @@ def test_physics_accessors_name_the_quantities():
 
 @pytest.mark.parametrize("domain, task", tasks.ALL_TASKS)
 @pytest.mark.parametrize("integrator", ["semi_implicit", "explicit"])
-def test_transition_is_the_plant_step_and_the_task(domain, task, integrator):
+@pytest.mark.parametrize("equations", ["paper", "kfnnet"])
+def test_transition_is_the_plant_step_and_the_task(domain, task, integrator, equations):
     """The compiled loops' `transition` (run here compiled by numba) gives the analytic
     plant's next state, the task's observation, reward, termination and up-time, exactly."""
     definition = tasks.definition(domain, task)
     plant = tasks.DOMAINS[domain].PLANTS.batch("analytic", 200, **(
-        {"integrator": integrator} if domain != "mountain_car" else {}))
+        {"integrator": integrator, "equations": equations} if domain != "mountain_car" else {}))
     transition = numba.njit(definition.transition)
     rng = np.random.default_rng(0)
     ranges = {"mountain_car": [1.0, 0.08], "pendulum": [4.0, 8.0], "cartpole": [2.6, 3.0, 0.25, 3.0]}
@@ -284,7 +325,8 @@ def test_transition_is_the_plant_step_and_the_task(domain, task, integrator):
     for state, control, next_expected in zip(states, controls, expected):
         next_state, observation = np.empty_like(state), np.empty_like(state)
         reward, terminal, up = transition(state, control, next_state, observation,
-                                          plant.timestep, semi_implicit, params)
+                                          plant.timestep, semi_implicit,
+                                          equations == "kfnnet", params)
         np.testing.assert_array_equal(next_state, next_expected)
         np.testing.assert_array_equal(observation, definition.observe(next_expected[None])[0])
         assert reward == definition.reward(next_expected[None])[0]
