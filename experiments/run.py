@@ -279,12 +279,18 @@ def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, see
     return results
 
 
-def make_agent(config) -> BatchedSarsa:
-    """The `config.agents` agents of a `RunConfig`, with zero weights."""
-    definition = tasks.definition(config.domain, config.task_name, **config.task_options)
-    return BatchedSarsa(config.feature_map(), definition.num_actions, alpha=config.alpha,
-                        lam=config.lam, epsilon=config.epsilon, trace=config.trace,
-                        gamma=config.gamma, seeds=config.seeds)
+def make_agent(*configs) -> BatchedSarsa:
+    """The agents of one or more `RunConfig`s, each configuration's `agents` in order, with
+    zero weights. Configurations after the first differ from it at most in trace, alpha,
+    lambda, epsilon and seeds (`sweep.batches` groups them so)."""
+    base = configs[0]
+    per_agent = [config for config in configs for _ in range(config.agents)]
+    definition = tasks.definition(base.domain, base.task_name, **base.task_options)
+    return BatchedSarsa(base.feature_map(), definition.num_actions,
+                        alpha=[c.alpha for c in per_agent], lam=[c.lam for c in per_agent],
+                        epsilon=[c.epsilon for c in per_agent],
+                        trace=[c.trace for c in per_agent], gamma=base.gamma,
+                        seeds=[seed for config in configs for seed in config.seeds])
 
 
 def run(config, agent: BatchedSarsa | None = None, learn: bool = True,

@@ -26,12 +26,9 @@ import sys
 import pandas as pd
 import tqdm
 
-import tasks
-
 from agent import threads
 from experiments.config import RunConfig
-from agent.sarsa import BatchedSarsa
-from experiments.run import run
+from experiments.run import make_agent, run
 
 CONFIG_COLUMNS = ("task", "plant", "integrator", "features", "trace", "alpha", "lam", "epsilon",
                   "gamma", "n", "r2", "tilings", "normalise_alpha", "episodes")
@@ -79,14 +76,9 @@ def run_batch(configs, progress=None) -> list:
     """Run several configurations as one batch of agents; one tidy table per configuration,
     equal to running each alone (agents are independent). `progress(agent_episodes)` is
     called as episodes finish."""
-    base = configs[0]
-    per_agent = [config for config in configs for _ in range(config.agents)]
+    agent = make_agent(*configs)
     seeds = [seed for config in configs for seed in config.seeds]
-    num_actions = tasks.definition(base.domain, base.task_name).num_actions
-    agent = BatchedSarsa(base.feature_map(), num_actions, alpha=[c.alpha for c in per_agent], lam=[c.lam for c in per_agent],
-                         epsilon=[c.epsilon for c in per_agent], trace=[c.trace for c in per_agent],
-                         gamma=base.gamma, seeds=seeds)
-    _, results = run(base, agent=agent, seeds=seeds, progress=progress)
+    _, results = run(configs[0], agent=agent, seeds=seeds, progress=progress)
     if results.interrupted:
         raise KeyboardInterrupt
     tables, start = [], 0
