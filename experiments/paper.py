@@ -220,7 +220,7 @@ def fig3_analyse(results, figure_dir):
             (f"mean steps, last {min(20, episodes)} episodes", f"{late:.1f}", "about 60"),
             ("first episode whose 5-episode mean is within 10 % of that level", f"{settled}",
              "about 40")]
-    score = (50 <= late <= 75) + (20 <= settled <= 60)
+    score = int(50 <= late <= 75) + int(20 <= settled <= 60)  # numpy bools would add as "or"
     rule = "yes if the converged level is within 50 to 75 steps and it is reached within 20 to 60 episodes; partly if one holds"
     return Section(rows, _verdict(score, 2, yes=2, partly=1), rule, [], figures)
 

@@ -115,3 +115,14 @@ def test_mujoco_runs_batch_too(tmp_path):
     table, _ = sweep.run_sweep(configs, str(tmp_path))
     alone = pd.concat([sweep.run_batch([config])[0] for config in configs], ignore_index=True)
     pd.testing.assert_frame_equal(table, alone)
+
+
+@pytest.mark.parametrize("level, settle, verdict", [
+    (60.0, 40, "yes"), (60.0, 5, "partly"), (120.0, 40, "partly"), (120.0, 5, "no")])
+def test_fig3_verdict_counts_both_conditions(tmp_path, level, settle, verdict):
+    """A curve at 300 steps until episode `settle`, then at `level`: the verdict needs the
+    level within 50 to 75 steps and the settling episode within 20 to 60."""
+    rows = [{"agent": agent, "episode": episode, "steps": 300.0 if episode < settle else level}
+            for agent in range(3) for episode in range(1, 101)]
+    section = ITEMS["fig3"].analyse(pd.DataFrame(rows), str(tmp_path))
+    assert section.verdict == verdict
