@@ -16,7 +16,6 @@ gymnasium = pytest.importorskip("gymnasium")
 from gymnasium.utils.env_checker import check_env  # noqa: E402
 
 import tasks  # noqa: E402
-from tasks import gymnasium_envs  # noqa: E402
 from tasks.gymnasium_envs import ENV_IDS, SuiteEnv, env_id, register_envs  # noqa: E402
 
 # Any warning (Gymnasium's checkers warn rather than raise) fails these tests, unless a test
