@@ -183,7 +183,8 @@ def cmd_train(args) -> int:
         raise ValueError("--obs-range and --actions apply to dmc: and gym: environments only; "
                          f"{args.task} has its own")
     config = RunConfig(task=args.task, plant=args.plant, integrator=args.integrator,
-                       equations=args.equations, trace=args.trace, alpha=args.alpha, lam=args.lam, epsilon=args.epsilon,
+                       equations=args.equations, trace=args.trace, alpha=args.alpha,
+                       lam=args.lam, epsilon=args.epsilon,
                        features=args.features, n=args.n, episodes=args.episodes,
                        agents=args.agents, seed=args.seed,
                        **({} if args.gamma is None else {"gamma": args.gamma}))

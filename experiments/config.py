@@ -100,10 +100,9 @@ class RunConfig:
         if self.features not in ("nrbf", "cmac"):
             raise ValueError(f"unknown features {self.features!r}; allowed: nrbf, cmac")
         check_equations(self.equations)
-        plant = self.plant or tasks.PLANTS[self.domain][0]
-        if self.equations != "paper" and "equations" not in tasks.plant_option_names(self.domain, plant):
+        if self.equations != "paper" and "equations" not in self.plant_options:
             raise ValueError(f"equations {self.equations!r} need the analytic plant of pendulum or "
-                             f"cartpole; got {self.task} on the {plant} plant")
+                             f"cartpole; got {self.task} on the {self.plant_name} plant")
         if self.centroids not in CENTROID_PLACEMENTS:
             raise ValueError(f"unknown centroid placement {self.centroids!r}; allowed: "
                              f"{', '.join(CENTROID_PLACEMENTS)}")
@@ -126,6 +125,17 @@ class RunConfig:
     @property
     def task_name(self) -> str:
         return self.task.split(".")[1]
+
+    @property
+    def plant_name(self) -> str:
+        """`plant`, or the domain's default plant where it is None."""
+        return self.plant or tasks.PLANTS[self.domain][0]
+
+    @property
+    def plant_options(self) -> dict:
+        """The options of the run's plant (`tasks.plant_option_names`) with their values."""
+        return {name: getattr(self, name)
+                for name in tasks.plant_option_names(self.domain, self.plant_name)}
 
     @property
     def seeds(self) -> list:

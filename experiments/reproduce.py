@@ -60,12 +60,10 @@ def with_readings(configs, readings: dict) -> list:
     configs = list(configs)
     for index, config in enumerate(configs):
         options = tasks.task_options(config.domain, config.task_name)
-        plant_options = tasks.plant_option_names(
-            config.domain, config.plant or tasks.PLANTS[config.domain][0])
         fields, task_options = {}, dict(config.task_options)
         for name, value in readings.items():
             applies = ((config.features == "nrbf" or name not in NRBF_READINGS)
-                       and (name in plant_options or name not in PLANT_READINGS))
+                       and (name in config.plant_options or name not in PLANT_READINGS))
             if name in CONFIG_READINGS and applies:
                 fields[name] = value
             elif name in options:

@@ -302,15 +302,13 @@ def run(config, agent: BatchedSarsa | None = None, learn: bool = True,
     agent = make_agent(config) if agent is None else agent
     seeds = config.seeds if seeds is None else list(seeds)
     domain, task = config.domain, config.task_name
-    plant = config.plant or tasks.PLANTS[domain][0]
-    plant_options = {"integrator": config.integrator, "equations": config.equations} if (
-        plant == "analytic" and tasks.DOMAINS[domain].PLANTS.euler) else {}
-    if plant == "analytic":
+    if config.plant_name == "analytic":
         results = run_compiled(domain, task, agent, config.episodes, seeds, learn=learn,
-                               progress=progress, record=record, **plant_options,
+                               progress=progress, record=record, **config.plant_options,
                                **config.task_options)
     else:
-        env = BatchedEnv(domain, task, plant, seeds, **plant_options, **config.task_options)
+        env = BatchedEnv(domain, task, config.plant_name, seeds, **config.plant_options,
+                         **config.task_options)
         results = run_batched(env, agent, config.episodes, learn=learn, progress=progress,
                               record=record)
     return agent, results
