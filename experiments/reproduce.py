@@ -73,6 +73,9 @@ def with_readings(configs, readings: dict) -> list:
             used.add(name)
         configs[index] = dataclasses.replace(config, **fields, task_options=task_options)
     unused = sorted(set(readings) - used)
+    if unused and unused[0] in PLANT_READINGS:
+        raise ValueError(f"no run of these items has the reading {unused[0]!r}: it applies to "
+                         "the pendulum and cart-pole on the analytic plant (--plant analytic)")
     if unused:
         raise ValueError(f"no run of these items has the reading {unused[0]!r}; allowed: "
                          f"{', '.join(CONFIG_READINGS)} and the tasks' options")

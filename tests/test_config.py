@@ -83,7 +83,9 @@ def test_the_author_codes_equations_apply_to_analytic_pendulum_and_cartpole_runs
         "kfnnet" if c.domain == "pendulum" else "paper" for c in configs]
     assert '"equations": "kfnnet"' in changed[-1].key_json()
     assert "equations" not in configs[-1].key_json()
-    with pytest.raises(ValueError, match="no run of these items has the reading 'equations'"):
+    with pytest.raises(ValueError, match="no run of these items has the reading 'equations': it "
+                                         "applies to the pendulum and cart-pole on the analytic "
+                                         "plant \\(--plant analytic\\)"):
         with_readings(ITEMS["fig6"].configs("mujoco", True, "semi_implicit"), {"equations": "kfnnet"})
     with pytest.raises(ValueError, match="equations 'kfnnet' need the analytic plant of pendulum "
                                          "or cartpole; got cartpole.balance on the mujoco plant"):
