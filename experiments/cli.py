@@ -28,6 +28,7 @@ import numpy as np
 import tqdm
 
 import tasks
+from tasks.integrators import INTEGRATORS
 from tasks.plants import EQUATIONS
 from agent import io as agent_io
 from agent.traces import TRACES
@@ -351,7 +352,7 @@ def _add_train_arguments(train) -> None:
                             "suite) or gym:ID (Gymnasium), presets for "
                             + ", ".join(external.EXTERNAL_PRESETS))
     train.add_argument("--plant", help="mujoco or analytic (default: the domain's first)")
-    train.add_argument("--integrator", choices=("semi_implicit", "explicit"),
+    train.add_argument("--integrator", choices=INTEGRATORS,
                        default="semi_implicit", help="Euler scheme of the analytic plant")
     train.add_argument("--equations", choices=EQUATIONS, default="paper",
                        help="the analytic plant's equations: the paper's, or kfnnet with the "
@@ -396,7 +397,7 @@ def build_parser() -> argparse.ArgumentParser:
     rollout = commands.add_parser("rollout", help="run a random policy on a task")
     rollout.add_argument("task", metavar="DOMAIN.TASK", help="e.g. cartpole.balance")
     rollout.add_argument("--plant", help="mujoco or analytic (default: the domain's first)")
-    rollout.add_argument("--integrator", choices=("semi_implicit", "explicit"),
+    rollout.add_argument("--integrator", choices=INTEGRATORS,
                          help="Euler scheme of the analytic plant (default semi_implicit)")
     rollout.add_argument("--equations", choices=EQUATIONS,
                          help="the analytic plant's equations (default paper)")
@@ -431,7 +432,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="one or more items, or all")
     paper.add_argument("--plant", choices=("analytic", "mujoco"), default="analytic",
                        help="plant of the pendulum and cart-pole (Mountain-Car has only the analytic one)")
-    paper.add_argument("--integrator", choices=("semi_implicit", "explicit"), default="semi_implicit",
+    paper.add_argument("--integrator", choices=INTEGRATORS, default="semi_implicit",
                        help="Euler scheme of the analytic plant")
     paper.add_argument("--set", metavar="NAME=VALUE", type=_reading, action="append", default=[],
                        dest="readings",
