@@ -18,7 +18,7 @@ import numba
 import numpy as np
 from numba.extending import register_jitable
 
-from agent.features import FeatureMap, check_count, normalise
+from lwrl.agent.features import FeatureMap, check_count, normalise
 
 
 @register_jitable

@@ -12,10 +12,10 @@ import zipfile
 
 import numpy as np
 
-from agent.cmac import CMAC
-from agent.nrbf import NRBF
-from agent.sarsa import BatchedSarsa
-from agent.traces import TRACES
+from lwrl.agent.cmac import CMAC
+from lwrl.agent.nrbf import NRBF
+from lwrl.agent.sarsa import BatchedSarsa
+from lwrl.agent.traces import TRACES
 
 FORMAT = "lwrl-agent/1"
 

@@ -30,7 +30,7 @@ import numba
 import numpy as np
 from numba.extending import register_jitable
 
-from agent.features import FeatureMap, check_count, normalise
+from lwrl.agent.features import FeatureMap, check_count, normalise
 
 DEFAULT_R2 = 0.01
 """r^2, the spread of eq. 8; the paper uses 0.01 in all tasks."""

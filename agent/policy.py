@@ -2,7 +2,7 @@
 
 from numba.extending import register_jitable
 
-from agent.streams import uniform
+from lwrl.agent.streams import uniform
 
 
 @register_jitable

@@ -26,12 +26,12 @@ import numba
 import numpy as np
 from numba.extending import register_jitable
 
-from agent.cmac import CMAC, cmac_features_into
-from agent.nrbf import NRBF, nrbf_features_into
-from agent.policy import epsilon_greedy
-from agent.streams import seed_streams
-from agent.threads import run_in_chunks
-from agent.traces import TRACES, update_
+from lwrl.agent.cmac import CMAC, cmac_features_into
+from lwrl.agent.nrbf import NRBF, nrbf_features_into
+from lwrl.agent.policy import epsilon_greedy
+from lwrl.agent.streams import seed_streams
+from lwrl.agent.threads import run_in_chunks
+from lwrl.agent.traces import TRACES, update_
 
 _NRBF, _CMAC = 0, 1
 

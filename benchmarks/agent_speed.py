@@ -1,14 +1,14 @@
 """Agent-steps per second of lwrl's learner against a plain per-step NumPy loop.
 
 On Mountain-Car and Cart-Pole (the analytic plant, semi-implicit Euler), with the paper's
-agent of each task (`experiments.config.PAPER`), one run of this script measures:
+agent of each task (`lwrl.runners.config.PAPER`), one run of this script measures:
 
 1. **plain loop**: one agent written here as a straightforward per-step NumPy loop (the
    reference point, not project code): eq. 8 over all n^d centroids, Q = phi @ w, epsilon-
    greedy with random ties from a NumPy Generator, the trace (eq. 2 or 6) and weight update
    as whole-array operations, and the plant stepped by the task module's own `step` and
    `outcome` on scalars. Single-threaded; run for `--seconds` of wall time.
-2. **lwrl, 1 agent**: `experiments.run.run_compiled` with a `BatchedSarsa` of one agent.
+2. **lwrl, 1 agent**: `lwrl.runners.run.run_compiled` with a `BatchedSarsa` of one agent.
 3. **lwrl, 300 agents**: the same with 300 seeds of that agent, on the default thread pool
    (`agent.threads.workers()` threads).
 
@@ -34,11 +34,11 @@ from typing import Callable
 import numba
 import numpy as np
 
-import tasks
-from agent.threads import workers
-from experiments.config import PAPER, RunConfig
-from experiments.run import make_agent, run_compiled
-from tasks import cartpole, mountain_car
+from lwrl import tasks
+from lwrl.agent.threads import workers
+from lwrl.runners.config import PAPER, RunConfig
+from lwrl.runners.run import make_agent, run_compiled
+from lwrl.tasks import cartpole, mountain_car
 
 BATCH = 300
 """Agents in the sweep-sized batch."""

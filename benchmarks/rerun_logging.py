@@ -23,15 +23,15 @@ from pathlib import Path
 import numpy as np
 import rerun as rr
 
-import tasks
-from experiments.config import RunConfig
-from experiments.logging_rerun import DEFAULT_EPISODES, episodes_to_log, send_run
-from experiments.recording import EpisodeRecording
-from experiments.run import run
-from viz import names
-from viz import rerun as viz
-from viz import scene
-from viz.scene import scene_poses
+from lwrl import tasks
+from lwrl.runners.config import RunConfig
+from lwrl.cli.rerun_options import DEFAULT_EPISODES, episodes_to_log, send_run
+from lwrl.runners.recording import EpisodeRecording
+from lwrl.runners.run import run
+from lwrl.viz import names
+from lwrl.viz import rerun as viz
+from lwrl.viz import scene
+from lwrl.viz.scene import scene_poses
 
 
 def synthetic_recording(task: str, steps: int, seed: int = 0, plant: str | None = None,

@@ -1,6 +1,6 @@
 """lwrl's task suite: the paper's three control tasks as dm_env environments.
 
-    import tasks
+    from lwrl import tasks
     env = tasks.load("cartpole", "balance", plant="mujoco", seed=0)
     ts = env.reset()
     ts = env.step(1)            # a discrete action index
@@ -21,9 +21,9 @@ if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
 
 from dm_control.rl import control  # noqa: E402
 
-from tasks import cartpole, mountain_car, pendulum  # noqa: E402
-from tasks.base import SuiteTask  # noqa: E402
-from tasks.definition import TaskDefinition  # noqa: E402
+from lwrl.tasks import cartpole, mountain_car, pendulum  # noqa: E402
+from lwrl.tasks.base import SuiteTask  # noqa: E402
+from lwrl.tasks.definition import TaskDefinition  # noqa: E402
 
 DOMAINS = {"mountain_car": mountain_car, "pendulum": pendulum, "cartpole": cartpole}
 ALL_TASKS = tuple((name, task) for name, module in DOMAINS.items() for task in module.SUITE)

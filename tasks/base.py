@@ -6,7 +6,7 @@ import numpy as np
 from dm_control.rl import control
 from dm_env import specs
 
-from tasks.definition import TaskDefinition, check_actions
+from lwrl.tasks.definition import TaskDefinition, check_actions
 
 
 class SuiteTask(control.Task):

@@ -14,8 +14,8 @@ from typing import NamedTuple, Sequence
 import dm_env
 import numpy as np
 
-import tasks
-from tasks.definition import check_actions, check_finite_state
+from lwrl import tasks
+from lwrl.tasks.definition import check_actions, check_finite_state
 
 FIRST, MID, LAST = (int(t) for t in (dm_env.StepType.FIRST, dm_env.StepType.MID, dm_env.StepType.LAST))
 

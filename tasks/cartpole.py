@@ -30,10 +30,10 @@ import math
 import numpy as np
 from numba.extending import register_jitable
 
-from tasks.definition import TaskDefinition, step_limit
-from tasks.integrators import euler
-from tasks.physics import physics_classes
-from tasks.plants import DomainPlants
+from lwrl.tasks.definition import TaskDefinition, step_limit
+from lwrl.tasks.integrators import euler
+from lwrl.tasks.physics import physics_classes
+from lwrl.tasks.plants import DomainPlants
 
 STATE_NAMES = ("cart_position", "cart_velocity", "pole_angle", "pole_angular_velocity")
 FORCES = (-10.0, 10.0)

@@ -24,9 +24,9 @@ Task `cost_to_go`:
 import numpy as np
 from numba.extending import register_jitable
 
-from tasks.definition import TaskDefinition, step_limit
-from tasks.physics import AnalyticPhysics
-from tasks.plants import DomainPlants
+from lwrl.tasks.definition import TaskDefinition, step_limit
+from lwrl.tasks.physics import AnalyticPhysics
+from lwrl.tasks.plants import DomainPlants
 
 STATE_NAMES = ("position", "velocity")
 THRUSTS = (-1.0, 0.0, 1.0)

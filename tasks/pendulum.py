@@ -24,10 +24,10 @@ Task `swingup`:
 import numpy as np
 from numba.extending import register_jitable
 
-from tasks.definition import TaskDefinition, step_limit
-from tasks.integrators import euler
-from tasks.physics import physics_classes
-from tasks.plants import DomainPlants
+from lwrl.tasks.definition import TaskDefinition, step_limit
+from lwrl.tasks.integrators import euler
+from lwrl.tasks.physics import physics_classes
+from lwrl.tasks.plants import DomainPlants
 
 STATE_NAMES = ("angle", "angular_velocity")
 TORQUES = (-5.0, 5.0)

@@ -9,8 +9,8 @@ import numpy as np
 from dm_control import mujoco as dm_mujoco
 from dm_control.rl import control
 
-from tasks.definition import check_finite_state
-from tasks.plants import AnalyticPlant
+from lwrl.tasks.definition import check_finite_state
+from lwrl.tasks.plants import AnalyticPlant
 
 
 class AnalyticPhysics(control.Physics):

@@ -13,8 +13,8 @@ import mujoco
 from mujoco import rollout
 import numpy as np
 
-import models
-from tasks.integrators import check_integrator
+from lwrl import models
+from lwrl.tasks.integrators import check_integrator
 
 EQUATIONS = ("paper", "kfnnet")
 """The analytic plant's equations: the paper's, or with the suspected slips of the author's

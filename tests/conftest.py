@@ -2,7 +2,7 @@
 
 import pytest
 
-import tasks
+from lwrl import tasks
 
 TASK_PLANTS = [(domain, task, plant) for domain, task in tasks.ALL_TASKS
                for plant in tasks.PLANTS[domain]]

@@ -5,11 +5,11 @@ import json
 import numpy as np
 import pytest
 
-from agent import io as agent_io
-from agent.cmac import CMAC
-from agent.sarsa import BatchedSarsa
-from experiments.config import RunConfig
-from experiments.run import make_agent, run_compiled
+from lwrl.agent import io as agent_io
+from lwrl.agent.cmac import CMAC
+from lwrl.agent.sarsa import BatchedSarsa
+from lwrl.runners.config import RunConfig
+from lwrl.runners.run import make_agent, run_compiled
 
 
 @pytest.fixture

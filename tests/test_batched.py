@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-import tasks
-from tasks.batched import LAST, BatchedEnv
+from lwrl import tasks
+from lwrl.tasks.batched import LAST, BatchedEnv
 
 SHORT_LIMITS = {"mountain_car": 40, "pendulum": 0.5, "cartpole": 240.0}
 """Time limits short enough that auto-resets happen within the test."""

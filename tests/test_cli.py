@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from experiments import cli
+from lwrl.cli import main as cli
 
 
 def test_tasks_lists_every_task_and_plant(capsys):
@@ -56,7 +56,7 @@ def test_rollout_reports_finished_cartpole_episodes(capsys):
 ])
 def test_bad_input_is_one_line_and_status_2(argv, message):
     """No traceback: one line on standard error naming what is wrong, exit status 2."""
-    result = subprocess.run([sys.executable, "-m", "experiments.cli", *argv],
+    result = subprocess.run([sys.executable, "-m", "lwrl.cli", *argv],
                             capture_output=True, text=True)
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from agent.cmac import CMAC
+from lwrl.agent.cmac import CMAC
 
 CAR = CMAC(low=(-1.2, -0.07), high=(0.5, 0.07))
 

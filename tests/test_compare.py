@@ -16,9 +16,10 @@ import numpy as np
 import pytest
 import rerun as rr
 
-from experiments import cli, open_loop
-from experiments.compare import replay
-from viz import names
+from lwrl.cli import main as cli
+from lwrl.studies.compare import open_loop
+from lwrl.studies.compare.comparison import replay
+from lwrl.viz import names
 
 SEEDS = range(5)
 STEPS = 50
@@ -123,8 +124,8 @@ def test_recording_holds_an_entity_per_plant(quick_run):
 
 def test_replay_on_mujoco_repeats_the_recorded_episode():
     """Open loop on the plant an episode was run on, its actions give back its states."""
-    from experiments.closed_loop import EVAL_SEED, plant_config
-    from experiments.run import run
+    from lwrl.studies.compare.closed_loop import EVAL_SEED, plant_config
+    from lwrl.runners.run import run
 
     config = plant_config("pendulum.swingup", "mujoco", agents=1, episodes=1, seed=EVAL_SEED)
     _, results = run(config, record=[(0, 0)])
@@ -140,7 +141,7 @@ def test_replay_on_mujoco_repeats_the_recorded_episode():
     ("cartpole.swing", "cartpole.swing is not a task of the suite"),
 ])
 def test_bad_task_is_one_line_and_status_2(task, message, tmp_path):
-    result = subprocess.run([sys.executable, "-m", "experiments.cli", "compare", task, "--out",
+    result = subprocess.run([sys.executable, "-m", "lwrl.cli", "compare", task, "--out",
                              str(tmp_path)], capture_output=True, text=True,
                             env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
     assert result.returncode == 2

@@ -7,11 +7,11 @@ import sys
 import numpy as np
 import pytest
 
-from experiments import sweep
-from experiments.config import RunConfig
-from experiments.paper import ITEMS
-from experiments.reproduce import with_alphas, with_readings
-from experiments.run import run
+from lwrl.runners import sweep
+from lwrl.runners.config import RunConfig
+from lwrl.studies.paper.items import ITEMS
+from lwrl.studies.paper.reproduce import with_alphas, with_readings
+from lwrl.runners.run import run
 
 
 def test_edge_centroids_are_the_grid_from_end_to_end():
@@ -113,7 +113,7 @@ def test_an_alpha_grid_replaces_the_nrbf_runs_alphas_only():
 
 def test_reproduce_sets_readings_from_the_command_line(tmp_path):
     result = subprocess.run(
-        [sys.executable, "-m", "experiments.cli", "reproduce", "fig8", "--quick", "--out",
+        [sys.executable, "-m", "lwrl.cli", "reproduce", "fig8", "--quick", "--out",
          str(tmp_path), "--set", "track_limit=none", "--set", "centroids=edges", "--alphas",
          "0.05,0.1"],
         capture_output=True, text=True)
@@ -123,6 +123,6 @@ def test_reproduce_sets_readings_from_the_command_line(tmp_path):
             "NRBF α grid 0.05, 0.1") in report
     configs = (tmp_path / "fig8" / "configs.jsonl").read_text()
     assert '"track_limit": null' in configs and '"centroids": "edges"' in configs
-    bad = subprocess.run([sys.executable, "-m", "experiments.cli", "reproduce", "fig8", "--quick",
+    bad = subprocess.run([sys.executable, "-m", "lwrl.cli", "reproduce", "fig8", "--quick",
                           "--out", str(tmp_path), "--set", "r2"], capture_output=True, text=True)
     assert bad.returncode == 2 and "must be NAME=VALUE" in bad.stderr.strip().splitlines()[-1]

@@ -1,4 +1,4 @@
-"""The embedded controller (experiments/export_c.py): the exported C picks the Python agent's
+"""The embedded controller (lwrl.export.c): the exported C picks the Python agent's
 greedy action, compiles cleanly as C99, and bad inputs are refused in one line.
 
 The C code runs in float (single precision, weights rounded to float32) by default; the
@@ -21,13 +21,13 @@ import subprocess
 import numpy as np
 import pytest
 
-from agent import io as agent_io
-from agent.cmac import CMAC
-from agent.nrbf import NRBF
-from agent.sarsa import BatchedSarsa
-from experiments.config import PAPER, RunConfig
-from experiments.export_c import export_c, measure
-from experiments.run import make_agent, run
+from lwrl.agent import io as agent_io
+from lwrl.agent.cmac import CMAC
+from lwrl.agent.nrbf import NRBF
+from lwrl.agent.sarsa import BatchedSarsa
+from lwrl.runners.config import PAPER, RunConfig
+from lwrl.export.c import export_c, measure
+from lwrl.runners.run import make_agent, run
 
 COMPILER = next((shutil.which(c) for c in ("cc", "gcc", "clang") if shutil.which(c)), None)
 needs_compiler = pytest.mark.skipif(COMPILER is None,

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from dm_env import specs
 
-from experiments import cli
-from experiments.external import DmEnvAdapter, ExternalConfig, GymAdapter, load, run_external
+from lwrl.cli import main as cli
+from lwrl.adapters.external import DmEnvAdapter, ExternalConfig, GymAdapter, load, run_external
 
 needs_gymnasium = pytest.mark.skipif(importlib.util.find_spec("gymnasium") is None,
                                      reason="gymnasium is not installed (the dev extra has it)")
@@ -214,8 +214,8 @@ def test_an_episode_ending_in_a_terminal_state_has_discount_0():
 
 @needs_gymnasium
 def test_learning_curves_of_a_run(tmp_path, capsys):
-    """`experiments.external_curves` draws a run's curve and states its first and final tenth."""
-    from experiments.external_curves import plot_run
+    """`lwrl.studies.other_suites` draws a run's curve and states its first and final tenth."""
+    from lwrl.studies.other_suites import plot_run
 
     run_dir = tmp_path / "car"
     assert cli.main(["train", "gym:MountainCar-v0", "--episodes", "10", "--agents", "2",

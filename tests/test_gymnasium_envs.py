@@ -1,4 +1,4 @@
-"""The suite as Gymnasium environments (`tasks.gymnasium_envs`): registration, Gymnasium's
+"""The suite as Gymnasium environments (`lwrl.gym`): registration, Gymnasium's
 own checker, the observation box, terminated vs truncated, seeding, and step-by-step
 agreement with the dm_env environments."""
 
@@ -15,8 +15,8 @@ gymnasium = pytest.importorskip("gymnasium")
 
 from gymnasium.utils.env_checker import check_env  # noqa: E402
 
-import tasks  # noqa: E402
-from tasks.gymnasium_envs import ENV_IDS, SuiteEnv, env_id, register_envs  # noqa: E402
+from lwrl import tasks  # noqa: E402
+from lwrl.gym import ENV_IDS, SuiteEnv, env_id, register_envs  # noqa: E402
 
 # Any warning (Gymnasium's checkers warn rather than raise) fails these tests, unless a test
 # expects it.
@@ -58,7 +58,7 @@ def test_every_task_and_plant_is_registered():
     assert "lwrl/mountain_car-cost_to_go-analytic-v0" in ENV_IDS
     for (domain, task, plant), id_ in zip(TASK_PLANTS, [env_id(*p) for p in TASK_PLANTS]):
         spec = gymnasium.spec(id_)
-        assert spec.entry_point == "tasks.gymnasium_envs:SuiteEnv"
+        assert spec.entry_point == "lwrl.gym:SuiteEnv"
         assert spec.kwargs == {"domain": domain, "task": task, "plant": plant}
         assert spec.max_episode_steps is None
         assert spec.namespace == "lwrl"
@@ -76,17 +76,17 @@ def test_register_envs_is_idempotent():
 def test_registration_from_a_fresh_interpreter():
     """`import tasks` does not import gymnasium; `gymnasium.make("lwrl/...")` needs the ids
     registered (Gymnasium 1.x loads no entry-point plugins), which `module:id` or importing
-    `tasks.gymnasium_envs` does."""
+    `lwrl.gym` does."""
     script = """
 import sys
-import tasks
+from lwrl import tasks
 assert "gymnasium" not in sys.modules, "tasks imported gymnasium"
 import gymnasium
 try:
     gymnasium.make("lwrl/cartpole-balance-analytic-v0")
 except gymnasium.error.Error as error:
     print("unregistered:", type(error).__name__)
-env = gymnasium.make("tasks.gymnasium_envs:lwrl/cartpole-balance-analytic-v0")
+env = gymnasium.make("lwrl.gym:lwrl/cartpole-balance-analytic-v0")
 print(env.reset(seed=0)[0].tolist())
 env = gymnasium.make("lwrl/pendulum-swingup-analytic-v0")
 print(type(env.unwrapped).__name__)

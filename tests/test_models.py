@@ -10,8 +10,8 @@ import mujoco
 import numpy as np
 import pytest
 
-import models
-from tasks import cartpole, pendulum
+from lwrl import models
+from lwrl.tasks import cartpole, pendulum
 
 MODULES = {"pendulum": pendulum, "cartpole": cartpole}
 """The task module whose constants each model must follow."""

@@ -8,8 +8,8 @@ import gymnasium
 import numpy as np
 import pytest
 
-import tasks
-from tasks import mountain_car
+from lwrl import tasks
+from lwrl.tasks import mountain_car
 
 
 @pytest.fixture(scope="module")

@@ -6,7 +6,7 @@ import numba
 import numpy as np
 import pytest
 
-from agent.nrbf import DEFAULT_R2, NRBF, nrbf_features_into
+from lwrl.agent.nrbf import DEFAULT_R2, NRBF, nrbf_features_into
 
 LOWS = (-1.2, -0.07, -np.pi, -2.0)
 HIGHS = (0.5, 0.07, np.pi, 3.0)

@@ -14,15 +14,15 @@ plants, so the whole-episode check uses random-action episodes, which end at fai
 import numpy as np
 import pytest
 
-import tasks
-from experiments.open_loop import plant, random_trials, trajectories
+from lwrl import tasks
+from lwrl.studies.compare.open_loop import plant, random_trials, trajectories
 
 SEEDS = range(20)
 
 
 def divergence(domain, seed, steps, integrator="semi_implicit", to_failure=False):
     """Per state variable, the largest |MuJoCo - analytic| over one random-action trial
-    (`experiments.open_loop.random_trials`), and the steps compared: all of them, or with
+    (`lwrl.studies.compare.open_loop.random_trials`), and the steps compared: all of them, or with
     `to_failure` those up to the failure, on which both plants must agree."""
     definition = tasks.definition(domain, next(iter(tasks.DOMAINS[domain].SUITE)))
     starts, actions = random_trials(definition, [seed], steps)

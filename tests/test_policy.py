@@ -4,8 +4,8 @@ import numba
 import numpy as np
 import pytest
 
-from agent.policy import epsilon_greedy
-from agent.streams import seed_streams, uniform
+from lwrl.agent.policy import epsilon_greedy
+from lwrl.agent.streams import seed_streams, uniform
 
 
 @numba.njit

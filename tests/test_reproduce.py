@@ -9,15 +9,15 @@ import time
 import pandas as pd
 import pytest
 
-from experiments import sweep
-from experiments.config import RunConfig
-from experiments.paper import ITEMS
-from experiments.reproduce import reproduce
+from lwrl.runners import sweep
+from lwrl.runners.config import RunConfig
+from lwrl.studies.paper.items import ITEMS
+from lwrl.studies.paper.reproduce import reproduce
 
 SWEEP_SCRIPT = """
 import sys
-from experiments import sweep
-from experiments.config import RunConfig
+from lwrl.runners import sweep
+from lwrl.runners.config import RunConfig
 configs = [RunConfig(task="mountain_car.cost_to_go", plant="analytic", trace=trace, alpha=alpha,
                      lam=0.9, agents=10, episodes=30, seed=seed)
            for trace in ("replacing", "accumulating") for alpha in (0.5, 2.0) for seed in (0, 10, 20, 30)]

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-import tasks
-from experiments.config import PAPER, RunConfig
-from experiments.run import make_agent, run, run_batched, run_compiled, run_dm_env
-from tasks.batched import BatchedEnv
+from lwrl import tasks
+from lwrl.runners.config import PAPER, RunConfig
+from lwrl.runners.run import make_agent, run, run_batched, run_compiled, run_dm_env
+from lwrl.tasks.batched import BatchedEnv
 
 SHORT = {"mountain_car.cost_to_go": 300, "pendulum.swingup": 2.0, "cartpole.balance": 240.0}
 """Time limits that keep every path's episodes short."""
@@ -61,7 +61,7 @@ def test_an_agent_is_the_same_alone_and_in_any_batch():
     seed 7 runs alone, then in the middle of a batch of agents with other alphas, lambdas
     and traces, in the compiled loop (with two threads splitting the batch)."""
     features = RunConfig(task="mountain_car.cost_to_go").feature_map()
-    from agent.sarsa import BatchedSarsa
+    from lwrl.agent.sarsa import BatchedSarsa
 
     alone = BatchedSarsa(features, 3, alpha=3.9, lam=0.9, epsilon=0.0, trace="replacing", seeds=[7])
     alone_results = run_compiled("mountain_car", "cost_to_go", alone, 6, [7])
@@ -80,7 +80,7 @@ def test_divergence_freezes_one_agent_and_the_rest_continue():
     agent is marked diverged in some episode, its later episodes are not run (NaN) and its
     weights are frozen; the other agent's results equal those it has alone."""
     features = RunConfig(task="mountain_car.cost_to_go").feature_map()
-    from agent.sarsa import BatchedSarsa
+    from lwrl.agent.sarsa import BatchedSarsa
 
     batch = BatchedSarsa(features, 3, alpha=[40.0, 3.9], lam=[0.99, 0.9], epsilon=0.0,
                          trace=["accumulating", "replacing"], seeds=[0, 1])

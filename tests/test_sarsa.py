@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from agent.nrbf import NRBF
-from agent.sarsa import BatchedSarsa
+from lwrl.agent.nrbf import NRBF
+from lwrl.agent.sarsa import BatchedSarsa
 
 LINE = NRBF(low=(0.0,), high=(1.0,), n=2)
 """Two neurons on [0, 1], centroids 0.25 and 0.75: at s = 0.5 both features are 0.5."""

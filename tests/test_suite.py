@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from dm_env import specs
 
-import tasks
+from lwrl import tasks
 from conftest import set_state
 
 STATE_NAMES = {

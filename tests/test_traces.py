@@ -4,7 +4,7 @@ import numba
 import numpy as np
 import pytest
 
-from agent.traces import ACCUMULATING, FLUSH_THRESHOLD, REPLACING, REPLACING_RESET, update_
+from lwrl.agent.traces import ACCUMULATING, FLUSH_THRESHOLD, REPLACING, REPLACING_RESET, update_
 
 RULES = [ACCUMULATING, REPLACING, REPLACING_RESET]
 accumulating_, replacing_, replacing_reset_unused_ = RULES

@@ -17,12 +17,12 @@ import psutil
 import pytest
 import rerun as rr
 
-import tasks
-from experiments.config import PAPER, RunConfig
-from experiments.recording import EpisodeRecording
-from experiments.run import EpisodeResults
-from viz import names, scene, value
-from viz import rerun as viz
+from lwrl import tasks
+from lwrl.runners.config import PAPER, RunConfig
+from lwrl.runners.recording import EpisodeRecording
+from lwrl.runners.run import EpisodeResults
+from lwrl.viz import names, scene, value
+from lwrl.viz import rerun as viz
 
 MAX_STEPS = {"mountain_car": 150, "pendulum": 120, "cartpole": 120}
 """Rollouts are cut there (random actions end cart-pole episodes sooner)."""
@@ -266,9 +266,9 @@ def test_value_images_and_learning_curves(saved):
 
 
 def test_episodes_recorded_by_training(tmp_path):
-    """Episodes recorded by `experiments.run.run` (MuJoCo pendulum, batched path) log as they
+    """Episodes recorded by `lwrl.runners.run.run` (MuJoCo pendulum, batched path) log as they
     are: their states, rewards and final weights' value function read back."""
-    from experiments.run import run
+    from lwrl.runners.run import run
 
     config = RunConfig(task="pendulum.swingup", plant="mujoco", agents=2, episodes=2, seed=5)
     agent, results = run(config, record=[(0, 1), (1, 0)])

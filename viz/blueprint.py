@@ -17,8 +17,8 @@ see them (Rerun's plots follow the time panel's timeline).
 import rerun as rr
 import rerun.blueprint as rrb
 
-from viz import names, scene
-from viz.value import GRID, VALUE_AXES
+from lwrl.viz import names, scene
+from lwrl.viz.value import GRID, VALUE_AXES
 
 
 def _plot(name: str, path: str, steps: bool = False) -> rrb.TimeSeriesView:

@@ -8,7 +8,7 @@ changes the time state of the caller's recording stream.
 import numpy as np
 import rerun as rr
 
-from viz import names
+from lwrl.viz import names
 
 
 def episode_indexes(steps, timestep: float, episode: int) -> list:

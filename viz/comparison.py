@@ -12,10 +12,10 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from viz import names
-from viz.blueprint import scene_view
-from viz.columns import episode_indexes, log_static, send
-from viz.scene import load_model, log_fixed_geometry, log_moving_geometry, scene_poses
+from lwrl.viz import names
+from lwrl.viz.blueprint import scene_view
+from lwrl.viz.columns import episode_indexes, log_static, send
+from lwrl.viz.scene import load_model, log_fixed_geometry, log_moving_geometry, scene_poses
 
 GHOST_ALPHA = 90
 """Opacity (0-255) of a ghost."""

@@ -108,7 +108,7 @@ def domain_of(task: str) -> str:
 
 def task_definition(task: str):
     """The suite's `TaskDefinition` of `DOMAIN.TASK`, or of a bare domain that has one task."""
-    import tasks  # the suite, for the task's variable names and controls
+    from lwrl import tasks  # the suite, for the task's variable names and controls
 
     matches = [pair for pair in tasks.ALL_TASKS if ".".join(pair) == task or pair[0] == task]
     if len(matches) != 1:

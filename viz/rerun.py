@@ -1,7 +1,7 @@
 """lwrl's Rerun entry points: open a recording, log a task, its episodes, value functions and
 learning curves, send the layout, and view or render a saved `.rrd`.
 
-    from viz import rerun as viz
+    from lwrl.viz import rerun as viz
     rec = viz.open_recording("lwrl", rrd_path="run.rrd")       # spawn=True for a live viewer
     viz.send_blueprint(rec, "cartpole.balance")
     viz.log_task_scene(rec, "cartpole.balance")                   # once: static geometry
@@ -30,12 +30,12 @@ import mujoco
 import numpy as np
 import rerun as rr
 
-from viz import names
-from viz.blueprint import blueprint, send_blueprint
-from viz.columns import episode_indexes
-from viz.scene import load_model, log_scene_poses, log_task_scene
-from viz.series import log_learning_curves, log_signals
-from viz.value import VALUE_AXES, log_value_function, log_value_path
+from lwrl.viz import names
+from lwrl.viz.blueprint import blueprint, send_blueprint
+from lwrl.viz.columns import episode_indexes
+from lwrl.viz.scene import load_model, log_scene_poses, log_task_scene
+from lwrl.viz.series import log_learning_curves, log_signals
+from lwrl.viz.value import VALUE_AXES, log_value_function, log_value_path
 
 BIND = "127.0.0.1"
 """The only address lwrl's viewers and servers listen on."""

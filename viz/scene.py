@@ -18,9 +18,9 @@ import mujoco
 import numpy as np
 import rerun as rr
 
-import models
-from viz import names
-from viz.columns import episode_indexes, log_static, send
+from lwrl import models
+from lwrl.viz import names
+from lwrl.viz.columns import episode_indexes, log_static, send
 
 MUJOCO_MODELS = {"pendulum": "pendulum", "cartpole": "cartpole"}
 """Domain -> MJCF model of `models` (Mountain-Car has none)."""

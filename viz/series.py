@@ -12,8 +12,8 @@ import warnings
 import numpy as np
 import rerun as rr
 
-from viz import names
-from viz.columns import episode_indexes, log_static, send
+from lwrl.viz import names
+from lwrl.viz.columns import episode_indexes, log_static, send
 
 
 def _style(rec, path: str, label, width: float | None = None) -> None:

@@ -20,9 +20,9 @@ import dataclasses
 import numpy as np
 import rerun as rr
 
-from agent.nrbf import NRBF
-from viz import names
-from viz.columns import episode_indexes, log_static, one_row, send
+from lwrl.agent.nrbf import NRBF
+from lwrl.viz import names
+from lwrl.viz.columns import episode_indexes, log_static, one_row, send
 
 GRID = 100
 """Default cells per side of the value images."""

@@ -26,9 +26,9 @@ import sys
 import pandas as pd
 import tqdm
 
-from agent import threads
-from experiments.config import RunConfig
-from experiments.run import make_agent, run
+from lwrl.agent import threads
+from lwrl.runners.config import RunConfig
+from lwrl.runners.run import make_agent, run
 
 CONFIG_COLUMNS = ("task", "plant", "integrator", "features", "trace", "alpha", "lam", "epsilon",
                   "gamma", "n", "r2", "tilings", "normalise_alpha", "episodes")

@@ -7,12 +7,12 @@ import math
 
 import numpy as np
 
-from agent.cmac import CMAC
-from agent.features import check_count
-from agent.nrbf import DEFAULT_R2, NRBF
-from agent.traces import TRACES
-import tasks
-from tasks.plants import check_equations
+from lwrl.agent.cmac import CMAC
+from lwrl.agent.features import check_count
+from lwrl.agent.nrbf import DEFAULT_R2, NRBF
+from lwrl.agent.traces import TRACES
+from lwrl import tasks
+from lwrl.tasks.plants import check_equations
 
 PAPER = {
     # task: NRBF grid, normalisation ranges, and the paper's best agent (SPEC.md).

@@ -27,14 +27,17 @@ import sys
 import numpy as np
 import tqdm
 
-import tasks
-from tasks.integrators import INTEGRATORS
-from tasks.plants import EQUATIONS
-from agent import io as agent_io
-from agent.traces import TRACES
-from experiments import export_c, external, logging_rerun, summary
-from experiments.config import PAPER, RunConfig
-from experiments.run import make_agent, run, run_batched
+from lwrl import tasks
+from lwrl.tasks.integrators import INTEGRATORS
+from lwrl.tasks.plants import EQUATIONS
+from lwrl.agent import io as agent_io
+from lwrl.agent.traces import TRACES
+from lwrl.export import c as export_c
+from lwrl.adapters import external
+from lwrl.cli import rerun_options as logging_rerun
+from lwrl.runners import summary
+from lwrl.runners.config import PAPER, RunConfig
+from lwrl.runners.run import make_agent, run, run_batched
 
 
 def _split_name(name: str):
@@ -222,7 +225,7 @@ def cmd_train(args) -> int:
 
 
 def _train_external(args) -> int:
-    """`lwrl train` on a dm_control or Gymnasium environment (`experiments.external`)."""
+    """`lwrl train` on a dm_control or Gymnasium environment (`lwrl.adapters.external`)."""
     for flag, given in (("--plant", args.plant), ("--features cmac", args.features != "nrbf"),
                         ("--save", args.save), ("--rerun", args.rerun), ("--rrd", args.rrd)):
         if given:
@@ -277,7 +280,7 @@ def _paper_extra_missing(command: str, error: ImportError) -> ValueError:
 def cmd_reproduce(args) -> int:
     """Run the paper's protocols (resuming whatever an earlier run finished) and report."""
     try:
-        from experiments.reproduce import reproduce
+        from lwrl.studies.paper.reproduce import reproduce
     except ImportError as error:
         raise _paper_extra_missing("reproduce", error) from None
     path = reproduce(args.item, args.out, plant=args.plant, quick=args.quick,
@@ -291,7 +294,8 @@ def cmd_reproduce(args) -> int:
 def cmd_compare(args) -> int:
     """Compare the plants of a task open loop, closed loop and in transfer; write a report."""
     try:
-        from experiments import closed_loop, compare
+        from lwrl.studies.compare import closed_loop
+        from lwrl.studies.compare import comparison as compare
     except ImportError as error:
         raise _paper_extra_missing("compare", error) from None
     compare.check_task(args.task)
@@ -313,7 +317,7 @@ def cmd_compare(args) -> int:
 
 def cmd_view(args) -> int:
     """Open a saved Rerun recording in the viewer, or serve the web viewer on 127.0.0.1."""
-    from viz import rerun as viz
+    from lwrl.viz import rerun as viz
 
     try:
         return viz.view(args.path, web=args.web, web_port=args.port)

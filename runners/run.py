@@ -19,14 +19,14 @@ import functools
 import numba
 import numpy as np
 
-import tasks
-from agent.features import check_count
-from agent.sarsa import BatchedSarsa, agent_step
-from agent.threads import run_in_chunks
-from tasks.batched import BatchedEnv, SteppedEnvs
-from experiments.recording import make_tape, recordings
-from tasks.integrators import check_integrator
-from tasks.plants import check_equations
+from lwrl import tasks
+from lwrl.agent.features import check_count
+from lwrl.agent.sarsa import BatchedSarsa, agent_step
+from lwrl.agent.threads import run_in_chunks
+from lwrl.tasks.batched import BatchedEnv, SteppedEnvs
+from lwrl.runners.recording import make_tape, recordings
+from lwrl.tasks.integrators import check_integrator
+from lwrl.tasks.plants import check_equations
 
 
 @dataclasses.dataclass

@@ -3,7 +3,7 @@ DIR`): per run, a figure of the return per episode (mean over agents with a band
 standard error) and a line with the first and the final tenth of the episodes, each as the
 mean ± standard error over agents of the agents' mean return.
 
-    python -m experiments.external_curves FIGURE_DIR RUN_DIR...
+    python -m lwrl.studies.other_suites FIGURE_DIR RUN_DIR...
 
 Needs the 'paper' extra (pandas, matplotlib).
 """
@@ -14,8 +14,8 @@ import os
 
 import pandas as pd
 
-from experiments.paper import plot_learning_curve, save_figure
-from experiments.summary import mean_and_error
+from lwrl.analysis.plots import plot_learning_curve, save_figure
+from lwrl.runners.summary import mean_and_error
 
 
 def block_return(episodes: pd.DataFrame, first: int, last: int) -> tuple[float, float]:

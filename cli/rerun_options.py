@@ -8,7 +8,7 @@ episode numbers (from 1). `--log-agents` is a comma list of agent indices (defau
 
 import numpy as np
 
-from viz import rerun as viz
+from lwrl.viz import rerun as viz
 
 DEFAULT_EPISODES = "every:20"
 """What `--log-episodes` logs by default: it keeps logging under a tenth of a paper run's

@@ -22,11 +22,11 @@ import mujoco
 import numpy as np
 import pandas as pd
 
-import models
-import tasks
-from tasks.cartpole import FAIL_ANGLE
-from tasks.integrators import INTEGRATORS
-from tasks.plants import MujocoPlant
+from lwrl import models
+from lwrl import tasks
+from lwrl.tasks.cartpole import FAIL_ANGLE
+from lwrl.tasks.integrators import INTEGRATORS
+from lwrl.tasks.plants import MujocoPlant
 
 REFERENCE = "reference"
 REFERENCE_CHECK = "reference_2x"

@@ -1,7 +1,7 @@
 """Closed-loop comparison of the plants: the same agents learning on each, then transferred.
 
 Each plant of `PLANTS` trains the same agent configuration (the paper's settings for the
-task, `experiments.config.PAPER`) with the same seeds; every trained batch is then run
+task, `lwrl.runners.config.PAPER`) with the same seeds; every trained batch is then run
 greedily (ε = 0, no learning) on every plant, from starts drawn with seeds away from the
 training ones (`EVAL_SEED`, as `lwrl eval`).
 """
@@ -11,9 +11,9 @@ import dataclasses
 import numpy as np
 import pandas as pd
 
-from experiments.config import RunConfig
-from experiments.run import run
-from experiments.sweep import results_table
+from lwrl.runners.config import RunConfig
+from lwrl.runners.run import run
+from lwrl.runners.sweep import results_table
 
 PLANTS = ("mujoco", "semi_implicit", "explicit")
 """The plants agents learn on: MuJoCo (Euler) and the analytic plant in both Euler readings."""

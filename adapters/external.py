@@ -31,12 +31,12 @@ import dm_env
 import numpy as np
 from dm_env import specs
 
-from agent.features import check_box, check_count
-from agent.nrbf import DEFAULT_R2, NRBF
-from agent.sarsa import BatchedSarsa
-from agent.traces import TRACES
-from experiments.run import EpisodeResults, run_batched
-from tasks.batched import SteppedEnvs, flatten_observation
+from lwrl.agent.features import check_box, check_count
+from lwrl.agent.nrbf import DEFAULT_R2, NRBF
+from lwrl.agent.sarsa import BatchedSarsa
+from lwrl.agent.traces import TRACES
+from lwrl.runners.run import EpisodeResults, run_batched
+from lwrl.tasks.batched import SteppedEnvs, flatten_observation
 
 MAX_DIMENSIONS = 6
 """Most observation dimensions accepted: the NRBF grid has n^d neurons (6^6 = 46,656)."""

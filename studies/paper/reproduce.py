@@ -16,9 +16,9 @@ import json
 import os
 import time
 
-import tasks
-from experiments import sweep
-from experiments.paper import ITEMS
+from lwrl import tasks
+from lwrl.runners import sweep
+from lwrl.studies.paper.items import ITEMS
 
 READINGS = [
     "Centroids at cell midpoints (i + 0.5)/n, the same r² in every task (SPEC.md, Agent).",

@@ -1,13 +1,13 @@
 """`lwrl compare`: the analytic and physics-engine plants of one task, side by side.
 
-    from experiments.compare import compare
+    from lwrl.studies.compare.comparison import compare
     comparison = compare("pendulum.swingup", seeds=10, out_dir="compare/pendulum")
     comparison.open_loop.trials         # tidy tables (pandas)
 
-1. Open loop (`experiments.open_loop`): the same starts and random actions on MuJoCo, the
+1. Open loop (`lwrl.studies.compare.open_loop`): the same starts and random actions on MuJoCo, the
    analytic semi-implicit and explicit Euler plants and an RK4 reference; per-step
    divergence, time within tolerance, energy drift.
-2. Closed loop (`experiments.closed_loop`): the paper's agent learning on each plant, with
+2. Closed loop (`lwrl.studies.compare.closed_loop`): the paper's agent learning on each plant, with
    the paper's verdict (Fig. 5 for the pendulum, Table 1 for the cart-pole) on each.
 3. Transfer: each trained batch run greedily on every plant.
 4. With `rrd_path`, a Rerun recording: the greedy episode of agent 0 trained on MuJoCo,
@@ -23,11 +23,11 @@ import time
 
 import numpy as np
 
-import tasks
-from experiments import closed_loop as cl
-from experiments import compare_report
-from experiments import open_loop as ol
-from experiments.paper import ITEMS
+from lwrl import tasks
+from lwrl.studies.compare import closed_loop as cl
+from lwrl.studies.compare import report as compare_report
+from lwrl.studies.compare import open_loop as ol
+from lwrl.studies.paper.items import ITEMS
 
 PAPER_ITEM = {"pendulum": "fig5", "cartpole": "table1"}
 """The paper's result each domain's agents are held to on every plant."""
@@ -76,8 +76,8 @@ def replay(task: str, recording, substeps: int = ol.REFERENCE_SUBSTEPS) -> dict:
 
 def record(task: str, recording, rrd_path: str) -> dict:
     """Write the Rerun recording of `replay(task, recording)`; return its entity paths per plant."""
-    from viz import comparison as viz_comparison
-    from viz import rerun as viz
+    from lwrl.viz import comparison as viz_comparison
+    from lwrl.viz import rerun as viz
 
     domain = task.split(".")[0]
     states = replay(task, recording)

@@ -1,12 +1,12 @@
 """The suite's tasks as Gymnasium environments (optional: needs `gymnasium>=1.0`).
 
     import gymnasium
-    import tasks.gymnasium_envs  # registers the ids below
+    import lwrl.gym  # registers the ids below
     env = gymnasium.make("lwrl/cartpole-balance-mujoco-v0")
     observation, info = env.reset(seed=0)
     observation, reward, terminated, truncated, info = env.step(1)
 
-or, without the import, `gymnasium.make("tasks.gymnasium_envs:lwrl/cartpole-balance-mujoco-v0")`
+or, without the import, `gymnasium.make("lwrl.gym:lwrl/cartpole-balance-mujoco-v0")`
 (Gymnasium 1.x imports the module named before the colon; it no longer loads plugins from
 entry points). Every `(domain, task, plant)` of the suite is registered as
 `lwrl/{domain}-{task}-{plant}-v0` (`ENV_IDS`); `register_envs()` registers them again if
@@ -55,17 +55,17 @@ try:
     import gymnasium
     from gymnasium import spaces
 except ImportError as error:  # pragma: no cover - only without gymnasium
-    raise ImportError("tasks.gymnasium_envs needs gymnasium (pip install 'lwrl[gymnasium]'); "
+    raise ImportError("lwrl.gym needs gymnasium (pip install 'lwrl[gymnasium]'); "
                       "the rest of the suite does not") from error
 import numpy as np
 
-import tasks
-from tasks import cartpole, mountain_car
-from tasks.definition import check_finite_state
+from lwrl import tasks
+from lwrl.tasks import cartpole, mountain_car
+from lwrl.tasks.definition import check_finite_state
 
 NAMESPACE = "lwrl"
 VERSION = 0
-ENTRY_POINT = "tasks.gymnasium_envs:SuiteEnv"
+ENTRY_POINT = "lwrl.gym:SuiteEnv"
 
 
 def env_id(domain: str, task: str, plant: str) -> str:

@@ -9,7 +9,6 @@ SPEC.md's readings; `quick=True` gives a tiny grid for smoke tests.
 
 import dataclasses
 import math
-import os
 from typing import Callable
 
 import matplotlib
@@ -19,7 +18,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from experiments.config import RunConfig  # noqa: E402
+from lwrl.analysis.plots import plot_learning_curve, save_figure  # noqa: E402
+from lwrl.runners.config import RunConfig  # noqa: E402
 
 LAMBDAS = (0.0, 0.4, 0.7, 0.8, 0.9, 0.95, 0.99)
 """The lambdas of Fig. 2 (Singh and Sutton's), used for every lambda sweep."""
@@ -96,14 +96,6 @@ def best_alpha(agents: pd.DataFrame, value: str, minimise: bool,
     return valid.loc[by.idxmin() if minimise else by.idxmax()].reset_index(drop=True), cells
 
 
-def save_figure(figure, figure_dir: str, name: str) -> list:
-    paths = []
-    for extension in ("png", "svg"):
-        path = os.path.join(figure_dir, f"{name}.{extension}")
-        figure.savefig(path, dpi=120, bbox_inches="tight")
-        paths.append(path)
-    plt.close(figure)
-    return paths
 
 
 def plot_against_lambda(best: pd.DataFrame, ylabel: str, title: str, log: bool = False):
@@ -123,21 +115,6 @@ def plot_against_lambda(best: pd.DataFrame, ylabel: str, title: str, log: bool =
     return figure
 
 
-def plot_learning_curve(results: pd.DataFrame, value: str, ylabel: str, title: str, axes=None):
-    """Mean over agents per episode, with a band of one standard error; on `axes` if given
-    (a panel of a larger figure), else on a figure of its own."""
-    curve = results.groupby("episode")[value].agg(["mean", "std", "count"])
-    error = curve["std"] / np.sqrt(curve["count"])
-    figure, axes = plt.subplots(figsize=(6, 4)) if axes is None else (axes.figure, axes)
-    axes.plot(curve.index, curve["mean"], label="mean over agents")
-    axes.fill_between(curve.index, curve["mean"] - error, curve["mean"] + error, alpha=0.3,
-                      label="± one standard error")
-    axes.set_xlabel("episode")
-    axes.set_ylabel(ylabel)
-    axes.set_title(title)
-    axes.legend()
-    axes.grid(alpha=0.3)
-    return figure, curve
 
 
 def _verdict(score: int, total: int, yes: int, partly: int) -> str:

@@ -10,9 +10,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from experiments import closed_loop as cl  # noqa: E402
-from experiments import open_loop as ol  # noqa: E402
-from experiments.paper import plot_learning_curve, save_figure  # noqa: E402
+from lwrl.studies.compare import closed_loop as cl  # noqa: E402
+from lwrl.studies.compare import open_loop as ol  # noqa: E402
+from lwrl.analysis.plots import plot_learning_curve, save_figure  # noqa: E402
 
 FLOOR = 1e-16
 """Errors below this (exact agreement) are drawn at it on the logarithmic axes."""
@@ -194,7 +194,7 @@ def report(comparison, figures: dict, paper_sections: dict, out_dir: str) -> str
     lines += ["## Closed loop", ""] + _block(
         f"{len(seeds)} agents per plant, {config.trace} traces, α {config.alpha:g}, "
         f"λ {config.lam:g}, ε {config.epsilon:g}, NRBF {config.n}^d with r² {config.r2:g}, "
-        f"{config.episodes} episodes (the paper's settings, `experiments/config.py`); "
+        f"{config.episodes} episodes (the paper's settings, `runners/config.py`); "
         "means ± standard errors over agents of each agent's mean up-time.",
         learning_table(closed_result), figure("learning_curves"))
     lines += ["MuJoCo and the analytic semi-implicit plant agree to round-off, so their agents "

@@ -1,0 +1,38 @@
+"""Figures that several studies draw: learning curves with error bands, and saving a
+figure as PNG and SVG. Needs the 'paper' extra (matplotlib, pandas)."""
+
+import os
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+
+def save_figure(figure, figure_dir: str, name: str) -> list:
+    paths = []
+    for extension in ("png", "svg"):
+        path = os.path.join(figure_dir, f"{name}.{extension}")
+        figure.savefig(path, dpi=120, bbox_inches="tight")
+        paths.append(path)
+    plt.close(figure)
+    return paths
+
+
+def plot_learning_curve(results: pd.DataFrame, value: str, ylabel: str, title: str, axes=None):
+    """Mean over agents per episode, with a band of one standard error; on `axes` if given
+    (a panel of a larger figure), else on a figure of its own."""
+    curve = results.groupby("episode")[value].agg(["mean", "std", "count"])
+    error = curve["std"] / np.sqrt(curve["count"])
+    figure, axes = plt.subplots(figsize=(6, 4)) if axes is None else (axes.figure, axes)
+    axes.plot(curve.index, curve["mean"], label="mean over agents")
+    axes.fill_between(curve.index, curve["mean"] - error, curve["mean"] + error, alpha=0.3,
+                      label="± one standard error")
+    axes.set_xlabel("episode")
+    axes.set_ylabel(ylabel)
+    axes.set_title(title)
+    axes.legend()
+    axes.grid(alpha=0.3)
+    return figure, curve

@@ -1,0 +1,1 @@
+"""The `lwrl` command: one module per subcommand."""

@@ -1,1 +1,0 @@
-"""lwrl's experiments: runs, sweeps, the paper's figures, and the `lwrl` command."""

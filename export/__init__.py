@@ -1,0 +1,1 @@
+"""A trained agent as code for an embedded controller (`lwrl export`)."""

@@ -1,0 +1,1 @@
+"""The analytic and physics-engine plants of a task, compared (`lwrl compare`)."""
