@@ -1,7 +1,7 @@
 """Agent-steps per second of lwrl's learner against a plain per-step NumPy loop.
 
 On Mountain-Car and Cart-Pole (the analytic plant, semi-implicit Euler), with the paper's
-agent of each task (`lwrl.runners.config.PAPER`), one run of this script measures:
+agent of each task (`TaskDefinition.defaults`), one run of this script measures:
 
 1. **plain loop**: one agent written here as a straightforward per-step NumPy loop (the
    reference point, not project code): eq. 8 over all n^d centroids, Q = phi @ w, epsilon-
@@ -36,7 +36,7 @@ import numpy as np
 
 from lwrl import tasks
 from lwrl.agent.threads import workers
-from lwrl.runners.config import PAPER, RunConfig
+from lwrl.runners.config import RunConfig, task_defaults
 from lwrl.runners.run import make_agent, run_compiled
 from lwrl.tasks import cartpole, mountain_car
 
@@ -72,7 +72,7 @@ class PlainSarsa:
     """One gradient-descent Sarsa(lambda) agent with NRBF features, in plain NumPy."""
 
     def __init__(self, config: RunConfig, num_actions: int, rng: np.random.Generator):
-        paper = PAPER[config.task]
+        paper = task_defaults(config.task)
         self.low = np.array(paper["low"])
         self.span = np.array(paper["high"]) - self.low
         grid = (np.arange(config.n) + 0.5) / config.n

@@ -9,6 +9,7 @@ episode numbers (from 1). `--log-agents` is a comma list of agent indices (defau
 import numpy as np
 
 from lwrl.viz import rerun as viz
+from lwrl.viz import scene
 
 DEFAULT_EPISODES = "every:20"
 """What `--log-episodes` logs by default: it keeps logging under a tenth of a paper run's
@@ -63,7 +64,7 @@ def send_run(config, results, rrd_path=None, spawn: bool = False) -> None:
     rec = viz.open_recording("lwrl", rrd_path=rrd_path, spawn=spawn)
     viz.send_blueprint(rec, config.task)
     viz.log_task_scene(rec, config.task)
-    model = viz.load_model(config.task) if config.domain != "mountain_car" else None
+    model = viz.load_model(config.task) if scene.has_model(config.task) else None
     features = config.feature_map()
     for recording in results.recordings:
         viz.log_episode(rec, recording, model=model, value_ranges=(features.low, features.high))

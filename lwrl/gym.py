@@ -16,17 +16,9 @@ needed and is idempotent.
 
 - **Actions**: `Discrete(n)`, the task's action indices (action i applies `controls[i]`).
 - **Observations**: a float64 `Box` of shape `(d,)` in the order of the task's state names
-  (`observation_names`). Bounded variables take their bounds from the task's docstring,
-  widened to hold the terminal observation too: Mountain-Car x in [-1.2, 0.5 + 0.07]
-  (the goal step moves at most 0.07 past 0.5), v in [-0.07, 0.07]; the pendulum's wrapped
-  angle in [-pi, pi]; the cart-pole's angle in +-24 deg (twice the failure angle, as
-  Gymnasium's CartPole: the angle's speed stays below about 5 rad/s while |theta| <= 12 deg,
-  so the failing step passes 12 deg by under 6 deg; an adversarial search found 3.8 deg)
-  and its position in +-(L + max(L, 1 m)) for the track limit L (the cart's speed stays
-  below about 10 m/s on the default track, so a step moves it less than 0.3 m). Velocities other than Mountain-Car's are unbounded (+-inf),
-  and so is the cart's position with `track_limit=None`.
-- **Episode end**: `terminated` on a terminal state (the dm_env step's discount 0: the
-  Mountain-Car goal, the cart-pole's failure); `truncated` on the task's own time limit
+  (`observation_names`), within the task's `bounds` (`TaskDefinition.bounds`, stated and
+  argued in each domain's module), which hold the terminal observation too.
+- **Episode end**: `terminated` on a terminal state (the dm_env step's discount 0); `truncated` on the task's own time limit
   (discount 1). Never both. No `TimeLimit` wrapper is registered: the task truncates, and
   `time_limit=` changes where. Stepping after the end without `reset()` raises.
 - **Seeding**: `reset(seed=s)` seeds Gymnasium's `np_random`, and the task draws its starts
@@ -49,8 +41,6 @@ needed and is idempotent.
   task or plant.
 """
 
-import math
-
 try:
     import gymnasium
     from gymnasium import spaces
@@ -60,7 +50,6 @@ except ImportError as error:  # pragma: no cover - only without gymnasium
 import numpy as np
 
 from lwrl import tasks
-from lwrl.tasks import cartpole, mountain_car
 from lwrl.tasks.definition import check_finite_state
 
 NAMESPACE = "lwrl"
@@ -82,21 +71,8 @@ ENV_IDS = tuple(ENVIRONMENTS)
 
 def observation_bounds(definition) -> tuple:
     """`(low, high)` float64 arrays that hold every observation of an episode of the task,
-    the terminal one included (see the module's docstring)."""
-    inf = math.inf
-    if definition.domain == "mountain_car":
-        high_position = mountain_car.GOAL_POSITION + mountain_car.MAX_SPEED
-        low = [mountain_car.MIN_POSITION, -mountain_car.MAX_SPEED]
-        high = [high_position, mountain_car.MAX_SPEED]
-    elif definition.domain == "pendulum":
-        low, high = [-math.pi, -inf], [math.pi, inf]
-    elif definition.domain == "cartpole":
-        track_limit = definition.params[0]
-        position = track_limit + max(track_limit, 1.0)  # inf without a track limit
-        angle = 2.0 * cartpole.FAIL_ANGLE
-        low, high = [-position, -inf, -angle, -inf], [position, inf, angle, inf]
-    else:  # pragma: no cover - a new domain must state its bounds here
-        raise NotImplementedError(f"no observation bounds for domain {definition.domain!r}")
+    the terminal one included: the task's own `bounds`."""
+    low, high = definition.bounds
     return np.array(low, dtype=np.float64), np.array(high, dtype=np.float64)
 
 

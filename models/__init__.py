@@ -1,20 +1,25 @@
-"""MJCF models of the paper's MuJoCo plants, shipped as package data.
+"""MJCF models of the suite's MuJoCo plants, shipped as package data: `<domain>.xml`.
 
-Each model's parameters are commented in its XML with the paper's symbols.
+Each model's parameters are commented in its XML with the paper's symbols; each has at least
+two named cameras, as dm_control's suite models do.
 """
 
 from importlib import resources
 
-NAMES = ("pendulum", "cartpole")
+
+def names() -> tuple:
+    """The models shipped, by name (the file name without `.xml`), sorted."""
+    return tuple(sorted(entry.name[:-len(".xml")] for entry in resources.files(__name__).iterdir()
+                        if entry.name.endswith(".xml")))
 
 
 def path(name: str):
-    """Return the path of the MJCF file of the model `name` (one of `NAMES`)."""
-    if name not in NAMES:
-        raise ValueError(f"unknown model {name!r}; available models: {', '.join(NAMES)}")
+    """Return the path of the MJCF file of the model `name` (one of `names()`)."""
+    if name not in names():
+        raise ValueError(f"unknown model {name!r}; available models: {', '.join(names())}")
     return resources.files(__name__).joinpath(f"{name}.xml")
 
 
 def read(name: str) -> str:
-    """Return the MJCF text of the model `name` (one of `NAMES`)."""
+    """Return the MJCF text of the model `name` (one of `names()`)."""
     return path(name).read_text()

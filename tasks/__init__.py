@@ -1,93 +1,128 @@
-"""lwrl's task suite: the paper's three control tasks as dm_env environments.
+"""lwrl's task suite: the paper's control tasks as dm_env environments.
 
     from lwrl import tasks
     env = tasks.load("cartpole", "balance", plant="mujoco", seed=0)
+    env = tasks.load("cartpole", "balance", task_kwargs={"random": 0},          # dm_control's
+                     environment_kwargs={"flat_observation": True})            # spelling
     ts = env.reset()
     ts = env.step(1)            # a discrete action index
 
+Each domain is one module, `tasks/<domain>.py`, ending with its `DOMAIN` (`tasks.domain`),
+and one line of `DOMAIN_MODULES` below. `DOMAINS[name]` is a domain's `Domain`;
 `ALL_TASKS` lists `(domain, task)` pairs; `PLANTS[domain]` the plants of a domain, the
 default first. `definition(...)` gives a task's array functions and `tasks.batched` steps
 many copies of a task at once.
 """
 
+import importlib
 import inspect
 import math
 import os
 
 if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
-    # The suite never renders through dm_control; without a display, choosing no OpenGL
-    # backend keeps dm_control from trying (and warning about) GLFW at import.
+    # The suite renders only when asked; without a display, choosing no OpenGL backend
+    # keeps dm_control from trying (and warning about) GLFW at import. Set MUJOCO_GL=egl or
+    # osmesa before importing lwrl to render headless.
     os.environ["MUJOCO_GL"] = "disable"
 
 from dm_control.rl import control  # noqa: E402
 
-from lwrl.tasks import cartpole, mountain_car, pendulum  # noqa: E402
 from lwrl.tasks.base import SuiteTask  # noqa: E402
 from lwrl.tasks.definition import TaskDefinition  # noqa: E402
+from lwrl.tasks.domain import Domain  # noqa: E402
 
-DOMAINS = {"mountain_car": mountain_car, "pendulum": pendulum, "cartpole": cartpole}
-ALL_TASKS = tuple((name, task) for name, module in DOMAINS.items() for task in module.SUITE)
-PLANTS = {name: module.PLANTS.names for name, module in DOMAINS.items()}
+DOMAIN_MODULES = ("mountain_car", "pendulum", "cartpole")
+"""The registry: the modules of `tasks/` that each define one domain, in the suite's order."""
+
+DOMAINS = {domain.name: domain for domain in
+           (importlib.import_module(f"{__name__}.{module}").DOMAIN for module in DOMAIN_MODULES)}
+"""`{name: Domain}` of every domain of the suite."""
+ALL_TASKS = tuple((name, task) for name, domain in DOMAINS.items() for task in domain.tasks)
+TASK_NAMES = tuple(f"{domain}.{task}" for domain, task in ALL_TASKS)
+"""Every task as DOMAIN.TASK."""
+PLANTS = {name: domain.plants.names for name, domain in DOMAINS.items()}
 
 
-def _domain(domain: str):
-    if domain not in DOMAINS:
-        raise ValueError(f"unknown domain {domain!r}; available: {', '.join(DOMAINS)}")
-    return DOMAINS[domain]
+def domain(name: str) -> Domain:
+    """The `Domain` called `name`, or a ValueError naming the domains."""
+    if name not in DOMAINS:
+        raise ValueError(f"unknown domain {name!r}; available: {', '.join(DOMAINS)}")
+    return DOMAINS[name]
 
 
-def task_options(domain: str, task: str) -> list:
+def split_name(name: str) -> tuple:
+    """`(domain, task)` of `DOMAIN.TASK`, or a ValueError naming the suite's tasks."""
+    domain_name, dot, task = name.partition(".")
+    if not dot or not task:
+        raise ValueError(f"task must be written DOMAIN.TASK, one of: {', '.join(TASK_NAMES)}; "
+                         f"got {name!r}")
+    return domain_name, task
+
+
+def task_options(domain_name: str, task: str) -> list:
     """The names of a task's options (e.g. `time_limit`, `track_limit`)."""
-    module = _domain(domain)
-    if task not in module.SUITE:
-        raise ValueError(f"unknown task {task!r} of domain {domain!r}; available: "
-                         f"{', '.join(module.SUITE)}")
-    return list(inspect.signature(module.SUITE[task]).parameters)
+    tasks = domain(domain_name).tasks
+    if task not in tasks:
+        raise ValueError(f"unknown task {task!r} of domain {domain_name!r}; available: "
+                         f"{', '.join(tasks)}")
+    return list(inspect.signature(tasks[task]).parameters)
 
 
-def plant_option_names(domain: str, plant: str) -> list:
+def plant_option_names(domain_name: str, plant: str) -> list:
     """The options of a domain's plant: `integrator` and `equations` on the analytic plant
-    of the domains integrated with Euler's method (pendulum and cartpole), else none."""
-    return (["integrator", "equations"] if plant == "analytic" and _domain(domain).PLANTS.euler
+    of the domains integrated with Euler's method, else none."""
+    return (["integrator", "equations"] if plant == "analytic" and domain(domain_name).plants.euler
             else [])
 
 
-def resolve(domain: str, task: str, plant=None, **options):
+def resolve(domain_name: str, task: str, plant=None, **options):
     """Check a task, a plant and options; return `(definition, plant, plant_options)`.
 
     Options are the task's (e.g. `time_limit`, `track_limit`) and, for the analytic plant
-    of pendulum and cartpole, `integrator` and `equations` (`tasks.plants.EQUATIONS`).
+    of the domains integrated with Euler's method, `integrator` and `equations`
+    (`tasks.plants.EQUATIONS`).
     """
-    task_option_names = task_options(domain, task)
-    module = _domain(domain)
-    plants = module.PLANTS.names
+    task_option_names = task_options(domain_name, task)
+    plants = domain(domain_name).plants.names
     plant = plants[0] if plant is None else plant
     if plant not in plants:
-        raise ValueError(f"unknown plant {plant!r} for {domain}; available: {', '.join(plants)}")
-    plant_options = plant_option_names(domain, plant)
+        raise ValueError(f"unknown plant {plant!r} for {domain_name}; available: {', '.join(plants)}")
+    plant_options = plant_option_names(domain_name, plant)
     unknown = sorted(set(options) - set(task_option_names) - set(plant_options))
     if unknown:
         allowed = ", ".join(["plant", "seed"] + task_option_names + plant_options)
-        raise ValueError(f"unknown option {unknown[0]!r} for {domain}.{task} on the {plant} "
+        raise ValueError(f"unknown option {unknown[0]!r} for {domain_name}.{task} on the {plant} "
                          f"plant; allowed: {allowed}")
     if "time_limit" in options and not (isinstance(options["time_limit"], (int, float))
                                         and 0 < options["time_limit"] <= math.inf):
         raise ValueError(f"time_limit must be a positive number; got {options['time_limit']!r}")
-    definition = module.SUITE[task](**{k: v for k, v in options.items() if k in task_option_names})
+    definition = domain(domain_name).tasks[task](
+        **{k: v for k, v in options.items() if k in task_option_names})
     return definition, plant, {k: v for k, v in options.items() if k in plant_options}
 
 
-def definition(domain: str, task: str, **options) -> TaskDefinition:
+def definition(domain_name: str, task: str, **options) -> TaskDefinition:
     """The array functions of a task (start, observation, reward, termination, up-time)."""
-    return resolve(domain, task, None, **options)[0]
+    return resolve(domain_name, task, None, **options)[0]
 
 
-def load(domain: str, task: str, plant=None, seed=None, **options) -> control.Environment:
+def load(domain_name: str, task: str, plant=None, seed=None, *, task_kwargs=None,
+         environment_kwargs=None, **options) -> control.Environment:
     """Return the dm_env environment of `domain.task` on `plant` (default: the domain's first).
 
-    `seed` seeds the task's random starts. Unknown names or options raise a ValueError
-    that names what is allowed.
+    `seed` seeds the task's random starts. As in dm_control's `suite.load`, `task_kwargs`
+    may hold the seed as `random` and the task's options, and `environment_kwargs` is
+    passed to `control.Environment` (e.g. `flat_observation=True`). Unknown names or options
+    raise a ValueError that names what is allowed.
     """
-    task_definition, plant, plant_options = resolve(domain, task, plant, **options)
-    physics = _domain(domain).PLANTS.physics(plant, **plant_options)
-    return control.Environment(physics, SuiteTask(task_definition, seed))
+    task_kwargs = dict(task_kwargs or {})
+    if "random" in task_kwargs:
+        if seed is not None:
+            raise ValueError("give the seed once: seed= or task_kwargs['random'], not both")
+        seed = task_kwargs.pop("random")
+    twice = sorted(set(task_kwargs) & set(options))
+    if twice:
+        raise ValueError(f"option {twice[0]!r} given both in task_kwargs and as a keyword")
+    task_definition, plant, plant_options = resolve(domain_name, task, plant, **task_kwargs, **options)
+    physics = domain(domain_name).plants.physics(plant, **plant_options)
+    return control.Environment(physics, SuiteTask(task_definition, seed), **(environment_kwargs or {}))

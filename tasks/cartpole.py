@@ -23,6 +23,14 @@ Task `balance`:
   `track_limit=None`, |x| > `track_limit` (default 2.4 m, as in Barto et al.; the paper
   names only the angle); truncated (discount 1) after `time_limit` = 240 s (12 000 steps).
 - **Up-time**: seconds before failure (the pole is up while the episode lasts).
+- **Agent** (the author's script; the paper gives no best agent): NRBF 6^4 over
+  x in [-2.4, 2.4], x_dot in [-1.5, 1.5], theta in [-12, 12] deg, theta_dot in
+  [-150, 150] deg/s; accumulating traces, alpha 0.5, lambda 0.7, epsilon 0.1; 10 agents x
+  200 episodes.
+- **Compared** (`lwrl compare`): the cart within 0.01 m and the pole within 0.05 rad of the
+  reference; 3 greedy episodes per agent and plant in transfer (the start is fixed); the
+  energy trials tilt the pole by theta ~ U[-12, 12] deg, since the upright rest is an
+  equilibrium.
 """
 
 import math
@@ -30,7 +38,8 @@ import math
 import numpy as np
 from numba.extending import register_jitable
 
-from lwrl.tasks.definition import TaskDefinition, step_limit
+from lwrl.tasks.definition import RunDefaults, TaskDefinition, step_limit
+from lwrl.tasks.domain import Domain, PlantComparison
 from lwrl.tasks.integrators import euler
 from lwrl.tasks.physics import physics_classes
 from lwrl.tasks.plants import DomainPlants
@@ -129,6 +138,32 @@ def initial_states(rng: np.random.Generator, count: int) -> np.ndarray:
     return np.zeros((count, len(STATE_NAMES)))
 
 
+def rest_start(rng: np.random.Generator) -> np.ndarray:
+    """A start for zero-action trials: the pole tilted by theta ~ U[-12, 12] deg, the rest 0
+    (the upright rest is an equilibrium zero action never leaves)."""
+    start = initial_states(rng, 1)[0]
+    start[2] = rng.uniform(-FAIL_ANGLE, FAIL_ANGLE)
+    return start
+
+
+def bounds(track_limit: float) -> tuple:
+    """`(low, high)` holding every observation of an episode. The angle: +-24 deg, twice
+    the failure angle, as Gymnasium's CartPole (the angle's speed stays below about 5 rad/s
+    while |theta| <= 12 deg, so the failing step passes 12 deg by under 6 deg; an
+    adversarial search found 3.8 deg). The position: +-(L + max(L, 1 m)) for the track
+    limit L (the cart stays below about 10 m/s on the default track, so a step moves it
+    less than 0.3 m); unbounded without a limit. Velocities are unbounded."""
+    position, angle, inf = track_limit + max(track_limit, 1.0), 2.0 * FAIL_ANGLE, math.inf
+    return (-position, -inf, -angle, -inf), (position, inf, angle, inf)
+
+
+PAPER_AGENT = RunDefaults(
+    n=6, low=(-TRACK_LIMIT, -1.5, -FAIL_ANGLE, -5 * math.pi / 6),
+    high=(TRACK_LIMIT, 1.5, FAIL_ANGLE, 5 * math.pi / 6), trace="accumulating", alpha=0.5,
+    lam=0.7, epsilon=0.1, episodes=200, agents=10)
+"""The author's script's agent and ranges (SPEC.md's readings), the paper's epsilon."""
+
+
 def balance(time_limit: float = TIME_LIMIT, track_limit=TRACK_LIMIT) -> TaskDefinition:
     """The paper's balancing task; `time_limit` in seconds, `track_limit` in metres or None."""
     limit = math.inf if track_limit is None else float(track_limit)
@@ -137,12 +172,10 @@ def balance(time_limit: float = TIME_LIMIT, track_limit=TRACK_LIMIT) -> TaskDefi
     return TaskDefinition(
         domain="cartpole", task="balance", state_names=STATE_NAMES, controls=FORCES,
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
-        initial_states=initial_states,
-        observe=lambda state: state, outcome=outcome, transition=transition, params=(limit,),
+        initial_states=initial_states, observe=lambda state: state, outcome=outcome,
+        transition=transition, bounds=bounds(limit), defaults=PAPER_AGENT,
+        angles=("pole_angle",), params=(limit,),
     )
-
-
-SUITE = {"balance": balance}
 
 
 class _Accessors:
@@ -166,5 +199,10 @@ class _Accessors:
 
 
 AnalyticPhysicsCartpole, MujocoPhysicsCartpole = physics_classes("Cartpole", _Accessors, STATE_NAMES, "force")
-PLANTS = DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=AnalyticPhysicsCartpole,
-                      mujoco_physics=MujocoPhysicsCartpole, model="cartpole")
+DOMAIN = Domain(
+    name="cartpole", tasks={"balance": balance},
+    plants=DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=AnalyticPhysicsCartpole,
+                        mujoco_physics=MujocoPhysicsCartpole, model="cartpole"),
+    value_axes=("pole_angle", "pole_angular_velocity"),
+    comparison=PlantComparison(tolerances={"cart_position": 0.01, "pole_angle": 0.05},
+                               transfer_episodes=3, rest_start=rest_start))

@@ -47,7 +47,7 @@ def test_open_loop_numbers_are_finite_and_bounded(measured):
     assert np.isfinite(numbers.to_numpy()).all()
     assert (result.trials["steps_within"] <= STEPS).all()
     assert (result.trials["time_within_s"] <= STEPS * result.timestep + 1e-12).all()
-    assert len(result.steps) == len(open_loop.PAIRS) * len(open_loop.TOLERANCES[task.split(".")[0]]) * (STEPS + 1)
+    assert len(result.steps) == len(open_loop.PAIRS) * len(open_loop.tolerances(task.split(".")[0])) * (STEPS + 1)
     assert np.isfinite(result.energy[["drift_J", "max_abs_drift_J", "reference_change_J"]].to_numpy()).all()
 
 

@@ -36,7 +36,7 @@ def _energy(angle, angular_velocity):
 
 # --- files and names -----------------------------------------------------------------------
 
-@pytest.mark.parametrize("name", models.NAMES)
+@pytest.mark.parametrize("name", models.names())
 def test_model_file_exists_and_compiles(name):
     """`models.path(name)` is a file and `models.read(name)` is MJCF that MuJoCo compiles,
     whose `<mujoco model=...>` is `name` (the right file is read)."""
@@ -47,14 +47,14 @@ def test_model_file_exists_and_compiles(name):
 
 @pytest.mark.parametrize("function", [models.path, models.read])
 def test_unknown_model_name_lists_the_available_ones(function):
-    """An unknown name raises a ValueError naming every model of `models.NAMES`."""
+    """An unknown name raises a ValueError naming every model of `models.names()`."""
     with pytest.raises(ValueError, match="acrobot") as raised:
         function("acrobot")
-    for name in models.NAMES:
+    for name in models.names():
         assert name in str(raised.value)
 
 
-@pytest.mark.parametrize("name", models.NAMES)
+@pytest.mark.parametrize("name", models.names())
 def test_every_element_is_named(name):
     """Every joint, body (except the world), geom and actuator has a non-empty name, so the
     plants and viewers can address them by name."""
@@ -68,7 +68,7 @@ def test_every_element_is_named(name):
 
 # --- parameters against the paper ----------------------------------------------------------
 
-@pytest.mark.parametrize("name", models.NAMES)
+@pytest.mark.parametrize("name", models.names())
 def test_options_are_the_papers_euler_step(name):
     """One MuJoCo step is one control step of 0.02 s under gravity g = 9.81 (sections 4.2,
     4.3); the integrator is MuJoCo's (semi-implicit) Euler with eulerdamp disabled, so that

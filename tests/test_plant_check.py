@@ -24,7 +24,7 @@ def divergence(domain, seed, steps, integrator="semi_implicit", to_failure=False
     """Per state variable, the largest |MuJoCo - analytic| over one random-action trial
     (`lwrl.studies.compare.open_loop.random_trials`), and the steps compared: all of them, or with
     `to_failure` those up to the failure, on which both plants must agree."""
-    definition = tasks.definition(domain, next(iter(tasks.DOMAINS[domain].SUITE)))
+    definition = tasks.definition(domain, next(iter(tasks.domain(domain).tasks)))
     starts, actions = random_trials(definition, [seed], steps)
     controls = np.asarray(definition.controls)[actions]
     mujoco_states = trajectories(plant(domain, "mujoco", 1), starts, controls)[0]

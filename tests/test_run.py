@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from lwrl import tasks
-from lwrl.runners.config import PAPER, RunConfig
+from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent, run, run_batched, run_compiled, run_dm_env
 from lwrl.tasks.batched import BatchedEnv
 
@@ -21,7 +21,7 @@ def assert_same_results(a, b):
         np.testing.assert_array_equal(getattr(a, field), getattr(b, field), err_msg=field)
 
 
-@pytest.mark.parametrize("task", list(PAPER))
+@pytest.mark.parametrize("task", tasks.TASK_NAMES)
 def test_dm_env_batched_and_compiled_paths_agree(task):
     """One agent on a dm_env environment, B agents on the batched stepper and B agents in
     the compiled loop: identical episodes (steps, returns, up-time, truncation) and weights,

@@ -312,7 +312,7 @@ def test_transition_is_the_plant_step_and_the_task(domain, task, integrator, equ
     """The compiled loops' `transition` (run here compiled by numba) gives the analytic
     plant's next state, the task's observation, reward, termination and up-time, exactly."""
     definition = tasks.definition(domain, task)
-    plant = tasks.DOMAINS[domain].PLANTS.batch("analytic", 200, **(
+    plant = tasks.domain(domain).plants.batch("analytic", 200, **(
         {"integrator": integrator, "equations": equations} if domain != "mountain_car" else {}))
     transition = numba.njit(definition.transition)
     rng = np.random.default_rng(0)

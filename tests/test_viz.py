@@ -18,7 +18,8 @@ import pytest
 import rerun as rr
 
 from lwrl import tasks
-from lwrl.runners.config import PAPER, RunConfig
+from lwrl.runners.config import RunConfig, task_defaults
+from lwrl.tasks import mountain_car
 from lwrl.runners.recording import EpisodeRecording
 from lwrl.runners.run import EpisodeResults
 from lwrl.viz import names, scene, value
@@ -137,9 +138,8 @@ def test_entity_paths_and_stores(saved):
     expected = set(saved["geometry"]) | set(saved["curves"]) | {names.SCENE}
     for logged in saved["logged"]:
         expected |= {p for key, p in logged.items() if key != "bodies"} | set(logged["bodies"])
-    if saved["domain"] in value.VALUE_AXES:
-        expected |= {names.MAX_Q, names.GREEDY_ACTION, names.CENTROIDS, names.VALUE_STATE,
-                     names.TRAJECTORY}
+    expected |= {names.MAX_Q, names.GREEDY_ACTION, names.CENTROIDS, names.VALUE_STATE,
+                 names.TRAJECTORY}
     assert expected <= set(chunks), sorted(expected - set(chunks))
 
 
@@ -238,20 +238,19 @@ def test_value_images_and_learning_curves(saved):
     """The value images are size x size at the episode (and step 0), the centroids over
     them; the learning curves hold each agent's numbers and their mean, NaN left out."""
     chunks = saved["chunks"]
-    if saved["domain"] in value.VALUE_AXES:
-        image = temporal(chunks, names.MAX_Q)
-        assert column(image, names.EPISODE) == [7] and column(image, names.STEP) == [0]
-        fmt = column(image, "Image:format")[0][0]
-        assert (fmt["width"], fmt["height"]) == (value.GRID, value.GRID)
-        assert len(column(image, "Image:buffer")[0][0]) == value.GRID * value.GRID * 3
-        assert column(image, "max_q_min")[0][0] == pytest.approx(saved["images"]["max_q"].min())
-        greedy = np.array(column(temporal(chunks, names.GREEDY_ACTION), "SegmentationImage:buffer")[0][0])
-        np.testing.assert_array_equal(greedy, saved["images"]["greedy"].ravel())
-        centroids = np.array(column(static(chunks, names.CENTROIDS), "Points2D:positions")[0])
-        assert len(centroids) == PAPER[saved["name"]]["n"] ** 2
-        assert np.all((centroids > 0) & (centroids < value.GRID))
-        state = temporal(chunks, names.VALUE_STATE, episode=7)
-        assert column(state, names.STEP) == list(range(saved["episodes"][1].steps + 1))
+    image = temporal(chunks, names.MAX_Q)
+    assert column(image, names.EPISODE) == [7] and column(image, names.STEP) == [0]
+    fmt = column(image, "Image:format")[0][0]
+    assert (fmt["width"], fmt["height"]) == (value.GRID, value.GRID)
+    assert len(column(image, "Image:buffer")[0][0]) == value.GRID * value.GRID * 3
+    assert column(image, "max_q_min")[0][0] == pytest.approx(saved["images"]["max_q"].min())
+    greedy = np.array(column(temporal(chunks, names.GREEDY_ACTION), "SegmentationImage:buffer")[0][0])
+    np.testing.assert_array_equal(greedy, saved["images"]["greedy"].ravel())
+    centroids = np.array(column(static(chunks, names.CENTROIDS), "Points2D:positions")[0])
+    assert len(centroids) == task_defaults(saved["name"])["n"] ** 2
+    assert np.all((centroids > 0) & (centroids < value.GRID))
+    state = temporal(chunks, names.VALUE_STATE, episode=7)
+    assert column(state, names.STEP) == list(range(saved["episodes"][1].steps + 1))
     results = saved["results"]
     returns = temporal(chunks, "curves/returns/agent2")
     assert column(returns, names.EPISODE) == [0, 1, 2, 3]
@@ -352,7 +351,7 @@ def test_geoms_in_rerun_match_mujoco():
 def test_mountain_car_car_follows_the_slope():
     """The car sits at (x, 0, sin 3x) with its x axis along the hill's tangent."""
     x = np.linspace(-1.2, 0.5, 7)
-    translation, quaternion = scene.mountain_car_poses(x)
+    translation, quaternion = mountain_car.car_poses(np.stack([x, np.zeros_like(x)], axis=1))["car"]
     np.testing.assert_allclose(translation[:, 2], np.sin(3 * x))
     forward = scene.quat_rotate(quaternion[:, [3, 0, 1, 2]], [1.0, 0.0, 0.0])
     tangent = np.stack([np.ones_like(x), np.zeros_like(x), 3 * np.cos(3 * x)], axis=1)
@@ -360,7 +359,7 @@ def test_mountain_car_car_follows_the_slope():
     np.testing.assert_allclose(forward, tangent, atol=1e-12)
 
 
-@pytest.mark.parametrize("task", list(PAPER))
+@pytest.mark.parametrize("task", tasks.TASK_NAMES)
 def test_value_grid_q_and_pixels(task):
     """Q over the grid is phi(s) . w at each cell's state; a state maps to the pixel whose
     cell holds it; all-zero weights make every action tie (class 0)."""
@@ -373,21 +372,21 @@ def test_value_grid_q_and_pixels(task):
         np.testing.assert_allclose(q[i, j], features.features(states[i, j]) @ weights)
         u, v = grid.to_pixels(states[i, j][None])[0]
         assert (int(u), int(v)) == (j, i)
-    u_axis, v_axis = value.VALUE_AXES[task.split(".")[0]]
+    u_axis, v_axis = value.value_axes(task)
     assert states[0, 0, v_axis] > states[-1, 0, v_axis]  # velocity up
     assert states[0, 0, u_axis] < states[0, -1, u_axis]
     assert np.all(value.greedy_classes(np.zeros((4, 4, 3))) == 0)
     np.testing.assert_array_equal(value.greedy_classes(np.array([[1.0, 3.0, 2.0]])), [2])
 
 
-@pytest.mark.parametrize("task", list(PAPER))
+@pytest.mark.parametrize("task", tasks.TASK_NAMES)
 @pytest.mark.parametrize("kind", ["nrbf", "cmac"])
 def test_q_on_grid_equals_the_feature_maps(task, kind):
     """The NRBF's factorised evaluation (and the CMAC's state-by-state one) give the feature
     map's own phi(s) . w over the grid, in and far beyond the ranges."""
     features = RunConfig(task=task, features=kind).feature_map()
     weights = np.random.default_rng(3).normal(size=(features.num_features, 2))
-    low, high = np.array(PAPER[task]["low"]), np.array(PAPER[task]["high"])
+    low, high = np.array(task_defaults(task)["low"]), np.array(task_defaults(task)["high"])
     for scale in (1, 40):
         grid = value.value_grid(task, low * scale, high * scale, size=17)
         expected = features.features(grid.states().reshape(-1, features.dim)) @ weights

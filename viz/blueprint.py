@@ -18,7 +18,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from lwrl.viz import names, scene
-from lwrl.viz.value import GRID, VALUE_AXES
+from lwrl.viz.value import GRID
 
 
 def _plot(name: str, path: str, steps: bool = False) -> rrb.TimeSeriesView:
@@ -70,10 +70,8 @@ def scene_view(task: str) -> rrb.Spatial3DView:
 def blueprint(task: str, size: int = GRID) -> rrb.Blueprint:
     """The default layout for `task` (`DOMAIN.TASK` or a bare domain); `size` is the value
     images' side (`log_value_function`'s)."""
-    left = [scene_view(task)]
-    if names.task_definition(task).domain in VALUE_AXES:
-        left.append(rrb.Horizontal(*value_views(task, size)))
-    left_column = rrb.Vertical(*left, row_shares=[3, 2][:len(left)])
+    left_column = rrb.Vertical(scene_view(task), rrb.Horizontal(*value_views(task, size)),
+                               row_shares=[3, 2])
     right = rrb.Tabs(rrb.Grid(*signal_views(task), grid_columns=2, name="episode signals (step)"),
                      rrb.Vertical(*curve_views(task), name="learning curves (episode)"))
     return rrb.Blueprint(rrb.Horizontal(left_column, right, column_shares=[2, 3]),

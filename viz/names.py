@@ -106,6 +106,13 @@ def domain_of(task: str) -> str:
     return task.split(".")[0]
 
 
+def domain(task: str):
+    """The suite's `Domain` of `DOMAIN.TASK` or of a bare domain."""
+    from lwrl import tasks
+
+    return tasks.domain(domain_of(task))
+
+
 def task_definition(task: str):
     """The suite's `TaskDefinition` of `DOMAIN.TASK`, or of a bare domain that has one task."""
     from lwrl import tasks  # the suite, for the task's variable names and controls

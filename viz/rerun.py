@@ -30,12 +30,11 @@ import mujoco
 import numpy as np
 import rerun as rr
 
-from lwrl.viz import names
 from lwrl.viz.blueprint import blueprint, send_blueprint
 from lwrl.viz.columns import episode_indexes
 from lwrl.viz.scene import load_model, log_scene_poses, log_task_scene
 from lwrl.viz.series import log_learning_curves, log_signals
-from lwrl.viz.value import VALUE_AXES, log_value_function, log_value_path
+from lwrl.viz.value import log_value_function, log_value_path
 
 BIND = "127.0.0.1"
 """The only address lwrl's viewers and servers listen on."""
@@ -148,7 +147,7 @@ def log_episode(rec: rr.RecordingStream, recording, *, model: mujoco.MjModel | N
                 value_ranges=None) -> dict:
     """Log one `EpisodeRecording`: the moving bodies' poses (`scene/<body>`), its signals
     (`signals/...`) and, given `value_ranges` `(low, high)` (the ranges of the value images,
-    the feature map's) for a task with value images, its states over them (`value/state`,
+    the feature map's), its states over the value images (`value/state`,
     `value/trajectory`). Returns `{quantity: entity path}` of the signals plus `"bodies"`:
     the bodies' paths.
 
@@ -158,7 +157,7 @@ def log_episode(rec: rr.RecordingStream, recording, *, model: mujoco.MjModel | N
     paths = log_signals(rec, recording)
     indexes = episode_indexes(np.arange(recording.steps + 1), recording.timestep, recording.episode)
     paths["bodies"] = log_scene_poses(rec, recording, model, indexes)
-    if value_ranges is not None and names.domain_of(recording.task) in VALUE_AXES:
+    if value_ranges is not None:
         log_value_path(rec, recording, *value_ranges, indexes=indexes)
     return paths
 

@@ -5,8 +5,8 @@ plane) with their rgba colours and logged once, static, in its body's frame unde
 `scene/<body>/<geom>`. A moving body's pose is a Transform3D on `scene/<body>`, one row per
 state of an episode, computed from the recorded states: `qpos` is the state's positions (the
 state vector interleaves qpos and qvel joint by joint, for both plants), and the poses are
-MuJoCo's forward kinematics of it. Mountain-Car has no MuJoCo model: its scene is the hill
-z = sin(3x), x in [-1.2, 0.5], drawn in the x-z plane, and the car moving along it.
+MuJoCo's forward kinematics of it. A domain without an MJCF model brings its own `Drawing`
+(`tasks.domain`): boxes and lines, fixed or on moving bodies, and the bodies' poses.
 
 `body_poses` evaluates MuJoCo's kinematics (`mj_kinematics`: body offsets, then each joint's
 slide or rotation about its anchor) over all the states at once in NumPy; it is checked
@@ -19,11 +19,9 @@ import numpy as np
 import rerun as rr
 
 from lwrl import models
+from lwrl.tasks.domain import Box, Line
 from lwrl.viz import names
 from lwrl.viz.columns import episode_indexes, log_static, send
-
-MUJOCO_MODELS = {"pendulum": "pendulum", "cartpole": "cartpole"}
-"""Domain -> MJCF model of `models` (Mountain-Car has none)."""
 
 PLANE_EXTENT = 5.0
 """Half-size drawn for an infinite MuJoCo plane (size 0)."""
@@ -32,27 +30,20 @@ PLANE_THICKNESS = 0.005
 GRID_SPACING = 0.5
 """Spacing of the grid lines drawn on a plane (m)."""
 
-# Mountain-Car's scene (task units: x in [-1.2, 0.5], altitude sin(3x)).
-HILL_LOW, HILL_HIGH = -1.2, 0.5
-HILL_POINTS = 200
-CAR_HALF_SIZES = (0.06, 0.04, 0.03)
-HILL_COLOR = (90, 160, 90)
-CAR_COLOR = (200, 60, 50)
-GOAL_COLOR = (240, 200, 40)
-WALL_COLOR = (110, 110, 110)
 
 
 def has_model(task: str) -> bool:
-    """True for the domains drawn from a MuJoCo model (pendulum, cart-pole)."""
-    return names.domain_of(task) in MUJOCO_MODELS
+    """True for the domains drawn from a MuJoCo model."""
+    return names.domain(task).model is not None
 
 
 def load_model(task: str) -> mujoco.MjModel:
     """The compiled MuJoCo model of a task's domain (`DOMAIN` or `DOMAIN.TASK`)."""
-    domain = names.domain_of(task)
-    if domain not in MUJOCO_MODELS:
-        raise ValueError(f"{domain} has no MuJoCo model; models exist for {', '.join(MUJOCO_MODELS)}")
-    return mujoco.MjModel.from_xml_string(models.read(MUJOCO_MODELS[domain]))
+    domain = names.domain(task)
+    if domain.model is None:
+        raise ValueError(f"{domain.name} has no MuJoCo model; models exist for "
+                         f"{', '.join(models.names())}")
+    return mujoco.MjModel.from_xml_string(models.read(domain.model))
 
 
 def body_name(model: mujoco.MjModel, body: int) -> str:
@@ -268,32 +259,23 @@ def log_model_geometry(rec: rr.RecordingStream, model: mujoco.MjModel) -> list[s
     return log_fixed_geometry(rec, model) + log_moving_geometry(rec, model)
 
 
-def hill_altitude(x) -> np.ndarray:
-    """Mountain-Car's altitude sin(3x)."""
-    return np.sin(3.0 * np.asarray(x, dtype=np.float64))
+def shape_archetype(shape):
+    """A `Line` as LineStrips3D, a `Box` or a tuple of boxes as solid Boxes3D."""
+    if isinstance(shape, Line):
+        return rr.LineStrips3D([shape.points], radii=shape.radius, colors=shape.color)
+    boxes = (shape,) if isinstance(shape, Box) else tuple(shape)
+    return rr.Boxes3D(half_sizes=[box.half_size for box in boxes], centers=[box.center for box in boxes],
+                      colors=[box.color for box in boxes], fill_mode=rr.components.FillMode.Solid)
 
 
-def log_mountain_car_geometry(rec: rr.RecordingStream) -> list[str]:
-    """The hill, the goal flag, the left wall and the car's body (static)."""
-    x = np.linspace(HILL_LOW, HILL_HIGH, HILL_POINTS)
-    hill = np.stack([x, np.zeros_like(x), hill_altitude(x)], axis=1)
-    goal_z = float(hill_altitude(HILL_HIGH))
-    wall_z = float(hill_altitude(HILL_LOW))
-    items = {
-        f"{names.WORLD}/hill": rr.LineStrips3D([hill], radii=0.008, colors=HILL_COLOR),
-        f"{names.WORLD}/goal": rr.Boxes3D(
-            half_sizes=[[0.004, 0.004, 0.12], [0.05, 0.004, 0.03]],
-            centers=[[HILL_HIGH, 0.0, goal_z + 0.12], [HILL_HIGH + 0.05, 0.0, goal_z + 0.21]],
-            colors=[WALL_COLOR, GOAL_COLOR], fill_mode=rr.components.FillMode.Solid),
-        f"{names.WORLD}/wall": rr.Boxes3D(
-            half_sizes=[[0.01, 0.05, 0.15]], centers=[[HILL_LOW - 0.01, 0.0, wall_z + 0.1]],
-            colors=[WALL_COLOR], fill_mode=rr.components.FillMode.Solid),
-        f"{names.body_path('car')}/body": rr.Boxes3D(
-            half_sizes=[CAR_HALF_SIZES], centers=[[0.0, 0.0, CAR_HALF_SIZES[2]]],
-            colors=[CAR_COLOR], fill_mode=rr.components.FillMode.Solid),
-    }
-    for path, archetype in items.items():
-        log_static(rec, path, archetype)
+def log_drawing(rec: rr.RecordingStream, drawing) -> list[str]:
+    """A domain's `Drawing`, static: its fixed shapes under `scene/world/<name>`, its moving
+    bodies' shapes under `scene/<body>/<name>`."""
+    items = {f"{names.WORLD}/{name}": shape for name, shape in drawing.fixed.items()}
+    items.update({f"{names.body_path(body)}/{name}": shape
+                  for body, shapes in drawing.bodies.items() for name, shape in shapes.items()})
+    for path, shape in items.items():
+        log_static(rec, path, shape_archetype(shape))
     return list(items)
 
 
@@ -302,20 +284,7 @@ def log_task_scene(rec: rr.RecordingStream, task: str) -> list[str]:
     log_static(rec, names.SCENE, rr.ViewCoordinates.RIGHT_HAND_Z_UP)
     if has_model(task):
         return log_model_geometry(rec, load_model(task))
-    if names.domain_of(task) == "mountain_car":
-        return log_mountain_car_geometry(rec)
-    raise ValueError(f"no scene for task {task!r}")
-
-
-def mountain_car_poses(positions) -> tuple[np.ndarray, np.ndarray]:
-    """`(translation (T, 3), quaternion (T, 4) x-first)` of the car on the hill: at
-    (x, 0, sin 3x), pitched along the slope 3 cos(3x)."""
-    x = np.asarray(positions, dtype=np.float64)
-    translation = np.stack([x, np.zeros_like(x), hill_altitude(x)], axis=1)
-    pitch = -np.arctan(3.0 * np.cos(3.0 * x))  # about +y: a rising slope lifts the nose
-    zeros = np.zeros_like(x)
-    quaternion = np.stack([zeros, np.sin(pitch / 2), zeros, np.cos(pitch / 2)], axis=1)
-    return translation, quaternion
+    return log_drawing(rec, names.domain(task).drawing)
 
 
 def scene_poses(task: str, states, model: mujoco.MjModel | None = None,
@@ -329,9 +298,8 @@ def scene_poses(task: str, states, model: mujoco.MjModel | None = None,
         xpos, xquat = body_poses(model, qpos_of(model, states))
         return {names.body_path(body_name(model, b), root): (xpos[:, b], _xyzw(xquat[:, b]))
                 for b in moving_bodies(model)}
-    if names.domain_of(task) == "mountain_car":
-        return {names.body_path("car"): mountain_car_poses(states[:, 0])}
-    raise ValueError(f"no scene for task {task!r}")
+    return {names.body_path(body): pose
+            for body, pose in names.domain(task).drawing.poses(states).items()}
 
 
 def log_scene_poses(rec: rr.RecordingStream, recording, model: mujoco.MjModel | None = None,
@@ -348,17 +316,25 @@ def log_scene_poses(rec: rr.RecordingStream, recording, model: mujoco.MjModel | 
     return list(poses)
 
 
+def camera_eye(model: mujoco.MjModel, camera: int = 0) -> tuple[tuple, tuple]:
+    """`(position, look_target)` of a model's camera at its rest pose: the target is the
+    point of its line of sight nearest the model's centre."""
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    position = data.cam_xpos[camera].copy()
+    forward = -data.cam_xmat[camera].reshape(3, 3)[:, 2]  # cameras look along their -z
+    target = position + forward * np.dot(model.stat.center - position, forward)
+    return tuple(position.tolist()), tuple(target.tolist())
+
+
 def eye(task: str) -> tuple[tuple, tuple]:
-    """A default camera `(position, look_target)` for the task's 3-D view: from -y, like the
-    models' `front` camera."""
-    domain = names.domain_of(task)
-    if domain == "mountain_car":
-        return (-0.35, -2.2, 0.3), (-0.35, 0.0, 0.0)
-    if domain == "pendulum":
-        return (0.0, -5.0, 1.6), (0.0, 0.0, 1.3)
-    return (0.0, -6.0, 1.2), (0.0, 0.0, 0.5)
+    """A default camera `(position, look_target)` for the task's 3-D view: the model's first
+    camera, or the drawing's eye."""
+    if has_model(task):
+        return camera_eye(load_model(task))
+    return names.domain(task).drawing.eye
 
 
-__all__ = ["MUJOCO_MODELS", "body_poses", "body_poses_mujoco", "eye", "has_model", "load_model",
-           "log_scene_poses", "log_task_scene", "mountain_car_poses", "moving_bodies", "qpos_of",
+__all__ = ["body_poses", "body_poses_mujoco", "camera_eye", "eye", "has_model", "load_model",
+           "log_drawing", "log_scene_poses", "log_task_scene", "moving_bodies", "qpos_of",
            "scene_poses"]

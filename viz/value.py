@@ -1,8 +1,8 @@
 """The value function over a 2-D grid of states, as images.
 
-For a task's two plotted state variables (Mountain-Car and pendulum: position or angle
-across, velocity up; cart-pole: the slice over pole angle and angular velocity at
-x = x_dot = 0), a `size x size` grid of cell-centre states over the feature map's
+For a task's two plotted state variables (its domain's `value_axes`: e.g. position or angle
+across, velocity up; the other variables held at 0, e.g. the cart-pole's slice over pole
+angle and angular velocity at x = x_dot = 0), a `size x size` grid of cell-centre states over the feature map's
 normalisation ranges (the box its centroids span) is evaluated with the agent's features and weights (N, A): `value/max_q` is max_a Q as an
 RGB image (viridis, scaled to that image's own min..max, which the entity also carries as
 `max_q_min` / `max_q_max`), `value/greedy_action` the greedy action as a segmentation image
@@ -26,8 +26,13 @@ from lwrl.viz.columns import episode_indexes, log_static, one_row, send
 
 GRID = 100
 """Default cells per side of the value images."""
-VALUE_AXES = {"mountain_car": (0, 1), "pendulum": (0, 1), "cartpole": (2, 3)}
-"""Domain -> the two state variables across (u) and up (v) the images."""
+
+
+def value_axes(task: str) -> tuple[int, int]:
+    """The indices of the two state variables across (u) and up (v) a task's images."""
+    state_names = names.task_definition(task).state_names
+    return tuple(state_names.index(name) for name in names.domain(task).value_axes)
+
 BLOCK = 1024
 """States evaluated at a time (bounds the features' memory: cart-pole has 1296)."""
 
@@ -83,7 +88,7 @@ def value_grid(task: str, low, high, size: int = GRID) -> ValueGrid:
     low, high = np.asarray(low, dtype=np.float64), np.asarray(high, dtype=np.float64)
     if size < 1:
         raise ValueError(f"size must be >= 1; got {size}")
-    return ValueGrid(VALUE_AXES[names.domain_of(task)], low, high, int(size), int(size),
+    return ValueGrid(value_axes(task), low, high, int(size), int(size),
                      np.zeros(len(low)))
 
 

@@ -1,7 +1,7 @@
 """Closed-loop comparison of the plants: the same agents learning on each, then transferred.
 
-Each plant of `PLANTS` trains the same agent configuration (the paper's settings for the
-task, `lwrl.runners.config.PAPER`) with the same seeds; every trained batch is then run
+Each plant of `PLANTS` trains the same agent configuration (the task's defaults,
+`TaskDefinition.defaults`) with the same seeds; every trained batch is then run
 greedily (ε = 0, no learning) on every plant, from starts drawn with seeds away from the
 training ones (`EVAL_SEED`, as `lwrl eval`).
 """
@@ -11,6 +11,7 @@ import dataclasses
 import numpy as np
 import pandas as pd
 
+from lwrl import tasks
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import run
 from lwrl.runners.sweep import results_table
@@ -19,9 +20,12 @@ PLANTS = ("mujoco", "semi_implicit", "explicit")
 """The plants agents learn on: MuJoCo (Euler) and the analytic plant in both Euler readings."""
 EVAL_SEED = 1_000_000
 """Seed of the first agent's evaluation episodes (`lwrl eval`'s default)."""
-EVAL_EPISODES = {"pendulum": 10, "cartpole": 3}
-"""Greedy episodes per agent and plant. The cart-pole starts at rest and a greedy agent is
-deterministic but for ties, so its episodes repeat; the pendulum's starts are random."""
+
+
+def eval_episodes_of(task: str) -> int:
+    """Greedy episodes per agent and plant: the domain's `transfer_episodes` (fewer where
+    the start is fixed and a greedy agent's episodes repeat)."""
+    return tasks.domain(tasks.split_name(task)[0]).comparison.transfer_episodes
 
 
 def plant_config(task: str, plant: str, **fields) -> RunConfig:
@@ -55,8 +59,7 @@ def closed_loop(task: str, agents: int, episodes: int | None = None, seed: int =
     """Train `agents` agents (seeds `seed`, `seed + 1`, ...) for `episodes` episodes (default:
     the paper's) on every plant, then run each trained batch greedily for `eval_episodes`
     episodes on every plant. `progress(episodes_done)` is called as episodes finish."""
-    domain = task.split(".")[0]
-    eval_episodes = EVAL_EPISODES[domain] if eval_episodes is None else eval_episodes
+    eval_episodes = eval_episodes_of(task) if eval_episodes is None else eval_episodes
     configs = {plant: plant_config(task, plant, agents=agents, episodes=episodes, seed=seed)
                for plant in PLANTS}
     trained, tables = {}, []
@@ -82,9 +85,8 @@ def closed_loop(task: str, agents: int, episodes: int | None = None, seed: int =
 def total_episodes(task: str, agents: int, episodes: int | None = None,
                    eval_episodes: int | None = None) -> int:
     """The episodes `closed_loop` runs (for a progress bar)."""
-    domain = task.split(".")[0]
     config = RunConfig(task=task, agents=agents, episodes=episodes)
-    eval_episodes = EVAL_EPISODES[domain] if eval_episodes is None else eval_episodes
+    eval_episodes = eval_episodes_of(task) if eval_episodes is None else eval_episodes
     return len(PLANTS) * agents * (config.episodes + len(PLANTS) * eval_episodes)
 
 

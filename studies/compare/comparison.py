@@ -7,8 +7,9 @@
 1. Open loop (`lwrl.studies.compare.open_loop`): the same starts and random actions on MuJoCo, the
    analytic semi-implicit and explicit Euler plants and an RK4 reference; per-step
    divergence, time within tolerance, energy drift.
-2. Closed loop (`lwrl.studies.compare.closed_loop`): the paper's agent learning on each plant, with
-   the paper's verdict (Fig. 5 for the pendulum, Table 1 for the cart-pole) on each.
+2. Closed loop (`lwrl.studies.compare.closed_loop`): the task's default agent learning on
+   each plant, held on each to a claim when given one (`judge`; `lwrl compare` passes the
+   paper's item for the task, `lwrl.studies.paper.items.judge`).
 3. Transfer: each trained batch run greedily on every plant.
 4. With `rrd_path`, a Rerun recording: the greedy episode of agent 0 trained on MuJoCo,
    its actions replayed open loop on every plant from its start, ghosts in one scene.
@@ -27,10 +28,7 @@ from lwrl import tasks
 from lwrl.studies.compare import closed_loop as cl
 from lwrl.studies.compare import report as compare_report
 from lwrl.studies.compare import open_loop as ol
-from lwrl.studies.paper.items import ITEMS
 
-PAPER_ITEM = {"pendulum": "fig5", "cartpole": "table1"}
-"""The paper's result each domain's agents are held to on every plant."""
 QUICK = dict(steps=50, episodes=3, eval_episodes=1)
 """`quick=True`: open-loop horizon (steps), training and evaluation episodes."""
 
@@ -38,13 +36,13 @@ QUICK = dict(steps=50, episodes=3, eval_episodes=1)
 def comparable_tasks() -> list:
     """The tasks with a MuJoCo plant, as DOMAIN.TASK."""
     return [f"{domain}.{task}" for domain, task in tasks.ALL_TASKS
-            if tasks.DOMAINS[domain].PLANTS.model is not None]
+            if tasks.domain(domain).model is not None]
 
 
 def check_task(task: str) -> str:
     """Return the domain of `task`, or raise naming the tasks that can be compared."""
     if task not in comparable_tasks():
-        reason = ("has only the analytic plant" if task in [f"{d}.{t}" for d, t in tasks.ALL_TASKS]
+        reason = ("has only the analytic plant" if task in tasks.TASK_NAMES
                   else "is not a task of the suite")
         raise ValueError(f"{task} {reason}; compare one of: {', '.join(comparable_tasks())}")
     return task.split(".")[0]
@@ -80,13 +78,14 @@ def record(task: str, recording, rrd_path: str) -> dict:
     from lwrl.viz import rerun as viz
 
     domain = task.split(".")[0]
+    definition = tasks.definition(*tasks.split_name(task))
     states = replay(task, recording)
     reference = states[ol.REFERENCE]
     errors = {plant: {variable: values[0] for variable, values in ol.errors(
-        domain, recording.state_names, trajectory[None], reference[None]).items()}
+        definition, trajectory[None], reference[None]).items()}
         for plant, trajectory in states.items() if plant != ol.REFERENCE}
     rec = viz.open_recording(viz.APPLICATION_ID, rrd_path=rrd_path)
-    rec.send_blueprint(viz_comparison.blueprint(task, recording.state_names, list(ol.TOLERANCES[domain])),
+    rec.send_blueprint(viz_comparison.blueprint(task, recording.state_names, list(ol.tolerances(domain))),
                        make_active=True, make_default=True)
     paths = viz_comparison.log_plants(
         rec, task, states, recording.timestep, ol.REFERENCE, ol.LABELS, recording.state_names,
@@ -96,11 +95,14 @@ def record(task: str, recording, rrd_path: str) -> dict:
 
 
 def compare(task: str, seeds: int = 10, episodes: int | None = None, out_dir: str = "compare",
-            rrd_path: str | None = None, quick: bool = False, progress=None) -> Comparison:
+            rrd_path: str | None = None, quick: bool = False, progress=None,
+            judge=None) -> Comparison:
     """Run the whole comparison of `task` with `seeds` trials and agents (seeds 0..seeds-1)
-    and write its results under `out_dir`. `episodes` overrides the paper's training
+    and write its results under `out_dir`. `episodes` overrides the task's training
     episodes; `quick` shortens everything to a smoke test; `progress(episodes_done)` follows
-    the closed-loop part (`closed_loop.total_episodes` in all)."""
+    the closed-loop part (`closed_loop.total_episodes` in all). `judge(table, figure_dir)
+    -> (name, section)`, if given, holds each plant's training results to a claim (a
+    section with `rows`, `verdict` and `rule`) and the report shows it per plant."""
     domain = check_task(task)
     figure_dir = os.path.join(out_dir, "figures")
     os.makedirs(figure_dir, exist_ok=True)
@@ -117,10 +119,10 @@ def compare(task: str, seeds: int = 10, episodes: int | None = None, out_dir: st
     transfer = compare_report.transfer_statistics(closed_result)
     figures = compare_report.write_figures(open_result, closed_result, transfer, domain, task, figure_dir)
     paper_sections = {}
-    for plant, table in closed_result.episodes.groupby("compared", sort=False):
-        plant_dir = os.path.join(figure_dir, f"paper_{plant}")  # the item's own figure
+    for plant, table in closed_result.episodes.groupby("compared", sort=False) if judge else ():
+        plant_dir = os.path.join(figure_dir, f"paper_{plant}")  # the claim's own figure
         os.makedirs(plant_dir, exist_ok=True)
-        paper_sections[plant] = (PAPER_ITEM[domain], ITEMS[PAPER_ITEM[domain]].analyse(table, plant_dir))
+        paper_sections[plant] = judge(table, plant_dir)
     comparison = Comparison(task, quick, open_result, closed_result, timings,
                             os.path.join(out_dir, "report.md"), rrd_path)
     if rrd_path:

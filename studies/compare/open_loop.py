@@ -9,8 +9,8 @@ The plants, named as in the report:
 - `semi_implicit` and `explicit`: the paper's equations (pendulum section 4.2, cart-pole
   section 4.3) with Euler's method in its two readings (`tasks.integrators`).
 
-Divergence is measured on the configuration variables (angles wrapped to [-π, π] before
-differencing), each against its tolerance (`TOLERANCES`); a trial leaves the tolerance at
+Divergence is measured on the configuration variables the domain names with their
+tolerances (`Domain.comparison`; its angles wrapped to [-π, π] before differencing); a trial leaves the tolerance at
 the first step where some variable's error exceeds it. Energy is the mechanical energy of
 the MJCF model (`mujoco.mj_energyPos` + `mj_energyVel`), whose masses and lengths are the
 paper's.
@@ -24,7 +24,6 @@ import pandas as pd
 
 from lwrl import models
 from lwrl import tasks
-from lwrl.tasks.cartpole import FAIL_ANGLE
 from lwrl.tasks.integrators import INTEGRATORS
 from lwrl.tasks.plants import MujocoPlant
 
@@ -41,17 +40,17 @@ PAIRS = (("mujoco", REFERENCE), ("semi_implicit", REFERENCE), ("explicit", REFER
          ("mujoco", "semi_implicit"), (REFERENCE, REFERENCE_CHECK))
 """(plant, against) pairs whose divergence is measured: each plant against the reference,
 MuJoCo against the analytic plant with its scheme, and the reference against its halved step."""
-TOLERANCES = {"pendulum": {"angle": 0.05},
-              "cartpole": {"cart_position": 0.01, "pole_angle": 0.05}}
-"""Per domain, the configuration variables compared and the error (rad, m) a plant may have
-before it counts as having left the reference."""
-ANGLES = ("angle", "pole_angle")
-"""Variables compared modulo 2π."""
+
+
+def tolerances(domain: str) -> dict:
+    """`{variable: error}`: the configuration variables compared and the error (rad, m) a
+    plant may have before it counts as having left the reference (the domain's)."""
+    return dict(tasks.domain(domain).comparison.tolerances)
 
 
 def reference_model(domain: str, substeps: int) -> mujoco.MjModel:
     """The domain's MJCF model with RK4 at a timestep of Δt / `substeps`."""
-    plants = tasks.DOMAINS[domain].PLANTS
+    plants = tasks.domain(domain).plants
     model = mujoco.MjModel.from_xml_string(models.read(plants.model))
     model.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
     model.opt.timestep = plants.timestep / substeps
@@ -60,10 +59,10 @@ def reference_model(domain: str, substeps: int) -> mujoco.MjModel:
 
 def plant(domain: str, name: str, batch_size: int, substeps: int = REFERENCE_SUBSTEPS):
     """The batched plant `name` (one of `LABELS`) of a domain with a MuJoCo model."""
-    plants = tasks.DOMAINS[domain].PLANTS
+    plants = tasks.domain(domain).plants
     if plants.model is None:
         raise ValueError(f"{domain} has no MuJoCo model to compare with; compare: "
-                         f"{', '.join(d for d, m in tasks.DOMAINS.items() if m.PLANTS.model)}")
+                         f"{', '.join(d for d, m in tasks.DOMAINS.items() if m.model)}")
     if name == "mujoco":
         return plants.batch("mujoco", batch_size)
     if name in INTEGRATORS:
@@ -114,25 +113,22 @@ def energy(domain: str, states: np.ndarray) -> np.ndarray:
 
 
 def energy_starts(definition, seeds) -> np.ndarray:
-    """Starts of the zero-action energy trials: the task's own, but the cart-pole's pole
-    tilted by θ ~ U[-12°, 12°] (its all-zero start is an equilibrium zero action never leaves)."""
-    starts = []
-    for seed in seeds:
-        rng = np.random.default_rng(seed)
-        start = definition.initial_states(rng, 1)[0]
-        if definition.domain == "cartpole":
-            start[2] = rng.uniform(-FAIL_ANGLE, FAIL_ANGLE)
-        starts.append(start)
-    return np.array(starts)
+    """Starts of the zero-action energy trials, one per seed: the domain's `rest_start`
+    where its task's start is an equilibrium zero action never leaves, else the task's."""
+    rest_start = tasks.domain(definition.domain).comparison.rest_start
+    return np.array([definition.initial_states(np.random.default_rng(seed), 1)[0]
+                     if rest_start is None else rest_start(np.random.default_rng(seed))
+                     for seed in seeds])
 
 
-def errors(domain: str, state_names, states: np.ndarray, against: np.ndarray) -> dict:
-    """`{variable: (B, T + 1) |error|}` of the compared configuration variables."""
+def errors(definition, states: np.ndarray, against: np.ndarray) -> dict:
+    """`{variable: (B, T + 1) |error|}` of the compared configuration variables (angles
+    modulo 2π)."""
     result = {}
-    for name in TOLERANCES[domain]:
-        j = state_names.index(name)
+    for name in tolerances(definition.domain):
+        j = definition.state_names.index(name)
         difference = states[..., j] - against[..., j]
-        if name in ANGLES:
+        if name in definition.angles:
             difference = (difference + np.pi) % (2 * np.pi) - np.pi
         result[name] = np.abs(difference)
     return result
@@ -141,7 +137,7 @@ def errors(domain: str, state_names, states: np.ndarray, against: np.ndarray) ->
 def steps_within(domain: str, error: dict) -> np.ndarray:
     """`(B,)` per trial, the first step at which some variable's error exceeds its tolerance,
     or -1 where none does within the horizon."""
-    outside = np.any([error[name] > tolerance for name, tolerance in TOLERANCES[domain].items()],
+    outside = np.any([error[name] > tolerance for name, tolerance in tolerances(domain).items()],
                      axis=0)
     return np.where(outside.any(axis=1), outside.argmax(axis=1), -1)
 
@@ -189,7 +185,7 @@ def open_loop(task: str, seeds, steps: int | None = None,
     timestep = definition.control_timestep
     step_rows, trial_rows = [], []
     for first, second in PAIRS:
-        error = errors(domain, definition.state_names, runs[first], runs[second])
+        error = errors(definition, runs[first], runs[second])
         leaves = steps_within(domain, error)
         pair = dict(plant=first, against=second)
         for variable, values in error.items():

@@ -12,6 +12,7 @@ import pandas as pd  # noqa: E402
 
 from lwrl.studies.compare import closed_loop as cl  # noqa: E402
 from lwrl.studies.compare import open_loop as ol  # noqa: E402
+from lwrl import tasks  # noqa: E402
 from lwrl.analysis.plots import plot_learning_curve, save_figure  # noqa: E402
 
 FLOOR = 1e-16
@@ -93,7 +94,7 @@ def transfer_table(statistics: pd.DataFrame) -> pd.DataFrame:
 def plot_divergence(result: ol.OpenLoop, domain: str, task: str):
     """|error| against time, one panel per compared variable, one line per pair (median
     over trials, band between the quartiles), logarithmic, with the tolerance."""
-    variables = list(ol.TOLERANCES[domain])
+    variables = list(ol.tolerances(domain))
     figure, panels = plt.subplots(1, len(variables), figsize=(6.5 * len(variables), 4.5), squeeze=False)
     for axes, variable in zip(panels[0], variables):
         for (plant, against), rows in result.steps[result.steps["variable"] == variable].groupby(
@@ -103,8 +104,8 @@ def plot_divergence(result: ol.OpenLoop, domain: str, task: str):
                               linestyle="--" if plant == "semi_implicit" else "-")  # on MuJoCo's
             axes.fill_between(rows["time_s"], np.maximum(rows["q25"], FLOOR),
                               np.maximum(rows["q75"], FLOOR), color=line.get_color(), alpha=0.2)
-        axes.axhline(ol.TOLERANCES[domain][variable], color="black", linestyle="--",
-                     label=f"tolerance {ol.TOLERANCES[domain][variable]:g}")
+        axes.axhline(ol.tolerances(domain)[variable], color="black", linestyle="--",
+                     label=f"tolerance {ol.tolerances(domain)[variable]:g}")
         axes.set_yscale("log")
         axes.set_xlabel("time (s)")
         axes.set_ylabel(f"|error| of {variable}")
@@ -164,8 +165,9 @@ def report(comparison, figures: dict, paper_sections: dict, out_dir: str) -> str
     domain = comparison.task.split(".")[0]
     config = closed_result.configs["mujoco"]
     seeds = config.seeds
-    tolerance = ", ".join(f"{name} {value:g} {'rad' if name in ol.ANGLES else 'm'}"
-                          for name, value in ol.TOLERANCES[domain].items())
+    angles = tasks.definition(*tasks.split_name(comparison.task)).angles
+    tolerance = ", ".join(f"{name} {value:g} {'rad' if name in angles else 'm'}"
+                          for name, value in ol.tolerances(domain).items())
 
     def figure(name):
         return f"![{name}]({os.path.relpath(figures[name][0], out_dir)})"
@@ -194,7 +196,7 @@ def report(comparison, figures: dict, paper_sections: dict, out_dir: str) -> str
     lines += ["## Closed loop", ""] + _block(
         f"{len(seeds)} agents per plant, {config.trace} traces, α {config.alpha:g}, "
         f"λ {config.lam:g}, ε {config.epsilon:g}, NRBF {config.n}^d with r² {config.r2:g}, "
-        f"{config.episodes} episodes (the paper's settings, `runners/config.py`); "
+        f"{config.episodes} episodes (the task's defaults, `tasks/{domain}.py`); "
         "means ± standard errors over agents of each agent's mean up-time.",
         learning_table(closed_result), figure("learning_curves"))
     lines += ["MuJoCo and the analytic semi-implicit plant agree to round-off, so their agents "

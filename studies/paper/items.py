@@ -326,3 +326,15 @@ ITEMS = {
                    fig8_configs, table1_analyse),
 }
 """Every reproduced item; Table 1 reads Fig. 8's runs."""
+
+JUDGED_TASKS = {"pendulum.swingup": "fig5", "cartpole.balance": "table1"}
+"""The item each task's learning curves are held to where the plants are compared."""
+
+
+def judge(task: str):
+    """`judge(table, figure_dir) -> (item name, Section)`: the paper's item for `task`'s
+    learning runs (Fig. 5, Table 1), for `lwrl compare`; None for a task no item judges."""
+    if task not in JUDGED_TASKS:
+        return None
+    name = JUDGED_TASKS[task]
+    return lambda table, figure_dir: (name, ITEMS[name].analyse(table, figure_dir))

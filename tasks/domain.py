@@ -1,0 +1,88 @@
+"""What the project knows about one domain, in one value: `Domain`.
+
+Each domain module (`tasks/<domain>.py`) ends with one `DOMAIN = Domain(...)`, and the
+registry (`tasks.DOMAINS`) lists the modules. Every other room looks a domain up here and
+names none: the runners take the plants and the run defaults, the viewer the drawing and
+the value image's axes, the plant comparison the tolerances, the Gymnasium registration the
+observation bounds (those are per task, in `TaskDefinition`).
+"""
+
+import dataclasses
+from typing import Callable, Mapping, Optional
+
+import numpy as np
+
+from lwrl.tasks.plants import DomainPlants
+
+
+@dataclasses.dataclass(frozen=True)
+class Box:
+    """A solid box the viewer draws: half sizes and centre (x, y, z), colour (r, g, b)."""
+
+    half_size: tuple
+    center: tuple
+    color: tuple
+
+
+@dataclasses.dataclass(frozen=True)
+class Line:
+    """A polyline the viewer draws: points `(n, 3)`, radius, colour (r, g, b)."""
+
+    points: np.ndarray
+    radius: float
+    color: tuple
+
+
+@dataclasses.dataclass(frozen=True)
+class Drawing:
+    """The 3-D scene of a domain without an MJCF model (z up, in the task's units).
+
+    `fixed` shapes are drawn once in the world; `bodies` maps a moving body's name to its
+    shapes in the body's frame; `poses(states (T, d))` gives each body's
+    `(translation (T, 3), quaternion (T, 4) x-first)`; `eye` is the default camera
+    `(position, look_target)`. Domains with a model are drawn from its geoms and cameras.
+    """
+
+    fixed: Mapping
+    bodies: Mapping
+    poses: Callable
+    eye: tuple
+
+
+@dataclasses.dataclass(frozen=True)
+class PlantComparison:
+    """How `lwrl compare` holds the plants of a domain against each other."""
+
+    tolerances: Mapping
+    """`{state variable: error}` (rad, m) a plant may have before it counts as having left
+    the reference; the compared configuration variables."""
+    transfer_episodes: int
+    """Greedy episodes per agent and plant in the transfer test (fewer where the start is
+    deterministic, so a greedy agent's episodes repeat)."""
+    rest_start: Optional[Callable] = None
+    """`rest_start(rng) -> (d,)`: a start for the zero-action energy trials, where the
+    task's own start is an equilibrium that zero action never leaves (None: the task's)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Domain:
+    """One domain of the suite: its tasks, its plants and what each room needs of it."""
+
+    name: str
+    """E.g. `cartpole`; the registry's key and the prefix of the task names."""
+    tasks: Mapping
+    """`{task name: factory(**options) -> TaskDefinition}`; the factory's keyword
+    arguments are the task's options."""
+    plants: DomainPlants
+    """How the domain builds its plants (analytic, and MuJoCo where it has a model)."""
+    value_axes: tuple
+    """The two state variables across and up the value images (the others held at 0)."""
+    drawing: Optional[Drawing] = None
+    """The viewer's scene where the domain has no MJCF model (else drawn from the model)."""
+    comparison: Optional[PlantComparison] = None
+    """The plant comparison's settings, for domains with a MuJoCo plant."""
+
+    @property
+    def model(self) -> Optional[str]:
+        """The name of the domain's MJCF file in `models/` (None: no MuJoCo plant)."""
+        return self.plants.model

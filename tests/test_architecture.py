@@ -1,0 +1,160 @@
+"""The house's rules, read from the code: imports point down the rooms, studies do not borrow
+from each other, and nothing outside `tasks/` knows a domain by name.
+
+The rooms and their floors (docs/ARCHITECTURE.md): a module may import its own room and the
+rooms on lower floors only.
+"""
+
+import ast
+import pathlib
+
+import numpy as np
+import pytest
+
+from lwrl import tasks
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+FLOORS = {"models": 0, "agent": 1, "tasks": 1, "analysis": 2, "gym": 2, "viz": 3,
+          "runners": 4, "adapters": 5, "export": 5, "studies": 6, "cli": 7}
+"""Room -> floor. `gym` is `lwrl/gym.py`, the suite's Gymnasium face (it reads `tasks`)."""
+ISOLATED = {"agent": set(), "tasks": {"models"}}
+"""Rooms that may import only these others: the learner sees arrays only."""
+NAMING_DOMAINS_ALLOWED = ("studies/paper/",)
+"""The paper's study names the tasks of its figures as data: the one exception."""
+
+
+def room_of(path: pathlib.Path) -> str:
+    """The room of a source file: its top-level folder, or the module of `lwrl/`."""
+    relative = path.relative_to(ROOT)
+    return relative.stem if relative.parts[0] == "lwrl" else relative.parts[0]
+
+
+def package_files() -> list:
+    """Every module the `lwrl` wheel installs."""
+    return sorted(path for room in FLOORS for path in
+                  ([ROOT / "lwrl" / f"{room}.py"] if room == "gym" else (ROOT / room).rglob("*.py"))
+                  if path.exists())
+
+
+def lwrl_imports(tree: ast.AST) -> list:
+    """`(line, dotted module)` of every import of an lwrl module (at any depth of the file)."""
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found += [(node.lineno, alias.name) for alias in node.names if alias.name.startswith("lwrl")]
+        elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith("lwrl"):
+            if node.module == "lwrl":  # from lwrl import tasks, models
+                found += [(node.lineno, f"lwrl.{alias.name}") for alias in node.names]
+            else:
+                found.append((node.lineno, node.module))
+    return found
+
+
+def imported_room(module: str) -> str:
+    return module.split(".")[1] if module.count(".") >= 1 else "lwrl"
+
+
+def test_the_package_files_are_found():
+    rooms = {room_of(path) for path in package_files()}
+    assert rooms == set(FLOORS), rooms
+
+
+@pytest.mark.parametrize("path", package_files(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_imports_point_down(path):
+    """A module imports its own room and lower floors only; `agent` imports no other room and
+    `tasks` only `models`; one study never imports another."""
+    room = room_of(path)
+    tree = ast.parse(path.read_text())
+    for line, module in lwrl_imports(tree):
+        target = imported_room(module)
+        where = f"{path.relative_to(ROOT)}:{line} imports {module}"
+        assert target in FLOORS, where
+        assert target == room or FLOORS[target] < FLOORS[room], f"{where}: an import up the house"
+        if room in ISOLATED and target != room:
+            assert target in ISOLATED[room], f"{where}: {room} may import only {ISOLATED[room] or 'itself'}"
+        if room == "studies" and target == "studies":
+            mine, theirs = path.relative_to(ROOT / "studies").parts[0], module.split(".")[2]
+            assert theirs == mine.removesuffix(".py"), f"{where}: a study borrows from another"
+
+
+def docstring_nodes(tree: ast.AST) -> set:
+    """The string constants that are docstrings (of the module, classes, functions, and the
+    attribute docstrings after assignments)."""
+    found = set()
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if not isinstance(body, list):
+            continue
+        for statement in body:
+            if isinstance(statement, ast.Expr) and isinstance(statement.value, ast.Constant) \
+                    and isinstance(statement.value.value, str):
+                found.add(id(statement.value))
+    return found
+
+
+def domain_mentions(path: pathlib.Path) -> list:
+    """`(line, what)` of every place the code names a domain of the suite: a string equal to
+    a domain or a task name (a comparison, a key, an argument), or a domain's module
+    imported or reached as an attribute. Docstrings and comments are prose, not code."""
+    domains = set(tasks.DOMAINS)
+    names = domains | set(tasks.TASK_NAMES)
+    tree = ast.parse(path.read_text())
+    prose = docstring_nodes(tree)
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in prose:
+            if node.value in names or node.value.split(".")[0] in domains and "." in node.value:
+                found.append((node.lineno, repr(node.value)))
+        elif isinstance(node, ast.Attribute) and node.attr in domains:
+            found.append((node.lineno, f".{node.attr}"))
+        elif isinstance(node, ast.Name) and node.id in domains:
+            found.append((node.lineno, node.id))
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            modules = [alias.name for alias in node.names] + [getattr(node, "module", None) or ""]
+            modules += [f"{node.module}.{alias.name}" for alias in node.names if getattr(node, "module", None)]
+            found += [(node.lineno, f"import {m}") for m in modules if m.split(".")[-1] in domains]
+    return found
+
+
+@pytest.mark.parametrize("path", [p for p in package_files()
+                                  if not str(p.relative_to(ROOT)).startswith(("tasks/", *NAMING_DOMAINS_ALLOWED))],
+                         ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_room_but_tasks_names_a_domain(path):
+    """Everything about a domain lives in `tasks/<domain>.py` and `models/<domain>.xml`;
+    other rooms look it up (`tasks.domain(name)`), so adding a domain touches no other room."""
+    assert domain_mentions(path) == []
+
+
+def test_the_check_finds_a_domain_named_in_code(tmp_path):
+    """The check above is not blind: it finds a branch, a table, an import and an attribute."""
+    sample = tmp_path / "sample.py"
+    sample.write_text('"""Prose may say cartpole."""\n'
+                      'from lwrl.tasks import cartpole\n'
+                      'TABLE = {"pendulum": 1}\n'
+                      'def f(domain):\n'
+                      '    """mountain_car in a docstring is prose."""\n'
+                      '    return domain == "mountain_car" or cartpole.FAIL_ANGLE or tasks.pendulum\n'
+                      'NAME = "cartpole.balance"\n')
+    assert sorted(line for line, _ in domain_mentions(sample)) == [2, 2, 3, 6, 6, 6, 7]
+
+
+@pytest.mark.parametrize("name", list(tasks.DOMAINS))
+def test_every_domain_fills_its_contract(name):
+    """Each domain gives what the other rooms look up: tasks with bounds, defaults and angles
+    over its state variables, value axes, a drawing or a model, and comparison settings for
+    a MuJoCo plant."""
+    domain = tasks.domain(name)
+    assert domain.name == name and domain.tasks
+    assert (domain.model is None) == (domain.drawing is not None), "a model or a drawing"
+    assert (domain.model is None) == (domain.comparison is None), "compared where it has a model"
+    for task in domain.tasks:
+        definition = tasks.definition(name, task)
+        state_names = definition.state_names
+        assert set(domain.value_axes) <= set(state_names) and len(domain.value_axes) == 2
+        assert set(definition.angles) <= set(state_names)
+        low, high = definition.bounds
+        assert len(low) == len(high) == len(state_names) and np.all(np.less(low, high))
+        defaults = definition.defaults
+        assert len(defaults.low) == len(defaults.high) == len(state_names)
+        if domain.comparison is not None:
+            assert set(domain.comparison.tolerances) <= set(state_names)
