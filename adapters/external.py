@@ -31,10 +31,9 @@ import dm_env
 import numpy as np
 from dm_env import specs
 
-from lwrl.agent.features import check_box, check_count
-from lwrl.agent.nrbf import DEFAULT_R2, NRBF
+from lwrl.agent.features import check_box
 from lwrl.agent.sarsa import BatchedSarsa
-from lwrl.agent.traces import TRACES
+from lwrl.runners.config import AgentSettings, ProtocolSettings, check_choices, fill
 from lwrl.runners.run import EpisodeResults, run_batched
 from lwrl.tasks.batched import SteppedEnvs, flatten_observation
 
@@ -261,59 +260,41 @@ def is_external(name: str) -> bool:
     return name.partition(":")[0] in ("dmc", "gym") and ":" in name
 
 
-@dataclasses.dataclass
-class ExternalConfig:
-    """One run: B agents, each on its own copy of an external environment. Fields left None
-    take the environment's preset (`EXTERNAL_PRESETS`), then `DEFAULTS`; the observation box,
-    then the observation space's finite bounds (`prepare`)."""
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class ExternalEnvironment:
+    """Another suite's environment."""
 
-    env: str = "gym:MountainCar-v0"
-    """`dmc:DOMAIN.TASK` or `gym:ID`."""
-    low: tuple | None = None
-    """Lower end of each observation dimension's range (the NRBF box)."""
-    high: tuple | None = None
-    """Upper end of each observation dimension's range."""
+    env: str = dataclasses.field(metadata={"cli": False})
+    """`dmc:DOMAIN.TASK` (dm_control's suite) or `gym:ID` (Gymnasium)."""
     actions: tuple | None = None
-    """Values of a continuous action, one per agent action; None for discrete actions."""
-    n: int | None = None
-    """NRBF centroids per dimension (>= 2)."""
-    r2: float = DEFAULT_R2
-    """NRBF spread r^2 (eq. 8)."""
-    trace: str | None = None
-    alpha: float | None = None
-    lam: float | None = None
-    epsilon: float | None = None
-    gamma: float | None = None
-    episodes: int | None = None
-    agents: int | None = None
-    seed: int = 0
-    """Seed of agent 0 and its environment; agent b gets `seed + b`."""
+    """The values a continuous action is discretised into, comma-separated (one per agent
+    action; not for discrete actions)."""
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class ExternalConfig(ProtocolSettings, AgentSettings, ExternalEnvironment):
+    """One run: B agents, each on its own copy of an external environment (agent b and its
+    environment seeded with `seed + b`). Fields left None take the environment's preset
+    (`EXTERNAL_PRESETS`), then `DEFAULTS`; the observation box (`low`, `high`: one value
+    per observation dimension), then the observation space's finite bounds (`prepare`)."""
 
     def __post_init__(self):
         settings = {**DEFAULTS, **EXTERNAL_PRESETS.get(self.env, {})}
         if self.low is not None or self.high is not None:  # an explicit box replaces the preset's
             settings.pop("low", None)
             settings.pop("high", None)
-        for name, value in settings.items():
-            if getattr(self, name) is None:
-                setattr(self, name, value)
-        if self.trace not in TRACES:
-            raise ValueError(f"unknown trace {self.trace!r}; allowed: {', '.join(TRACES)}")
-        for name in ("episodes", "agents"):
-            check_count(name, getattr(self, name), 1)
-        check_count("seed", self.seed, 0)
+        fill(self, **{name: value for name, value in settings.items() if getattr(self, name) is None})
+        check_choices(self)
         if self.low is not None or self.high is not None:
-            self.low, self.high = check_box(self.low, self.high)
+            fill(self, **dict(zip(("low", "high"), check_box(self.low, self.high))))
         if self.actions is not None:
-            self.actions = tuple(float(value) for value in self.actions)
+            fill(self, actions=tuple(float(value) for value in self.actions))
+        self.check_agent()
+        self.check_protocol()
 
-    @property
-    def seeds(self) -> list:
-        """One seed per agent and its environment: `seed`, `seed + 1`, ..."""
-        return list(range(self.seed, self.seed + self.agents))
-
-    def feature_map(self) -> NRBF:
-        return NRBF(self.low, self.high, self.n, self.r2)
+    def feature_map(self):
+        """The agents' features over the observation box."""
+        return self.feature_map_over(self.low, self.high)
 
     def to_json(self) -> str:
         return json.dumps(dataclasses.asdict(self), indent=2)
@@ -327,11 +308,11 @@ def observation_box(config: ExternalConfig, env: ExternalEnv) -> tuple[tuple, tu
         if len(unbounded):
             raise ValueError(f"{config.env}: observation dimensions "
                              f"{', '.join(map(str, unbounded))} have no finite bounds: give "
-                             f"--obs-range LOW,HIGH for each of its {env.dim} dimensions")
+                             f"--low and --high with one value for each of its {env.dim} dimensions")
         return check_box(env.low, env.high)
     if len(config.low) != env.dim:
         raise ValueError(f"{config.env} has {env.dim} observation dimensions; got "
-                         f"{len(config.low)} ranges (--obs-range, one per dimension)")
+                         f"{len(config.low)} ranges (--low, --high: one value per dimension)")
     return config.low, config.high
 
 

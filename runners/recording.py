@@ -10,6 +10,7 @@ import collections
 import dataclasses
 
 import numpy as np
+from numba.extending import register_jitable
 
 
 @dataclasses.dataclass
@@ -89,9 +90,35 @@ def make_tape(record, agents: int, episodes: int, step_limit, dim: int, num_acti
                 np.zeros(rows, dtype=np.int64), np.zeros((rows, num_actions, num_features)))
 
 
+@register_jitable
+def record_state(tape, r, n, state, observation, q):
+    """Step n of the episode in tape row r: the plant's state, what the agent saw and its Q
+    there (before its update)."""
+    tape.states[r, n] = state
+    tape.observations[r, n] = observation
+    tape.q_values[r, n] = q
+
+
+@register_jitable
+def record_transition(tape, r, n, action, reward, delta):
+    """The transition into step n >= 1: the action taken at step n - 1, the reward on entering
+    step n and the TD error of the update it led to."""
+    tape.actions[r, n - 1] = action
+    tape.rewards[r, n - 1] = reward
+    tape.td_errors[r, n - 1] = delta
+
+
+@register_jitable
+def record_end(tape, r, steps, weights):
+    """The episode in tape row r ended after `steps` steps with the agent's `weights` `(A, N)`
+    (an episode cut short by an interrupt is never ended, and left out)."""
+    tape.length[r] = steps
+    tape.weights[r] = weights
+
+
 def recordings(tape: Tape, definition, plant: str, seeds) -> list:
-    """The filled rows of `tape` as `EpisodeRecording`s, in (agent, episode) order (episodes
-    an interrupted or diverged run did not reach are left out)."""
+    """The ended rows of `tape` as `EpisodeRecording`s, in (agent, episode) order (episodes
+    an interrupted or diverged run did not reach or finish are left out)."""
     found = []
     for agent, episode in zip(*np.nonzero(tape.slot >= 0)):
         row = tape.slot[agent, episode]

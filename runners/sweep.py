@@ -18,7 +18,6 @@ as they come back.
 """
 
 import dataclasses
-import hashlib
 import json
 import os
 import sys
@@ -34,12 +33,6 @@ CONFIG_COLUMNS = ("task", "plant", "integrator", "features", "trace", "alpha", "
                   "gamma", "n", "r2", "tilings", "normalise_alpha", "episodes")
 """Configuration fields repeated on every row of the results table."""
 BACKENDS = ("local", "ray")
-
-
-def run_key(config: RunConfig) -> str:
-    """A file name for a run: readable, and unique to its whole configuration."""
-    digest = hashlib.sha1(config.key_json().encode()).hexdigest()[:12]
-    return f"{config.name}-{digest}"
 
 
 BATCHED_FIELDS = ("trace", "alpha", "lam", "epsilon", "agents", "seed")
@@ -94,7 +87,7 @@ def results_table(config: RunConfig, results) -> pd.DataFrame:
     fields = dataclasses.asdict(config)
     for column in reversed(CONFIG_COLUMNS):
         table.insert(0, column, fields[column])
-    table.insert(0, "run", run_key(config))
+    table.insert(0, "run", config.key)
     return table
 
 
@@ -150,16 +143,16 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
         threads.set_workers(workers)
     runs_dir = os.path.join(out_dir, "runs")
     os.makedirs(runs_dir, exist_ok=True)
-    paths = {run_key(config): os.path.join(runs_dir, run_key(config) + ".csv.gz") for config in configs}
-    pending = [config for config in configs if not os.path.exists(paths[run_key(config)])]
+    paths = {config.key: os.path.join(runs_dir, config.key + ".csv.gz") for config in configs}
+    pending = [config for config in configs if not os.path.exists(paths[config.key])]
     total, left = _agent_episodes(configs), _agent_episodes(pending)
     with tqdm.tqdm(total=total, initial=total - left, desc=description, unit="agent-episode",
                    file=sys.stderr, disable=None, smoothing=0.05) as bar:
         finished = (_local(pending, bar.update) if backend == "local"
                     else _ray(pending, address, bar.update))
         for config, table in finished:
-            _write_atomically(table, paths[run_key(config)])
-    return load_results([paths[run_key(config)] for config in configs]), len(pending)
+            _write_atomically(table, paths[config.key])
+    return load_results([paths[config.key] for config in configs]), len(pending)
 
 
 def load_results(paths) -> pd.DataFrame:
@@ -171,4 +164,4 @@ def write_configs(configs, path: str) -> None:
     """Every run's full configuration, one JSON object per line, with its key."""
     with open(path, "w") as file:
         for config in configs:
-            file.write(json.dumps({"run": run_key(config), **dataclasses.asdict(config)}) + "\n")
+            file.write(json.dumps({"run": config.key, **dataclasses.asdict(config)}) + "\n")

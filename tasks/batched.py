@@ -15,7 +15,7 @@ import dm_env
 import numpy as np
 
 from lwrl import tasks
-from lwrl.tasks.definition import check_actions, check_finite_state
+from lwrl.tasks.definition import advance_episode, check_actions, check_finite_state
 
 FIRST, MID, LAST = (int(t) for t in (dm_env.StepType.FIRST, dm_env.StepType.MID, dm_env.StepType.LAST))
 
@@ -55,7 +55,7 @@ class BatchedEnv:
             raise ValueError("seeds must name at least one environment")
         self.definition, self.plant_name, plant_options = tasks.resolve(domain, task, plant, **options)
         self.batch_size = len(seeds)
-        self.plant = tasks.DOMAINS[domain].PLANTS.batch(self.plant_name, self.batch_size, **plant_options)
+        self.plant = tasks.domain(domain).plants.batch(self.plant_name, self.batch_size, **plant_options)
         self._controls = np.asarray(self.definition.controls)
         self.seeds = seeds
         self._rngs = [np.random.default_rng(seed) for seed in seeds]
@@ -72,7 +72,7 @@ class BatchedEnv:
         for i in np.flatnonzero(which):
             self.state[i] = self.definition.initial_states(self._rngs[i], 1)[0]
         self.steps[which] = 0
-        self.uptime[which] = 0.0 if self.definition.has_uptime else np.nan
+        self.uptime[which] = self.definition.initial_uptime
         self._needs_reset[which] = False
 
     def set_state(self, state: np.ndarray) -> None:
@@ -98,14 +98,12 @@ class BatchedEnv:
         definition = self.definition
         moved = self.plant.step(self.state[moving], self._controls[actions[moving]])
         self.state[moving] = moved
-        self.steps[moving] += 1
-        self.uptime[moving] += definition.uptime_increment(moved)
-
         reward = np.zeros(self.batch_size)
-        reward[moving] = definition.reward(moved)
-        terminal = np.zeros(self.batch_size, dtype=bool)
-        terminal[moving] = definition.terminal(moved)
-        last = moving & (terminal | (self.steps >= definition.step_limit))
+        terminal, last = np.zeros((2, self.batch_size), dtype=bool)
+        reward[moving], terminal[moving], up = definition.outcomes(moved)
+        self.steps[moving], self.uptime[moving], last[moving] = advance_episode(
+            self.steps[moving], self.uptime[moving], up, terminal[moving],
+            definition.control_timestep, definition.step_limit)
         self._needs_reset = last
         step_type = np.where(starting, FIRST, np.where(last, LAST, MID)).astype(np.int8)
         return BatchedTimeStep(step_type, reward, np.where(terminal, 0.0, 1.0),

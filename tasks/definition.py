@@ -13,6 +13,34 @@ import math
 from typing import Callable
 
 import numpy as np
+from numba.extending import register_jitable
+
+
+@dataclasses.dataclass(frozen=True)
+class RunDefaults:
+    """The settings a run of a task takes unless told otherwise: the paper's (SPEC.md) for
+    its tasks, documented ones for the others."""
+
+    n: int
+    """NRBF centroids per dimension: the network has n^d neurons."""
+    low: tuple
+    """Lower end of each state variable's normalisation range (maps to 0)."""
+    high: tuple
+    """Upper end of each state variable's normalisation range (maps to 1)."""
+    trace: str
+    """The best trace rule (`agent.traces.TRACES`)."""
+    alpha: float
+    """The best learning rate alpha."""
+    lam: float
+    """The best trace decay lambda."""
+    epsilon: float
+    """Exploration rate of the epsilon-greedy policy."""
+    episodes: int
+    """Episodes per agent of the protocol."""
+    agents: int
+    """Agents of the protocol."""
+    gamma: float = 1.0
+    """Discount rate (1 in all the paper's tasks)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -46,6 +74,13 @@ class TaskDefinition:
     one analytic-plant step of one state `(d,)` for compiled loops, with the Euler scheme
     and the equations (`tasks.plants.EQUATIONS`) bound as flags. It writes the next state
     and its observation and returns its `outcome`."""
+    bounds: tuple
+    """`(low, high)`, one value per state variable: every observation of an episode lies
+    within them, the terminal one included (`inf` where a variable is unbounded)."""
+    defaults: RunDefaults
+    """The settings of a run of this task unless told otherwise."""
+    angles: tuple = ()
+    """The state variables that are angles (compared modulo 2 pi)."""
     params: tuple = ()
     """The task options that `outcome` and `transition` read (e.g. the track limit)."""
     has_uptime: bool = True
@@ -59,23 +94,42 @@ class TaskDefinition:
     def num_actions(self) -> int:
         return len(self.controls)
 
-    def _outcome(self, state: np.ndarray, which: int) -> np.ndarray:
-        value = self.outcome(*np.moveaxis(state, -1, 0), *self.params)[which]
-        return np.broadcast_to(value, np.shape(state)[:-1])
+    def outcomes(self, state: np.ndarray) -> tuple:
+        """`(reward float64, terminal bool, up bool)` arrays on entering states `(..., d)`."""
+        reward, terminal, up = self.outcome(*np.moveaxis(state, -1, 0), *self.params)
+        shape = np.shape(state)[:-1]
+        return (np.broadcast_to(reward, shape).astype(np.float64),
+                np.broadcast_to(terminal, shape).astype(bool), np.broadcast_to(up, shape).astype(bool))
 
     def reward(self, state: np.ndarray) -> np.ndarray:
         """Reward on entering states `(..., d)`."""
-        return self._outcome(state, 0).astype(np.float64)
+        return self.outcomes(state)[0]
 
     def terminal(self, state: np.ndarray) -> np.ndarray:
         """True where states `(..., d)` are terminal (the episode ends with discount 0)."""
-        return self._outcome(state, 1).astype(bool)
+        return self.outcomes(state)[1]
 
     def uptime_increment(self, state: np.ndarray) -> np.ndarray:
         """Seconds of up-time earned by entering states `(..., d)` (NaN without up-time)."""
         if not self.has_uptime:
             return np.full(np.shape(state)[:-1], np.nan)
-        return self.control_timestep * self._outcome(state, 2)
+        return self.control_timestep * self.outcomes(state)[2]
+
+    @property
+    def initial_uptime(self) -> float:
+        """An episode's up-time before its first step: 0, or NaN where the task has none."""
+        return 0.0 if self.has_uptime else math.nan
+
+
+@register_jitable
+def advance_episode(steps, uptime, up, terminal, dt, step_limit):
+    """An episode's bookkeeping after one step, element-wise, the same for every way of
+    running a task (dm_env, batched, compiled): `(steps + 1, uptime + dt up, last)`, where
+    `last` ends the episode at a terminal state or at the time limit (a truncation unless
+    the state is terminal: a terminal state on the last allowed step still has discount 0).
+    An up-time of NaN (a task without one) stays NaN."""
+    steps = steps + 1
+    return steps, uptime + dt * up, terminal | (steps >= step_limit)
 
 
 def step_limit(time_limit: float, timestep: float) -> float:

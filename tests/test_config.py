@@ -7,7 +7,6 @@ import sys
 import numpy as np
 import pytest
 
-from lwrl.runners import sweep
 from lwrl.runners.config import RunConfig
 from lwrl.studies.paper.items import ITEMS
 from lwrl.studies.paper.reproduce import with_alphas, with_readings
@@ -36,7 +35,7 @@ def test_ranges_default_to_the_paper_and_can_be_set():
     with pytest.raises(ValueError, match="low must have one value per state variable of "
                                          "pendulum.swingup \\(2\\)"):
         RunConfig(task="pendulum.swingup", low=(-1, -1, -1))
-    with pytest.raises(ValueError, match="unknown centroid placement 'corners'; allowed: midpoints, edges"):
+    with pytest.raises(ValueError, match="unknown centroids 'corners'; allowed: midpoints, edges"):
         RunConfig(task="pendulum.swingup", centroids="corners")
 
 
@@ -44,7 +43,7 @@ def test_optional_readings_enter_a_runs_key_only_when_set():
     """Results computed before a reading existed keep their key; setting it changes the key."""
     plain = RunConfig(task="cartpole.balance")
     assert "centroids" not in plain.key_json() and "task_options" not in plain.key_json()
-    keys = {sweep.run_key(config) for config in (
+    keys = {config.key for config in (
         plain, RunConfig(task="cartpole.balance", centroids="edges"),
         RunConfig(task="cartpole.balance", task_options={"track_limit": None}),
         RunConfig(task="cartpole.balance", low=(-3, -2, -0.3, -3)))}
@@ -87,8 +86,8 @@ def test_the_author_codes_equations_apply_to_analytic_pendulum_and_cartpole_runs
                                          "applies to the pendulum and cart-pole on the analytic "
                                          "plant \\(--plant analytic\\)"):
         with_readings(ITEMS["fig6"].configs("mujoco", True, "semi_implicit"), {"equations": "kfnnet"})
-    with pytest.raises(ValueError, match="equations 'kfnnet' need the analytic plant of pendulum "
-                                         "or cartpole; got cartpole.balance on the mujoco plant"):
+    with pytest.raises(ValueError, match="equations 'kfnnet' need an analytic plant integrated with "
+                                         "Euler's method; got cartpole.balance on the mujoco plant"):
         RunConfig(task="cartpole.balance", equations="kfnnet")
     with pytest.raises(ValueError, match="unknown equations 'R'; allowed: paper, kfnnet"):
         RunConfig(task="cartpole.balance", plant="analytic", equations="R")

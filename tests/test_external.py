@@ -140,9 +140,10 @@ def assert_one_error_line(argv, message, capsys):
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["dmc:pendulum.swingup", "--obs-range", "-1,1"],
+    (["dmc:pendulum.swingup", "--low", "-1", "--high", "1"],
      "dmc:pendulum.swingup has 3 observation dimensions; got 1 ranges"),
-    (["dmc:pendulum.swingup", "--obs-range", "1,-1"], "must be LOW,HIGH with LOW < HIGH; got '1,-1'"),
+    (["dmc:pendulum.swingup", "--low", "1,1,1", "--high", "-1,2,2"],
+     "low must be finite and below a finite high in every dimension"),
     (["dmc:pendulum.swingup", "--actions", "-2,0,2"],
      "action value -2 is outside the action's bounds [-1, 1]"),
     (["dmc:acrobot.swingup"], "give the values to use, e.g. --actions -1,0,1"),
@@ -151,7 +152,7 @@ def assert_one_error_line(argv, message, capsys):
     (["dmc:cartpole.nope"], "Level 'nope' does not exist in domain 'cartpole'"),
     (["dmc:cartpole"], "dm_control environments are written dmc:DOMAIN.TASK"),
     (["dmc:cartpole.balance", "--plant", "mujoco"], "--plant applies to lwrl's own tasks only"),
-    (["pendulum.swingup", "--actions", "-1,1"], "--obs-range and --actions apply to dmc: and gym:"),
+    (["pendulum.swingup", "--actions", "-1,1"], "--actions applies to dmc: and gym: environments only"),
     (["pendulum.swing"], "invalid choice: 'pendulum.swing'"),
 ])
 def test_bad_input_is_one_line_and_exit_2(argv, message, capsys):
@@ -162,7 +163,7 @@ def test_bad_input_is_one_line_and_exit_2(argv, message, capsys):
 @pytest.mark.parametrize("argv, message", [
     (["gym:CartPole-v1", "--actions", "0,1"], "has 2 discrete actions, used by index"),
     (["gym:FrozenLake-v1"], "observes a Discrete(16); only Box observations"),
-    (["gym:CartPole-v1", "--trace", "accumulating", "--obs-range", "0,1"],
+    (["gym:CartPole-v1", "--trace", "accumulating", "--low", "0", "--high", "1"],
      "has 4 observation dimensions; got 1 ranges"),
 ])
 def test_bad_gymnasium_input_is_one_line_and_exit_2(argv, message, capsys):
@@ -184,8 +185,8 @@ def test_cli_trains_on_gymnasium_and_writes_the_run(tmp_path, capsys):
 
 def test_cli_reads_negative_action_values_and_ranges(capsys):
     assert cli.main(["train", "dmc:pendulum.swingup", "--episodes", "1", "--agents", "1",
-                     "--actions", "-1,1", "--obs-range", "-1,1", "--obs-range", "-1,1",
-                     "--obs-range", "-9.5,9.5", "--centroids", "4", "--gamma", "0.9"]) == 0
+                     "--actions", "-1,1", "--low", "-1,-1,-9.5", "--high", "1,1,9.5",
+                     "--centroids", "4", "--gamma", "0.9"]) == 0
     assert "gamma 0.9, nrbf 4^3, actions -1, 1, 1 episodes" in capsys.readouterr().out
 
 

@@ -1,0 +1,51 @@
+"""`lwrl compare`: the analytic and MuJoCo plants of a task, open loop, closed loop and in
+transfer, held to the paper's item for the task where it has one."""
+
+from lwrl import tasks
+from lwrl.cli import fields, output
+
+
+def add_parser(commands) -> None:
+    comparison = commands.add_parser(
+        "compare", help="compare the analytic and MuJoCo plants of a task",
+        description="Open loop (divergence from an RK4 reference, energy drift), closed loop "
+                    "(the task's agent learning on each plant) and transfer (trained on one "
+                    "plant, run greedily on the others), written as a report with figures.")
+    comparison.add_argument("task", metavar="DOMAIN.TASK", help="a task with a MuJoCo plant: " + ", ".join(
+        name for name in tasks.TASK_NAMES if "mujoco" in tasks.PLANTS[tasks.split_name(name)[0]]))
+    comparison.add_argument("--seeds", type=fields.positive_int, default=10,
+                            help="open-loop trials and agents per plant, seeds 0..N-1 (default 10)")
+    comparison.add_argument("--episodes", type=fields.positive_int,
+                            help="training episodes per agent (default: the task's)")
+    comparison.add_argument("--out", metavar="DIR", default="compare",
+                            help="output directory (default: compare)")
+    comparison.add_argument("--rrd", metavar="PATH",
+                            help="save a Rerun recording of the plants' trajectories from one start")
+    comparison.add_argument("--quick", action="store_true",
+                            help="short horizons: a smoke test in seconds")
+    comparison.set_defaults(run=compare_plants)
+
+
+def compare_plants(args) -> int:
+    """Compare the plants of a task open loop, closed loop and in transfer; write a report."""
+    try:
+        from lwrl.studies.compare import closed_loop
+        from lwrl.studies.compare import comparison as compare
+        from lwrl.studies.paper import items as paper
+    except ImportError as error:
+        raise output.paper_extra_missing("compare", error) from None
+    compare.check_task(args.task)
+    episodes = compare.QUICK["episodes"] if args.quick else args.episodes
+    total = closed_loop.total_episodes(args.task, args.seeds, episodes,
+                                       compare.QUICK["eval_episodes"] if args.quick else None)
+    print(f"comparing the plants of {args.task} with seeds 0..{args.seeds - 1}"
+          f"{' (quick)' if args.quick else ''}")
+    bar, update = output.progress_bar(total, "closed loop")
+    with bar:
+        result = compare.compare(args.task, seeds=args.seeds, episodes=args.episodes,
+                                 out_dir=args.out, rrd_path=args.rrd, quick=args.quick,
+                                 progress=update, judge=paper.judge(args.task))
+    print(f"wrote {result.report_path}, the tables and figures under {args.out}"
+          + (f" and the recording {args.rrd}" if args.rrd else ""))
+    print("wall time: " + ", ".join(f"{part} {seconds:.0f} s" for part, seconds in result.timings.items()))
+    return 0

@@ -1,0 +1,40 @@
+"""`lwrl eval`: saved agents run greedily (epsilon 0, no learning)."""
+
+from lwrl import tasks
+from lwrl.agent import io as agent_io
+from lwrl.cli import fields, output
+from lwrl.runners.config import RunConfig
+from lwrl.runners.run import run
+
+
+def add_parser(commands) -> None:
+    evaluate = commands.add_parser("eval", help="run saved agents greedily")
+    evaluate.add_argument("path", metavar="PATH", help="a file written by lwrl train --save")
+    evaluate.add_argument("--episodes", type=fields.positive_int, default=10,
+                          help="episodes per agent (default 10)")
+    evaluate.add_argument("--seed", type=fields.non_negative_int, default=1_000_000,
+                          help="seed of the first agent's environment (default 1000000, "
+                               "away from training seeds)")
+    evaluate.add_argument("--plant", help="evaluate on another plant than the one trained on")
+    evaluate.set_defaults(run=evaluate_agents)
+
+
+def evaluate_agents(args) -> int:
+    """Run saved agents greedily and print the same summary as training."""
+    agent, metadata = agent_io.load(args.path)
+    try:
+        settings = dict(metadata["config"])
+        settings.update(episodes=args.episodes, agents=agent.batch_size, seed=args.seed)
+        if args.plant:
+            settings["plant"] = args.plant
+        config = RunConfig(**settings)
+    except (KeyError, TypeError) as error:
+        raise ValueError(f"{args.path}: no usable run configuration in the file ({error})") from None
+    agent.hyper.epsilon[:] = 0.0
+    bar, update = output.progress_bar(config.agents * config.episodes, "evaluating")
+    with bar:
+        _, results = run(config, agent=agent, learn=False, progress=update)
+    output.print_results(results, config.seeds,
+                         f"{config.task} on the {config.plant_name} plant: {config.agents} saved "
+                         "agents, greedy", tasks.definition(config.domain, config.task_name).has_uptime)
+    return 130 if results.interrupted else 0

@@ -1,0 +1,32 @@
+"""`lwrl export`: a saved agent as a dependency-free C99 controller."""
+
+from lwrl.cli import fields
+from lwrl.export import c as export_c
+
+
+def add_parser(commands) -> None:
+    export = commands.add_parser("export", help="write a saved agent as a C99 controller")
+    export.add_argument("path", metavar="PATH", help="a file written by lwrl train --save")
+    export.add_argument("--c", metavar="OUT_DIR", required=True,
+                        help="directory for lwrl_policy.c and lwrl_policy.h")
+    export.add_argument("--agent", type=fields.non_negative_int, default=0,
+                        help="which agent of the saved batch (default 0)")
+    export.add_argument("--real", choices=tuple(export_c.DTYPES), default="float",
+                        help="C floating-point type of the weights and arithmetic")
+    export.set_defaults(run=export_agent)
+
+
+def export_agent(args) -> int:
+    """Write a saved agent as C99 source and header; report its flash size and speed."""
+    written = export_c.export_c(args.path, args.c, agent_index=args.agent, dtype=args.real)
+    print(f"wrote {written['source']} and {written['header']}: {written['task']}, "
+          f"{written['weight_bytes']} bytes of weights and {written['constant_bytes']} of constants")
+    try:
+        measured = export_c.measure(args.c)
+    except ValueError as error:
+        print(f"not measured: {error}")
+        return 0
+    print(f"compiled with {measured['compiler']}: {measured['code_bytes']} bytes of code (-Os), "
+          f"{measured['rodata_bytes']} of read-only data; "
+          f"{measured['ns_per_decision']:.0f} ns per decision (-O2, this machine)")
+    return 0

@@ -1,0 +1,158 @@
+"""Command-line flags generated from the configuration dataclasses (`runners.config`).
+
+Each field becomes one flag: `--name-with-hyphens` unless its metadata names `flags`; its
+help is the field's docstring; its parser follows its type (a finite number, an integer, a
+comma-separated tuple of finite numbers, a word among the field's `choices`, or a switch
+for a bool). Unset flags stay out of the configuration, which then takes its defaults. So a
+field added to a dataclass is on the command line without a second edit.
+
+A bad value is one line: `lwrl train: error: argument --alpha: must be a finite number;
+got 'inf'`.
+"""
+
+import argparse
+import ast
+import dataclasses
+import functools
+import inspect
+import math
+import textwrap
+import types
+
+
+def finite_number(text: str) -> float:
+    """A finite float, or an argparse error."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite number; got {text!r}")
+    return value
+
+
+def integer(text: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer; got {text!r}") from None
+
+
+def integer_at_least(minimum: int, meaning: str):
+    """An argparse type for integers >= `minimum`, named `meaning` in its error."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = minimum - 1
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be a {meaning} integer; got {text!r}")
+        return value
+    return parse
+
+
+positive_int = integer_at_least(1, "positive")
+non_negative_int = integer_at_least(0, "non-negative")
+
+
+def numbers(text: str) -> tuple:
+    """Comma-separated finite numbers, or an argparse error."""
+    try:
+        values = tuple(float(part) for part in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be comma-separated numbers; got {text!r}") from None
+    if not all(map(math.isfinite, values)):
+        raise argparse.ArgumentTypeError(f"must be finite numbers; got {text!r}")
+    return values
+
+
+def word(allowed):
+    """An argparse type for one of `allowed` (its error names them)."""
+    def parse(text: str) -> str:
+        if text not in allowed:
+            raise argparse.ArgumentTypeError(f"must be one of {', '.join(allowed)}; got {text!r}")
+        return text
+    return parse
+
+
+@functools.lru_cache(maxsize=None)
+def field_docs(cls) -> dict:
+    """`{field: docstring}` of a dataclass and its bases: the string after each field."""
+    docs = {}
+    for klass in reversed(cls.__mro__):
+        if not dataclasses.is_dataclass(klass):
+            continue
+        body = ast.parse(textwrap.dedent(inspect.getsource(klass))).body[0].body
+        for statement, following in zip(body, body[1:]):
+            if (isinstance(statement, ast.AnnAssign) and isinstance(following, ast.Expr)
+                    and isinstance(following.value, ast.Constant)):
+                docs[statement.target.id] = " ".join(following.value.value.split())
+    return docs
+
+
+def base_type(annotation):
+    """`float` of `float | None`."""
+    if isinstance(annotation, types.UnionType):
+        kinds = [kind for kind in annotation.__args__ if kind is not type(None)]
+        return kinds[0] if len(kinds) == 1 else str
+    return annotation
+
+
+def parser_of(field: dataclasses.Field):
+    """The argparse type of a field's values, from its choices or its type."""
+    if field.metadata.get("choices"):
+        return word(field.metadata["choices"])
+    return {float: finite_number, int: integer, tuple: numbers}.get(base_type(field.type), str)
+
+
+def cli_fields(*classes) -> list:
+    """The fields of `classes` that go on the command line, each once, in order."""
+    seen, fields = set(), []
+    for cls in classes:
+        for field in dataclasses.fields(cls):
+            if field.metadata.get("cli", True) and field.name not in seen:
+                seen.add(field.name)
+                fields.append((cls, field))
+    return fields
+
+
+def flags_of(field: dataclasses.Field) -> tuple:
+    return field.metadata.get("flags", (f"--{field.name.replace('_', '-')}",))
+
+
+def add_fields(parser: argparse.ArgumentParser, *classes, title: str | None = None) -> None:
+    """One flag per command-line field of the dataclasses `classes`."""
+    group = parser.add_argument_group(title) if title else parser
+    for cls, field in cli_fields(*classes):
+        help_text = field_docs(cls).get(field.name, "").replace("%", "%%")
+        if base_type(field.type) is bool:
+            group.add_argument(*flags_of(field), dest=field.name, action="store_true",
+                               default=None, help=help_text)
+            continue
+        allowed = field.metadata.get("choices")
+        metavar = ("{" + ",".join(allowed) + "}" if allowed else "V,V,..."
+                   if base_type(field.type) is tuple else flags_of(field)[0][2:].upper())
+        group.add_argument(*flags_of(field), dest=field.name, type=parser_of(field), default=None,
+                           metavar=metavar, help=help_text)
+
+
+def given(args: argparse.Namespace, *classes) -> dict:
+    """`{field: value}` of the command-line fields of `classes` that were given."""
+    return {field.name: getattr(args, field.name) for _, field in cli_fields(*classes)
+            if getattr(args, field.name, None) is not None}
+
+
+def parse_value(cls, name: str, text: str):
+    """`text` read as the value of field `name` of `cls` (for `--set NAME=VALUE`); raises
+    argparse.ArgumentTypeError naming the field."""
+    field = {f.name: f for f in dataclasses.fields(cls)}[name]
+    if base_type(field.type) is bool:
+        if text.lower() not in ("true", "false"):
+            raise argparse.ArgumentTypeError(f"{name} must be true or false; got {text!r}")
+        return text.lower() == "true"
+    if text.lower() == "none" and isinstance(field.type, types.UnionType):
+        return None
+    try:
+        return parser_of(field)(text)
+    except argparse.ArgumentTypeError as error:
+        raise argparse.ArgumentTypeError(f"{name} {error}") from None

@@ -1,0 +1,117 @@
+"""The agent-environment loop compiled: B agents on the analytic plant of a task, one numba
+loop that calls the task's own `transition` and the agent's own `agent_step`, in parallel
+over agents. Its bookkeeping is the stepped loop's (`tasks.definition.advance_episode`,
+`runners.episodes.finish_episode`, `runners.recording`), and its numbers too (tested)."""
+
+import functools
+
+import numba
+import numpy as np
+
+from lwrl import tasks
+from lwrl.agent.features import check_count
+from lwrl.agent.sarsa import BatchedSarsa, agent_step
+from lwrl.agent.threads import run_in_chunks
+from lwrl.runners.episodes import EpisodeResults, episode_starts, finish_episode
+from lwrl.runners.recording import (make_tape, record_end, record_state, record_transition,
+                                    recordings)
+from lwrl.tasks.definition import advance_episode
+from lwrl.tasks.integrators import check_integrator
+from lwrl.tasks.plants import check_equations
+
+
+@functools.lru_cache(maxsize=None)
+def _compiled_loop(transition):
+    """The whole learning loop compiled around one task's `transition`: agents
+    `start..stop-1` run episodes `first..first+count-1` (their starts given) unless diverged."""
+
+    @numba.njit(nogil=True)
+    def loop(start, stop, first, count, starts, start_observations, controls, dt,
+             semi_implicit, slips, params, step_limit, learn, memory, hyper, spec, steps, returns,
+             uptime, truncated, diverged_episode, done, tape):
+        dim = starts.shape[2]
+        for b in range(start, stop):
+            state = np.empty(dim)
+            next_state = np.empty(dim)
+            observation = np.empty(dim)
+            for k in range(first, first + count):
+                if memory.diverged[b]:
+                    break
+                state[:] = starts[b, k]
+                action = agent_step(b, True, 0.0, 1.0, start_observations[b, k], learn,
+                                    memory, hyper, spec)
+                r = tape.slot[b, k]
+                if r >= 0:
+                    record_state(tape, r, 0, state, start_observations[b, k], memory.q[b])
+                n, total, up, terminal, last = 0, 0.0, 0.0, False, False
+                while not last:
+                    reward, terminal, is_up = transition(state, controls[action], next_state,
+                                                         observation, dt, semi_implicit, slips,
+                                                         params)
+                    n, up, last = advance_episode(n, up, is_up, terminal, dt, step_limit)
+                    total += reward
+                    state[:] = next_state
+                    previous = action
+                    action = agent_step(b, False, reward, 0.0 if terminal else 1.0, observation,
+                                        learn, memory, hyper, spec)
+                    if r >= 0:
+                        record_state(tape, r, n, state, observation, memory.q[b])
+                        record_transition(tape, r, n, previous, reward, memory.delta[b])
+                    last = last or memory.diverged[b]
+                if r >= 0:
+                    record_end(tape, r, n, memory.weights[b])
+                finish_episode(b, k, n, total, up, not terminal and n >= step_limit,
+                               memory.diverged[b], steps, returns, uptime, truncated,
+                               diverged_episode, done)
+
+    return loop
+
+
+def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, seeds,
+                 learn: bool = True, integrator: str = "semi_implicit", equations: str = "paper",
+                 progress=None, record=(), **options) -> EpisodeResults:
+    """B agents on the analytic plant of `domain.task`, in one compiled loop; environment b
+    is seeded with `seeds[b]` as in `BatchedEnv`. Episodes run in about 20 blocks, after each
+    of which `progress(episodes_done)` is called. The `(agent, episode)` pairs in `record`
+    are recorded step by step (`results.recordings`)."""
+    episodes = check_count("episodes", episodes, 1)
+    plant_options = ({"integrator": integrator, "equations": equations}
+                     if tasks.domain(domain).plants.euler else {})
+    definition, _, _ = tasks.resolve(domain, task, "analytic", **options, **plant_options)
+    semi_implicit, slips = check_integrator(integrator), check_equations(equations)
+    seeds = list(seeds)
+    if len(seeds) != agent.batch_size:
+        raise ValueError(f"{len(seeds)} seeds for a batch of {agent.batch_size} agents")
+    batch = agent.batch_size
+    results = EpisodeResults.empty(batch, episodes)
+    steps = np.zeros((batch, episodes), dtype=np.int64)
+    starts = episode_starts(definition, seeds, episodes)
+    step_limit = definition.step_limit if np.isfinite(definition.step_limit) else np.iinfo(np.int64).max
+    loop = _compiled_loop(definition.transition)
+    tape = make_tape(record, batch, episodes, definition.step_limit, starts.shape[2],
+                     agent.num_actions, agent.features.num_features)
+    done = np.zeros(batch, dtype=np.int64)  # episodes each agent has finished
+    block = max(1, episodes // 20)
+    try:
+        for first in range(0, episodes, block):
+            count = min(block, episodes - first)
+            run_in_chunks(
+                loop, batch, first, count, starts, definition.observe(starts),
+                np.asarray(definition.controls, dtype=np.float64),
+                tasks.domain(domain).plants.timestep, semi_implicit, slips,
+                np.asarray(definition.params, dtype=np.float64), int(step_limit), bool(learn),
+                agent.memory, agent.hyper, agent.spec, steps, results.returns, results.uptime,
+                results.truncated, results.diverged_episode, done, tape, min_chunk=1,
+                chunks_per_worker=8)
+            if progress is not None:
+                progress(batch * count)
+    except KeyboardInterrupt:
+        results.interrupted = True
+    ran = np.arange(episodes)[None, :] < done[:, None]
+    results.steps = np.where(ran, steps, np.nan)
+    results.returns[~ran] = np.nan
+    results.uptime[~ran] = np.nan
+    if not definition.has_uptime:
+        results.uptime[:] = np.nan
+    results.recordings = recordings(tape, definition, "analytic", seeds)
+    return results

@@ -1,0 +1,82 @@
+"""The agent-environment loop one array step at a time: B agents on B environments of any
+plant (`tasks.batched.BatchedEnv`), or on dm_env environments of any kind
+(`tasks.batched.SteppedEnvs`). `runners.compiled` runs the same loop compiled, with the
+same bookkeeping (`runners.episodes.finish_episode`, `runners.recording`) and numbers."""
+
+import numpy as np
+
+from lwrl.agent.features import check_count
+from lwrl.agent.sarsa import BatchedSarsa
+from lwrl.runners.episodes import EpisodeResults, finish_episode
+from lwrl.runners.recording import (make_tape, record_end, record_state, record_transition,
+                                    recordings)
+from lwrl.tasks.batched import BatchedEnv, SteppedEnvs
+
+
+def run_dm_env(env, agent: BatchedSarsa, episodes: int, learn: bool = True) -> EpisodeResults:
+    """One agent (`agent.batch_size == 1`) on one dm_env environment of the suite (`tasks.load`),
+    step by step: `run_batched` on the environment alone."""
+    if agent.batch_size != 1:
+        raise ValueError(f"run_dm_env runs one agent; got a batch of {agent.batch_size}")
+    return run_batched(SteppedEnvs([env], uptime=lambda single: single.task.uptime), agent,
+                       episodes, learn=learn)
+
+
+def run_batched(env: BatchedEnv, agent: BatchedSarsa, episodes: int, learn: bool = True,
+                progress=None, record=()) -> EpisodeResults:
+    """B agents on a batched environment of B copies (a `BatchedEnv`, or `SteppedEnvs` of B
+    dm_env environments); `progress(done_episodes)` is called as episodes finish. The
+    `(agent, episode)` pairs in `record` are recorded step by step (`results.recordings`), as
+    `run_compiled` records them; recording needs a `BatchedEnv`."""
+    episodes = check_count("episodes", episodes, 1)
+    if env.batch_size != agent.batch_size:
+        raise ValueError(f"environment batch {env.batch_size} and agent batch "
+                         f"{agent.batch_size} differ")
+    batch = env.batch_size
+    results = EpisodeResults.empty(batch, episodes)
+    done = np.zeros(batch, dtype=np.int64)  # finished episodes per agent
+    running = np.ones(batch, dtype=bool)
+    returns = np.zeros(batch)
+    recording = bool(len(record))  # else the step loop skips the tape entirely
+    if recording:
+        definition = env.definition
+        tape = make_tape(record, batch, episodes, definition.step_limit,
+                         len(definition.state_names), agent.num_actions,
+                         agent.features.num_features)
+    actions = np.zeros(batch, dtype=np.int64)
+    ts = env.reset()
+    try:
+        while True:
+            previous = actions
+            actions = agent.step(ts.first(), ts.reward, ts.discount, ts.observation,
+                                 active=running, learn=learn)
+            rows = np.full(batch, -1)
+            if recording:
+                rows = np.where(running, tape.slot[np.arange(batch), np.minimum(done, episodes - 1)], -1)
+                for b in np.flatnonzero(rows >= 0):
+                    n = env.steps[b]
+                    record_state(tape, rows[b], n, env.state[b], ts.observation[b], agent.memory.q[b])
+                    if n > 0:
+                        record_transition(tape, rows[b], n, previous[b], ts.reward[b],
+                                          agent.memory.delta[b])
+            newly_diverged = running & agent.diverged
+            ended = running & (ts.last() | newly_diverged)
+            for b in np.flatnonzero(ended):
+                finish_episode(b, done[b], env.steps[b], returns[b], env.uptime[b],
+                               ts.last()[b] and ts.discount[b] == 1.0, newly_diverged[b],
+                               results.steps, results.returns, results.uptime, results.truncated,
+                               results.diverged_episode, done)
+                if rows[b] >= 0:
+                    record_end(tape, rows[b], env.steps[b], agent.memory.weights[b])
+            running &= (done < episodes) & ~agent.diverged
+            if progress is not None and ended.any():
+                progress(int(ended.sum()))
+            if not running.any():
+                break
+            ts = env.step(actions)
+            returns = np.where(ts.first(), 0.0, returns + ts.reward)
+    except KeyboardInterrupt:
+        results.interrupted = True
+    if recording:
+        results.recordings = recordings(tape, definition, env.plant_name, env.seeds)
+    return results
