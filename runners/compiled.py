@@ -75,8 +75,8 @@ def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, see
     of which `progress(episodes_done)` is called. The `(agent, episode)` pairs in `record`
     are recorded step by step (`results.recordings`)."""
     episodes = check_count("episodes", episodes, 1)
-    plant_options = ({"integrator": integrator, "equations": equations}
-                     if tasks.domain(domain).plants.euler else {})
+    plant_options = {name: value for name, value in (("integrator", integrator), ("equations", equations))
+                     if name in tasks.plant_option_names(domain, "analytic")}
     definition, _, _ = tasks.resolve(domain, task, "analytic", **options, **plant_options)
     semi_implicit, slips = check_integrator(integrator), check_equations(equations)
     seeds = list(seeds)

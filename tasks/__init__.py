@@ -69,10 +69,9 @@ def task_options(domain_name: str, task: str) -> list:
 
 
 def plant_option_names(domain_name: str, plant: str) -> list:
-    """The options of a domain's plant: `integrator` and `equations` on the analytic plant
-    of the domains integrated with Euler's method, else none."""
-    return (["integrator", "equations"] if plant == "analytic" and domain(domain_name).plants.euler
-            else [])
+    """The options of a domain's plant: those of its analytic plant (`integrator` and
+    `equations` where it has them, `DomainPlants.analytic_options`); MuJoCo has none."""
+    return list(domain(domain_name).plants.analytic_options) if plant == "analytic" else []
 
 
 def resolve(domain_name: str, task: str, plant=None, **options):

@@ -163,5 +163,6 @@ def _drawing() -> Drawing:
 
 DOMAIN = Domain(
     name="mountain_car", tasks={"cost_to_go": cost_to_go},
-    plants=DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=Physics, euler=False),
+    plants=DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=Physics, euler=False,
+                        analytic_options=()),
     value_axes=("position", "velocity"), drawing=_drawing())

@@ -66,6 +66,17 @@ class MujocoPhysics(dm_mujoco.Physics):
 
     STATE_NAMES: tuple = ()
     ACTUATOR: str = ""
+    substeps: int = 1
+    """MuJoCo steps per agent step (`DomainPlants.substeps`)."""
+    limit = None
+    """The domain's state limit after each agent step (`DomainPlants.limit`), or None."""
+
+    def step(self, nstep=1):
+        """`nstep` agent steps: `substeps` MuJoCo steps each, then the domain's limit."""
+        for _ in range(nstep):
+            super().step(self.substeps)
+            if self.limit is not None:
+                self.set_state_vector(np.array(self.limit(*self.state_vector())))
 
     def state_vector(self) -> np.ndarray:
         return np.column_stack([self.data.qpos, self.data.qvel]).ravel()

@@ -55,9 +55,11 @@ class MujocoPlant:
 
     _STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
 
-    def __init__(self, model: mujoco.MjModel, actuator: str, batch_size: int, substeps: int = 1):
+    def __init__(self, model: mujoco.MjModel, actuator: str, batch_size: int, substeps: int = 1,
+                 limit: Optional[Callable] = None):
         self.model = model
         self.substeps = int(substeps)
+        self._limit = limit
         self.timestep = float(model.opt.timestep) * self.substeps
         self._actuator = model.actuator(actuator).id
         threads = max(1, min(batch_size, os.cpu_count() or 1))
@@ -80,6 +82,8 @@ class MujocoPlant:
         next_state = np.empty_like(state)
         next_state[:, 0::2] = after[:, -1, 1:1 + nq]
         next_state[:, 1::2] = after[:, -1, 1 + nq:]
+        if self._limit is not None:
+            next_state = np.stack(self._limit(*np.moveaxis(next_state, -1, 0)), axis=-1)
         return next_state
 
 
@@ -89,18 +93,29 @@ class DomainPlants:
     (`physics`).
 
     `step(*state_columns, control[, dt, semi_implicit, slips])` is the domain's analytic
-    step; it takes the Euler time step, scheme and equations when `euler` is true.
+    step of one agent step; it takes the Euler time step, scheme and equations when `euler`
+    is true.
     """
 
     step: Callable
     timestep: float
+    """Seconds (or steps) of one agent step."""
     analytic_physics: type
     euler: bool = True
+    analytic_options: tuple = ("integrator", "equations")
+    """The options of the analytic plant (`tasks.plant_option_names`): the Euler scheme and
+    the equations' readings where the domain has them; none without Euler's method."""
     mujoco_physics: Optional[type] = None
     """Physics class of the MuJoCo plant, whose `ACTUATOR` is the driven actuator; None
     where the domain has no MuJoCo plant."""
     model: Optional[str] = None
     """Name of the domain's MJCF file in `models/`."""
+    substeps: int = 1
+    """MuJoCo steps (of the model's timestep) per agent step, the control held."""
+    limit: Optional[Callable] = None
+    """`limit(*state_columns) -> state_columns`, element-wise: what the task bounds after
+    each agent step (e.g. velocity limits). The analytic `step` applies it itself; the
+    MuJoCo plants apply it after MuJoCo's steps."""
 
     @property
     def names(self) -> tuple:
@@ -112,7 +127,8 @@ class DomainPlants:
         """A plant stepping `batch_size` states at once."""
         if plant == "mujoco":
             model = mujoco.MjModel.from_xml_string(models.read(self.model))
-            return MujocoPlant(model, self.mujoco_physics.ACTUATOR, batch_size)
+            return MujocoPlant(model, self.mujoco_physics.ACTUATOR, batch_size, self.substeps,
+                               self.limit)
         if not self.euler:
             return AnalyticPlant(self.step, self.timestep)
         semi_implicit, slips = check_integrator(integrator), check_equations(equations)
@@ -123,5 +139,7 @@ class DomainPlants:
     def physics(self, plant: str, integrator: str = "semi_implicit", equations: str = "paper"):
         """The dm_control Physics of one environment."""
         if plant == "mujoco":
-            return self.mujoco_physics.from_xml_string(models.read(self.model))
+            physics = self.mujoco_physics.from_xml_string(models.read(self.model))
+            physics.substeps, physics.limit = self.substeps, self.limit
+            return physics
         return self.analytic_physics(self.batch("analytic", 1, integrator, equations))

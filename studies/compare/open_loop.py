@@ -70,7 +70,7 @@ def plant(domain: str, name: str, batch_size: int, substeps: int = REFERENCE_SUB
     if name in (REFERENCE, REFERENCE_CHECK):
         n = substeps * (2 if name == REFERENCE_CHECK else 1)
         return MujocoPlant(reference_model(domain, n), plants.mujoco_physics.ACTUATOR,
-                           batch_size, n)
+                           batch_size, n, plants.limit)
     raise ValueError(f"unknown plant {name!r}; allowed: {', '.join(LABELS)}")
 
 
