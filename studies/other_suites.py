@@ -1,5 +1,5 @@
-"""Learning curves of runs on other suites' environments (`lwrl train dmc:...|gym:... --out
-DIR`): per run, a figure of the return per episode (mean over agents with a band of one
+"""Learning curves of runs written by `lwrl train ... --out DIR`, made for other suites'
+environments (`dmc:...`, `gym:...`) and read alike for lwrl's own tasks: per run, a figure of the return per episode (mean over agents with a band of one
 standard error) and a line with the first and the final tenth of the episodes, each as the
 mean ± standard error over agents of the agents' mean return.
 
@@ -36,12 +36,12 @@ def plot_run(run_dir: str, figure_dir: str) -> str:
     tenth = max(1, count // 10)
     figure, _ = plot_learning_curve(
         episodes, "return", "return per episode",
-        f"{config['env']}: {len(seeds)} agents (seeds {seeds[0]}..{seeds[-1]})")
+        f"{config.get('env', config.get('task'))}: {len(seeds)} agents (seeds {seeds[0]}..{seeds[-1]})")
     os.makedirs(figure_dir, exist_ok=True)
     save_figure(figure, figure_dir, os.path.basename(os.path.normpath(run_dir)))
     first = block_return(episodes, 1, tenth)
     final = block_return(episodes, count - tenth + 1, count)
-    return (f"{config['env']}: return {first[0]:.1f} ± {first[1]:.1f} in episodes 1-{tenth}, "
+    return (f"{config.get('env', config.get('task'))}: return {first[0]:.1f} ± {first[1]:.1f} in episodes 1-{tenth}, "
             f"{final[0]:.1f} ± {final[1]:.1f} in episodes {count - tenth + 1}-{count} "
             f"({len(seeds)} agents, seeds {seeds[0]}..{seeds[-1]})")
 
