@@ -63,8 +63,9 @@ def train_agents(args) -> int:
     if args.actions is not None:
         raise ValueError(f"--actions applies to dmc: and gym: environments only; {args.task} "
                          "has its own")
-    config = RunConfig(task=args.task, **fields.given(args, EnvironmentSettings, AgentSettings,
-                                                      ProtocolSettings))
+    settings = fields.given(args, EnvironmentSettings, AgentSettings, ProtocolSettings)
+    settings["plant"] = tasks.resolve(*tasks.split_name(args.task), settings.get("plant"))[1]
+    config = RunConfig(task=args.task, **settings)  # config.json names the plant it ran on
     agent = make_agent(config)  # checks the hyper-parameters before anything runs
     logging = bool(args.rrd or args.rerun)
     record, logged_agents, best = (), [], False
