@@ -75,9 +75,7 @@ def train_agents(args) -> int:
         best = logged == "best"
         record = [] if best else [(b, episode) for b in logged_agents for episode in logged]
     print(f"{config.task} on the {config.plant_name} plant: {config.agents} agents, "
-          f"{config.trace} traces, alpha {config.alpha:g}, lambda {config.lam:g}, epsilon "
-          f"{config.epsilon:g}, {config.features} {config.n}^{len(config.feature_map().low)}, "
-          f"{config.episodes} episodes")
+          f"{config.describe(len(config.ranges[0]))}, {config.episodes} episodes")
     bar, update = output.progress_bar(config.agents * config.episodes, "training")
     with bar:
         agent, results = run(config, agent=agent, progress=update, record=record)
@@ -110,10 +108,8 @@ def _train_external(args) -> int:
     config, agent, envs = external.prepare(config)
     actions = (", ".join(f"{value:g}" for value in config.actions) if config.actions
                else f"{agent.num_actions} discrete")
-    print(f"{config.env}: {config.agents} agents, {config.trace} traces, alpha {config.alpha:g}, "
-          f"lambda {config.lam:g}, epsilon {config.epsilon:g}, gamma {config.gamma:g}, "
-          f"{config.features} {config.n}^{len(config.low)}, actions {actions}, "
-          f"{config.episodes} episodes")
+    print(f"{config.env}: {config.agents} agents, {config.describe(len(config.low))}, "
+          f"actions {actions}, {config.episodes} episodes")
     bar, update = output.progress_bar(config.agents * config.episodes, "training")
     with bar:
         results = run_batched(envs, agent, config.episodes, progress=update)

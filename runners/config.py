@@ -130,6 +130,13 @@ class AgentSettings:
         if not (isinstance(self.r2, (int, float, np.floating)) and 0 < self.r2 < math.inf):
             raise ValueError(f"r2 (the spread r^2) must be a finite number > 0; got {self.r2!r}")
 
+    def describe(self, dim: int) -> str:
+        """One line for a run's header: trace, alpha, lambda, epsilon, gamma (where not 1)
+        and the network over `dim` state variables."""
+        gamma = f", gamma {self.gamma:g}" if self.gamma != 1 else ""
+        return (f"{self.trace} traces, alpha {self.alpha:g}, lambda {self.lam:g}, epsilon "
+                f"{self.epsilon:g}{gamma}, {self.features} {self.n}^{dim}")
+
     def feature_map_over(self, low, high):
         """The agents' features over the normalisation ranges `low..high`.
 
