@@ -122,6 +122,13 @@ class TaskDefinition:
 
 
 @register_jitable
+def wrap_angle(angle):
+    """The angle mapped to [-pi, pi] (+pi only through rounding, e.g. of -1e-20); element-wise,
+    for the observations of angles that the state does not wrap (like MuJoCo's hinges)."""
+    return (angle + np.pi) % (2.0 * np.pi) - np.pi
+
+
+@register_jitable
 def advance_episode(steps, uptime, up, terminal, dt, step_limit):
     """An episode's bookkeeping after one step, element-wise, the same for every way of
     running a task (dm_env, batched, compiled): `(steps + 1, uptime + dt up, last)`, where

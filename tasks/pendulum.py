@@ -29,7 +29,7 @@ Task `swingup`:
 import numpy as np
 from numba.extending import register_jitable
 
-from lwrl.tasks.definition import RunDefaults, TaskDefinition, step_limit
+from lwrl.tasks.definition import RunDefaults, TaskDefinition, step_limit, wrap_angle
 from lwrl.tasks.domain import Domain, PlantComparison
 from lwrl.tasks.integrators import euler
 from lwrl.tasks.physics import physics_classes
@@ -73,12 +73,6 @@ def step(angle, angular_velocity, torque, dt, semi_implicit, slips):
     if slips:
         acceleration = acceleration * dt
     return euler(angle, angular_velocity, acceleration, dt, semi_implicit)
-
-
-@register_jitable
-def wrap_angle(angle):
-    """The angle mapped to [-pi, pi] (+pi only through rounding, e.g. of -1e-20)."""
-    return (angle + np.pi) % (2.0 * np.pi) - np.pi
 
 
 @register_jitable

@@ -28,6 +28,14 @@ def eval_episodes_of(task: str) -> int:
     return tasks.domain(tasks.split_name(task)[0]).comparison.transfer_episodes
 
 
+def measure(task: str) -> tuple[str, str]:
+    """`(column, label)` of what the plants are held to, per episode: the up-time where the
+    task has one, else the steps."""
+    if tasks.definition(*tasks.split_name(task)).has_uptime:
+        return "uptime_s", "up-time (s)"
+    return "steps", "steps per episode"
+
+
 def plant_config(task: str, plant: str, **fields) -> RunConfig:
     """The `RunConfig` of `task` on a plant of `PLANTS` (other fields as given)."""
     if plant not in PLANTS:
@@ -49,6 +57,8 @@ class ClosedLoop:
     (`evaluated_on`), agent and episode."""
     configs: dict
     """`{plant: RunConfig}` of the training runs."""
+    measure: tuple
+    """`(column, label)` of the per-episode quantity compared (`measure`)."""
     replay: object
     """The first greedy episode of agent 0 trained on MuJoCo and run there (an
     `EpisodeRecording`), whose actions the Rerun recording replays on every plant."""
@@ -79,7 +89,7 @@ def closed_loop(task: str, agents: int, episodes: int | None = None, seed: int =
             rows.append(pd.DataFrame(results.columns(config.seeds)).assign(
                 trained_on=trained_on, evaluated_on=evaluated_on))
     return ClosedLoop(pd.concat(tables, ignore_index=True), pd.concat(rows, ignore_index=True),
-                      configs, replay)
+                      configs, measure(task), replay)
 
 
 def total_episodes(task: str, agents: int, episodes: int | None = None,
@@ -90,15 +100,14 @@ def total_episodes(task: str, agents: int, episodes: int | None = None,
     return len(PLANTS) * agents * (config.episodes + len(PLANTS) * eval_episodes)
 
 
-def per_agent_means(table: pd.DataFrame, keys, value: str = "uptime_s",
-                    last: int | None = None) -> pd.DataFrame:
+def per_agent_means(table: pd.DataFrame, keys, value: str, last: int | None = None) -> pd.DataFrame:
     """Each agent's mean `value` over its episodes (the `last` ones if given), per `keys`."""
     if last is not None:
         table = table[table["episode"] > table["episode"].max() - last]
     return table.groupby(list(keys) + ["agent"])[value].mean().reset_index()
 
 
-def agent_statistics(per_agent: pd.DataFrame, keys, value: str = "uptime_s") -> pd.DataFrame:
+def agent_statistics(per_agent: pd.DataFrame, keys, value: str) -> pd.DataFrame:
     """Mean and standard error over agents of `value`, per `keys`."""
     grouped = per_agent.groupby(list(keys))[value]
     return pd.DataFrame({"mean": grouped.mean(), "error": grouped.std(ddof=1) / np.sqrt(grouped.count()),

@@ -63,22 +63,23 @@ def energy_table(result: ol.OpenLoop) -> pd.DataFrame:
 
 
 def learning_table(result: cl.ClosedLoop) -> pd.DataFrame:
-    """Per plant: up-time per episode, mean ± SE over agents, over all episodes and the last
-    `LAST_EPISODES`."""
-    stats = [cl.agent_statistics(cl.per_agent_means(result.episodes, ["compared"], last=last),
-                                 ["compared"]).set_index("compared")
+    """Per plant: the measure per episode (up-time, else steps), mean ± SE over agents, over
+    all episodes and the last `LAST_EPISODES`."""
+    value, label = result.measure
+    stats = [cl.agent_statistics(cl.per_agent_means(result.episodes, ["compared"], value, last=last),
+                                 ["compared"], value).set_index("compared")
              for last in (None, LAST_EPISODES)]
     return pd.DataFrame([{"plant": ol.LABELS[plant],
-                          "up-time (s), all episodes": _pm(stats[0].loc[plant, "mean"], stats[0].loc[plant, "error"]),
-                          f"up-time (s), last {LAST_EPISODES}": _pm(stats[1].loc[plant, "mean"], stats[1].loc[plant, "error"]),
+                          f"{label}, all episodes": _pm(stats[0].loc[plant, "mean"], stats[0].loc[plant, "error"]),
+                          f"{label}, last {LAST_EPISODES}": _pm(stats[1].loc[plant, "mean"], stats[1].loc[plant, "error"]),
                           "agents": int(stats[0].loc[plant, "agents"])}
                          for plant in cl.PLANTS])
 
 
 def transfer_statistics(result: cl.ClosedLoop) -> pd.DataFrame:
-    """Per training and evaluation plant: greedy up-time, mean and SE over agents."""
-    keys = ["trained_on", "evaluated_on"]
-    return cl.agent_statistics(cl.per_agent_means(result.transfer, keys), keys)
+    """Per training and evaluation plant: the greedy measure, mean and SE over agents."""
+    keys, value = ["trained_on", "evaluated_on"], result.measure[0]
+    return cl.agent_statistics(cl.per_agent_means(result.transfer, keys, value), keys, value)
 
 
 def transfer_table(statistics: pd.DataFrame) -> pd.DataFrame:
@@ -117,16 +118,17 @@ def plot_divergence(result: ol.OpenLoop, domain: str, task: str):
 
 
 def plot_learning_curves(result: cl.ClosedLoop, task: str):
-    """The up-time learning curves of the plants side by side (mean ± one SE over agents)."""
+    """The plants' learning curves side by side (mean ± one SE over agents)."""
     figure, panels = plt.subplots(1, len(cl.PLANTS), figsize=(5 * len(cl.PLANTS), 4), sharey=True)
     for axes, plant in zip(panels, cl.PLANTS):
-        plot_learning_curve(result.episodes[result.episodes["compared"] == plant], "uptime_s",
-                            "up-time (s)", f"{task}: {ol.LABELS[plant]}", axes=axes)
+        plot_learning_curve(result.episodes[result.episodes["compared"] == plant], *result.measure,
+                            f"{task}: {ol.LABELS[plant]}", axes=axes)
     return figure
 
 
-def plot_transfer(statistics: pd.DataFrame, task: str):
-    """Greedy up-time per training plant (groups) and evaluation plant (bars), ± one SE."""
+def plot_transfer(statistics: pd.DataFrame, task: str, label: str):
+    """The greedy measure (`label`) per training plant (groups) and evaluation plant (bars),
+    ± one SE."""
     figure, axes = plt.subplots(figsize=(8, 4))
     width = 0.8 / len(cl.PLANTS)
     for i, evaluated_on in enumerate(cl.PLANTS):
@@ -134,7 +136,7 @@ def plot_transfer(statistics: pd.DataFrame, task: str):
         axes.bar(np.arange(len(cl.PLANTS)) + (i - 1) * width, cells["mean"], width,
                  yerr=cells["error"], capsize=3, label=f"evaluated on {ol.LABELS[evaluated_on]}")
     axes.set_xticks(np.arange(len(cl.PLANTS)), [f"trained on\n{ol.LABELS[p]}" for p in cl.PLANTS])
-    axes.set_ylabel("greedy up-time per episode (s)")
+    axes.set_ylabel(f"greedy {label}")
     axes.set_title(f"{task}: transfer between plants")
     axes.legend(fontsize=8)
     axes.grid(alpha=0.3, axis="y")
@@ -146,7 +148,8 @@ def write_figures(open_result, closed_result, transfer, domain: str, task: str, 
     return {"divergence": save_figure(plot_divergence(open_result, domain, task), figure_dir, "divergence"),
             "learning_curves": save_figure(plot_learning_curves(closed_result, task), figure_dir,
                                            "learning_curves"),
-            "transfer": save_figure(plot_transfer(transfer, task), figure_dir, "transfer")}
+            "transfer": save_figure(plot_transfer(transfer, task, closed_result.measure[1]),
+                                    figure_dir, "transfer")}
 
 
 def markdown_table(table: pd.DataFrame) -> list[str]:
@@ -189,15 +192,16 @@ def report(comparison, figures: dict, paper_sections: dict, out_dir: str) -> str
         "so the last row bounds the reference's own error.",
         divergence_table(open_result), figure("divergence"))
     lines += _block(
-        "Energy: zero action from the task's start (the cart-pole's pole tilted by "
-        "θ ~ U[−12°, 12°]), with the paper's friction; drift is the plant's mechanical "
-        "energy minus the reference's, mean ± standard error over the trials.",
+        "Energy: zero action from the task's start or, where zero action never leaves it, "
+        f"from the domain's `rest_start` (`tasks/{domain}.py`), with the task's friction; "
+        "drift is the plant's mechanical energy minus the reference's, mean ± standard error "
+        "over the trials.",
         energy_table(open_result))
     lines += ["## Closed loop", ""] + _block(
         f"{len(seeds)} agents per plant, {config.trace} traces, α {config.alpha:g}, "
         f"λ {config.lam:g}, ε {config.epsilon:g}, NRBF {config.n}^d with r² {config.r2:g}, "
         f"{config.episodes} episodes (the task's defaults, `tasks/{domain}.py`); "
-        "means ± standard errors over agents of each agent's mean up-time.",
+        f"means ± standard errors over agents of each agent's mean {closed_result.measure[1]}.",
         learning_table(closed_result), figure("learning_curves"))
     lines += ["MuJoCo and the analytic semi-implicit plant agree to round-off, so their agents "
               "live the same episodes until a round-off difference flips an action: the first "
@@ -212,7 +216,7 @@ def report(comparison, figures: dict, paper_sections: dict, out_dir: str) -> str
     lines += ["## Transfer", ""] + _block(
         f"Each trained batch run greedily (ε = 0, no learning) for "
         f"{closed_result.transfer['episode'].max()} episode(s) per agent on every plant, "
-        f"from starts of seeds {cl.EVAL_SEED}.. (away from training); up-time per episode "
-        "(s), mean ± standard error over agents.",
+        f"from starts of seeds {cl.EVAL_SEED}.. (away from training); "
+        f"{closed_result.measure[1]}, mean ± standard error over agents.",
         transfer_table(transfer_statistics(closed_result)), figure("transfer"))
     return "\n".join(lines) + "\n"
