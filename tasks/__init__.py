@@ -31,7 +31,7 @@ from lwrl.tasks.base import SuiteTask  # noqa: E402
 from lwrl.tasks.definition import TaskDefinition  # noqa: E402
 from lwrl.tasks.domain import Domain  # noqa: E402
 
-DOMAIN_MODULES = ("mountain_car", "pendulum", "cartpole")
+DOMAIN_MODULES = ("mountain_car", "pendulum", "cartpole", "acrobot")
 """The registry: the modules of `tasks/` that each define one domain, in the suite's order."""
 
 DOMAINS = {domain.name: domain for domain in

@@ -6,7 +6,7 @@ import pytest
 from lwrl import tasks
 from lwrl.tasks.batched import LAST, BatchedEnv
 
-SHORT_LIMITS = {"mountain_car": 40, "pendulum": 0.5, "cartpole": 240.0}
+SHORT_LIMITS = {"mountain_car": 40, "pendulum": 0.5, "cartpole": 240.0, "acrobot": 4.0}
 """Time limits short enough that auto-resets happen within the test."""
 
 

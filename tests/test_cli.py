@@ -14,8 +14,8 @@ def test_tasks_lists_every_task_and_plant(capsys):
     assert cli.main(["tasks"]) == 0
     out = capsys.readouterr().out
     assert "mountain_car.cost_to_go" in out and "plants: analytic" in out
-    assert "pendulum.swingup" in out and "cartpole.balance" in out
-    assert out.count("plants: mujoco, analytic") == 2
+    assert "pendulum.swingup" in out and "cartpole.balance" in out and "acrobot.swingup" in out
+    assert out.count("plants: mujoco, analytic") == 3
 
 
 @pytest.mark.parametrize("argv", [

@@ -53,7 +53,7 @@ def test_every_task_and_plant_is_registered():
     """Every (task, plant) of the suite has the id lwrl/{domain}-{task}-{plant}-v0, made by
     SuiteEnv, with no TimeLimit of Gymnasium's on top (the task truncates)."""
     expected = {f"lwrl/{d}-{t}-{p}-v0" for d, t, p in TASK_PLANTS}
-    assert set(ENV_IDS) == expected and len(ENV_IDS) == len(TASK_PLANTS) == 5
+    assert set(ENV_IDS) == expected and len(ENV_IDS) == len(TASK_PLANTS) == 7
     assert "lwrl/cartpole-balance-mujoco-v0" in ENV_IDS
     assert "lwrl/mountain_car-cost_to_go-analytic-v0" in ENV_IDS
     for (domain, task, plant), id_ in zip(TASK_PLANTS, [env_id(*p) for p in TASK_PLANTS]):
@@ -103,7 +103,8 @@ print(type(env.unwrapped).__name__)
 @pytest.mark.parametrize("id_", ENV_IDS)
 def test_check_env(id_):
     """Gymnasium's env checker passes. Its only warnings are that a Box bound is infinite,
-    which it is where the task's variable is unbounded (pendulum and cart-pole speeds)."""
+    which it is where the task's variable is unbounded (pendulum and cart-pole speeds; the
+    acrobot's are limited)."""
     env = gymnasium.make(id_).unwrapped
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -116,7 +117,7 @@ def test_check_env(id_):
     if np.any(np.isposinf(space.high)):
         expected.add("A Box observation space maximum value is infinity. This is probably too high.")
     assert {m.removeprefix("\x1b[33mWARN: ").removesuffix("\x1b[0m") for m in messages} == expected
-    assert (id_.startswith("lwrl/mountain_car")) == (not expected)
+    assert (id_.startswith(("lwrl/mountain_car", "lwrl/acrobot"))) == (not expected)
 
 
 @pytest.mark.parametrize("domain, task, plant", TASK_PLANTS)
@@ -136,7 +137,8 @@ def test_make(domain, task, plant):
     assert env.render_mode is None and env.metadata["render_modes"] == []
     observation, info = env.reset(seed=0)
     assert observation.dtype == np.float64 and observation in env.observation_space
-    assert info == {"uptime_s": None if domain == "mountain_car" else 0.0, "steps": 0, "plant": plant}
+    assert info == {"uptime_s": None if domain in ("mountain_car", "acrobot") else 0.0, "steps": 0,
+                    "plant": plant}
     observation, reward, terminated, truncated, info = env.step(env.action_space.sample())
     assert type(reward) is float and type(terminated) is bool and type(truncated) is bool
     assert info["steps"] == 1 and info["plant"] == plant
@@ -312,7 +314,7 @@ def test_same_seed_same_trajectory(id_):
     trajectory = _trajectory(env, seed=5)
     assert trajectory == _trajectory(env, seed=5) == _trajectory(gymnasium.make(id_), seed=5)
     other = env.reset(seed=6)[0]
-    if id_.startswith("lwrl/cartpole"):
+    if id_.startswith(("lwrl/cartpole", "lwrl/acrobot")):
         assert np.array_equal(first, other) and not first.any()  # the start is fixed at rest
     else:
         assert not np.array_equal(first, other)

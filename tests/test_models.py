@@ -1,7 +1,8 @@
 """The MJCF models (`models/`) against the paper's parameters and closed-form physics.
 
 Sources: Främling (2008), section 4.2 (pendulum) and 4.3 (cart-pole); SPEC.md, "Task 2",
-"Task 3" and "Integration".
+"Task 3" and "Integration"; Sutton and Barto (1998), section 11.3 (acrobot; more in
+`test_acrobot.py`).
 """
 
 import math
@@ -10,10 +11,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from lwrl import models
-from lwrl.tasks import cartpole, pendulum
+from lwrl import models, tasks
+from lwrl.tasks import acrobot, cartpole, pendulum
 
-MODULES = {"pendulum": pendulum, "cartpole": cartpole}
+MODULES = {"pendulum": pendulum, "cartpole": cartpole, "acrobot": acrobot}
 """The task module whose constants each model must follow."""
 
 
@@ -48,8 +49,8 @@ def test_model_file_exists_and_compiles(name):
 @pytest.mark.parametrize("function", [models.path, models.read])
 def test_unknown_model_name_lists_the_available_ones(function):
     """An unknown name raises a ValueError naming every model of `models.names()`."""
-    with pytest.raises(ValueError, match="acrobot") as raised:
-        function("acrobot")
+    with pytest.raises(ValueError, match="quadrotor") as raised:
+        function("quadrotor")
     for name in models.names():
         assert name in str(raised.value)
 
@@ -72,10 +73,14 @@ def test_every_element_is_named(name):
 def test_options_are_the_papers_euler_step(name):
     """One MuJoCo step is one control step of 0.02 s under gravity g = 9.81 (sections 4.2,
     4.3); the integrator is MuJoCo's (semi-implicit) Euler with eulerdamp disabled, so that
-    joint damping is explicit like the paper's friction terms (SPEC "Integration")."""
+    joint damping is explicit like the paper's friction terms (SPEC "Integration"). The
+    acrobot's control step is four MuJoCo steps of 0.05 s under g = 9.8 (the book's)."""
     model = _load(name)
     module = MODULES[name]
-    assert model.opt.timestep == module.TIMESTEP == 0.02
+    substeps = tasks.domain(name).plants.substeps
+    assert model.opt.timestep * substeps == module.TIMESTEP
+    assert module.TIMESTEP == {"acrobot": 0.2}.get(name, 0.02)
+    assert substeps == {"acrobot": 4}.get(name, 1)
     np.testing.assert_array_equal(model.opt.gravity, [0.0, 0.0, -module.GRAVITY])
     assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_EULER
     assert model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_EULERDAMP
@@ -102,6 +107,13 @@ def test_options_are_the_papers_euler_step(name):
     ("cartpole", "actuator", "cart_friction", "forcerange",
      (-cartpole.CART_FRICTION, cartpole.CART_FRICTION)),
     ("cartpole", "actuator", "cart_friction", "forcelimited", 1),
+    # Sutton and Barto (1998), section 11.3: m1 = m2 = 1 kg, no friction, tau in [-1, 1] N m.
+    ("acrobot", "body", "upper_link", "mass", acrobot.LINK_MASS_1),
+    ("acrobot", "body", "lower_link", "mass", acrobot.LINK_MASS_2),
+    ("acrobot", "joint", "shoulder", "damping", 0.0),
+    ("acrobot", "joint", "elbow", "damping", 0.0),
+    ("acrobot", "actuator", "torque", "ctrlrange", (min(acrobot.TORQUES), max(acrobot.TORQUES))),
+    ("acrobot", "actuator", "torque", "ctrllimited", 1),
 ])
 def test_parameter_is_the_papers(name, kind, element, field, expected):
     """Each compiled model parameter equals the paper's value, as the task module states it
@@ -128,6 +140,10 @@ def test_paper_constants():
     # A uniform rod of length 2l about its end: m (2l)^2 / 3 = (4/3) m l^2, the 4/3 of the
     # paper's cart-pole equation (section 4.3; Barto, Sutton and Anderson 1983).
     ("cartpole", "pole", "hinge", 4.0 / 3.0 * cartpole.POLE_MASS * cartpole.HALF_LENGTH ** 2),
+    # The book's links: I + m lc^2 = 1 + 0.25 about each joint (the elbow's is m2 lc2^2 + I2,
+    # the lower right entry of the book's mass matrix).
+    ("acrobot", "upper_link", "shoulder", acrobot.LINK_INERTIA_1 + acrobot.LINK_MASS_1 * acrobot.LINK_COM_1 ** 2),
+    ("acrobot", "lower_link", "elbow", acrobot.LINK_INERTIA_2 + acrobot.LINK_MASS_2 * acrobot.LINK_COM_2 ** 2),
 ])
 def test_inertia_about_the_hinge(name, body, joint, expected):
     """The compiled body's inertia about its hinge axis (its inertia tensor about the centre

@@ -8,7 +8,8 @@ from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent, run, run_batched, run_compiled, run_dm_env
 from lwrl.tasks.batched import BatchedEnv
 
-SHORT = {"mountain_car.cost_to_go": 300, "pendulum.swingup": 2.0, "cartpole.balance": 240.0}
+SHORT = {"mountain_car.cost_to_go": 300, "pendulum.swingup": 2.0, "cartpole.balance": 240.0,
+         "acrobot.swingup": 20.0}
 """Time limits that keep every path's episodes short."""
 
 

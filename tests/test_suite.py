@@ -15,9 +15,12 @@ STATE_NAMES = {
     "mountain_car": ("position", "velocity"),
     "pendulum": ("angle", "angular_velocity"),
     "cartpole": ("cart_position", "cart_velocity", "pole_angle", "pole_angular_velocity"),
+    "acrobot": ("shoulder_angle", "shoulder_angular_velocity", "elbow_angle",
+                "elbow_angular_velocity"),
 }
-CONTROLS = {"mountain_car": (-1.0, 0.0, 1.0), "pendulum": (-5.0, 5.0), "cartpole": (-10.0, 10.0)}
-STEP_LIMITS = {"mountain_car": 10_000, "pendulum": 3000, "cartpole": 12_000}
+CONTROLS = {"mountain_car": (-1.0, 0.0, 1.0), "pendulum": (-5.0, 5.0), "cartpole": (-10.0, 10.0),
+            "acrobot": (-1.0, 0.0, 1.0)}
+STEP_LIMITS = {"mountain_car": 10_000, "pendulum": 3000, "cartpole": 12_000, "acrobot": 10_000}
 
 
 def random_episode_steps(env, rng, max_steps):
@@ -79,13 +82,13 @@ def test_deterministic_for_a_seed(task_plant):
 
 def test_starts_follow_the_spec(task_plant):
     """Mountain-Car starts uniformly in x in [-1.2, 0.5], v in [-0.07, 0.07]; the pendulum
-    at theta ~ U[-pi, pi] at rest; the cart-pole at rest at zero. Random starts differ
+    at theta ~ U[-pi, pi] at rest; the cart-pole and the acrobot at rest at zero. Random starts differ
     between episodes and seeds and spread over their ranges."""
     domain, task, plant = task_plant
     env = tasks.load(domain, task, plant=plant, seed=3)
     starts = np.array([list(env.reset().observation.values()) for _ in range(200)])
     other_seed = np.array(list(tasks.load(domain, task, plant=plant, seed=4).reset().observation.values()))
-    if domain == "cartpole":
+    if domain in ("cartpole", "acrobot"):
         assert np.all(starts == 0.0) and np.all(other_seed == 0.0)
         return
     if domain == "mountain_car":
@@ -199,14 +202,16 @@ def test_cartpole_failing_step_ends_the_episode():
 
 def test_time_limits_truncate(task_plant):
     """Episodes end with discount 1 (a truncation) after the task's time limit: 60 s for the
-    pendulum, 240 s for the cart-pole, the 10 000-step safety cap for Mountain-Car."""
+    pendulum, 240 s for the cart-pole, the 10 000-step safety caps of Mountain-Car and the
+    acrobot (2000 s)."""
     domain, task, plant = task_plant
     assert tasks.definition(domain, task).step_limit == STEP_LIMITS[domain]
-    env = tasks.load(domain, task, plant=plant, seed=0,
-                     time_limit=5 if domain == "mountain_car" else 0.1)  # 5 steps
+    time_limit = {"mountain_car": 5, "acrobot": 1.0}.get(domain, 0.1)  # 5 steps
+    env = tasks.load(domain, task, plant=plant, seed=0, time_limit=time_limit)
     limit = env.task.definition.step_limit
     assert limit == 5
-    start = {"mountain_car": [-0.5, 0.0], "pendulum": [0.4, 0.0], "cartpole": [0.0] * 4}[domain]
+    start = {"mountain_car": [-0.5, 0.0], "pendulum": [0.4, 0.0], "cartpole": [0.0] * 4,
+             "acrobot": [0.0] * 4}[domain]
     set_state(env, start)
     steps = [env.step(i % 2) for i in range(limit)]
     assert [ts.step_type for ts in steps] == [dm_env.StepType.MID] * (limit - 1) + [dm_env.StepType.LAST]
@@ -316,7 +321,8 @@ def test_transition_is_the_plant_step_and_the_task(domain, task, integrator, equ
         {"integrator": integrator, "equations": equations} if domain != "mountain_car" else {}))
     transition = numba.njit(definition.transition)
     rng = np.random.default_rng(0)
-    ranges = {"mountain_car": [1.0, 0.08], "pendulum": [4.0, 8.0], "cartpole": [2.6, 3.0, 0.25, 3.0]}
+    ranges = {"mountain_car": [1.0, 0.08], "pendulum": [4.0, 8.0], "cartpole": [2.6, 3.0, 0.25, 3.0],
+              "acrobot": [7.0, 14.0, 7.0, 30.0]}  # the acrobot's speeds: past their limits
     states = rng.uniform(-1, 1, size=(200, len(definition.state_names))) * ranges[domain]
     controls = rng.choice(definition.controls, size=200)
     expected = plant.step(states, controls)

@@ -25,7 +25,7 @@ from lwrl.runners.run import EpisodeResults
 from lwrl.viz import names, scene, value
 from lwrl.viz import rerun as viz
 
-MAX_STEPS = {"mountain_car": 150, "pendulum": 120, "cartpole": 120}
+MAX_STEPS = {"mountain_car": 150, "pendulum": 120, "cartpole": 120, "acrobot": 120}
 """Rollouts are cut there (random actions end cart-pole episodes sooner)."""
 
 
@@ -226,6 +226,13 @@ def test_static_scene_geometry(saved):
         rgba = column(cart, "Boxes3D:colors")[0][0]
         assert rgba == int.from_bytes(bytes([76, 128, 204, 255]), "big")  # rgba 0.3 0.5 0.8 1, rounded
         assert "scene/world/floor/grid" in chunks
+    elif saved["domain"] == "acrobot":  # two capsules of l1 = l2 = 1 m, the tip at the end
+        for link in ("upper_link", "lower_link"):
+            capsule = static(chunks, f"scene/{link}/{link}")
+            assert column(capsule, "Capsules3D:lengths")[0] == [pytest.approx(1.0)]
+            assert column(capsule, "Capsules3D:radii")[0] == [pytest.approx(0.04)]
+        tip = static(chunks, "scene/lower_link/tip")
+        np.testing.assert_allclose(column(tip, "Ellipsoids3D:centers")[0][0], [0, 0, -1], atol=1e-7)
     else:
         rod = static(chunks, "scene/pendulum/rod")
         assert column(rod, "Capsules3D:lengths")[0] == [pytest.approx(1.0)]

@@ -1,0 +1,275 @@
+"""Acrobot swing-up (Sutton 1996; Sutton and Barto 1998, section 11.3).
+
+Two links hang from a fixed joint, the shoulder; only the second joint, the elbow, is driven,
+with a torque too weak to lift the arm directly: the agent must pump energy in to swing the
+tip above the shoulder. The physics is the book's (the "book" dynamics of Gymnasium's
+Acrobot-v1, whose default differs in one term). Two plants: `mujoco` (`models/acrobot.xml`)
+and `analytic` (the book's equations with Euler's method).
+
+Task `swingup`:
+
+- **Actions** (`DiscreteArray`, 3 values): index 0, 1, 2 apply the elbow torque
+  tau = -1, 0, +1 N m.
+- **Observations** (float64 scalars): `shoulder_angle` theta1 in rad, wrapped to
+  [-pi, pi], 0 hanging straight down; `shoulder_angular_velocity` theta1_dot in rad/s,
+  within [-4 pi, 4 pi]; `elbow_angle` theta2 in rad, link 2 relative to link 1, wrapped to
+  [-pi, pi], 0 straight; `elbow_angular_velocity` theta2_dot in rad/s, within
+  [-9 pi, 9 pi]. A positive angle swings a link's free end toward -x in the model.
+- **Dynamics** (the book's), with m1 = m2 = 1 kg, l1 = l2 = 1 m, lc1 = lc2 = 0.5 m (joint to
+  centre of mass), I1 = I2 = 1 kg m^2 (about the centre of mass), g = 9.8 m/s^2:
+  d1 = m1 lc1^2 + m2 (l1^2 + lc2^2 + 2 l1 lc2 cos theta2) + I1 + I2,
+  d2 = m2 (lc2^2 + l1 lc2 cos theta2) + I2,
+  phi2 = m2 lc2 g cos(theta1 + theta2 - pi/2),
+  phi1 = -m2 l1 lc2 theta2_dot^2 sin theta2 - 2 m2 l1 lc2 theta2_dot theta1_dot sin theta2
+         + (m1 lc1 + m2 l1) g cos(theta1 - pi/2) + phi2,
+  theta2_dd = (tau + d2/d1 phi1 - m2 l1 lc2 theta1_dot^2 sin theta2 - phi2)
+              / (m2 lc2^2 + I2 - d2^2/d1),
+  theta1_dd = -(d2 theta2_dd + phi1) / d1;
+  four Euler steps of dt = 0.05 s per action (an agent step is 0.2 s), the torque held;
+  after the four (not after each) the velocities are clipped to theta1_dot in [-4 pi, 4 pi],
+  theta2_dot in [-9 pi, 9 pi]. The angles are not wrapped in the state (like MuJoCo's
+  hinges).
+- **Reward**: -1 every step, 0 on the step that reaches the goal (cost to go).
+- **Start**: all four variables 0, at rest hanging down (deterministic).
+- **Episode end**: terminal (discount 0) when the tip is more than one link above the
+  shoulder, -l1 cos theta1 - l2 cos(theta1 + theta2) > l1; truncated (discount 1) after
+  `time_limit` = 2000 s (10 000 steps), a safety cap (the book has none).
+- **Up-time**: none (reported as NaN).
+- **Agent** (found for this suite, `docs/acrobot/README.md`; the book's agent is a tile
+  coding, not an NRBF): NRBF 6^4 over theta1, theta2 in [-pi, pi], theta1_dot in
+  [-2 pi, 2 pi], theta2_dot in [-4 pi, 4 pi] (half and four ninths of the limits, which
+  hold 99.6 % or more of the states of the learning agents' episodes; speeds outside
+  allowed); replacing traces, alpha 1.0, lambda 0.9, epsilon 0 (the zero weights are
+  optimistic against rewards of -1, so the greedy agent explores, as on Mountain-Car);
+  10 agents x 200 episodes. A small search over alpha, lambda and the speed ranges on the
+  analytic plant chose them: the steps per episode fall from about 900 in the first
+  episode to 80-90 after about 100 episodes, with no episode at the time limit.
+- **Compared** (`lwrl compare`): both angles, within 0.05 rad of the reference; 3 greedy
+  episodes per agent and plant in transfer (the start is fixed); the energy trials start
+  from a random pose at rest, theta1, theta2 ~ U[-pi/2, pi/2], since hanging at rest is an
+  equilibrium.
+"""
+
+import math
+
+import numpy as np
+from numba.extending import register_jitable
+
+from lwrl.tasks.definition import RunDefaults, TaskDefinition, step_limit, wrap_angle
+from lwrl.tasks.domain import Domain, PlantComparison
+from lwrl.tasks.integrators import euler
+from lwrl.tasks.physics import physics_classes
+from lwrl.tasks.plants import DomainPlants
+
+STATE_NAMES = ("shoulder_angle", "shoulder_angular_velocity", "elbow_angle",
+               "elbow_angular_velocity")
+TORQUES = (-1.0, 0.0, 1.0)
+"""tau (N m) at the elbow of each action."""
+LINK_MASS_1 = 1.0
+"""m1 (kg)."""
+LINK_MASS_2 = 1.0
+"""m2 (kg)."""
+LINK_LENGTH_1 = 1.0
+"""l1 (m)."""
+LINK_LENGTH_2 = 1.0
+"""l2 (m)."""
+LINK_COM_1 = 0.5
+"""lc1 (m): shoulder to link 1's centre of mass."""
+LINK_COM_2 = 0.5
+"""lc2 (m): elbow to link 2's centre of mass."""
+LINK_INERTIA_1 = 1.0
+"""I1 (kg m^2): link 1's moment of inertia about its centre of mass."""
+LINK_INERTIA_2 = 1.0
+"""I2 (kg m^2)."""
+GRAVITY = 9.8
+"""g (m/s^2), the book's."""
+SUBSTEPS = 4
+"""Euler steps per agent step."""
+SUBSTEP = 0.05
+"""dt (s) of one Euler step (the MJCF model's timestep)."""
+TIMESTEP = SUBSTEPS * SUBSTEP
+"""Seconds of one agent step: 0.2."""
+MAX_SHOULDER_SPEED = 4.0 * math.pi
+"""|theta1_dot| is clipped to this (rad/s) after each agent step."""
+MAX_ELBOW_SPEED = 9.0 * math.pi
+"""|theta2_dot| is clipped to this (rad/s) after each agent step."""
+TIME_LIMIT = 2000.0
+"""Episode length (s): a safety cap of 10 000 steps."""
+
+
+@register_jitable
+def mass_matrix(elbow_angle):
+    """(d1, d2, d22): the mass matrix [[d1, d2], [d2, d22]] of the book's equations, with
+    d22 = m2 lc2^2 + I2."""
+    cos_elbow = np.cos(elbow_angle)
+    d1 = (LINK_MASS_1 * LINK_COM_1 ** 2
+          + LINK_MASS_2 * (LINK_LENGTH_1 ** 2 + LINK_COM_2 ** 2
+                           + 2.0 * LINK_LENGTH_1 * LINK_COM_2 * cos_elbow)
+          + LINK_INERTIA_1 + LINK_INERTIA_2)
+    d2 = LINK_MASS_2 * (LINK_COM_2 ** 2 + LINK_LENGTH_1 * LINK_COM_2 * cos_elbow) + LINK_INERTIA_2
+    return d1, d2, LINK_MASS_2 * LINK_COM_2 ** 2 + LINK_INERTIA_2
+
+
+@register_jitable
+def accelerations(shoulder_angle, shoulder_angular_velocity, elbow_angle,
+                  elbow_angular_velocity, torque):
+    """(theta1_dd, theta2_dd) of the book's equations (Sutton and Barto 1998, section 11.3)."""
+    d1, d2, d22 = mass_matrix(elbow_angle)
+    sin_elbow = np.sin(elbow_angle)
+    coupling = LINK_MASS_2 * LINK_LENGTH_1 * LINK_COM_2
+    phi2 = LINK_MASS_2 * LINK_COM_2 * GRAVITY * np.cos(shoulder_angle + elbow_angle - np.pi / 2)
+    phi1 = (-coupling * elbow_angular_velocity ** 2 * sin_elbow
+            - 2.0 * coupling * elbow_angular_velocity * shoulder_angular_velocity * sin_elbow
+            + (LINK_MASS_1 * LINK_COM_1 + LINK_MASS_2 * LINK_LENGTH_1) * GRAVITY
+            * np.cos(shoulder_angle - np.pi / 2)
+            + phi2)
+    elbow_acceleration = (torque + d2 / d1 * phi1
+                          - coupling * shoulder_angular_velocity ** 2 * sin_elbow - phi2) / (
+        d22 - d2 * d2 / d1)
+    shoulder_acceleration = -(d2 * elbow_acceleration + phi1) / d1
+    return shoulder_acceleration, elbow_acceleration
+
+
+@register_jitable
+def euler_step(shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_velocity,
+               torque, dt, semi_implicit):
+    """One Euler step of dt (one MuJoCo step of the model when `semi_implicit`)."""
+    shoulder_acceleration, elbow_acceleration = accelerations(
+        shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_velocity, torque)
+    shoulder_angle, shoulder_angular_velocity = euler(
+        shoulder_angle, shoulder_angular_velocity, shoulder_acceleration, dt, semi_implicit)
+    elbow_angle, elbow_angular_velocity = euler(
+        elbow_angle, elbow_angular_velocity, elbow_acceleration, dt, semi_implicit)
+    return shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_velocity
+
+
+@register_jitable
+def limit(shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_velocity):
+    """The state with the velocities clipped to [-4 pi, 4 pi] and [-9 pi, 9 pi], after each
+    agent step (`DomainPlants.limit`); the angles pass through."""
+    shoulder_angular_velocity = np.minimum(np.maximum(
+        shoulder_angular_velocity, -MAX_SHOULDER_SPEED), MAX_SHOULDER_SPEED)
+    elbow_angular_velocity = np.minimum(np.maximum(
+        elbow_angular_velocity, -MAX_ELBOW_SPEED), MAX_ELBOW_SPEED)
+    return shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_velocity
+
+
+@register_jitable
+def step(shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_velocity,
+         torque, dt, semi_implicit, slips):
+    """One agent step of `dt` (0.2 s): four Euler steps of dt / 4, the torque held, then the
+    velocity limit. The angles are not wrapped (like MuJoCo's hinges). `slips` is ignored:
+    the author's code has no acrobot, so there is no reading of its slips."""
+    state = (shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_velocity)
+    for _ in range(SUBSTEPS):
+        state = euler_step(state[0], state[1], state[2], state[3], torque, dt / SUBSTEPS,
+                           semi_implicit)
+    return limit(state[0], state[1], state[2], state[3])
+
+
+@register_jitable
+def tip_height(shoulder_angle, elbow_angle):
+    """Height of the tip above the shoulder (m): -l1 cos theta1 - l2 cos(theta1 + theta2)."""
+    return (-LINK_LENGTH_1 * np.cos(shoulder_angle)
+            - LINK_LENGTH_2 * np.cos(shoulder_angle + elbow_angle))
+
+
+@register_jitable
+def reached_goal(shoulder_angle, elbow_angle):
+    """True where the tip is more than one link (l1) above the shoulder: the terminal states."""
+    return tip_height(shoulder_angle, elbow_angle) > LINK_LENGTH_1
+
+
+@register_jitable
+def outcome(shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_velocity):
+    """(reward, terminal, up) on entering a state: -1, or 0 on reaching the goal, which is
+    terminal; no up-time."""
+    goal = reached_goal(shoulder_angle, elbow_angle)
+    return goal - 1.0, goal, False
+
+
+@register_jitable
+def transition(state, control, next_state, observation, dt, semi_implicit, slips, params):
+    """One agent step of one state `(4,)` for compiled loops."""
+    th1, th1_dot, th2, th2_dot = step(state[0], state[1], state[2], state[3], control, dt,
+                                      semi_implicit, slips)
+    next_state[0], next_state[1], next_state[2], next_state[3] = th1, th1_dot, th2, th2_dot
+    observation[0], observation[1] = wrap_angle(th1), th1_dot
+    observation[2], observation[3] = wrap_angle(th2), th2_dot
+    return outcome(th1, th1_dot, th2, th2_dot)
+
+
+def initial_states(rng: np.random.Generator, count: int) -> np.ndarray:
+    """All zeros, `(count, 4)`: at rest hanging down (the book's start is deterministic)."""
+    del rng
+    return np.zeros((count, len(STATE_NAMES)))
+
+
+def rest_start(rng: np.random.Generator) -> np.ndarray:
+    """A start for zero-action trials: theta1, theta2 ~ U[-pi/2, pi/2] at rest (hanging at
+    rest is an equilibrium zero action never leaves)."""
+    start = initial_states(rng, 1)[0]
+    start[0::2] = rng.uniform(-np.pi / 2, np.pi / 2, size=2)
+    return start
+
+
+def _observe(state):
+    state = np.asarray(state, dtype=np.float64)
+    return np.stack([wrap_angle(state[..., 0]), state[..., 1], wrap_angle(state[..., 2]),
+                     state[..., 3]], axis=-1)
+
+
+BOUNDS = ((-np.pi, -MAX_SHOULDER_SPEED, -np.pi, -MAX_ELBOW_SPEED),
+          (np.pi, MAX_SHOULDER_SPEED, np.pi, MAX_ELBOW_SPEED))
+"""Every observation: the wrapped angles and the velocity limits."""
+AGENT = RunDefaults(
+    n=6, low=(-np.pi, -2 * np.pi, -np.pi, -4 * np.pi), high=(np.pi, 2 * np.pi, np.pi, 4 * np.pi),
+    trace="replacing", alpha=1.0, lam=0.9, epsilon=0.0, episodes=200, agents=10)
+"""Found for this suite (docs/acrobot/README.md): no paper gives an NRBF agent here."""
+
+
+def swingup(time_limit: float = TIME_LIMIT) -> TaskDefinition:
+    """The book's swing-up task; `time_limit` in seconds (a truncation)."""
+    return TaskDefinition(
+        domain="acrobot", task="swingup", state_names=STATE_NAMES, controls=TORQUES,
+        control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
+        initial_states=initial_states, observe=_observe, outcome=outcome, transition=transition,
+        bounds=BOUNDS, defaults=AGENT, angles=("shoulder_angle", "elbow_angle"),
+        has_uptime=False,
+    )
+
+
+class _Accessors:
+    """One-line accessors named after the quantities, for both plants."""
+
+    def shoulder_angle(self) -> float:
+        """theta1 (rad), wrapped to [-pi, pi], 0 hanging down."""
+        return float(wrap_angle(self.state_vector()[0]))
+
+    def shoulder_angular_velocity(self) -> float:
+        """theta1_dot (rad/s)."""
+        return self.state_vector()[1]
+
+    def elbow_angle(self) -> float:
+        """theta2 (rad), relative to link 1, wrapped to [-pi, pi]."""
+        return float(wrap_angle(self.state_vector()[2]))
+
+    def elbow_angular_velocity(self) -> float:
+        """theta2_dot (rad/s)."""
+        return self.state_vector()[3]
+
+    def tip_height(self) -> float:
+        """The tip's height above the shoulder (m); the goal is above l1 = 1 m."""
+        state = self.state_vector()
+        return float(tip_height(state[0], state[2]))
+
+
+AnalyticPhysicsAcrobot, MujocoPhysicsAcrobot = physics_classes("Acrobot", _Accessors, STATE_NAMES, "torque")
+DOMAIN = Domain(
+    name="acrobot", tasks={"swingup": swingup},
+    plants=DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=AnalyticPhysicsAcrobot,
+                        analytic_options=("integrator",), mujoco_physics=MujocoPhysicsAcrobot,
+                        model="acrobot", substeps=SUBSTEPS, limit=limit),
+    value_axes=("shoulder_angle", "elbow_angle"),
+    comparison=PlantComparison(tolerances={"shoulder_angle": 0.05, "elbow_angle": 0.05},
+                               transfer_episodes=3, rest_start=rest_start))
