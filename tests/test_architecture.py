@@ -68,6 +68,8 @@ def test_imports_point_down(path):
     room = room_of(path)
     tree = ast.parse(path.read_text())
     for line, module in lwrl_imports(tree):
+        if module == "lwrl":  # the namespace itself, which imports no room but on demand
+            continue
         target = imported_room(module)
         where = f"{path.relative_to(ROOT)}:{line} imports {module}"
         assert target in FLOORS, where
