@@ -14,11 +14,11 @@ Feature index: tiling-major, then the tile's grid indices in C order:
 
 import dataclasses
 
-import numba
 import numpy as np
 from numba.extending import register_jitable
 
 from lwrl.agent.features import FeatureMap, check_count, normalise
+from lwrl.kernels import kernel
 
 
 @register_jitable
@@ -40,10 +40,13 @@ def cmac_features_into(state, low, high, intervals, tilings, out):
         out[t * per_tiling + index] = 1.0
 
 
-@numba.njit
 def _cmac_features_batch(states, low, high, intervals, tilings, out):
+    """`cmac_features_into` for each row of `states` (B, d) into the rows of `out` (B, N)."""
     for b in range(states.shape[0]):
         cmac_features_into(states[b], low, high, intervals, tilings, out[b])
+
+
+FEATURES_BATCH = kernel("cmac_features_batch", _cmac_features_batch)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -76,5 +79,5 @@ class CMAC(FeatureMap):
         return 1.0 / self.tilings if self.normalise_alpha else 1.0
 
     def _features_rows(self, rows, out):
-        _cmac_features_batch(rows, np.array(self.low), np.array(self.high), self.intervals,
+        FEATURES_BATCH(rows, np.array(self.low), np.array(self.high), self.intervals,
                              self.tilings, out)

@@ -26,11 +26,11 @@ nearest centroid gets `g = 1` and the sum is never 0/0.
 
 import dataclasses
 
-import numba
 import numpy as np
 from numba.extending import register_jitable
 
 from lwrl.agent.features import FeatureMap, check_count, normalise
+from lwrl.kernels import kernel
 
 DEFAULT_R2 = 0.01
 """r^2, the spread of eq. 8; the paper uses 0.01 in all tasks."""
@@ -105,11 +105,13 @@ def nrbf_features_into(state, low, high, n, r2, out, scratch):
         size *= n
 
 
-@numba.njit
 def _nrbf_features_batch(states, low, high, n, r2, out, scratch):
     """`nrbf_features_into` for each row of `states` (B, d) into the rows of `out` (B, N)."""
     for b in range(states.shape[0]):
         nrbf_features_into(states[b], low, high, n, r2, out[b], scratch)
+
+
+FEATURES_BATCH = kernel("nrbf_features_batch", _nrbf_features_batch)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -148,5 +150,5 @@ class NRBF(FeatureMap):
         return np.stack(axes, axis=-1).reshape(self.num_features, self.dim)
 
     def _features_rows(self, rows, out):
-        _nrbf_features_batch(rows, np.array(self.low), np.array(self.high), self.n, self.r2,
+        FEATURES_BATCH(rows, np.array(self.low), np.array(self.high), self.n, self.r2,
                              out, np.empty((self.dim, self.n)))

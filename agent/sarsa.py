@@ -22,7 +22,6 @@ plant call the very same code as `BatchedSarsa.step`.
 
 import collections
 
-import numba
 import numpy as np
 from numba.extending import register_jitable
 
@@ -32,6 +31,7 @@ from lwrl.agent.policy import epsilon_greedy
 from lwrl.agent.streams import seed_streams
 from lwrl.agent.threads import run_in_chunks
 from lwrl.agent.traces import TRACES, update_
+from lwrl.kernels import kernel
 
 _NRBF, _CMAC = 0, 1
 
@@ -121,13 +121,16 @@ def agent_step(b, first, reward, discount, observation, learn, memory, hyper, sp
     return a_t
 
 
-@numba.njit(nogil=True)
 def _batch_step(start, stop, first, reward, discount, observation, active, learn, memory, hyper,
                 spec, actions):
+    """`agent_step` for agents `start..stop-1` that are `active`: the `BATCH_STEP` kernel."""
     for b in range(start, stop):
         if active[b]:
             actions[b] = agent_step(b, first[b], reward[b], discount[b], observation[b], learn,
                                     memory, hyper, spec)
+
+
+BATCH_STEP = kernel("agent_batch_step", _batch_step)
 
 
 def _per_agent(name, value, batch_size, low, high, closed_low=True):
@@ -216,7 +219,7 @@ class BatchedSarsa:
                              f"got {observation.shape}")
         active = np.ones(batch, dtype=bool) if active is None else np.asarray(active, dtype=bool)
         actions = np.zeros(batch, dtype=np.int64)
-        run_in_chunks(_batch_step, batch, np.asarray(first, dtype=bool),
+        run_in_chunks(BATCH_STEP, batch, np.asarray(first, dtype=bool),
                       np.asarray(reward, dtype=np.float64), np.asarray(discount, dtype=np.float64),
                       observation, active, bool(learn), self.memory, self.hyper, self.spec, actions)
         return actions

@@ -8,8 +8,6 @@ episode numbers (from 1). `--log-agents` is a comma list of agent indices (defau
 
 import numpy as np
 
-from lwrl.viz import rerun as viz
-from lwrl.viz import scene
 
 DEFAULT_EPISODES = "every:20"
 """What `--log-episodes` logs by default: it keeps logging under a tenth of a paper run's
@@ -61,6 +59,9 @@ def best_episodes(results, agents: list) -> list:
 
 def send_run(config, results, rrd_path=None, spawn: bool = False) -> None:
     """The run's recorded episodes, value functions and learning curves to Rerun."""
+    from lwrl.viz import rerun as viz  # Rerun is imported only by the runs that log
+    from lwrl.viz import scene
+
     rec = viz.open_recording("lwrl", rrd_path=rrd_path, spawn=spawn)
     viz.send_blueprint(rec, config.task)
     viz.log_task_scene(rec, config.task)

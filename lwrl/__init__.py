@@ -10,7 +10,8 @@ network, on the paper's control tasks in MuJoCo and as the paper's equations.
 Subpackages, from the bottom up: `models` (MJCF files), `tasks` (the suite), `agent` (the
 learners), `analysis` (statistics and figures), `viz` (Rerun), `runners` (runs and sweeps),
 `adapters` (other suites), `export` (the C controller), `studies` (the paper, the plant
-comparison), `cli` (the `lwrl` command). Each is imported on first use.
+comparison), `cli` (the `lwrl` command); `kernels` caches the compiled numba kernels on
+disk. Each is imported on first use.
 """
 
 import importlib
@@ -18,7 +19,7 @@ import importlib
 __version__ = "0.2.0"
 
 SUBPACKAGES = ("models", "tasks", "agent", "analysis", "viz", "runners", "adapters", "export",
-               "studies", "cli", "gym")
+               "studies", "cli", "gym", "kernels")
 
 
 def __getattr__(name):

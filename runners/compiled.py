@@ -5,10 +5,9 @@ over agents. Its bookkeeping is the stepped loop's (`tasks.definition.advance_ep
 
 import functools
 
-import numba
 import numpy as np
 
-from lwrl import tasks
+from lwrl import kernels, tasks
 from lwrl.agent.features import check_count
 from lwrl.agent.sarsa import BatchedSarsa, agent_step
 from lwrl.agent.threads import run_in_chunks
@@ -20,51 +19,60 @@ from lwrl.tasks.integrators import check_integrator
 from lwrl.tasks.plants import check_equations
 
 
+def transition(state, control, next_state, observation, dt, semi_implicit, slips, params):
+    """The task's `transition` (`TaskDefinition.transition`): each compiled loop's kernel
+    binds its task's own in place of this name."""
+    raise NotImplementedError("the compiled loop's kernel binds each task's transition")
+
+
+def _loop(start, stop, first, count, starts, start_observations, controls, dt, semi_implicit,
+          slips, params, step_limit, learn, memory, hyper, spec, steps, returns, uptime,
+          truncated, diverged_episode, done, tape):
+    """The whole learning loop around the task's `transition`: agents `start..stop-1` run
+    episodes `first..first+count-1` (their starts given) unless diverged."""
+    dim = starts.shape[2]
+    for b in range(start, stop):
+        state = np.empty(dim)
+        next_state = np.empty(dim)
+        observation = np.empty(dim)
+        for k in range(first, first + count):
+            if memory.diverged[b]:
+                break
+            state[:] = starts[b, k]
+            action = agent_step(b, True, 0.0, 1.0, start_observations[b, k], learn,
+                                memory, hyper, spec)
+            r = tape.slot[b, k]
+            if r >= 0:
+                record_state(tape, r, 0, state, start_observations[b, k], memory.q[b])
+            n, total, up, terminal, last = 0, 0.0, 0.0, False, False
+            while not last:
+                reward, terminal, is_up = transition(state, controls[action], next_state,
+                                                     observation, dt, semi_implicit, slips,
+                                                     params)
+                n, up, last = advance_episode(n, up, is_up, terminal, dt, step_limit)
+                total += reward
+                state[:] = next_state
+                previous = action
+                action = agent_step(b, False, reward, 0.0 if terminal else 1.0, observation,
+                                    learn, memory, hyper, spec)
+                if r >= 0:
+                    record_state(tape, r, n, state, observation, memory.q[b])
+                    record_transition(tape, r, n, previous, reward, memory.delta[b])
+                last = last or memory.diverged[b]
+            if r >= 0:
+                record_end(tape, r, n, memory.weights[b])
+            finish_episode(b, k, n, total, up, not terminal and n >= step_limit,
+                           memory.diverged[b], steps, returns, uptime, truncated,
+                           diverged_episode, done)
+
+
 @functools.lru_cache(maxsize=None)
-def _compiled_loop(transition):
-    """The whole learning loop compiled around one task's `transition`: agents
-    `start..stop-1` run episodes `first..first+count-1` (their starts given) unless diverged."""
-
-    @numba.njit(nogil=True)
-    def loop(start, stop, first, count, starts, start_observations, controls, dt,
-             semi_implicit, slips, params, step_limit, learn, memory, hyper, spec, steps, returns,
-             uptime, truncated, diverged_episode, done, tape):
-        dim = starts.shape[2]
-        for b in range(start, stop):
-            state = np.empty(dim)
-            next_state = np.empty(dim)
-            observation = np.empty(dim)
-            for k in range(first, first + count):
-                if memory.diverged[b]:
-                    break
-                state[:] = starts[b, k]
-                action = agent_step(b, True, 0.0, 1.0, start_observations[b, k], learn,
-                                    memory, hyper, spec)
-                r = tape.slot[b, k]
-                if r >= 0:
-                    record_state(tape, r, 0, state, start_observations[b, k], memory.q[b])
-                n, total, up, terminal, last = 0, 0.0, 0.0, False, False
-                while not last:
-                    reward, terminal, is_up = transition(state, controls[action], next_state,
-                                                         observation, dt, semi_implicit, slips,
-                                                         params)
-                    n, up, last = advance_episode(n, up, is_up, terminal, dt, step_limit)
-                    total += reward
-                    state[:] = next_state
-                    previous = action
-                    action = agent_step(b, False, reward, 0.0 if terminal else 1.0, observation,
-                                        learn, memory, hyper, spec)
-                    if r >= 0:
-                        record_state(tape, r, n, state, observation, memory.q[b])
-                        record_transition(tape, r, n, previous, reward, memory.delta[b])
-                    last = last or memory.diverged[b]
-                if r >= 0:
-                    record_end(tape, r, n, memory.weights[b])
-                finish_episode(b, k, n, total, up, not terminal and n >= step_limit,
-                               memory.diverged[b], steps, returns, uptime, truncated,
-                               diverged_episode, done)
-
-    return loop
+def compiled_loop(task_transition) -> kernels.Kernel:
+    """The compiled loop's kernel for one task's `transition`, cached on disk
+    (`lwrl.kernels`): a second process compiles nothing."""
+    module = task_transition.__module__.replace(".", "_")
+    return kernels.kernel(f"loop_{module}_{task_transition.__name__}", _loop,
+                          {"transition": task_transition})
 
 
 def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, seeds,
@@ -87,7 +95,7 @@ def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, see
     steps = np.zeros((batch, episodes), dtype=np.int64)
     starts = episode_starts(definition, seeds, episodes)
     step_limit = definition.step_limit if np.isfinite(definition.step_limit) else np.iinfo(np.int64).max
-    loop = _compiled_loop(definition.transition)
+    loop = compiled_loop(definition.transition)
     tape = make_tape(record, batch, episodes, definition.step_limit, starts.shape[2],
                      agent.num_actions, agent.features.num_features)
     done = np.zeros(batch, dtype=np.int64)  # episodes each agent has finished

@@ -14,10 +14,11 @@ import pytest
 from lwrl import tasks
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-FLOORS = {"models": 0, "agent": 1, "tasks": 1, "analysis": 2, "gym": 2, "viz": 3,
+FLOORS = {"kernels": 0, "models": 0, "agent": 1, "tasks": 1, "analysis": 2, "gym": 2, "viz": 3,
           "runners": 4, "adapters": 5, "export": 5, "studies": 6, "cli": 7}
-"""Room -> floor. `gym` is `lwrl/gym.py`, the suite's Gymnasium face (it reads `tasks`)."""
-ISOLATED = {"agent": set(), "tasks": {"models"}}
+"""Room -> floor. `gym` is `lwrl/gym.py`, the suite's Gymnasium face (it reads `tasks`);
+`kernels` is `lwrl/kernels.py`, the cache of compiled kernels every room may use."""
+ISOLATED = {"agent": {"kernels"}, "tasks": {"models", "kernels"}}
 """Rooms that may import only these others: the learner sees arrays only."""
 NAMING_DOMAINS_ALLOWED = ("studies/paper/",)
 """The paper's study names the tasks of its figures as data: the one exception."""
@@ -32,7 +33,8 @@ def room_of(path: pathlib.Path) -> str:
 def package_files() -> list:
     """Every module the `lwrl` wheel installs."""
     return sorted(path for room in FLOORS for path in
-                  ([ROOT / "lwrl" / f"{room}.py"] if room == "gym" else (ROOT / room).rglob("*.py"))
+                  ([ROOT / "lwrl" / f"{room}.py"] if room in ("gym", "kernels")
+                   else (ROOT / room).rglob("*.py"))
                   if path.exists())
 
 
@@ -66,6 +68,8 @@ def test_imports_point_down(path):
     room = room_of(path)
     tree = ast.parse(path.read_text())
     for line, module in lwrl_imports(tree):
+        if module == "lwrl":  # the namespace itself, which imports no room but on demand
+            continue
         target = imported_room(module)
         where = f"{path.relative_to(ROOT)}:{line} imports {module}"
         assert target in FLOORS, where

@@ -1,0 +1,83 @@
+"""Compiled kernels are cached on disk: a second process compiles nothing, the cache follows
+the sources, and cached code computes what freshly compiled code does."""
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from lwrl import kernels
+
+RUN = """
+import json
+import numpy as np
+from lwrl.agent.sarsa import BATCH_STEP
+from lwrl.runners.compiled import compiled_loop
+from lwrl.runners.config import RunConfig
+from lwrl.runners.run import run
+from lwrl.tasks import mountain_car
+config = RunConfig(task="mountain_car.cost_to_go", agents=2, episodes=3)
+_, results = run(config)
+stepped = RunConfig(task="pendulum.swingup", plant="mujoco", agents=2, episodes=1)
+_, stepped_results = run(stepped)
+stats = {name: kernel.dispatcher.stats for name, kernel in
+         (("loop", compiled_loop(mountain_car.transition)), ("batch_step", BATCH_STEP))}
+print(json.dumps({"steps": results.steps.tolist(), "returns": stepped_results.returns.tolist(),
+                  "misses": {name: sum(s.cache_misses.values()) for name, s in stats.items()},
+                  "hits": {name: sum(s.cache_hits.values()) for name, s in stats.items()},
+                  "cached_in": {name: s.cache_path for name, s in stats.items()}}))
+"""
+
+
+def run_process(cache) -> dict:
+    result = subprocess.run([sys.executable, "-c", RUN], capture_output=True, text=True,
+                            env={**os.environ, "LWRL_CACHE_DIR": str(cache)}, timeout=600)
+    assert result.returncode == 0, result.stderr[-3000:]
+    return json.loads(result.stdout.splitlines()[-1])
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    cache = tmp_path_factory.mktemp("kernels")
+    unwritable = cache / "a-file"
+    unwritable.write_text("not a directory")
+    return run_process(cache), run_process(cache), run_process(unwritable / "below")
+
+
+def test_a_second_process_compiles_nothing(runs, tmp_path_factory):
+    first, second, _ = runs
+    assert all(path.startswith(str(tmp_path_factory.getbasetemp())) for path in first["cached_in"].values())
+    assert first["misses"] == {"loop": 1, "batch_step": 1}
+    assert second["misses"] == {"loop": 0, "batch_step": 0}
+    assert second["hits"] == {"loop": 1, "batch_step": 1}
+
+
+def test_cached_kernels_compute_what_fresh_ones_do(runs):
+    """The first run compiles and caches, the second loads, the third (no writable cache)
+    compiles in memory: the same numbers, to the bit."""
+    first, second, in_memory = runs
+    assert first["steps"] == second["steps"] == in_memory["steps"]
+    assert first["returns"] == second["returns"] == in_memory["returns"]
+    assert in_memory["cached_in"] == {"loop": None, "batch_step": None}
+
+
+def test_the_cache_follows_the_sources(tmp_path, monkeypatch):
+    """A kernel's directory is a digest of the sources: change one and it moves."""
+    module = tmp_path / "kernel_source_probe.py"
+    module.write_text("VALUE = 1\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import kernel_source_probe  # noqa: F401
+
+    monkeypatch.setattr(kernels, "_DIGESTS", {})
+    before = kernels.sources_digest(["kernel_source_probe"])
+    module.write_text("VALUE = 2\n")
+    monkeypatch.setattr(kernels, "_DIGESTS", {})
+    assert kernels.sources_digest(["kernel_source_probe"]) != before
+    assert kernels.sources_digest() != before
+
+
+def test_kernel_names_are_file_names():
+    with pytest.raises(ValueError, match="letters, digits and _"):
+        kernels.kernel("../evil", lambda: None)
