@@ -57,7 +57,7 @@ from numba.extending import register_jitable
 
 from lwrl.tasks.definition import RunDefaults, TaskDefinition, step_limit, wrap_angle
 from lwrl.tasks.domain import Domain, PlantComparison
-from lwrl.tasks.integrators import euler
+from lwrl.tasks.integrators import euler_pair
 from lwrl.tasks.physics import physics_classes
 from lwrl.tasks.plants import DomainPlants
 
@@ -136,11 +136,9 @@ def euler_step(shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_ang
     """One Euler step of dt (one MuJoCo step of the model when `semi_implicit`)."""
     shoulder_acceleration, elbow_acceleration = accelerations(
         shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_velocity, torque)
-    shoulder_angle, shoulder_angular_velocity = euler(
-        shoulder_angle, shoulder_angular_velocity, shoulder_acceleration, dt, semi_implicit)
-    elbow_angle, elbow_angular_velocity = euler(
-        elbow_angle, elbow_angular_velocity, elbow_acceleration, dt, semi_implicit)
-    return shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_velocity
+    return euler_pair(shoulder_angle, shoulder_angular_velocity, elbow_angle,
+                      elbow_angular_velocity, shoulder_acceleration, elbow_acceleration, dt,
+                      semi_implicit)
 
 
 @register_jitable

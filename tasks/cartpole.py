@@ -40,7 +40,7 @@ from numba.extending import register_jitable
 
 from lwrl.tasks.definition import RunDefaults, TaskDefinition, step_limit
 from lwrl.tasks.domain import Domain, PlantComparison
-from lwrl.tasks.integrators import euler
+from lwrl.tasks.integrators import euler_pair
 from lwrl.tasks.physics import physics_classes
 from lwrl.tasks.plants import DomainPlants
 
@@ -100,11 +100,8 @@ def step(cart_position, cart_velocity, pole_angle, pole_angular_velocity, force,
     """One Euler step of the cart-pole (`slips`: see `accelerations`)."""
     cart_acceleration, pole_acceleration = accelerations(
         cart_velocity, pole_angle, pole_angular_velocity, force, slips)
-    cart_position, cart_velocity_next = euler(
-        cart_position, cart_velocity, cart_acceleration, dt, semi_implicit)
-    pole_angle, pole_angular_velocity = euler(
-        pole_angle, pole_angular_velocity, pole_acceleration, dt, semi_implicit)
-    return cart_position, cart_velocity_next, pole_angle, pole_angular_velocity
+    return euler_pair(cart_position, cart_velocity, pole_angle, pole_angular_velocity,
+                      cart_acceleration, pole_acceleration, dt, semi_implicit)
 
 
 @register_jitable

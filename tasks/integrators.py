@@ -27,3 +27,12 @@ def euler(q, q_dot, q_ddot, dt, semi_implicit):
     q_dot_next = q_dot + dt * q_ddot
     q_next = q + dt * (q_dot_next if semi_implicit else q_dot)
     return q_next, q_dot_next
+
+
+@register_jitable
+def euler_pair(q0, q0_dot, q1, q1_dot, q0_ddot, q1_ddot, dt, semi_implicit):
+    """One Euler step of two coordinates, in the suite's state order `(q0, q0_dot, q1,
+    q1_dot)`; returns the next state in that order."""
+    q0, q0_dot = euler(q0, q0_dot, q0_ddot, dt, semi_implicit)
+    q1, q1_dot = euler(q1, q1_dot, q1_ddot, dt, semi_implicit)
+    return q0, q0_dot, q1, q1_dot
