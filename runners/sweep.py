@@ -2,11 +2,12 @@
 
 Each run's per-agent, per-episode results go to `OUT/runs/<key>.csv.gz`, where the key is
 the run's name and a hash of its whole configuration; the file appears whole (written to a
-temporary name, then renamed) only once the run has finished. Running the same sweep again
-skips every run whose file exists, so an interrupted sweep (Ctrl-C, kill, power cut)
-resumes where it stopped and recomputes nothing that finished (a batch that was running
-when interrupted runs again whole). A diverged run is a finished run: its agents'
-`diverged` column says so.
+temporary name, then renamed) only once the run has finished (`runners.store`). Running the
+same sweep again skips every run whose file exists, so an interrupted sweep (Ctrl-C, kill,
+power cut) resumes where it stopped and recomputes nothing that finished (a batch that was
+running when interrupted runs again whole); a damaged file is set aside and its run
+computed again; two processes sweeping into one directory share the batches. A diverged
+run is a finished run: its agents' `diverged` column says so.
 
 Runs that differ only in trace, alpha, lambda, epsilon and seeds are joined into batches
 that one learner and one stepper run together (the learner takes those per agent, and an
@@ -19,15 +20,17 @@ as they come back.
 
 import dataclasses
 import json
-import os
 import sys
+import time
 
 import pandas as pd
 import tqdm
 
+from lwrl import outputs
 from lwrl.agent import threads
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent, run
+from lwrl.runners.store import RunStore
 
 CONFIG_COLUMNS = ("task", "plant", "integrator", "features", "trace", "alpha", "lam", "epsilon",
                   "gamma", "n", "r2", "tilings", "normalise_alpha", "episodes")
@@ -91,22 +94,16 @@ def results_table(config: RunConfig, results) -> pd.DataFrame:
     return table
 
 
-def _write_atomically(table: pd.DataFrame, path: str) -> None:
-    partial = f"{path}.partial"
-    table.to_csv(partial, index=False, compression="gzip")
-    os.replace(partial, path)
-
-
 def _agent_episodes(configs) -> int:
     return sum(config.agents * config.episodes for config in configs)
 
 
-def _local(configs, progress):
-    for batch in batches(configs):
-        yield from zip(batch, run_batch(batch, progress))
+def _local(batches_, progress):
+    for batch in batches_:
+        yield batch, run_batch(batch, progress)
 
 
-def _ray(configs, address, progress):
+def _ray(batches_, address, progress):
     try:
         import ray
     except ImportError:
@@ -114,26 +111,30 @@ def _ray(configs, address, progress):
     ray.init(address=address, ignore_reinit_error=True, include_dashboard=False,
              log_to_driver=False)
     remote = ray.remote(run_batch)
-    pending = {remote.remote(batch): batch for batch in batches(configs)}
+    pending = {remote.remote(batch): batch for batch in batches_}
     try:
         while pending:
             done, _ = ray.wait(list(pending), num_returns=1)
             batch = pending.pop(done[0])
             tables = ray.get(done[0])
             progress(_agent_episodes(batch))
-            yield from zip(batch, tables)
+            yield batch, tables
     finally:
         for ref in pending:
             ray.cancel(ref, force=True)
 
 
 def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None = None,
-              address: str | None = None, description: str = "sweep") -> tuple[pd.DataFrame, int]:
+              address: str | None = None, description: str = "sweep",
+              wait_seconds: float = 2.0) -> tuple[pd.DataFrame, int]:
     """Run every configuration not already in `out_dir`; return all their results and how
     many runs this call computed.
 
     `workers` caps the threads of the local backend; `address` is the Ray cluster's
-    (default: start a local Ray instance).
+    (default: start a local Ray instance). Unreadable run files are set aside and computed
+    again (a line on standard error names each). Batches that another process has claimed
+    (`runners.store`) are left to it: this call computes the others, then waits for those,
+    polling every `wait_seconds`, and takes over any whose process is gone.
     """
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; allowed: {', '.join(BACKENDS)}")
@@ -141,27 +142,35 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
         if workers < 1:
             raise ValueError(f"workers must be a positive integer; got {workers}")
         threads.set_workers(workers)
-    runs_dir = os.path.join(out_dir, "runs")
-    os.makedirs(runs_dir, exist_ok=True)
-    paths = {config.key: os.path.join(runs_dir, config.key + ".csv.gz") for config in configs}
-    pending = [config for config in configs if not os.path.exists(paths[config.key])]
+    store = RunStore(out_dir)
+    for line in store.repair(configs):
+        print(line, file=sys.stderr)
+    pending = [config for config in configs if not store.finished(config)]
     total, left = _agent_episodes(configs), _agent_episodes(pending)
+    queue, computed = batches(pending), 0
     with tqdm.tqdm(total=total, initial=total - left, desc=description, unit="agent-episode",
                    file=sys.stderr, disable=None, smoothing=0.05) as bar:
-        finished = (_local(pending, bar.update) if backend == "local"
-                    else _ray(pending, address, bar.update))
-        for config, table in finished:
-            _write_atomically(table, paths[config.key])
-    return load_results([paths[config.key] for config in configs]), len(pending)
-
-
-def load_results(paths) -> pd.DataFrame:
-    """The results table of the given run files, concatenated."""
-    return pd.concat([pd.read_csv(path) for path in paths], ignore_index=True)
+        try:
+            while queue:
+                queue = [batch for batch in queue if not all(map(store.finished, batch))]
+                mine = [batch for batch in queue if store.claim(batch)]
+                finished = (_local(mine, bar.update) if backend == "local"
+                            else _ray(mine, address, bar.update))
+                for batch, tables in finished:
+                    for config, table in zip(batch, tables):
+                        store.write(config, table)
+                    store.release(batch)
+                    computed += len(batch)
+                    queue.remove(batch)
+                if queue:  # claimed by another process: wait for its runs
+                    time.sleep(wait_seconds)
+        finally:
+            store.release_all()
+    return store.read(configs), computed
 
 
 def write_configs(configs, path: str) -> None:
     """Every run's full configuration, one JSON object per line, with its key."""
-    with open(path, "w") as file:
+    with outputs.atomic_write(path) as file:
         for config in configs:
             file.write(json.dumps({"run": config.key, **dataclasses.asdict(config)}) + "\n")

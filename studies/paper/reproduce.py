@@ -16,7 +16,7 @@ import json
 import os
 import time
 
-from lwrl import tasks
+from lwrl import outputs, tasks
 from lwrl.runners import sweep
 from lwrl.studies.paper.items import ITEMS
 
@@ -111,31 +111,33 @@ def reproduce(item, out_dir: str, plant: str = "analytic", quick: bool = False,
     in `timings.json` from the invocation that computed its runs (a resumed item: only the
     resumed part), so that re-analysing finished runs does not overwrite it.
     """
-    names = selected(item)
+    plan = {}  # every item's runs, checked before anything is written
+    for name in selected(item):
+        plan[name] = with_readings(ITEMS[name].configs(plant, quick, integrator), readings or {})
+        if alphas is not None:
+            plan[name] = with_alphas(plan[name], alphas)
     figure_dir = os.path.join(out_dir, "figures")
     os.makedirs(figure_dir, exist_ok=True)
     timings_path = os.path.join(out_dir, "timings.json")
     timings = json.load(open(timings_path)) if os.path.exists(timings_path) else {}
     sections = {}
-    for name in names:
-        configs = with_readings(ITEMS[name].configs(plant, quick, integrator), readings or {})
-        if alphas is not None:
-            configs = with_alphas(configs, alphas)
+    for name, configs in plan.items():
         start = time.perf_counter()
         results, computed = sweep.run_sweep(configs, out_dir, backend=backend, workers=workers,
                                             address=address, description=name)
         if computed or name not in timings:
             timings[name] = {"seconds": time.perf_counter() - start, "runs_computed": computed,
                              "runs": len(configs)}
-        with open(timings_path, "w") as file:
+        with outputs.atomic_write(timings_path) as file:
             json.dump(timings, file, indent=2)
         item_dir = os.path.join(out_dir, name)
         os.makedirs(item_dir, exist_ok=True)
-        results.to_csv(os.path.join(item_dir, "results.csv.gz"), index=False, compression="gzip")
+        with outputs.atomic_path(os.path.join(item_dir, "results.csv.gz")) as temporary:
+            results.to_csv(temporary, index=False, compression="gzip")
         sweep.write_configs(configs, os.path.join(item_dir, "configs.jsonl"))
         sections[name] = (ITEMS[name].analyse(results, figure_dir), len(configs), len(results))
     path = os.path.join(out_dir, "report.md")
-    with open(path, "w") as file:
+    with outputs.atomic_write(path) as file:
         file.write(report(sections, timings, plant, integrator, quick, out_dir, readings or {},
                           alphas))
     return path
@@ -154,6 +156,14 @@ def describe_alphas(alphas) -> str:
     return "" if alphas is None else "; NRBF α grid " + ", ".join(f"{a:g}" for a in alphas)
 
 
+NO_VERDICT = "— (a smoke run's tiny grids give no verdict)"
+
+
+def verdict(section, quick: bool) -> str:
+    """The item's verdict, or none for a `--quick` smoke run."""
+    return NO_VERDICT if quick else section.verdict
+
+
 def report(sections: dict, timings: dict, plant: str, integrator: str, quick: bool,
            out_dir: str, readings: dict, alphas=None) -> str:
     """The Markdown report: a headline table, then each item's numbers beside the paper's."""
@@ -165,10 +175,12 @@ def report(sections: dict, timings: dict, plant: str, integrator: str, quick: bo
              "shares another's runs, like Table 1, or resumed an interrupted run shows less).",
              "", "| item | reproduces? | runs | rows | wall time (s) |", "|---|---|---|---|---|"]
     for name, (section, runs, rows) in sections.items():
-        lines.append(f"| {name} | {section.verdict} | {runs} | {rows} | "
+        lines.append(f"| {name} | {verdict(section, quick)} | {runs} | {rows} | "
                      f"{timings[name]['seconds']:.0f} |")
     for name, (section, _, _) in sections.items():
-        lines += ["", f"## {ITEMS[name].title}", "", f"Reproduces: **{section.verdict}** — {section.rule}.",
+        judged = (f"Reproduces: **{section.verdict}** — {section.rule}." if not quick else
+                  f"Reproduces: {NO_VERDICT}: the rule of a full run would be: {section.rule}.")
+        lines += ["", f"## {ITEMS[name].title}", "", judged,
                   "", "| quantity | ours | paper |", "|---|---|---|"]
         lines += [f"| {quantity} | {ours} | {paper} |" for quantity, ours, paper in section.rows]
         lines += [""] + [f"- {note}" for note in section.notes]

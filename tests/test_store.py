@@ -1,0 +1,87 @@
+"""The runs directory of a sweep: damaged files are named, set aside and recomputed; two
+processes on one directory share the batches; a stale claim is taken over."""
+
+import os
+import subprocess
+import sys
+import threading
+import time
+
+import pandas as pd
+import pytest
+
+from lwrl.runners import sweep
+from lwrl.runners.config import RunConfig
+from lwrl.runners.store import RunStore
+
+
+def grid(alphas=(0.5, 1.0, 2.0)):
+    """Three one-agent Mountain-Car runs that `sweep.batches` joins into one batch."""
+    return [RunConfig(task="mountain_car.cost_to_go", alpha=alpha, agents=1, episodes=2)
+            for alpha in alphas]
+
+
+@pytest.fixture(scope="module")
+def clean(tmp_path_factory):
+    """The results of the grid swept once into a fresh directory."""
+    results, computed = sweep.run_sweep(grid(), tmp_path_factory.mktemp("clean"))
+    assert computed == 3
+    return results
+
+
+def test_damaged_run_files_are_named_set_aside_and_recomputed(tmp_path, clean, capsys):
+    sweep.run_sweep(grid(), tmp_path)
+    store, configs = RunStore(tmp_path), grid()
+    store.path(configs[0]).write_bytes(b"")  # empty
+    with open(store.path(configs[1]), "r+b") as file:  # truncated
+        file.truncate(20)
+    results, computed = sweep.run_sweep(configs, tmp_path)
+    lines = capsys.readouterr().err.splitlines()
+    damaged = [line for line in lines if "is damaged" in line]
+    assert len(damaged) == 2 and all("its run is computed again" in line for line in damaged)
+    assert str(store.path(configs[0])) in damaged[0] and str(store.path(configs[1])) in damaged[1]
+    assert (store.directory / (store.path(configs[0]).name + ".damaged")).exists()
+    assert computed == 2  # the two damaged runs, as one batch
+    pd.testing.assert_frame_equal(results, clean)
+
+
+def sleeper():
+    """A live process of this host, to own a claim."""
+    return subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+
+
+def test_a_batch_claimed_by_a_live_process_is_left_to_it(tmp_path, clean):
+    """Another process has claimed the batch: this sweep computes nothing of it and waits
+    until its runs are there."""
+    configs, other = grid(), sleeper()
+    try:
+        store = RunStore(tmp_path)
+        claim = store._claim_path(configs)
+        claim.write_text(f"{os.uname().nodename} {other.pid}\n")
+
+        def the_other_process_finishes():
+            time.sleep(1.0)
+            for config, table in zip(configs, sweep.run_batch(configs)):
+                store.write(config, table)
+            claim.unlink()
+
+        thread = threading.Thread(target=the_other_process_finishes)
+        thread.start()
+        results, computed = sweep.run_sweep(configs, tmp_path, wait_seconds=0.2)
+        thread.join()
+    finally:
+        other.kill()
+        other.wait()
+    assert computed == 0
+    pd.testing.assert_frame_equal(results, clean)
+
+
+def test_a_stale_claim_is_taken_over(tmp_path, clean):
+    other = sleeper()
+    other.kill()
+    other.wait()  # its pid is gone
+    store = RunStore(tmp_path)
+    store._claim_path(grid()).write_text(f"{os.uname().nodename} {other.pid}\n")
+    results, computed = sweep.run_sweep(grid(), tmp_path, wait_seconds=0.2)
+    assert computed == 3 and not list(store.directory.glob("*.claim"))
+    pd.testing.assert_frame_equal(results, clean)
