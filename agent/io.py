@@ -2,8 +2,10 @@
 
 The file holds the weights `(B, N, A)`, each agent's random stream and divergence flag, and
 one JSON document (stored as a string array) with the feature map, the hyper-parameters and
-any metadata the caller adds (e.g. the run's configuration). `load` refuses a file that is
-not such a file, or whose parts do not fit together, with one line saying what is wrong.
+any metadata the caller adds (e.g. the run's configuration). The file appears whole or not
+at all. `load` refuses a file that is not such a file, or whose parts do not fit together,
+with one line saying what is wrong; an agent whose weights are not finite is loaded as
+diverged, whatever its flag says.
 """
 
 import json
@@ -16,6 +18,7 @@ from lwrl.agent.cmac import CMAC
 from lwrl.agent.nrbf import NRBF
 from lwrl.agent.sarsa import BatchedSarsa
 from lwrl.agent.traces import TRACES
+from lwrl.outputs import atomic_write
 
 FORMAT = "lwrl-agent/1"
 
@@ -52,7 +55,7 @@ def save(path, agent: BatchedSarsa, metadata: dict | None = None) -> None:
         "trace": [TRACES[t] for t in hyper.trace],
         "metadata": metadata or {},
     }
-    with open(path, "wb") as file:
+    with atomic_write(path, "wb") as file:  # whole or not at all
         np.savez_compressed(file, weights=agent.weights, streams=agent.memory.streams,
                             diverged=agent.diverged, document=np.array(json.dumps(document)))
 
@@ -61,11 +64,18 @@ def load(path) -> tuple[BatchedSarsa, dict]:
     """Read agents saved by `save`; return them and their metadata."""
     if not os.path.isfile(path):
         raise ValueError(f"{path}: no such agent file")
+    not_npz = ValueError(f"{path} is not an lwrl agent file (not a NumPy .npz archive of plain arrays)")
     try:
-        with np.load(path, allow_pickle=False) as archive:
+        archive = np.load(path, allow_pickle=False)
+    except (OSError, EOFError, ValueError, zipfile.BadZipFile):
+        raise not_npz from None
+    if not isinstance(archive, np.lib.npyio.NpzFile):  # a .npy file: one array
+        raise not_npz
+    try:
+        with archive:
             arrays = {name: archive[name] for name in archive.files}
-    except (OSError, ValueError, zipfile.BadZipFile):
-        raise ValueError(f"{path} is not an lwrl agent file (not a NumPy .npz archive of plain arrays)") from None
+    except (OSError, EOFError, ValueError, zipfile.BadZipFile):
+        raise not_npz from None
     missing = {"weights", "streams", "diverged", "document"} - set(arrays)
     if missing:
         raise ValueError(f"{path} is not an lwrl agent file (missing {', '.join(sorted(missing))})")
@@ -84,6 +94,8 @@ def load(path) -> tuple[BatchedSarsa, dict]:
         if weights.shape != expected or diverged.shape != (len(streams),):
             raise ValueError(f"weights of shape {weights.shape} do not fit {len(streams)} agents "
                              f"of {features.num_features} features and {document['num_actions']} actions")
+        # An agent with non-finite weights diverged, whatever its flag says.
+        diverged = diverged.astype(bool) | ~np.isfinite(weights).all(axis=(1, 2))
         agent = BatchedSarsa(features, document["num_actions"], alpha=document["alpha"],
                              lam=document["lambda"], epsilon=document["epsilon"],
                              gamma=document["gamma"], trace=document["trace"],

@@ -27,15 +27,19 @@ def set_workers(count: int) -> None:
 
 
 def run_in_chunks(kernel, batch_size: int, *args, min_chunk: int = 16,
-                  chunks_per_worker: int = 1) -> None:
+                  chunks_per_worker: int = 1, cancel=None) -> None:
     """Call `kernel(start, stop, *args)` over contiguous ranges covering `range(batch_size)`
     on the worker threads (a single call when the batch is small). With
     `chunks_per_worker` > 1 there are more ranges than threads, each thread taking the next
-    as it finishes one: long runs whose agents differ in cost stay balanced."""
+    as it finishes one: long runs whose agents differ in cost stay balanced.
+
+    `cancel`, a boolean array of one element that the kernel also reads: on Ctrl-C it is
+    set, so that the kernels stop soon (at their next check), before the interrupt reaches
+    the caller."""
     global _POOL, _POOL_SIZE
     threads = workers()
     chunks = max(1, min(threads * chunks_per_worker, batch_size // min_chunk))
-    if chunks == 1:
+    if chunks == 1 and cancel is None:  # else on a thread, so that Ctrl-C reaches us at once
         kernel(0, batch_size, *args)
         return
     if _POOL_SIZE < threads:
@@ -49,7 +53,12 @@ def run_in_chunks(kernel, batch_size: int, *args, min_chunk: int = 16,
         for future in futures:
             future.result()
     except KeyboardInterrupt:
-        # Compiled kernels cannot be stopped: let the started ones finish writing before
-        # the interrupt reaches the caller, which may then save what is complete.
+        # Compiled kernels cannot be interrupted, only asked to stop: let the started ones
+        # stop and finish writing before the interrupt reaches the caller, which may then
+        # save what is complete.
+        if cancel is not None:
+            cancel[0] = True
+        for future in futures:
+            future.cancel()
         concurrent.futures.wait(futures)
         raise

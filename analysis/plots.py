@@ -10,12 +10,16 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from lwrl import outputs  # noqa: E402
+
 
 def save_figure(figure, figure_dir: str, name: str) -> list:
+    """`figure` as `figure_dir/name.png` and `.svg`, each whole or not at all; return the paths."""
     paths = []
     for extension in ("png", "svg"):
         path = os.path.join(figure_dir, f"{name}.{extension}")
-        figure.savefig(path, dpi=120, bbox_inches="tight")
+        with outputs.atomic_path(path) as temporary:
+            figure.savefig(temporary, format=extension, dpi=120, bbox_inches="tight")
         paths.append(path)
     plt.close(figure)
     return paths

@@ -1,7 +1,7 @@
 """`lwrl compare`: the analytic and MuJoCo plants of a task, open loop, closed loop and in
 transfer, held to the paper's item for the task where it has one."""
 
-from lwrl import tasks
+from lwrl import outputs, tasks
 from lwrl.cli import fields, output
 
 
@@ -23,6 +23,8 @@ def add_parser(commands) -> None:
                             help="save a Rerun recording of the plants' trajectories from one start")
     comparison.add_argument("--quick", action="store_true",
                             help="short horizons: a smoke test in seconds")
+    comparison.add_argument("--force", action="store_true",
+                            help="replace the report of an earlier comparison in --out, and --rrd")
     comparison.set_defaults(run=compare_plants)
 
 
@@ -35,6 +37,9 @@ def compare_plants(args) -> int:
     except ImportError as error:
         raise output.paper_extra_missing("compare", error) from None
     compare.check_task(args.task)
+    outputs.check_directory(args.out, "--out", args.force, names=("report.md",))
+    if args.rrd:
+        outputs.check_file(args.rrd, "--rrd", args.force)
     episodes = compare.QUICK["episodes"] if args.quick else args.episodes
     total = closed_loop.total_episodes(args.task, args.seeds, episodes,
                                        compare.QUICK["eval_episodes"] if args.quick else None)

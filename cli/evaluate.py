@@ -1,5 +1,7 @@
 """`lwrl eval`: saved agents run greedily (epsilon 0, no learning)."""
 
+import numpy as np
+
 from lwrl import tasks
 from lwrl.agent import io as agent_io
 from lwrl.cli import fields, output
@@ -30,6 +32,9 @@ def evaluate_agents(args) -> int:
         config = RunConfig(**settings)
     except (KeyError, TypeError) as error:
         raise ValueError(f"{args.path}: no usable run configuration in the file ({error})") from None
+    tasks.definition(config.domain, config.task_name, **config.task_options).check_fits(
+        agent.features.dim, agent.num_actions, args.path)
+    frozen = np.flatnonzero(agent.diverged)
     agent.hyper.epsilon[:] = 0.0
     bar, update = output.progress_bar(config.agents * config.episodes, "evaluating")
     with bar:
@@ -37,4 +42,8 @@ def evaluate_agents(args) -> int:
     output.print_results(results, config.seeds,
                          f"{config.task} on the {config.plant_name} plant: {config.agents} saved "
                          "agents, greedy", tasks.definition(config.domain, config.task_name).has_uptime)
+    if len(frozen):
+        print(f"{len(frozen)} of {agent.batch_size} agents had diverged in training (their "
+              f"weights are not finite or frozen) and were not run: agents "
+              f"{', '.join(map(str, frozen))}")
     return 130 if results.interrupted else 0

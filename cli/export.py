@@ -1,5 +1,6 @@
 """`lwrl export`: a saved agent as a dependency-free C99 controller."""
 
+from lwrl import outputs
 from lwrl.cli import fields
 from lwrl.export import c as export_c
 
@@ -13,11 +14,14 @@ def add_parser(commands) -> None:
                         help="which agent of the saved batch (default 0)")
     export.add_argument("--real", choices=tuple(export_c.DTYPES), default="float",
                         help="C floating-point type of the weights and arithmetic")
+    export.add_argument("--force", action="store_true",
+                        help="replace lwrl_policy.c and lwrl_policy.h already in OUT_DIR")
     export.set_defaults(run=export_agent)
 
 
 def export_agent(args) -> int:
     """Write a saved agent as C99 source and header; report its flash size and speed."""
+    outputs.check_directory(args.c, "--c", args.force, names=(export_c.SOURCE, export_c.HEADER))
     written = export_c.export_c(args.path, args.c, agent_index=args.agent, dtype=args.real)
     print(f"wrote {written['source']} and {written['header']}: {written['task']}, "
           f"{written['weight_bytes']} bytes of weights and {written['constant_bytes']} of constants")

@@ -22,6 +22,7 @@ function the command runs. Bad input ends with one line on standard error and ex
 import sys
 
 from lwrl.cli import compare, evaluate, export, reproduce, rollout, tasks, train, view
+from lwrl.cli import output
 from lwrl.cli.output import Parser
 
 SUBCOMMANDS = (tasks, rollout, train, evaluate, reproduce, compare, export, view)
@@ -37,16 +38,24 @@ def build_parser() -> Parser:
 
 
 def main(argv=None) -> int:
+    """Run one command: 0 when it succeeded, 2 for bad input (one line on standard error),
+    1 when an output could not be written after the work, 130 when interrupted."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    try:
-        return args.run(args) or 0
-    except ValueError as error:
-        print(f"lwrl {args.command}: error: {error}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print(f"lwrl {args.command}: interrupted", file=sys.stderr)
-        return 130
+    output.INTERRUPTS = output.Interrupts(args.command)
+    with output.INTERRUPTS:
+        try:
+            return args.run(args) or 0
+        except ValueError as error:
+            print(f"lwrl {args.command}: error: {error}", file=sys.stderr)
+            return 2
+        except MemoryError:
+            print(f"lwrl {args.command}: error: out of memory: use fewer agents or episodes",
+                  file=sys.stderr)
+            return 2
+        except KeyboardInterrupt:
+            print(f"lwrl {args.command}: interrupted", file=sys.stderr)
+            return 130
 
 
 if __name__ == "__main__":

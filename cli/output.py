@@ -1,13 +1,18 @@
-"""What every subcommand shares: one-line parse errors, progress bars, the results table
-printed after a run, and the files `--out` writes."""
+"""What every subcommand shares: one-line parse errors, Ctrl-C that stops the work but never
+the writing, progress bars, the results table printed after a run, the files `--out`
+writes, and a report of the outputs written."""
 
 import argparse
+import contextlib
 import os
+import signal
 import sys
+import threading
 
 import numpy as np
 import tqdm
 
+from lwrl import outputs
 from lwrl.runners import summary
 
 
@@ -16,6 +21,85 @@ class Parser(argparse.ArgumentParser):
 
     def error(self, message):
         self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+class Interrupts:
+    """Ctrl-C while a command runs (`main` installs it on the main thread): the first press
+    says at once that the work stops, and stops it (a KeyboardInterrupt, which the run loops
+    turn into results marked interrupted); later presses, and any press while outputs are
+    written (`writing()`), say so and are ignored, so that no output is left half-written."""
+
+    def __init__(self, command: str):
+        self.command = command
+        self.stopping = False
+        self.writing_depth = 0
+        self._previous = None
+
+    def _handle(self, signum, frame):
+        if self.stopping or self.writing_depth:
+            print(f"lwrl {self.command}: still writing what finished; please wait",
+                  file=sys.stderr, flush=True)
+            return
+        self.stopping = True
+        print(f"lwrl {self.command}: stopping (the episodes in progress end, then what finished "
+              "is written; Ctrl-C again is ignored)", file=sys.stderr, flush=True)
+        raise KeyboardInterrupt
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._handle)
+        return self
+
+    def __exit__(self, *exc):
+        if self._previous is not None:
+            # After a press the process is on its way out: a late press must not end it
+            # with a traceback while it exits.
+            signal.signal(signal.SIGINT, signal.SIG_IGN if self.stopping else self._previous)
+        return False
+
+    @contextlib.contextmanager
+    def writing(self):
+        """A block during which Ctrl-C is ignored: outputs being written."""
+        self.writing_depth += 1
+        try:
+            yield
+        finally:
+            self.writing_depth -= 1
+
+
+INTERRUPTS = Interrupts("")
+"""The running command's Ctrl-C handling (`main` replaces it for each command)."""
+
+
+def writing():
+    """Ctrl-C is ignored in this block, while outputs are written."""
+    return INTERRUPTS.writing()
+
+
+class Outputs:
+    """The outputs of a command, each written on its own: one that fails does not keep the
+    others from being written; `report()` says which were written and which failed."""
+
+    def __init__(self, command: str):
+        self.command = command
+        self.written, self.failed = [], []
+
+    def write(self, what: str, write) -> bool:
+        """Call `write()` for the output `what` (e.g. `--save agents.npz`); note its result."""
+        with writing():
+            try:
+                write()
+            except (OSError, ValueError) as error:
+                self.failed.append(f"{what} ({error})")
+                return False
+        self.written.append(what)
+        return True
+
+    def report(self) -> int:
+        """Print what was written and what failed; 1 if something failed, else 0."""
+        for failure in self.failed:
+            print(f"lwrl {self.command}: error: could not write {failure}", file=sys.stderr)
+        return 1 if self.failed else 0
 
 
 def progress_bar(total: int, description: str):
@@ -39,10 +123,14 @@ def print_results(results, seeds, title: str, with_uptime: bool) -> None:
         print("interrupted: episodes not run are left empty", file=sys.stderr)
 
 
+RUN_FILES = ("config.json", "episodes.csv")
+"""What `--out DIR` holds."""
+
+
 def write_run(out: str, config, results) -> None:
-    """`--out DIR`: the run's config.json and episodes.csv."""
+    """`--out DIR`: the run's config.json and episodes.csv, each whole or not at all."""
     os.makedirs(out, exist_ok=True)
-    with open(os.path.join(out, "config.json"), "w") as file:
+    with outputs.atomic_write(os.path.join(out, "config.json")) as file:
         file.write(config.to_json() + "\n")
     summary.write_csv(os.path.join(out, "episodes.csv"), results, config.seeds)
     print(f"wrote {out}/config.json and {out}/episodes.csv")

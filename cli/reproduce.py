@@ -4,6 +4,7 @@ import argparse
 import dataclasses
 import os
 
+from lwrl import outputs
 from lwrl.cli import fields, output
 from lwrl.runners.config import RunConfig
 from lwrl.tasks.integrators import INTEGRATORS
@@ -75,6 +76,7 @@ def reproduce_items(args) -> int:
     except ImportError as error:
         raise output.paper_extra_missing("reproduce", error) from None
     readings = {name: reading_value(name, text) for name, text in args.readings}
+    outputs.check_directory(args.out, "--out")  # a reproduction resumes in its directory
     path = reproduce(args.item, args.out, plant=args.plant, quick=args.quick,
                      integrator=args.integrator, backend=args.backend, workers=args.workers,
                      address=args.address, readings=readings, alphas=args.alphas)

@@ -57,6 +57,19 @@ def best_episodes(results, agents: list) -> list:
     return [(agent, int(np.nanargmax(results.returns[agent]))) for agent in agents]
 
 
+def check_viewer() -> None:
+    """`--rerun` needs a viewer that can start here: a one-line error before any work if not."""
+    from lwrl.viz import rerun as viz
+
+    if not viz.has_display():
+        raise ValueError("--rerun needs a display for the viewer: record with --rrd PATH and "
+                         "open it where there is one (lwrl view PATH, or lwrl view --web)")
+    try:
+        viz.rerun_binary()
+    except viz.ViewerUnavailable as error:
+        raise ValueError(f"--rerun: {error}") from None
+
+
 def send_run(config, results, rrd_path=None, spawn: bool = False) -> None:
     """The run's recorded episodes, value functions and learning curves to Rerun."""
     from lwrl.viz import rerun as viz  # Rerun is imported only by the runs that log

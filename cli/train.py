@@ -8,13 +8,13 @@ import argparse
 import dataclasses
 import re
 
-from lwrl import tasks
+from lwrl import outputs, tasks
 from lwrl.adapters import external
 from lwrl.agent import io as agent_io
 from lwrl.cli import fields, output
 from lwrl.cli import rerun_options as logging_rerun
 from lwrl.runners.config import AgentSettings, EnvironmentSettings, ProtocolSettings, RunConfig
-from lwrl.runners.run import make_agent, run, run_batched
+from lwrl.runners.run import make_agent, memory_needed, run, run_batched
 
 
 def train_task(name: str) -> str:
@@ -39,20 +39,33 @@ def add_parser(commands) -> None:
     fields.add_fields(train, external.ExternalEnvironment, title="dmc: and gym: environments")
     fields.add_fields(train, AgentSettings, title="the agent (default: the task's)")
     fields.add_fields(train, ProtocolSettings, title="the protocol")
-    outputs = train.add_argument_group("outputs")
-    outputs.add_argument("--out", metavar="DIR", help="write config.json and episodes.csv here")
-    outputs.add_argument("--save", metavar="PATH", help="save the trained agents (.npz)")
-    outputs.add_argument("--rerun", action="store_true",
+    files = train.add_argument_group("outputs")
+    files.add_argument("--out", metavar="DIR", help="write config.json and episodes.csv here")
+    files.add_argument("--save", metavar="PATH", help="save the trained agents (.npz)")
+    files.add_argument("--rerun", action="store_true",
                          help="stream episodes to a Rerun viewer (spawned; needs a display)")
-    outputs.add_argument("--rrd", metavar="PATH", help="save episodes to a Rerun recording instead")
-    outputs.add_argument("--log-episodes", default=logging_rerun.DEFAULT_EPISODES, metavar="WHICH",
+    files.add_argument("--rrd", metavar="PATH", help="save episodes to a Rerun recording instead")
+    files.add_argument("--log-episodes", default=logging_rerun.DEFAULT_EPISODES, metavar="WHICH",
                          help="episodes to log: every:K, last, best, all or numbers like 1,5,20 "
                               f"(default {logging_rerun.DEFAULT_EPISODES})")
-    outputs.add_argument("--log-agents", default="0", metavar="LIST",
+    files.add_argument("--log-agents", default="0", metavar="LIST",
                          help="agents to log, by index (default 0)")
+    files.add_argument("--force", action="store_true",
+                         help="replace an existing --save or --rrd file and --out run")
     # Let "--actions -1,0,1" and "--low -1.2,-0.07" read as values, not as options.
     train._negative_number_matcher = re.compile(r"^-\.?\d[\d.eE+-]*(,-?\.?\d[\d.eE+-]*)*$")
     train.set_defaults(run=train_agents)
+
+
+def check_outputs(args) -> None:
+    """Every output asked for can be written, before any work: one line and status 2 if not."""
+    if args.out:
+        outputs.check_directory(args.out, "--out", args.force, names=output.RUN_FILES)
+    for flag in ("save", "rrd"):
+        if getattr(args, flag, None):
+            outputs.check_file(getattr(args, flag), f"--{flag}", args.force)
+    if getattr(args, "rerun", False):
+        logging_rerun.check_viewer()
 
 
 def train_agents(args) -> int:
@@ -66,7 +79,7 @@ def train_agents(args) -> int:
     settings = fields.given(args, EnvironmentSettings, AgentSettings, ProtocolSettings)
     settings["plant"] = tasks.resolve(*tasks.split_name(args.task), settings.get("plant"))[1]
     config = RunConfig(task=args.task, **settings)  # config.json names the plant it ran on
-    agent = make_agent(config)  # checks the hyper-parameters before anything runs
+    check_outputs(args)
     logging = bool(args.rrd or args.rerun)
     record, logged_agents, best = (), [], False
     if logging:
@@ -74,26 +87,39 @@ def train_agents(args) -> int:
         logged = logging_rerun.episodes_to_log(args.log_episodes, config.episodes)
         best = logged == "best"
         record = [] if best else [(b, episode) for b in logged_agents for episode in logged]
+    outputs.check_memory(memory_needed(config, len(record) if not best else len(logged_agents)),
+                         f"{config.agents} agents of {config.task}")
+    agent = make_agent(config)  # checks the hyper-parameters before anything runs
     print(f"{config.task} on the {config.plant_name} plant: {config.agents} agents, "
           f"{config.describe(len(config.ranges[0]))}, {config.episodes} episodes")
     bar, update = output.progress_bar(config.agents * config.episodes, "training")
     with bar:
         agent, results = run(config, agent=agent, progress=update, record=record)
-    if best:  # runs are deterministic: run again to record each logged agent's best episode
+    if best and not results.interrupted:  # deterministic: run again to record the best episodes
         _, results = run(config, record=logging_rerun.best_episodes(results, logged_agents))
     output.print_results(results, config.seeds, "",
                          tasks.definition(config.domain, config.task_name).has_uptime)
+    written = output.Outputs("train")
     if logging:
-        logging_rerun.send_run(config, results, rrd_path=args.rrd, spawn=args.rerun)
-        where = f"saved the recording to {args.rrd}" if args.rrd else "sent the recording"
-        print(f"{where}: {len(results.recordings)} episodes of agents "
-              f"{', '.join(map(str, logged_agents))}")
+        def record_run():
+            if args.rrd:
+                with outputs.atomic_path(args.rrd) as temporary:
+                    logging_rerun.send_run(config, results, rrd_path=temporary, spawn=args.rerun)
+            else:
+                logging_rerun.send_run(config, results, spawn=True)
+            where = f"saved the recording to {args.rrd}" if args.rrd else "sent the recording"
+            print(f"{where}: {len(results.recordings)} episodes of agents "
+                  f"{', '.join(map(str, logged_agents))}")
+        written.write(f"--rrd {args.rrd}" if args.rrd else "--rerun", record_run)
     if args.out:
-        output.write_run(args.out, config, results)
+        written.write(f"--out {args.out}", lambda: output.write_run(args.out, config, results))
     if args.save:
-        agent_io.save(args.save, agent, {"config": dataclasses.asdict(config)})
-        print(f"saved the agents to {args.save}")
-    return 130 if results.interrupted else 0
+        def save():
+            agent_io.save(args.save, agent, {"config": dataclasses.asdict(config)})
+            print(f"saved the agents to {args.save}")
+        written.write(f"--save {args.save}", save)
+    status = written.report()
+    return 130 if results.interrupted else status
 
 
 def _train_external(args) -> int:
@@ -105,6 +131,7 @@ def _train_external(args) -> int:
             raise ValueError(f"--{name} applies to lwrl's own tasks only, not to {args.task}")
     config = external.ExternalConfig(env=args.task, **fields.given(
         args, external.ExternalEnvironment, AgentSettings, ProtocolSettings))
+    check_outputs(args)
     config, agent, envs = external.prepare(config)
     actions = (", ".join(f"{value:g}" for value in config.actions) if config.actions
                else f"{agent.num_actions} discrete")
@@ -114,6 +141,8 @@ def _train_external(args) -> int:
     with bar:
         results = run_batched(envs, agent, config.episodes, progress=update)
     output.print_results(results, config.seeds, "", with_uptime=False)
+    written = output.Outputs("train")
     if args.out:
-        output.write_run(args.out, config, results)
-    return 130 if results.interrupted else 0
+        written.write(f"--out {args.out}", lambda: output.write_run(args.out, config, results))
+    status = written.report()
+    return 130 if results.interrupted else status

@@ -47,7 +47,7 @@ from importlib import resources
 
 import numpy as np
 
-from lwrl import tasks
+from lwrl import outputs, tasks
 from lwrl.agent import io as agent_io
 from lwrl.agent.nrbf import NRBF, clamp_margin
 
@@ -90,8 +90,9 @@ def _check_index(agent_index, batch: int) -> int:
     return int(agent_index)
 
 
-def _task_description(metadata: dict, dim: int, num_actions: int):
-    """(task name, state names, controls or None, config dict) from the file's metadata."""
+def _task_description(metadata: dict, dim: int, num_actions: int, source: str):
+    """(task name, state names, controls or None, config dict) from the file's metadata; a
+    one-line error if the agents do not fit the task it names."""
     config = metadata.get("config") if isinstance(metadata, dict) else None
     config = config if isinstance(config, dict) else {}
     task = config.get("task")
@@ -101,14 +102,11 @@ def _task_description(metadata: dict, dim: int, num_actions: int):
             definition = tasks.definition(*task.split("."))
         except ValueError:
             definition = None
-        if definition is not None and len(definition.state_names) == dim:
-            names = list(definition.state_names)
-        if definition is not None and definition.num_actions == num_actions:
-            controls = definition.controls
+        if definition is not None:
+            definition.check_fits(dim, num_actions, source)
+            names, controls = list(definition.state_names), definition.controls
     return (task if isinstance(task, str) else "unknown (no run configuration in the file)",
             names, controls, config)
-
-
 
 
 
@@ -166,7 +164,7 @@ def export_c(agent_path, out_dir, agent_index: int = 0, dtype: str = "float") ->
 
     dim, n, num_actions = features.dim, features.n, agent.num_actions
     neurons = features.num_features
-    task, names, controls, config = _task_description(metadata, dim, num_actions)
+    task, names, controls, config = _task_description(metadata, dim, num_actions, agent_path)
     with open(agent_path, "rb") as file:
         sha256 = hashlib.sha256(file.read()).hexdigest()
     size = np.dtype(numpy_type).itemsize
@@ -207,9 +205,9 @@ def export_c(agent_path, out_dir, agent_index: int = 0, dtype: str = "float") ->
     source_path, header_path = os.path.join(out_dir, SOURCE), os.path.join(out_dir, HEADER)
     try:
         os.makedirs(out_dir, exist_ok=True)
-        with open(header_path, "w", encoding="utf-8") as file:
+        with outputs.atomic_write(header_path, encoding="utf-8") as file:
             file.write(header_text)
-        with open(source_path, "w", encoding="utf-8") as file:
+        with outputs.atomic_write(source_path, encoding="utf-8") as file:
             file.write(source_text)
     except OSError as error:
         raise ValueError(f"{out_dir}: cannot write the C files ({error.strerror or error})") from None

@@ -19,7 +19,7 @@ import importlib
 __version__ = "0.2.0"
 
 SUBPACKAGES = ("models", "tasks", "agent", "analysis", "viz", "runners", "adapters", "export",
-               "studies", "cli", "gym", "kernels")
+               "studies", "cli", "gym", "kernels", "outputs")
 
 
 def __getattr__(name):

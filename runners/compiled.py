@@ -27,16 +27,17 @@ def transition(state, control, next_state, observation, dt, semi_implicit, slips
 
 def _loop(start, stop, first, count, starts, start_observations, controls, dt, semi_implicit,
           slips, params, step_limit, learn, memory, hyper, spec, steps, returns, uptime,
-          truncated, diverged_episode, done, tape):
+          truncated, diverged_episode, done, tape, cancel):
     """The whole learning loop around the task's `transition`: agents `start..stop-1` run
-    episodes `first..first+count-1` (their starts given) unless diverged."""
+    episodes `first..first+count-1` (their starts given) unless diverged; once `cancel[0]`
+    is set (Ctrl-C), each agent stops after the episode it is in (at most tens of ms)."""
     dim = starts.shape[2]
     for b in range(start, stop):
         state = np.empty(dim)
         next_state = np.empty(dim)
         observation = np.empty(dim)
         for k in range(first, first + count):
-            if memory.diverged[b]:
+            if memory.diverged[b] or cancel[0]:
                 break
             state[:] = starts[b, k]
             action = agent_step(b, True, 0.0, 1.0, start_observations[b, k], learn,
@@ -99,6 +100,7 @@ def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, see
     tape = make_tape(record, batch, episodes, definition.step_limit, starts.shape[2],
                      agent.num_actions, agent.features.num_features)
     done = np.zeros(batch, dtype=np.int64)  # episodes each agent has finished
+    cancel = np.zeros(1, dtype=bool)  # set on Ctrl-C: the loops stop after their episode
     block = max(1, episodes // 20)
     try:
         for first in range(0, episodes, block):
@@ -109,8 +111,8 @@ def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, see
                 tasks.domain(domain).plants.timestep, semi_implicit, slips,
                 np.asarray(definition.params, dtype=np.float64), int(step_limit), bool(learn),
                 agent.memory, agent.hyper, agent.spec, steps, results.returns, results.uptime,
-                results.truncated, results.diverged_episode, done, tape, min_chunk=1,
-                chunks_per_worker=8)
+                results.truncated, results.diverged_episode, done, tape, cancel, min_chunk=1,
+                chunks_per_worker=8, cancel=cancel)
             if progress is not None:
                 progress(batch * count)
     except KeyboardInterrupt:

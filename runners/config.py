@@ -31,6 +31,8 @@ from lwrl.tasks.integrators import INTEGRATORS
 from lwrl.tasks.plants import EQUATIONS
 
 FEATURES = ("nrbf", "cmac")
+PLANT_OPTIONS = ("integrator", "equations")
+"""The settings that are options of a plant (`tasks.plant_option_names`)."""
 CENTROID_PLACEMENTS = ("midpoints", "edges")
 
 
@@ -203,9 +205,12 @@ class RunConfig(ProtocolSettings, AgentSettings, EnvironmentSettings):
         fill(self, **{name: value for name, value in defaults.items()
                       if name not in ("low", "high") and getattr(self, name) is None})
         check_choices(self)
-        if self.equations != "paper" and "equations" not in self.plant_options:
-            raise ValueError(f"equations {self.equations!r} need an analytic plant integrated with "
-                             f"Euler's method; got {self.task} on the {self.plant_name} plant")
+        for field in dataclasses.fields(EnvironmentSettings):
+            value = getattr(self, field.name)
+            if field.name in PLANT_OPTIONS and value != field.default and field.name not in self.plant_options:
+                raise ValueError(f"{field.name} {value!r} applies to the analytic plant of the tasks "
+                                 f"that have it; {self.task} on the {self.plant_name} plant has "
+                                 f"{', '.join(self.plant_options) or 'no plant options'}")
         for name in ("low", "high"):
             if getattr(self, name) is None:
                 continue

@@ -14,6 +14,8 @@ stops after K episodes, or when it diverges (its weights are frozen, the episode
 in is cut there and its later episodes are not run: NaN).
 """
 
+import math
+
 from lwrl import tasks
 from lwrl.agent.sarsa import BatchedSarsa
 from lwrl.runners.compiled import run_compiled
@@ -21,7 +23,22 @@ from lwrl.runners.episodes import EpisodeResults
 from lwrl.runners.stepped import run_batched, run_dm_env
 from lwrl.tasks.batched import BatchedEnv
 
-__all__ = ["EpisodeResults", "make_agent", "run", "run_batched", "run_compiled", "run_dm_env"]
+__all__ = ["EpisodeResults", "make_agent", "memory_needed", "run", "run_batched", "run_compiled",
+           "run_dm_env"]
+
+
+def memory_needed(config, recorded_episodes: int = 0) -> int:
+    """Bytes a run of `config` needs for its largest arrays, estimated before they are made:
+    each agent's weights and traces (A x N each), features and scratch, the per-episode
+    results and starts, and the tape of `recorded_episodes` episodes."""
+    definition = tasks.definition(config.domain, config.task_name, **config.task_options)
+    features = config.feature_map().num_features
+    actions, dim = definition.num_actions, len(definition.state_names)
+    per_agent = 8 * (2 * actions * features + 2 * features + dim * config.n + 2 * actions)
+    per_episode = 8 * (6 + dim)
+    steps = definition.step_limit if recorded_episodes and math.isfinite(definition.step_limit) else 0
+    tape = recorded_episodes * (8 * int(steps) * (2 * dim + actions + 3) + 8 * actions * features)
+    return config.agents * (per_agent + per_episode * config.episodes) + tape
 
 
 def make_agent(*configs) -> BatchedSarsa:

@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 
+from lwrl import outputs
+
 COLUMNS = ("agent", "seed", "episode", "steps", "return", "uptime_s", "truncated", "diverged")
 """Columns of `episodes.csv`, one row per agent and episode."""
 
@@ -60,8 +62,9 @@ def divergence_note(results, seeds) -> str:
 
 
 def write_csv(path, results, seeds) -> None:
-    """`episodes.csv`: one row per agent and episode (NaN where an episode was not run)."""
-    with open(path, "w", newline="") as file:
+    """`episodes.csv`: one row per agent and episode (NaN where an episode was not run),
+    whole or not at all."""
+    with outputs.atomic_write(path, newline="") as file:
         writer = csv.writer(file)
         writer.writerow(COLUMNS)
         columns = results.columns(seeds)

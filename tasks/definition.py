@@ -115,6 +115,15 @@ class TaskDefinition:
             return np.full(np.shape(state)[:-1], np.nan)
         return self.control_timestep * self.outcomes(state)[2]
 
+    def check_fits(self, dim: int, num_actions: int, source: str) -> None:
+        """A one-line ValueError unless agents that observe `dim` variables and choose among
+        `num_actions` actions can run this task: the check for agents read from `source`."""
+        if dim != len(self.state_names) or num_actions != self.num_actions:
+            raise ValueError(
+                f"{source}: its agents observe {dim} variables and choose among {num_actions} "
+                f"actions, so they were not trained on {self.name} ({len(self.state_names)} "
+                f"variables: {', '.join(self.state_names)}; {self.num_actions} actions)")
+
     @property
     def initial_uptime(self) -> float:
         """An episode's up-time before its first step: 0, or NaN where the task has none."""

@@ -14,11 +14,12 @@ import pytest
 from lwrl import tasks
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-FLOORS = {"kernels": 0, "models": 0, "agent": 1, "tasks": 1, "analysis": 2, "gym": 2, "viz": 3,
+FLOORS = {"kernels": 0, "outputs": 0, "models": 0, "agent": 1, "tasks": 1, "analysis": 2, "gym": 2, "viz": 3,
           "runners": 4, "adapters": 5, "export": 5, "studies": 6, "cli": 7}
 """Room -> floor. `gym` is `lwrl/gym.py`, the suite's Gymnasium face (it reads `tasks`);
-`kernels` is `lwrl/kernels.py`, the cache of compiled kernels every room may use."""
-ISOLATED = {"agent": {"kernels"}, "tasks": {"models", "kernels"}}
+`kernels` and `outputs` (`lwrl/kernels.py`, `lwrl/outputs.py`), the cache of compiled
+kernels and the writing of whole files, are there for every room."""
+ISOLATED = {"agent": {"kernels", "outputs"}, "tasks": {"models", "kernels", "outputs"}}
 """Rooms that may import only these others: the learner sees arrays only."""
 NAMING_DOMAINS_ALLOWED = ("studies/paper/",)
 """The paper's study names the tasks of its figures as data: the one exception."""
@@ -33,7 +34,7 @@ def room_of(path: pathlib.Path) -> str:
 def package_files() -> list:
     """Every module the `lwrl` wheel installs."""
     return sorted(path for room in FLOORS for path in
-                  ([ROOT / "lwrl" / f"{room}.py"] if room in ("gym", "kernels")
+                  ([ROOT / "lwrl" / f"{room}.py"] if room in ("gym", "kernels", "outputs")
                    else (ROOT / room).rglob("*.py"))
                   if path.exists())
 

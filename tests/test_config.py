@@ -86,9 +86,12 @@ def test_the_author_codes_equations_apply_to_analytic_pendulum_and_cartpole_runs
                                          "applies to the pendulum and cart-pole on the analytic "
                                          "plant \\(--plant analytic\\)"):
         with_readings(ITEMS["fig6"].configs("mujoco", True, "semi_implicit"), {"equations": "kfnnet"})
-    with pytest.raises(ValueError, match="equations 'kfnnet' need an analytic plant integrated with "
-                                         "Euler's method; got cartpole.balance on the mujoco plant"):
+    with pytest.raises(ValueError, match="equations 'kfnnet' applies to the analytic plant of the "
+                                         "tasks that have it; cartpole.balance on the mujoco plant "
+                                         "has no plant options"):
         RunConfig(task="cartpole.balance", equations="kfnnet")
+    with pytest.raises(ValueError, match="integrator 'explicit' applies to the analytic plant"):
+        RunConfig(task="pendulum.swingup", plant="mujoco", integrator="explicit")
     with pytest.raises(ValueError, match="unknown equations 'R'; allowed: paper, kfnnet"):
         RunConfig(task="cartpole.balance", plant="analytic", equations="R")
     paper, kfnnet = (run(RunConfig(task="cartpole.balance", plant="analytic", agents=2,

@@ -24,7 +24,7 @@ import time
 
 import numpy as np
 
-from lwrl import tasks
+from lwrl import outputs, tasks
 from lwrl.studies.compare import closed_loop as cl
 from lwrl.studies.compare import report as compare_report
 from lwrl.studies.compare import open_loop as ol
@@ -125,21 +125,24 @@ def compare(task: str, seeds: int = 10, episodes: int | None = None, out_dir: st
         paper_sections[plant] = judge(table, plant_dir)
     comparison = Comparison(task, quick, open_result, closed_result, timings,
                             os.path.join(out_dir, "report.md"), rrd_path)
-    if rrd_path:
-        start = time.perf_counter()
-        record(task, closed_result.replay, rrd_path)
-        timings["recording"] = time.perf_counter() - start
-    with open(comparison.report_path, "w") as file:
+    with outputs.atomic_write(comparison.report_path) as file:
         file.write(compare_report.report(comparison, figures, paper_sections, out_dir))
+    if rrd_path:  # last, so that a recording that cannot be written loses nothing else
+        start = time.perf_counter()
+        with outputs.atomic_path(rrd_path) as temporary:
+            record(task, closed_result.replay, temporary)
+        timings["recording"] = time.perf_counter() - start
     return comparison
 
 
 def write_tables(open_result: ol.OpenLoop, closed_result: cl.ClosedLoop, out_dir: str) -> None:
-    """The tidy tables as CSV under `out_dir` (the per-step ones compressed)."""
-    open_result.steps.to_csv(os.path.join(out_dir, "open_loop_steps.csv.gz"), index=False,
-                             compression="gzip")
-    open_result.trials.to_csv(os.path.join(out_dir, "open_loop_trials.csv"), index=False)
-    open_result.energy.to_csv(os.path.join(out_dir, "energy.csv"), index=False)
-    closed_result.episodes.to_csv(os.path.join(out_dir, "episodes.csv.gz"), index=False,
-                                  compression="gzip")
-    closed_result.transfer.to_csv(os.path.join(out_dir, "transfer.csv"), index=False)
+    """The tidy tables as CSV under `out_dir` (the per-step ones compressed), each whole or
+    not at all."""
+    for name, table in (("open_loop_steps.csv.gz", open_result.steps),
+                        ("open_loop_trials.csv", open_result.trials),
+                        ("energy.csv", open_result.energy),
+                        ("episodes.csv.gz", closed_result.episodes),
+                        ("transfer.csv", closed_result.transfer)):
+        with outputs.atomic_path(os.path.join(out_dir, name)) as temporary:
+            table.to_csv(temporary, index=False,
+                         compression="gzip" if name.endswith(".gz") else None)

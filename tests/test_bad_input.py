@@ -1,0 +1,222 @@
+"""Every subcommand, fed generated bad arguments and agent files: exit status 2, one line on
+standard error naming the problem, no traceback, and no file left behind."""
+
+import contextlib
+import io
+import json
+import math
+import os
+import string
+import tempfile
+import zipfile
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from lwrl.agent import io as agent_io
+from lwrl.cli import main as cli
+
+WORK = tempfile.mkdtemp(prefix="lwrl-bad-input-")
+"""Where the commands may write: nothing of theirs may appear here."""
+
+
+def parses_as_float(text: str) -> bool:
+    try:
+        float(text)
+        return True
+    except ValueError:
+        return False
+
+
+def parses_as_int(text: str) -> bool:
+    try:
+        int(text)
+        return True
+    except ValueError:
+        return False
+
+
+words = st.text(alphabet=string.ascii_letters + string.digits + "._-:/", min_size=1, max_size=12)
+not_numbers = words.filter(lambda text: not parses_as_float(text) and not text.startswith("-"))
+non_finite = st.sampled_from(["inf", "-inf", "nan", "Infinity", "NaN"])
+
+
+def floats_outside(low, high=None):
+    """Numbers that are not finite, or finite and outside [low, high] (as text)."""
+    outside = [st.floats(max_value=low, exclude_max=True, allow_nan=False, allow_infinity=False)]
+    if high is not None:
+        outside.append(st.floats(min_value=high, exclude_min=True, allow_nan=False,
+                                 allow_infinity=False))
+    return st.one_of(non_finite, not_numbers, st.one_of(*outside).map(repr))
+
+
+def integers_below(minimum):
+    return st.one_of(st.integers(max_value=minimum - 1).map(str),
+                     not_numbers.filter(lambda text: not parses_as_int(text)),
+                     st.floats(allow_nan=True).map(repr).filter(lambda text: not parses_as_int(text)))
+
+
+TRAIN = ["train", "mountain_car.cost_to_go", "--agents=1", "--episodes=1"]
+BAD_FLAGS = {
+    # flag: (command, values that must be refused)
+    "--alpha": (TRAIN, floats_outside(math.ulp(0.0))),
+    "--lambda": (TRAIN, floats_outside(0.0, 1.0)),
+    "--epsilon": (TRAIN, floats_outside(0.0, 1.0)),
+    "--gamma": (TRAIN, floats_outside(0.0, 1.0)),
+    "--r2": (TRAIN, floats_outside(math.ulp(0.0))),
+    "--agents": (TRAIN[:2] + ["--episodes=1"], integers_below(1)),
+    "--episodes": (TRAIN[:3], integers_below(1)),
+    "--seed": (TRAIN, integers_below(0)),
+    "--n": (TRAIN, integers_below(2)),
+    "--tilings": (TRAIN + ["--features=cmac"], integers_below(1)),
+    "--trace": (TRAIN, words.filter(lambda w: w not in ("replacing", "accumulating", "replacing_reset"))),
+    "--features": (TRAIN, words.filter(lambda w: w not in ("nrbf", "cmac"))),
+    "--integrator": (TRAIN[:1] + ["pendulum.swingup", "--plant=analytic"] + TRAIN[2:],
+                     words.filter(lambda w: w not in ("semi_implicit", "explicit"))),
+    "--plant": (TRAIN, words.filter(lambda w: w != "analytic")),
+    "--low": (TRAIN, st.one_of(non_finite, not_numbers, st.just("0"), st.just("1,2,3"),
+                                st.just("0.5,0.07"))),
+    "--log-agents": (TRAIN + ["--rrd", os.path.join(WORK, "never.rrd")],
+                     st.one_of(not_numbers, st.just("5"), st.just("-1"))),
+    "--log-episodes": (TRAIN + ["--rrd", os.path.join(WORK, "never.rrd")],
+                       st.one_of(words.filter(lambda w: w not in ("best", "last", "all")
+                                                            and not w.startswith("every:")),
+                                 st.just("every:0"), st.just("0"), st.just("2"))),
+    "--out": (TRAIN, st.sampled_from(["/proc/lwrl", "/dev/null", "/proc/self/status/x"])),
+    "--save": (TRAIN, st.sampled_from(["/proc/lwrl.npz", WORK, "/dev/null/x.npz"])),
+    "--steps": (["rollout", "pendulum.swingup"], integers_below(1)),
+    "--seeds": (["compare", "pendulum.swingup", "--quick", "--out", os.path.join(WORK, "compare")],
+                integers_below(1)),
+    "--workers": (["reproduce", "fig3", "--quick", "--out", os.path.join(WORK, "reproduction")],
+                  integers_below(1)),
+    "--alphas": (["reproduce", "fig3", "--quick", "--out", os.path.join(WORK, "reproduction")],
+                 st.one_of(non_finite, not_numbers)),
+}
+BAD_SETS = st.one_of(
+    st.tuples(st.sampled_from(["r2", "epsilon"]),  # (epsilon=none is its default)
+              st.one_of(non_finite, not_numbers.filter(lambda w: w.lower() != "none"))),
+    st.tuples(st.just("centroids"), words.filter(lambda w: w not in ("midpoints", "edges", "none"))),
+    st.tuples(st.just("low"), st.sampled_from(["1", "1,2,3", "a,b"])),
+    st.tuples(words.filter(lambda w: "=" not in w and w not in ("r2", "epsilon", "centroids", "low",
+                                                                 "high", "equations", "track_limit",
+                                                                 "time_limit")),
+              st.just("1")),
+    st.tuples(st.just("equations"), st.just("kfnnet")),  # the items' MuJoCo runs have none
+)
+BAD_NAMES = st.one_of(words, st.sampled_from(["cartpole", "cartpole.", ".balance", "dmc:", "gym:"]))
+
+
+def run(argv) -> tuple[int, list]:
+    """`(exit status, standard error lines)` of the command, in this process."""
+    err, out = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
+        try:
+            status = cli.main(argv)
+        except SystemExit as exit_:
+            status = exit_.code
+    return status, err.getvalue().strip().splitlines()
+
+
+def assert_refused(argv):
+    before = set(os.listdir(WORK))
+    status, lines = run(argv)
+    assert status == 2, (argv, status, lines)
+    assert len(lines) == 1 and "Traceback" not in lines[0], (argv, lines)
+    assert lines[0].startswith(("lwrl", "usage")) and "error" in lines[0], (argv, lines)
+    assert set(os.listdir(WORK)) == before, (argv, set(os.listdir(WORK)) - before)
+
+
+QUICK = settings(max_examples=400, deadline=None, derandomize=True,
+                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+
+
+@QUICK
+@given(flag=st.sampled_from(sorted(BAD_FLAGS)), data=st.data())
+def test_a_bad_value_of_any_flag_is_one_line_and_status_2(flag, data):
+    command, values = BAD_FLAGS[flag]
+    value = data.draw(values, label=flag)
+    assert_refused(command + [f"{flag}={value}"])
+
+
+@QUICK
+@given(reading=BAD_SETS, item=st.sampled_from(["fig3", "fig5"]), plant=st.sampled_from(["mujoco"]))
+def test_a_bad_reading_is_one_line_and_status_2(reading, item, plant):
+    name, value = reading
+    out = os.path.join(WORK, "reproduction")
+    assert_refused(["reproduce", item, "--quick", "--plant", plant, "--out", out,
+                    "--set", f"{name}={value}"])
+    if os.path.isdir(out):  # a refused reproduction may leave its empty directory tree only
+        for root, _, files in os.walk(out):
+            assert not files, (root, files)
+
+
+@QUICK
+@given(command=st.sampled_from(["train", "rollout", "compare", "export"]), name=BAD_NAMES)
+def test_a_bad_task_or_path_is_one_line_and_status_2(command, name):
+    argv = {"train": ["train", name], "rollout": ["rollout", name],
+            "compare": ["compare", name, "--quick", "--out", os.path.join(WORK, "compare")],
+            "export": ["export", os.path.join(WORK, name), "--c", os.path.join(WORK, "c")]}[command]
+    assert_refused(argv)
+
+
+@pytest.fixture(scope="module")
+def agent_file():
+    path = os.path.join(tempfile.mkdtemp(prefix="lwrl-agent-"), "agents.npz")
+    status, _ = run(["train", "mountain_car.cost_to_go", "--agents=2", "--episodes=1", "--save", path])
+    assert status == 0
+    return path
+
+
+def damaged(source: str, how: str, blob: bytes) -> bytes:
+    """The bytes of the agent file `source`, damaged in one way."""
+    with np.load(source) as archive:
+        arrays = {name: archive[name] for name in archive.files}
+    document = json.loads(str(arrays["document"]))
+    if how == "garbage":
+        return blob
+    if how == "truncated":
+        data = open(source, "rb").read()
+        return data[:max(0, len(data) * len(blob) // 300)]
+    if how == "missing":
+        arrays.pop(sorted(arrays)[len(blob) % len(arrays)])
+    elif how == "shape":
+        arrays["weights"] = arrays["weights"][:, :-1]
+    elif how == "document":
+        arrays["document"] = np.array(blob.decode("latin-1"))
+    elif how == "format":
+        document["format"] = "something/else"
+    elif how == "features":
+        document["features"]["n"] = -1
+    elif how == "task":
+        document["metadata"]["config"]["task"] = "pendulum.swingup"
+    elif how == "config":
+        document["metadata"] = {"config": {"alpha": 1}}
+    if how in ("format", "features", "task", "config"):
+        arrays["document"] = np.array(json.dumps(document))
+    buffer = io.BytesIO()
+    np.savez(buffer, **arrays)
+    return buffer.getvalue()
+
+
+@settings(max_examples=200, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(how=st.sampled_from(["garbage", "truncated", "missing", "shape", "document", "format",
+                            "features", "task", "config"]),
+       blob=st.binary(min_size=1, max_size=300), command=st.sampled_from(["eval", "export"]))
+def test_a_damaged_agent_file_is_one_line_and_status_2(agent_file, how, blob, command):
+    path = os.path.join(tempfile.mkdtemp(prefix="lwrl-damaged-"), "agents.npz")
+    with open(path, "wb") as file:
+        file.write(damaged(agent_file, how, blob))
+    if command == "export" and how == "config":  # export needs no run configuration
+        return
+    argv = (["eval", path, "--episodes=1"] if command == "eval"
+            else ["export", path, "--c", os.path.join(WORK, "c")])
+    assert_refused(argv)
+
+
+def test_every_check_looks_at_a_real_file():
+    """The damaged files above are damaged: the undamaged one loads."""
+    assert zipfile.is_zipfile(__file__) is False
+    assert agent_io.FORMAT == "lwrl-agent/1"

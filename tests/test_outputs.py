@@ -1,0 +1,145 @@
+"""Nothing lost, nothing unclear: outputs checked before the work, written whole, kept apart
+from each other's failures; Ctrl-C stops the work, never the writing."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from lwrl import outputs
+from lwrl.agent import io as agent_io
+from lwrl.cli import main as cli
+from lwrl.cli import output
+
+
+def run_cli(argv, capsys):
+    """`(status, stdout, stderr lines)` of the command, in this process."""
+    try:
+        status = cli.main(argv)
+    except SystemExit as exit_:
+        status = exit_.code
+    captured = capsys.readouterr()
+    return status, captured.out, captured.err.strip().splitlines()
+
+
+def test_a_file_appears_whole_or_not_at_all(tmp_path):
+    target = tmp_path / "table.csv"
+    with outputs.atomic_write(target) as file:
+        file.write("a,b\n")
+        assert not target.exists()
+    assert target.read_text() == "a,b\n"
+    with pytest.raises(RuntimeError), outputs.atomic_write(target) as file:
+        file.write("half")
+        raise RuntimeError("the disk is full")
+    assert target.read_text() == "a,b\n" and sorted(os.listdir(tmp_path)) == ["table.csv"]
+
+
+def test_outputs_are_checked_for_their_kind_and_place(tmp_path):
+    (tmp_path / "file").write_text("")
+    (tmp_path / "dir").mkdir()
+    with pytest.raises(ValueError, match="--out: .*file is a file, not a directory"):
+        outputs.check_directory(tmp_path / "file", "--out")
+    with pytest.raises(ValueError, match="--save: .*dir is a directory; give a file name"):
+        outputs.check_file(tmp_path / "dir", "--save")
+    with pytest.raises(ValueError, match="--save: .*file exists; use --force to replace it"):
+        outputs.check_file(tmp_path / "file", "--save")
+    outputs.check_file(tmp_path / "file", "--save", force=True)
+    with pytest.raises(ValueError, match="--out: cannot write in /proc"):
+        outputs.check_directory("/proc/lwrl-nowhere", "--out")
+    with pytest.raises(ValueError, match="--rrd: .*file is a file, not a directory"):
+        outputs.check_file(tmp_path / "file" / "x.rrd", "--rrd")
+    with pytest.raises(ValueError, match="needs about 1024.0 GiB of memory"):
+        outputs.check_memory(2 ** 40, "the batch")
+
+
+def test_train_refuses_an_output_it_cannot_write_before_training(tmp_path, capsys):
+    """The example of the issue: --out under /proc refused at once; --save not written either."""
+    save = tmp_path / "good.npz"
+    status, out, err = run_cli(["train", "mountain_car.cost_to_go", "--episodes", "2", "--agents",
+                                "2", "--out", "/proc/x", "--save", str(save)], capsys)
+    assert status == 2 and len(err) == 1 and "--out: cannot write in /proc" in err[0]
+    assert out == "" and not save.exists()
+
+
+def test_existing_outputs_are_replaced_only_with_force(tmp_path, capsys):
+    argv = ["train", "mountain_car.cost_to_go", "--episodes", "1", "--agents", "1",
+            "--out", str(tmp_path / "run"), "--save", str(tmp_path / "agents.npz")]
+    assert run_cli(argv, capsys)[0] == 0
+    status, _, err = run_cli(argv, capsys)
+    assert status == 2 and "already holds config.json, episodes.csv; use --force" in err[0]
+    status, _, err = run_cli(argv[:6] + ["--save", str(tmp_path / "agents.npz")], capsys)
+    assert status == 2 and "agents.npz exists; use --force" in err[0]
+    assert run_cli(argv + ["--force"], capsys)[0] == 0
+
+
+def test_one_output_that_fails_after_the_work_keeps_the_others(tmp_path, capsys, monkeypatch):
+    def broken(*args):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(output, "write_run", broken)
+    save = tmp_path / "agents.npz"
+    status, out, err = run_cli(["train", "mountain_car.cost_to_go", "--episodes", "2", "--agents",
+                                "2", "--out", str(tmp_path / "run"), "--save", str(save)], capsys)
+    assert status == 1
+    assert err == [f"lwrl train: error: could not write --out {tmp_path / 'run'} "
+                   "([Errno 28] No space left on device)"]
+    assert f"saved the agents to {save}" in out and agent_io.load(save)[0].batch_size == 2
+
+
+def test_agent_files_are_checked_on_load(tmp_path, capsys):
+    trained = tmp_path / "cartpole.npz"
+    assert run_cli(["train", "cartpole.balance", "--plant", "analytic", "--episodes", "1",
+                    "--agents", "2", "--save", str(trained)], capsys)[0] == 0
+    agent, metadata = agent_io.load(trained)
+    agent.weights[:] = np.nan
+    agent_io.save(tmp_path / "nan.npz", agent, metadata)
+    status, out, _ = run_cli(["eval", str(tmp_path / "nan.npz"), "--episodes", "1"], capsys)
+    assert status == 0 and "2 of 2 agents had diverged in training" in out
+    metadata["config"]["task"] = "mountain_car.cost_to_go"
+    metadata["config"]["plant"] = "analytic"
+    agent_io.save(tmp_path / "other.npz", agent_io.load(trained)[0], metadata)
+    status, _, err = run_cli(["eval", str(tmp_path / "other.npz")], capsys)
+    assert status == 2 and len(err) == 1
+    assert "its agents observe 4 variables and choose among 2 actions, so they were not " \
+           "trained on mountain_car.cost_to_go (2 variables: position, velocity; 3 actions)" in err[0]
+    for name, content in (("empty.npz", b""), ("array.npy", None), ("text.npz", b"weights")):
+        path = tmp_path / name
+        if content is None:
+            np.save(path, np.zeros(3))
+        else:
+            path.write_bytes(content)
+        status, _, err = run_cli(["eval", str(path)], capsys)
+        assert status == 2 and len(err) == 1 and "is not an lwrl agent file" in err[0], err
+
+
+@pytest.mark.parametrize("presses", [1, 2])
+def test_ctrl_c_stops_the_work_and_writes_what_finished(tmp_path, presses):
+    """The first Ctrl-C says at once that the run stops, and it stops; a second is ignored
+    while what finished is written; the episodes and the agents are written whole."""
+    out, save = tmp_path / "run", tmp_path / "agents.npz"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "lwrl.cli", "train", "cartpole.balance", "--plant", "analytic",
+         "--agents", "40", "--episodes", "2000", "--out", str(out), "--save", str(save)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert "episodes" in process.stdout.readline()  # the run's header: training starts
+    time.sleep(3.0)
+    for _ in range(presses):
+        process.send_signal(signal.SIGINT)
+        time.sleep(0.3)
+    stdout, stderr = process.communicate(timeout=120)
+    assert process.returncode == 130, stderr
+    assert "lwrl train: stopping" in stderr
+    assert "Traceback" not in stderr
+    episodes = (out / "episodes.csv").read_text().splitlines()
+    steps = [line.split(",")[3] for line in episodes[1:]]
+    assert len(steps) == 40 * 2000 and not all(steps)  # whole, and not every episode ran
+    agent, _ = agent_io.load(save)
+    assert agent.batch_size == 40
+    assert np.any(agent.weights != 0) == any(steps)  # the weights as the finished episodes left them
+    assert f"saved the agents to {save}" in stdout
+    assert not [name for name in os.listdir(tmp_path) if name.endswith(".partial")]
+    assert not [name for name in os.listdir(out) if name.endswith(".partial")]
