@@ -3,6 +3,8 @@ transfer, held to the paper's item for the task where it has one."""
 
 from lwrl import outputs, tasks
 from lwrl.cli import fields, output
+from lwrl.runners.config import RunConfig
+from lwrl.runners.run import memory_needed
 
 
 def add_parser(commands) -> None:
@@ -41,6 +43,9 @@ def compare_plants(args) -> int:
     if args.rrd:
         outputs.check_file(args.rrd, "--rrd", args.force)
     episodes = compare.QUICK["episodes"] if args.quick else args.episodes
+    trained = RunConfig(task=args.task, agents=args.seeds, episodes=episodes)
+    outputs.check_memory(len(closed_loop.PLANTS) * memory_needed(trained),
+                         f"{args.seeds} agents on each of {len(closed_loop.PLANTS)} plants")
     total = closed_loop.total_episodes(args.task, args.seeds, episodes,
                                        compare.QUICK["eval_episodes"] if args.quick else None)
     print(f"comparing the plants of {args.task} with seeds 0..{args.seeds - 1}"

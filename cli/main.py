@@ -49,6 +49,9 @@ def main(argv=None) -> int:
         except ValueError as error:
             print(f"lwrl {args.command}: error: {error}", file=sys.stderr)
             return 2
+        except OSError as error:  # an output that failed after the work
+            print(f"lwrl {args.command}: error: {error}", file=sys.stderr)
+            return 1
         except MemoryError:
             print(f"lwrl {args.command}: error: out of memory: use fewer agents or episodes",
                   file=sys.stderr)

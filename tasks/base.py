@@ -6,7 +6,7 @@ import numpy as np
 from dm_control.rl import control
 from dm_env import specs
 
-from lwrl.tasks.definition import TaskDefinition, check_actions
+from lwrl.tasks.definition import TaskDefinition, check_actions, random_starts
 
 
 class SuiteTask(control.Task):
@@ -19,7 +19,7 @@ class SuiteTask(control.Task):
 
     def __init__(self, definition: TaskDefinition, seed=None):
         self.definition = definition
-        self.random = np.random.default_rng(seed)
+        self.random = random_starts(seed)
         self._steps = 0
         self._uptime = 0.0
 

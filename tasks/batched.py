@@ -15,7 +15,8 @@ import dm_env
 import numpy as np
 
 from lwrl import tasks
-from lwrl.tasks.definition import advance_episode, check_actions, check_finite_state
+from lwrl.tasks.definition import (advance_episode, check_actions, check_finite_state,
+                                   random_starts)
 
 FIRST, MID, LAST = (int(t) for t in (dm_env.StepType.FIRST, dm_env.StepType.MID, dm_env.StepType.LAST))
 
@@ -58,7 +59,7 @@ class BatchedEnv:
         self.plant = tasks.domain(domain).plants.batch(self.plant_name, self.batch_size, **plant_options)
         self._controls = np.asarray(self.definition.controls)
         self.seeds = seeds
-        self._rngs = [np.random.default_rng(seed) for seed in seeds]
+        self._rngs = [random_starts(seed) for seed in seeds]
         self.state = np.zeros((self.batch_size, len(self.definition.state_names)))
         self.steps = np.zeros(self.batch_size, dtype=np.int64)
         self.uptime = np.zeros(self.batch_size)

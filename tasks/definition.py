@@ -164,6 +164,16 @@ def check_finite_state(state: np.ndarray, names: tuple) -> np.ndarray:
     return state
 
 
+def random_starts(seed) -> np.random.Generator:
+    """The generator of an environment's starts: `seed` a non-negative integer, None (fresh
+    entropy) or a NumPy Generator; a one-line error naming `seed` otherwise."""
+    if isinstance(seed, np.random.Generator) or seed is None:
+        return np.random.default_rng(seed)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be a non-negative integer; got {seed!r}")
+    return np.random.default_rng(seed)
+
+
 def check_actions(actions, num_actions: int) -> np.ndarray:
     """Return `actions` as an int array, or raise naming the allowed indices."""
     array = np.asarray(actions)

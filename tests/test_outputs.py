@@ -143,3 +143,20 @@ def test_ctrl_c_stops_the_work_and_writes_what_finished(tmp_path, presses):
     assert f"saved the agents to {save}" in stdout
     assert not [name for name in os.listdir(tmp_path) if name.endswith(".partial")]
     assert not [name for name in os.listdir(out) if name.endswith(".partial")]
+
+
+def test_what_hid_its_cause_now_names_it(tmp_path, capsys):
+    """A negative seed names `seed`; a file that is not a recording is said to be none."""
+    from lwrl import tasks
+
+    with pytest.raises(ValueError, match="seed must be a non-negative integer; got -1"):
+        tasks.load("pendulum", "swingup", seed=-1)
+    not_a_recording = tmp_path / "notes.rrd"
+    not_a_recording.write_text("hello")
+    for flags in ([], ["--web"]):
+        status, _, err = run_cli(["view", str(not_a_recording), *flags], capsys)
+        assert status == 2 and err == [f"lwrl view: error: {not_a_recording} is not a Rerun "
+                                       "recording (an .rrd file of lwrl train --rrd)"]
+    status, _, err = run_cli(["compare", "pendulum.swingup", "--seeds", "100000000", "--out",
+                              str(tmp_path / "compare")], capsys)
+    assert status == 2 and "needs about" in err[0] and not (tmp_path / "compare").exists()

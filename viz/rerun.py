@@ -39,6 +39,8 @@ from lwrl.viz.value import log_value_function, log_value_path
 BIND = "127.0.0.1"
 """The only address lwrl's viewers and servers listen on."""
 APPLICATION_ID = "lwrl"
+RRD_MAGIC = b"RRF2"
+"""The first bytes of an .rrd file (Rerun's encoding)."""
 SPAWN_TIMEOUT = 15.0
 """Seconds to wait for a spawned viewer to listen."""
 
@@ -201,6 +203,9 @@ def view(path, web: bool = False, web_port: int | None = None) -> int:
     without a display, FileNotFoundError for a missing file."""
     if not Path(path).is_file():
         raise FileNotFoundError(f"no such recording: {path}")
+    with open(path, "rb") as file:
+        if file.read(len(RRD_MAGIC)) != RRD_MAGIC:
+            raise ValueError(f"{path} is not a Rerun recording (an .rrd file of lwrl train --rrd)")
     if not web and not has_display():
         raise ViewerUnavailable("no display: use web=True (`lwrl view --web`) and open the "
                                 "printed http://127.0.0.1 address, or copy the .rrd elsewhere")
