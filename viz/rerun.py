@@ -63,7 +63,8 @@ def rerun_binary() -> str:
     return found
 
 
-def _free_port() -> int:
+def free_port() -> int:
+    """A TCP port free on 127.0.0.1 now."""
     with socket.socket() as probe:
         probe.bind((BIND, 0))
         return probe.getsockname()[1]
@@ -83,7 +84,7 @@ def spawn_viewer(port: int | None = None, memory_limit: str = "75%") -> str:
     if not has_display():
         raise ViewerUnavailable("no display (DISPLAY / WAYLAND_DISPLAY unset): cannot open a "
                                 "viewer window; save to an .rrd and `lwrl view` it elsewhere")
-    port = _free_port() if port is None else int(port)
+    port = free_port() if port is None else int(port)
     process = subprocess.Popen(
         [rerun_binary(), "--bind", BIND, "--port", str(port), "--memory-limit", memory_limit,
          "--expect-data-soon"],
@@ -215,15 +216,16 @@ def screenshot_command(png, window_size: str = "1280x800", grpc_port: int | None
     From standard input the viewer has the whole recording before the screenshot; given
     the file's path it loads it lazily (through its local catalog) and the screenshot,
     taken about a second after start, shows the plots still empty."""
-    port = _free_port() if grpc_port is None else grpc_port
+    port = free_port() if grpc_port is None else grpc_port
     return [rerun_binary(), "-", "--headless", "--screenshot-to", str(png),
             "--window-size", window_size, "--bind", BIND, "--port", str(port)]
 
 
 def screenshot(path, png, window_size: str = "1280x800", timeout: float = 180.0) -> Path:
-    """Render a saved .rrd headless (its blueprint, at the end of its time panel's timeline)
-    to `png` (2x `window_size` in pixels); raises `ViewerUnavailable` with the viewer's
-    output when nothing was written."""
+    """Render a saved .rrd headless to `png` (2x `window_size` in pixels): its first screen,
+    as its blueprint lays it out with no click (a recording of `lwrl train` replaying its
+    last logged episode, at whichever of its steps the screenshot falls on). Raises
+    `ViewerUnavailable` with the viewer's output when nothing was written."""
     png = Path(png).resolve()
     if png.exists():
         png.unlink()
@@ -238,7 +240,7 @@ def screenshot(path, png, window_size: str = "1280x800", timeout: float = 180.0)
 
 
 __all__ = [
-    "APPLICATION_ID", "BIND", "ViewerUnavailable", "blueprint", "close_recording", "load_model",
-    "log_episode", "log_learning_curves", "log_task_scene", "log_value_function", "open_recording",
-    "screenshot", "send_blueprint", "spawn_viewer", "view", "view_command",
+    "APPLICATION_ID", "BIND", "ViewerUnavailable", "blueprint", "close_recording", "free_port",
+    "load_model", "log_episode", "log_learning_curves", "log_task_scene", "log_value_function",
+    "open_recording", "screenshot", "send_blueprint", "spawn_viewer", "view", "view_command",
 ]
