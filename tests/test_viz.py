@@ -23,6 +23,7 @@ import pytest
 import rerun as rr
 
 from lwrl import tasks
+from lwrl.cli import main as cli
 from lwrl.runners.config import RunConfig, task_defaults
 from lwrl.tasks import mountain_car
 from lwrl.runners.recording import EpisodeRecording
@@ -460,6 +461,9 @@ def test_view_binds_localhost(no_display, tmp_path):
     """`view` runs the viewer bound to 127.0.0.1; without a display only the web viewer."""
     command = viz.view_command("x.rrd", web=True, web_port=9191)
     assert command[1:] == ["x.rrd", "--bind", "127.0.0.1", "--web-viewer", "--web-viewer-port", "9191"]
+    assert viz.view_command("x.rrd", web=True, web_port=9191, grpc_port=9292)[4:6] == ["--port", "9292"]
+    assert viz.web_viewer_url(9191, 9292) == \
+        "http://127.0.0.1:9191/?url=rerun%2Bhttp%3A%2F%2F127.0.0.1%3A9292%2Fproxy"
     with pytest.raises(FileNotFoundError):
         viz.view(tmp_path / "missing.rrd")
     (tmp_path / "a.rrd").write_bytes(b"")
@@ -505,9 +509,10 @@ def test_recording_shapes_are_checked():
 VULKAN_DRIVERS = "/usr/share/vulkan/icd.d/*.json"
 
 
-def test_headless_render_is_not_blank(tmp_path):
-    """`rerun - --headless --screenshot-to PNG < FILE.rrd` renders the layout: the PNG has
-    the window's size and varied pixels, and the 3-D scene's corner of it is not flat."""
+def test_headless_render_is_not_blank(tmp_path, capsys):
+    """`lwrl view FILE.rrd --screenshot PNG` (`rerun - --headless --screenshot-to PNG <
+    FILE.rrd`) renders the layout: the PNG has the window's size and varied pixels, and the
+    3-D scene's corner of it is not flat."""
     if not glob.glob(VULKAN_DRIVERS):
         pytest.skip("no Vulkan driver for the headless viewer: "
                     "apt-get install mesa-vulkan-drivers (Mesa's lavapipe software renderer)")
@@ -522,7 +527,9 @@ def test_headless_render_is_not_blank(tmp_path):
     viz.log_episode(rec, recording, value_ranges=(features.low, features.high))
     viz.log_value_function(rec, "pendulum.swingup", features, recording.weights, episode=0)
     viz.close_recording(rec)
-    png = viz.screenshot(path, tmp_path / "shot.png", window_size="960x600")
+    png = tmp_path / "shot.png"
+    assert cli.main(["view", str(path), "--screenshot", str(png), "--window-size", "960x600"]) == 0
+    assert f"wrote {png}: the first screen of {path} in a 960x600 window" in capsys.readouterr().out
     pixels = np.asarray(Image.open(png).convert("RGB"), dtype=np.float64)
     assert pixels.shape[1] >= 960 and pixels.shape[0] >= 600
     assert pixels.std() > 10

@@ -22,6 +22,7 @@ import socket
 import subprocess
 import sys
 import time
+import urllib.parse
 import uuid
 import warnings
 from pathlib import Path
@@ -181,6 +182,18 @@ def _run(command: list, timeout: float | None = None) -> subprocess.CompletedPro
                           env={**os.environ, "RERUN_APP_ONLY": "true"})
 
 
+WEB_PORT = 9090
+"""The web viewer's default HTTP port (Rerun's)."""
+
+
+def web_viewer_url(web_port: int = WEB_PORT, grpc_port: int = 9876) -> str:
+    """The address a browser opens to see what `view(..., web=True)` serves: the web viewer
+    at http://127.0.0.1:WEB_PORT, told where the recording is (`?url=` the gRPC proxy).
+    Without `?url=` the web viewer opens on its welcome screen, with no recording."""
+    proxy = urllib.parse.quote(f"rerun+http://{BIND}:{int(grpc_port)}/proxy", safe="")
+    return f"http://{BIND}:{int(web_port)}/?url={proxy}"
+
+
 def view_command(path, web: bool = False, web_port: int | None = None,
                  grpc_port: int | None = None) -> list:
     """The `rerun` command line `view` runs (every server bound to 127.0.0.1)."""
@@ -194,18 +207,20 @@ def view_command(path, web: bool = False, web_port: int | None = None,
     return command
 
 
-def view(path, web: bool = False, web_port: int | None = None) -> int:
+def view(path, web: bool = False, web_port: int | None = None,
+         grpc_port: int | None = None) -> int:
     """Open a saved .rrd: the native viewer (`rerun PATH --bind 127.0.0.1`), or with
-    `web=True` the web viewer served at http://127.0.0.1:WEB_PORT (default 9090; `rerun PATH
-    --web-viewer --bind 127.0.0.1`; it also tries to open a browser). Blocks until the viewer
-    or server stops; returns its exit code. Raises `ViewerUnavailable` for a native viewer
-    without a display, FileNotFoundError for a missing file."""
+    `web=True` the web viewer served at `web_viewer_url(web_port, grpc_port)` (`rerun PATH
+    --web-viewer --bind 127.0.0.1`; Rerun also opens that address in the browser `$BROWSER`
+    names, or the desktop's). Blocks until the viewer or server stops; returns its exit
+    code. Raises `ViewerUnavailable` for a native viewer without a display,
+    FileNotFoundError for a missing file."""
     if not Path(path).is_file():
         raise FileNotFoundError(f"no such recording: {path}")
     if not web and not has_display():
         raise ViewerUnavailable("no display: use web=True (`lwrl view --web`) and open the "
                                 "printed http://127.0.0.1 address, or copy the .rrd elsewhere")
-    return _run(view_command(path, web, web_port)).returncode
+    return _run(view_command(path, web, web_port, grpc_port)).returncode
 
 
 def screenshot_command(png, window_size: str = "1280x800", grpc_port: int | None = None) -> list:
@@ -240,7 +255,8 @@ def screenshot(path, png, window_size: str = "1280x800", timeout: float = 180.0)
 
 
 __all__ = [
-    "APPLICATION_ID", "BIND", "ViewerUnavailable", "blueprint", "close_recording", "free_port",
-    "load_model", "log_episode", "log_learning_curves", "log_task_scene", "log_value_function",
-    "open_recording", "screenshot", "send_blueprint", "spawn_viewer", "view", "view_command",
+    "APPLICATION_ID", "BIND", "WEB_PORT", "ViewerUnavailable", "blueprint", "close_recording",
+    "free_port", "load_model", "log_episode", "log_learning_curves", "log_task_scene",
+    "log_value_function", "open_recording", "screenshot", "send_blueprint", "spawn_viewer", "view",
+    "view_command", "web_viewer_url",
 ]
