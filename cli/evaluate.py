@@ -1,10 +1,13 @@
 """`lwrl eval`: saved agents run greedily (epsilon 0, no learning)."""
 
+import time
+
 from lwrl import tasks
 from lwrl.agent import io as agent_io
 from lwrl.cli import fields, output
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import run
+from lwrl.runners.summary import plural
 
 
 def add_parser(commands) -> None:
@@ -21,6 +24,7 @@ def add_parser(commands) -> None:
 
 def evaluate_agents(args) -> int:
     """Run saved agents greedily and print the same summary as training."""
+    started = time.perf_counter()
     agent, metadata = agent_io.load(args.path)
     try:
         settings = dict(metadata["config"])
@@ -35,6 +39,9 @@ def evaluate_agents(args) -> int:
     with bar:
         _, results = run(config, agent=agent, learn=False, progress=update)
     output.print_results(results, config.seeds,
-                         f"{config.task} on the {config.plant_name} plant: {config.agents} saved "
-                         "agents, greedy", tasks.definition(config.domain, config.task_name).has_uptime)
+                         f"{config.task} on the {config.plant_name} plant: "
+                         f"{plural(config.agents, 'saved agent')}, greedy, "
+                         f"{plural(config.episodes, 'episode')} each",
+                         tasks.definition(config.domain, config.task_name).has_uptime)
+    output.done(started, interrupted=results.interrupted)
     return 130 if results.interrupted else 0
