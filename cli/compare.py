@@ -1,6 +1,8 @@
 """`lwrl compare`: the analytic and MuJoCo plants of a task, open loop, closed loop and in
 transfer, held to the paper's item for the task where it has one."""
 
+import time
+
 from lwrl import tasks
 from lwrl.cli import fields, output
 
@@ -34,6 +36,7 @@ def compare_plants(args) -> int:
         from lwrl.studies.paper import items as paper
     except ImportError as error:
         raise output.paper_extra_missing("compare", error) from None
+    started = time.perf_counter()
     compare.check_task(args.task)
     episodes = compare.QUICK["episodes"] if args.quick else args.episodes
     total = closed_loop.total_episodes(args.task, args.seeds, episodes,
@@ -45,7 +48,7 @@ def compare_plants(args) -> int:
         result = compare.compare(args.task, seeds=args.seeds, episodes=args.episodes,
                                  out_dir=args.out, rrd_path=args.rrd, quick=args.quick,
                                  progress=update, judge=paper.judge(args.task))
-    print(f"wrote {result.report_path}, the tables and figures under {args.out}"
-          + (f" and the recording {args.rrd}" if args.rrd else ""))
-    print("wall time: " + ", ".join(f"{part} {seconds:.0f} s" for part, seconds in result.timings.items()))
+    parts = ", ".join(f"{part} {output.duration(seconds)}" for part, seconds in result.timings.items())
+    output.done(started, [result.report_path, f"the tables and figures under {args.out}"]
+                + ([f"the recording {args.rrd}"] if args.rrd else []), detail=parts)
     return 0
