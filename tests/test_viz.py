@@ -6,13 +6,10 @@ renderer (Mesa's lavapipe, Debian package mesa-vulkan-drivers) and is skipped, s
 only where no Vulkan driver is installed.
 """
 
-import contextlib
 import glob
 import io
 import math
-import os
 import socket
-import subprocess
 import time
 import warnings
 
@@ -542,32 +539,6 @@ def test_headless_render_is_not_blank(tmp_path, capsys):
 # --- the first screen of a recording, opened as a user opens it ---------------------------
 
 
-@contextlib.contextmanager
-def headless_viewer(window_size: str = "1280x800"):
-    """A headless viewer listening on 127.0.0.1 (a free port) and a `ViewerClient` on it."""
-    from rerun.experimental import ViewerClient
-
-    port = viz.free_port()
-    process = subprocess.Popen(
-        [viz.rerun_binary(), "--headless", "--window-size", window_size, "--bind", viz.BIND,
-         "--port", str(port), "--hide-welcome-screen"],
-        stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-        env={**os.environ, "RERUN_APP_ONLY": "true"})
-    try:
-        deadline = time.monotonic() + 30
-        while True:
-            try:
-                socket.create_connection((viz.BIND, port), timeout=0.2).close()
-                break
-            except OSError:
-                assert process.poll() is None and time.monotonic() < deadline, "no headless viewer"
-                time.sleep(0.1)
-        yield ViewerClient.connect(f"rerun+http://{viz.BIND}:{port}/proxy")
-    finally:
-        process.terminate()
-        process.wait(timeout=30)
-
-
 def view_pixels(viewer, view_id) -> np.ndarray:
     """One view of the viewer's screen, as an RGB array."""
     from PIL import Image
@@ -618,7 +589,7 @@ def test_a_recording_opens_on_its_last_logged_episode(tmp_path):
     path = tmp_path / "mountain_car.rrd"
     send_run(config, results, rrd_path=path)
     definition = names.task_definition(config.task)
-    with headless_viewer() as viewer:
+    with viz.headless_viewer() as viewer:
         viewer.open(str(path))
         state = viewer.get_state()
         views = {view.name: view.view_id for view in state.views}

@@ -16,11 +16,13 @@ with one `rr.send_columns` per entity; nothing here touches the stream's own clo
 (`set_time`), and the only state is the stream handed in. Servers bind 127.0.0.1 only.
 """
 
+import contextlib
 import os
 import shutil
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 import urllib.parse
 import uuid
@@ -254,9 +256,51 @@ def screenshot(path, png, window_size: str = "1280x800", timeout: float = 180.0)
     return png
 
 
+@contextlib.contextmanager
+def headless_viewer(window_size: str = "1280x800", timeout: float = 30.0):
+    """A headless viewer (no window; a software renderer does) listening on 127.0.0.1 at a
+    free port, and a `rerun.experimental.ViewerClient` connected to it, which opens
+    recordings by path as a user does (`open`), reports the time cursor (`get_state`),
+    moves it (`set_time`) and takes pictures of the screen or of one view
+    (`take_screenshot`). The viewer stops when the block ends. Raises `ViewerUnavailable`
+    when it does not listen within `timeout` seconds."""
+    from rerun.experimental import ViewerClient
+
+    port = free_port()
+    log = tempfile.TemporaryFile()  # the viewer's messages (a pipe nobody reads would fill)
+    process = subprocess.Popen(
+        [rerun_binary(), "--headless", "--window-size", window_size, "--bind", BIND,
+         "--port", str(port), "--hide-welcome-screen"],
+        stdin=subprocess.DEVNULL, stdout=log, stderr=log,
+        env={**os.environ, "RERUN_APP_ONLY": "true"})
+    try:
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                socket.create_connection((BIND, port), timeout=0.2).close()
+                break
+            except OSError:
+                if process.poll() is not None or time.monotonic() > deadline:
+                    process.kill()
+                    process.wait()
+                    log.seek(0)
+                    raise ViewerUnavailable("the headless viewer did not start: "
+                                            f"{log.read().decode(errors='replace')[-2000:]}") from None
+                time.sleep(0.1)
+        yield ViewerClient.connect(f"rerun+http://{BIND}:{port}/proxy")
+    finally:
+        process.terminate()
+        try:
+            process.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+        log.close()
+
+
 __all__ = [
     "APPLICATION_ID", "BIND", "WEB_PORT", "ViewerUnavailable", "blueprint", "close_recording",
-    "free_port", "load_model", "log_episode", "log_learning_curves", "log_task_scene",
-    "log_value_function", "open_recording", "screenshot", "send_blueprint", "spawn_viewer", "view",
-    "view_command", "web_viewer_url",
+    "free_port", "headless_viewer", "load_model", "log_episode", "log_learning_curves",
+    "log_task_scene", "log_value_function", "open_recording", "screenshot", "send_blueprint",
+    "spawn_viewer", "view", "view_command", "web_viewer_url",
 ]
