@@ -47,12 +47,14 @@ class Chromium:
         # A trampoline puts the pipe's ends on descriptors 3 and 4, where Chromium reads them.
         trampoline = (f"import os; os.dup2({commands}, 3); os.dup2({replies}, 4); "
                       f"os.execv({binary!r}, {[binary, *flags]!r})")
-        self.process = subprocess.Popen(
-            [sys.executable, "-c", trampoline], pass_fds=(commands, replies), stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-            stderr=open(os.path.join(profile, "stderr.log"), "w"), start_new_session=True)
+        self.log = os.path.join(profile, "stderr.log")
+        with open(self.log, "w") as log:
+            self.process = subprocess.Popen(
+                [sys.executable, "-c", trampoline], pass_fds=(commands, replies),
+                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=log,
+                start_new_session=True)
         os.close(commands)
         os.close(replies)
-        self.log = os.path.join(profile, "stderr.log")
         self._buffer, self._id = b"", 0
 
     def call(self, method: str, params: dict | None = None, session: str | None = None) -> dict:
@@ -174,6 +176,7 @@ def test_web_viewer_shows_the_scene_and_the_plots_in_chromium(chromium, tmp_path
     finally:
         os.killpg(server.pid, signal.SIGTERM)
         server.wait(timeout=30)
+        server.stdout.close()
     from PIL import Image
 
     Image.fromarray(pixels).save(tmp_path / "web_viewer.png")

@@ -12,11 +12,11 @@
 
 A recording opens on the episode logged last: given its length (`replay_steps`), the time
 panel plays steps 0..T of the `step` timeline in a loop, so that with no click the scene
-moves through that episode, the value images show its value function and path (they are
-at step 0 of every episode, and the most recently logged one wins there), and the plots,
-which show every logged episode whole, carry the loop's range. Without it Rerun plays the
-whole timeline once (the longest logged episode's steps, which in a task whose episodes
-shorten, such as Mountain-Car's, belong to an early episode) and stops at its end.
+moves through that episode and the value images show its value function and path (they are
+at step 0 of every episode, and the most recently logged one wins there); the plots show
+every logged episode whole. Without it Rerun plays the whole timeline once (the longest
+logged episode's steps, which in a task whose episodes shorten, such as Mountain-Car's,
+belong to an early episode) and stops at its end.
 
 The learning curves exist on the `episode` timeline only: switch the time panel to it to
 see them (Rerun's plots follow the time panel's timeline).
@@ -82,7 +82,8 @@ def time_panel(replay_steps: int | None = None) -> rrb.TimePanel:
         return rrb.TimePanel(timeline=names.STEP, state="collapsed")
     if replay_steps < 0:
         raise ValueError(f"replay_steps must be >= 0; got {replay_steps}")
-    return rrb.TimePanel(timeline=names.STEP, state="collapsed", play_state="playing", loop_mode="selection",
+    return rrb.TimePanel(timeline=names.STEP, state="collapsed", play_state="playing",
+                         loop_mode="selection",
                          time_selection=rrb.components.AbsoluteTimeRange(0, int(replay_steps)))
 
 
