@@ -1,10 +1,13 @@
 """`lwrl compare`: the analytic and MuJoCo plants of a task, open loop, closed loop and in
 transfer, held to the paper's item for the task where it has one."""
 
+import time
+
 from lwrl import outputs, tasks
 from lwrl.cli import fields, output
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import memory_needed
+from lwrl.runners.summary import plural
 
 
 def add_parser(commands) -> None:
@@ -38,6 +41,7 @@ def compare_plants(args) -> int:
         from lwrl.studies.paper import items as paper
     except ImportError as error:
         raise output.paper_extra_missing("compare", error) from None
+    started = time.perf_counter()
     compare.check_task(args.task)
     outputs.check_directory(args.out, "--out", args.force, names=("report.md",))
     if args.rrd:
@@ -45,7 +49,7 @@ def compare_plants(args) -> int:
     episodes = compare.QUICK["episodes"] if args.quick else args.episodes
     trained = RunConfig(task=args.task, agents=args.seeds, episodes=episodes)
     outputs.check_memory(len(closed_loop.PLANTS) * memory_needed(trained),
-                         f"{args.seeds} agents on each of {len(closed_loop.PLANTS)} plants")
+                         f"{plural(args.seeds, 'agent')} on each of {len(closed_loop.PLANTS)} plants")
     total = closed_loop.total_episodes(args.task, args.seeds, episodes,
                                        compare.QUICK["eval_episodes"] if args.quick else None)
     print(f"comparing the plants of {args.task} with seeds 0..{args.seeds - 1}"
@@ -55,7 +59,7 @@ def compare_plants(args) -> int:
         result = compare.compare(args.task, seeds=args.seeds, episodes=args.episodes,
                                  out_dir=args.out, rrd_path=args.rrd, quick=args.quick,
                                  progress=update, judge=paper.judge(args.task))
-    print(f"wrote {result.report_path}, the tables and figures under {args.out}"
-          + (f" and the recording {args.rrd}" if args.rrd else ""))
-    print("wall time: " + ", ".join(f"{part} {seconds:.0f} s" for part, seconds in result.timings.items()))
+    parts = ", ".join(f"{part} {output.duration(seconds)}" for part, seconds in result.timings.items())
+    output.done(started, [result.report_path, f"the tables and figures under {args.out}"]
+                + ([f"the recording {args.rrd}"] if args.rrd else []), detail=parts)
     return 0

@@ -1,5 +1,7 @@
 """`lwrl eval`: saved agents run greedily (epsilon 0, no learning)."""
 
+import time
+
 import numpy as np
 
 from lwrl import tasks
@@ -7,6 +9,7 @@ from lwrl.agent import io as agent_io
 from lwrl.cli import fields, output
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import run
+from lwrl.runners.summary import plural
 
 
 def add_parser(commands) -> None:
@@ -23,6 +26,7 @@ def add_parser(commands) -> None:
 
 def evaluate_agents(args) -> int:
     """Run saved agents greedily and print the same summary as training."""
+    started = time.perf_counter()
     agent, metadata = agent_io.load(args.path)
     try:
         settings = dict(metadata["config"])
@@ -40,10 +44,13 @@ def evaluate_agents(args) -> int:
     with bar:
         _, results = run(config, agent=agent, learn=False, progress=update)
     output.print_results(results, config.seeds,
-                         f"{config.task} on the {config.plant_name} plant: {config.agents} saved "
-                         "agents, greedy", tasks.definition(config.domain, config.task_name).has_uptime)
+                         f"{config.task} on the {config.plant_name} plant: "
+                         f"{plural(config.agents, 'saved agent')}, greedy, "
+                         f"{plural(config.episodes, 'episode')} each",
+                         tasks.definition(config.domain, config.task_name).has_uptime)
     if len(frozen):
-        print(f"{len(frozen)} of {agent.batch_size} agents had diverged in training (their "
-              f"weights are not finite or frozen) and were not run: agents "
+        print(f"{len(frozen)} of {plural(agent.batch_size, 'agent')} had diverged in training "
+              f"(their weights are not finite or frozen) and were not run: "
               f"{', '.join(map(str, frozen))}")
+    output.done(started, interrupted=results.interrupted)
     return 130 if results.interrupted else 0

@@ -1,7 +1,9 @@
 """`lwrl export`: a saved agent as a dependency-free C99 controller."""
 
+import time
+
 from lwrl import outputs
-from lwrl.cli import fields
+from lwrl.cli import fields, output
 from lwrl.export import c as export_c
 
 
@@ -22,15 +24,17 @@ def add_parser(commands) -> None:
 def export_agent(args) -> int:
     """Write a saved agent as C99 source and header; report its flash size and speed."""
     outputs.check_directory(args.c, "--c", args.force, names=(export_c.SOURCE, export_c.HEADER))
+    started = time.perf_counter()
     written = export_c.export_c(args.path, args.c, agent_index=args.agent, dtype=args.real)
-    print(f"wrote {written['source']} and {written['header']}: {written['task']}, "
-          f"{written['weight_bytes']} bytes of weights and {written['constant_bytes']} of constants")
+    print(f"agent {args.agent} of {args.path} ({written['task']}): {written['weight_bytes']} "
+          f"bytes of weights and {written['constant_bytes']} of constants")
     try:
         measured = export_c.measure(args.c)
     except ValueError as error:
         print(f"not measured: {error}")
-        return 0
-    print(f"compiled with {measured['compiler']}: {measured['code_bytes']} bytes of code (-Os), "
-          f"{measured['rodata_bytes']} of read-only data; "
-          f"{measured['ns_per_decision']:.0f} ns per decision (-O2, this machine)")
+    else:
+        print(f"compiled with {measured['compiler']}: {measured['code_bytes']} bytes of code "
+              f"(-Os), {measured['rodata_bytes']} of read-only data; "
+              f"{measured['ns_per_decision']:.0f} ns per decision (-O2, this machine)")
+    output.done(started, [written["source"], written["header"]])
     return 0

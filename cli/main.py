@@ -13,7 +13,8 @@
     lwrl compare DOMAIN.TASK [--seeds N] [--episodes K] [--out DIR] [--rrd PATH] [--quick]
                                                    the analytic and MuJoCo plants compared
     lwrl export PATH --c OUT_DIR [--agent I]       a saved agent as a C99 controller
-    lwrl view PATH [--web]                         open a Rerun recording of lwrl train --rrd
+    lwrl view PATH [--web] [--screenshot PNG]      open a Rerun recording of lwrl train --rrd,
+                                                   serve it to a browser, or render it
 
 Each subcommand is a module of `lwrl.cli` with `add_parser(commands)`, which sets the
 function the command runs. Bad input ends with one line on standard error and exit status 2.

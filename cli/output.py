@@ -8,6 +8,7 @@ import os
 import signal
 import sys
 import threading
+import time
 
 import numpy as np
 import tqdm
@@ -85,14 +86,14 @@ class Outputs:
         self.written, self.failed = [], []
 
     def write(self, what: str, write) -> bool:
-        """Call `write()` for the output `what` (e.g. `--save agents.npz`); note its result."""
+        """Call `write()` for the output `what` (e.g. `--save agents.npz`), which returns
+        what it wrote (a list of descriptions for `done`); note its failure."""
         with writing():
             try:
-                write()
+                self.written += write()
             except (OSError, ValueError) as error:
                 self.failed.append(f"{what} ({error})")
                 return False
-        self.written.append(what)
         return True
 
     def report(self) -> int:
@@ -110,30 +111,60 @@ def progress_bar(total: int, description: str):
 
 
 def print_results(results, seeds, title: str, with_uptime: bool) -> None:
-    """Print a run's block table, its divergences and any interruption."""
+    """Print a run's block table with its notes, its divergences and any interruption."""
     if title:
         print(title)
-    print(summary.format_rows(summary.block_rows(results), with_uptime))
-    print(f"means ± standard errors over agents (seeds {seeds[0]}..{seeds[-1]})")
+    rows = summary.block_rows(results)
+    print(summary.format_rows(rows, with_uptime))
+    for note in summary.table_notes(rows, results, seeds, with_uptime):
+        print(note)
     print(summary.divergence_note(results, seeds))
     truncated, run_episodes = int(results.truncated.sum()), int(np.isfinite(results.steps).sum())
     if truncated:
-        print(f"{truncated} of {run_episodes} episodes ended at the time limit (truncated)")
+        print(f"{truncated} of {summary.plural(run_episodes, 'episode')} ended at the time limit "
+              "(truncated)")
     if results.interrupted:
         print("interrupted: episodes not run are left empty", file=sys.stderr)
+
+
+def duration(seconds: float) -> str:
+    """`8.4 s`, `9 min 38 s`, `1 h 16 min`."""
+    if seconds < 60:
+        return f"{seconds:.1f} s"
+    minutes, seconds = divmod(round(seconds), 60)
+    if minutes < 60:
+        return f"{minutes} min {seconds} s"
+    hours, minutes = divmod(minutes, 60)
+    return f"{hours} h {minutes} min"
+
+
+def and_list(items) -> str:
+    """`a`, `a and b`, `a, b and c`."""
+    items = list(items)
+    return items[0] if len(items) == 1 else f"{', '.join(items[:-1])} and {items[-1]}"
+
+
+def done(started: float, written=(), interrupted: bool = False, detail: str = "") -> None:
+    """The line a long command ends with: how long it took (from `started`, a
+    `time.perf_counter()`), `detail` in brackets, and what it wrote where."""
+    took = duration(time.perf_counter() - started) + (f" ({detail})" if detail else "")
+    head = f"interrupted after {took}" if interrupted else f"done in {took}"
+    print(f"{head}: wrote {and_list(written)}" if written else f"{head}; nothing written")
 
 
 RUN_FILES = ("config.json", "episodes.csv")
 """What `--out DIR` holds."""
 
 
-def write_run(out: str, config, results) -> None:
-    """`--out DIR`: the run's config.json and episodes.csv, each whole or not at all."""
+def write_run(out: str, config, results) -> list:
+    """`--out DIR`: the run's config.json and episodes.csv, each whole or not at all;
+    returns their paths."""
     os.makedirs(out, exist_ok=True)
-    with outputs.atomic_write(os.path.join(out, "config.json")) as file:
+    paths = [os.path.join(out, name) for name in RUN_FILES]
+    with outputs.atomic_write(paths[0]) as file:
         file.write(config.to_json() + "\n")
-    summary.write_csv(os.path.join(out, "episodes.csv"), results, config.seeds)
-    print(f"wrote {out}/config.json and {out}/episodes.csv")
+    summary.write_csv(paths[1], results, config.seeds)
+    return paths
 
 
 def paper_extra_missing(command: str, error: ImportError) -> ValueError:

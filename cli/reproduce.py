@@ -3,6 +3,7 @@
 import argparse
 import dataclasses
 import os
+import time
 
 from lwrl import outputs
 from lwrl.cli import fields, output
@@ -75,11 +76,12 @@ def reproduce_items(args) -> int:
         from lwrl.studies.paper.reproduce import reproduce
     except ImportError as error:
         raise output.paper_extra_missing("reproduce", error) from None
+    started = time.perf_counter()
     readings = {name: reading_value(name, text) for name, text in args.readings}
     outputs.check_directory(args.out, "--out")  # a reproduction resumes in its directory
     path = reproduce(args.item, args.out, plant=args.plant, quick=args.quick,
                      integrator=args.integrator, backend=args.backend, workers=args.workers,
                      address=args.address, readings=readings, alphas=args.alphas)
-    print(f"wrote {path}, the figures in {os.path.join(args.out, 'figures')} and each item's "
-          f"results under {args.out}")
+    output.done(started, [path, f"the figures in {os.path.join(args.out, 'figures')}",
+                          f"each item's results under {args.out}"])
     return 0

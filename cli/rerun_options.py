@@ -71,16 +71,20 @@ def check_viewer() -> None:
 
 
 def send_run(config, results, rrd_path=None, spawn: bool = False) -> None:
-    """The run's recorded episodes, value functions and learning curves to Rerun."""
+    """The run's recorded episodes, value functions and learning curves to Rerun.
+
+    Episodes go in training order (by episode, then agent), so that where several have a
+    step the viewer shows the latest; the recording opens replaying the one logged last."""
     from lwrl.viz import rerun as viz  # Rerun is imported only by the runs that log
     from lwrl.viz import scene
 
+    logged = sorted(results.recordings, key=lambda recording: (recording.episode, recording.agent))
     rec = viz.open_recording("lwrl", rrd_path=rrd_path, spawn=spawn)
-    viz.send_blueprint(rec, config.task)
+    viz.send_blueprint(rec, config.task, replay_steps=logged[-1].steps if logged else None)
     viz.log_task_scene(rec, config.task)
     model = viz.load_model(config.task) if scene.has_model(config.task) else None
     features = config.feature_map()
-    for recording in results.recordings:
+    for recording in logged:
         viz.log_episode(rec, recording, model=model, value_ranges=(features.low, features.high))
         viz.log_value_function(rec, config.task, features, recording.weights, recording.episode)
     viz.log_learning_curves(rec, results, config.seeds)

@@ -5,6 +5,7 @@ import numpy as np
 from lwrl import tasks
 from lwrl.cli import fields
 from lwrl.runners.config import EnvironmentSettings
+from lwrl.runners.summary import plural
 
 
 def add_parser(commands) -> None:
@@ -27,8 +28,15 @@ def run(args) -> None:
     rng = np.random.default_rng(args.seed)
     num_actions = env.action_spec().num_values
     plant = tasks.resolve(domain, task, plant)[1]
-    print(f"{args.task} on the {plant} plant, random policy, {args.steps} steps, seed {args.seed}")
-    print(f"{'episode':>7} {'steps':>6} {'return':>10} {'uptime_s':>9}  end")
+    print(f"{args.task} on the {plant} plant, random policy, {plural(args.steps, 'step')}, "
+          f"seed {args.seed}")
+    with_uptime = tasks.definition(domain, task).has_uptime  # else NaN: no column
+
+    def line(number, steps, total, uptime, end) -> str:
+        cells = f"{number:>7} {steps:>6} {total:>10}" + (f" {uptime:>11}" if with_uptime else "")
+        return f"{cells}  {end}"
+
+    print(line("episode", "steps", "return", "up-time (s)", "end"))
     episodes, ts, total_return = [], env.reset(), 0.0
     for _ in range(args.steps):
         ts = env.step(int(rng.integers(num_actions)))
@@ -36,17 +44,17 @@ def run(args) -> None:
         if ts.last():
             end = "terminal" if ts.discount == 0.0 else "truncated"
             episodes.append((env.task.steps, total_return, env.task.uptime, end))
-            print(f"{len(episodes):>7} {env.task.steps:>6} {total_return:>10.3f} "
-                  f"{env.task.uptime:>9.2f}  {end}")
+            print(line(len(episodes), env.task.steps, f"{total_return:.3f}",
+                       f"{env.task.uptime:.2f}", end))
             total_return = 0.0
             ts = env.reset()
     if not ts.first():
-        print(f"{len(episodes) + 1:>7} {env.task.steps:>6} {total_return:>10.3f} "
-              f"{env.task.uptime:>9.2f}  unfinished")
+        print(line(len(episodes) + 1, env.task.steps, f"{total_return:.3f}",
+                   f"{env.task.uptime:.2f}", "unfinished"))
     if episodes:
         steps = np.array([e[0] for e in episodes])
         returns = np.array([e[1] for e in episodes])
-        print(f"{len(episodes)} finished episodes: mean steps {steps.mean():.1f}, "
+        print(f"{plural(len(episodes), 'finished episode')}: mean steps {steps.mean():.1f}, "
               f"mean return {returns.mean():.3f}")
     else:
         print("no episode finished within the step budget")

@@ -7,6 +7,7 @@ environment, agent and protocol); unset ones take the task's defaults.
 import argparse
 import dataclasses
 import re
+import time
 
 from lwrl import outputs, tasks
 from lwrl.adapters import external
@@ -15,6 +16,7 @@ from lwrl.cli import fields, output
 from lwrl.cli import rerun_options as logging_rerun
 from lwrl.runners.config import AgentSettings, EnvironmentSettings, ProtocolSettings, RunConfig
 from lwrl.runners.run import make_agent, memory_needed, run, run_batched
+from lwrl.runners.summary import plural
 
 
 def train_task(name: str) -> str:
@@ -76,6 +78,7 @@ def train_agents(args) -> int:
     if args.actions is not None:
         raise ValueError(f"--actions applies to dmc: and gym: environments only; {args.task} "
                          "has its own")
+    started = time.perf_counter()
     settings = fields.given(args, EnvironmentSettings, AgentSettings, ProtocolSettings)
     settings["plant"] = tasks.resolve(*tasks.split_name(args.task), settings.get("plant"))[1]
     config = RunConfig(task=args.task, **settings)  # config.json names the plant it ran on
@@ -88,10 +91,10 @@ def train_agents(args) -> int:
         best = logged == "best"
         record = [] if best else [(b, episode) for b in logged_agents for episode in logged]
     outputs.check_memory(memory_needed(config, len(record) if not best else len(logged_agents)),
-                         f"{config.agents} agents of {config.task}")
+                         f"{plural(config.agents, 'agent')} of {config.task}")
     agent = make_agent(config)  # checks the hyper-parameters before anything runs
-    print(f"{config.task} on the {config.plant_name} plant: {config.agents} agents, "
-          f"{config.describe(len(config.ranges[0]))}, {config.episodes} episodes")
+    print(f"{config.task} on the {config.plant_name} plant: {plural(config.agents, 'agent')}, "
+          f"{config.describe(len(config.ranges[0]))}, {plural(config.episodes, 'episode')}")
     bar, update = output.progress_bar(config.agents * config.episodes, "training")
     with bar:
         agent, results = run(config, agent=agent, progress=update, record=record)
@@ -101,29 +104,34 @@ def train_agents(args) -> int:
                          tasks.definition(config.domain, config.task_name).has_uptime)
     written = output.Outputs("train")
     if logging:
+        episodes = (f"{plural(len(results.recordings), 'episode')} of "
+                    f"{'agent' if len(logged_agents) == 1 else 'agents'} "
+                    f"{', '.join(map(str, logged_agents))}")
+
         def record_run():
-            if args.rrd:
-                with outputs.atomic_path(args.rrd) as temporary:
-                    logging_rerun.send_run(config, results, rrd_path=temporary, spawn=args.rerun)
-            else:
+            if not args.rrd:
                 logging_rerun.send_run(config, results, spawn=True)
-            where = f"saved the recording to {args.rrd}" if args.rrd else "sent the recording"
-            print(f"{where}: {len(results.recordings)} episodes of agents "
-                  f"{', '.join(map(str, logged_agents))}")
+                print(f"sent the recording to the viewer: {episodes}")
+                return []
+            with outputs.atomic_path(args.rrd) as temporary:
+                logging_rerun.send_run(config, results, rrd_path=temporary, spawn=args.rerun)
+            return [f"the recording {args.rrd} ({episodes})"]
         written.write(f"--rrd {args.rrd}" if args.rrd else "--rerun", record_run)
     if args.out:
         written.write(f"--out {args.out}", lambda: output.write_run(args.out, config, results))
     if args.save:
         def save():
             agent_io.save(args.save, agent, {"config": dataclasses.asdict(config)})
-            print(f"saved the agents to {args.save}")
+            return [f"the agents to {args.save}"]
         written.write(f"--save {args.save}", save)
+    output.done(started, written.written, results.interrupted)
     status = written.report()
     return 130 if results.interrupted else status
 
 
 def _train_external(args) -> int:
     """`lwrl train` on a dm_control or Gymnasium environment (`lwrl.adapters.external`)."""
+    started = time.perf_counter()
     own = {**fields.given(args, EnvironmentSettings), "save": args.save, "rerun": args.rerun,
            "rrd": args.rrd}
     for name, value in own.items():
@@ -135,8 +143,8 @@ def _train_external(args) -> int:
     config, agent, envs = external.prepare(config)
     actions = (", ".join(f"{value:g}" for value in config.actions) if config.actions
                else f"{agent.num_actions} discrete")
-    print(f"{config.env}: {config.agents} agents, {config.describe(len(config.low))}, "
-          f"actions {actions}, {config.episodes} episodes")
+    print(f"{config.env}: {plural(config.agents, 'agent')}, {config.describe(len(config.low))}, "
+          f"actions {actions}, {plural(config.episodes, 'episode')}")
     bar, update = output.progress_bar(config.agents * config.episodes, "training")
     with bar:
         results = run_batched(envs, agent, config.episodes, progress=update)
@@ -144,5 +152,6 @@ def _train_external(args) -> int:
     written = output.Outputs("train")
     if args.out:
         written.write(f"--out {args.out}", lambda: output.write_run(args.out, config, results))
+    output.done(started, written.written, results.interrupted)
     status = written.report()
     return 130 if results.interrupted else status

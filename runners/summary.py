@@ -40,15 +40,62 @@ def block_rows(results, blocks: int = 10) -> list[dict]:
     return rows
 
 
+UNDEFINED = "—"
+"""What a table shows where a value is undefined (a footnote says why)."""
+HEADERS = {"steps": "steps", "return": "return", "uptime_s": "up-time (s)"}
+
+
+def plural(count: int, noun: str, nouns: str | None = None) -> str:
+    """`1 agent`, `2 agents` (`nouns`: the plural where it is not `noun + s`)."""
+    return f"{count} {noun if count == 1 else nouns or noun + 's'}"
+
+
 def format_rows(rows: list[dict], with_uptime: bool) -> str:
-    """The block table as text: `mean ± standard error` per column."""
+    """The block table as text, aligned on the decimal points: `mean ± standard error` per
+    column; only the mean where no block has a standard error (one agent); `—` where a value
+    is undefined (`table_notes` says why)."""
     names = ["steps", "return"] + (["uptime_s"] if with_uptime else [])
-    header = f"{'episodes':>10}" + "".join(f"{name:>22}" for name in names)
-    lines = [header]
-    for row in rows:
-        cells = "".join(f"{row[name][0]:>12.2f} ± {row[name][1]:<7.2f}" for name in names)
-        lines.append(f"{row['episodes']:>10}{cells}")
+    with_errors = any(math.isfinite(row[name][1]) for row in rows for name in names)
+    means = {name: [f"{row[name][0]:.2f}" if math.isfinite(row[name][0]) else UNDEFINED
+                    for row in rows] for name in names}
+    errors = {name: ["" if not math.isfinite(row[name][0]) else
+                     f"{row[name][1]:.2f}" if math.isfinite(row[name][1]) else UNDEFINED
+                     for row in rows] for name in names}
+    columns = {}
+    for name in names:
+        mean_width = max(len(text) for text in means[name])
+        error_width = max(len(text) for text in errors[name])
+        cells = [mean.rjust(mean_width) + (f" ± {error.rjust(error_width)}" if error
+                                           else " " * (error_width + 3)) if with_errors else
+                 mean.rjust(mean_width) for mean, error in zip(means[name], errors[name])]
+        width = max(len(HEADERS[name]), *(len(cell) for cell in cells))
+        columns[name] = [HEADERS[name].rjust(width)] + [cell.rjust(width) for cell in cells]
+    first = ["episodes"] + [row["episodes"] for row in rows]
+    first = [text.rjust(max(map(len, first))) for text in first]
+    lines = ["   ".join([label, *(columns[name][i] for name in names)]).rstrip()
+             for i, label in enumerate(first)]
     return "\n".join(lines)
+
+
+def table_notes(rows: list[dict], results, seeds, with_uptime: bool) -> list[str]:
+    """What the table's numbers are (over which agents and seeds), and why a value is `—`."""
+    names = ["steps", "return"] + (["uptime_s"] if with_uptime else [])
+    agents = len(seeds)
+    seed_text = f"seed {seeds[0]}" if agents == 1 else f"seeds {seeds[0]}..{seeds[-1]}"
+    notes = [f"one agent ({seed_text}): its own values, no standard error" if agents == 1
+             else f"means ± standard errors over {agents} agents ({seed_text})"]
+    cells = [row[name] for row in rows for name in names]
+    if any(not math.isfinite(mean) for mean, _ in cells):
+        if results.interrupted:
+            why = "the run was interrupted"
+        elif np.all(results.diverged_episode >= 0):
+            why = "every agent had diverged"
+        else:
+            why = "no agent ran them"
+        notes.append(f"{UNDEFINED}: episodes not run ({why})")
+    if agents > 1 and any(math.isfinite(mean) and not math.isfinite(error) for mean, error in cells):
+        notes.append(f"± {UNDEFINED}: one agent ran these episodes, so no standard error")
+    return notes
 
 
 def divergence_note(results, seeds) -> str:
@@ -58,7 +105,9 @@ def divergence_note(results, seeds) -> str:
         return "no agent diverged"
     listed = ", ".join(f"agent {b} (seed {seeds[b]}, episode {results.diverged_episode[b] + 1})"
                        for b in diverged)
-    return f"{len(diverged)} of {len(seeds)} agents diverged and were frozen: {listed}"
+    verb = "was" if len(diverged) == 1 else "were"
+    return (f"{len(diverged)} of {plural(len(seeds), 'agent')} diverged and {verb} frozen: "
+            f"{listed}")
 
 
 def write_csv(path, results, seeds) -> None:

@@ -2,6 +2,7 @@
 
 import csv
 import json
+import re
 import subprocess
 import sys
 
@@ -28,7 +29,8 @@ def test_rollout_prints_a_summary(capsys, argv):
     assert cli.main(argv) == 0
     out = capsys.readouterr().out
     assert "random policy" in out and "episode" in out
-    assert ("finished episodes" in out) or ("no episode finished" in out)
+    assert ("finished episode" in out) or ("no episode finished" in out)
+    assert "nan" not in out
 
 
 def test_rollout_reports_finished_cartpole_episodes(capsys):
@@ -113,7 +115,57 @@ def test_train_saves_a_rerun_recording(tmp_path, capsys):
                      "--agents", "2", "--rrd", str(path), "--log-episodes", "1,3",
                      "--log-agents", "1"]) == 0
     printed = capsys.readouterr().out
-    assert f"saved the recording to {path}: 2 episodes of agents 1" in printed
+    assert f"wrote the recording {path} (2 episodes of agent 1)" in printed
     entities = {chunk.entity_path for chunk in rr.chunk.RrdReader(str(path)).stream()}
     assert any(entity.startswith("/signals/reward/agent1_ep0002") for entity in entities)
     assert any(entity.startswith("/scene/pendulum") for entity in entities)
+
+
+def test_a_single_agent_reads_without_nan(tmp_path, capsys):
+    """One agent: "1 agent", its values without "± nan", a note saying why there is no
+    standard error, and the run's one-line summary of what it wrote and how long it took."""
+    saved = tmp_path / "agent.npz"
+    assert cli.main(["train", "mountain_car.cost_to_go", "--episodes", "3", "--agents", "1",
+                     "--save", str(saved)]) == 0
+    printed = capsys.readouterr().out
+    assert ": 1 agent, " in printed and ", 3 episodes" in printed
+    assert "nan" not in printed and "±" not in printed.split("\n", 1)[1]
+    assert "one agent (seed 0): its own values, no standard error" in printed
+    last = printed.strip().splitlines()[-1]
+    assert re.fullmatch(rf"done in \d+\.\d s: wrote the agents to {re.escape(str(saved))}", last), last
+    assert cli.main(["eval", str(saved), "--episodes", "1"]) == 0
+    printed = capsys.readouterr().out
+    assert "1 saved agent, greedy, 1 episode each" in printed and "nan" not in printed
+    assert re.fullmatch(r"done in \d+\.\d s; nothing written", printed.strip().splitlines()[-1])
+
+
+def test_undefined_values_are_dashes_with_a_reason(capsys):
+    """An interrupted run: the episodes not run are "—" with a note saying why, a block only
+    one agent ran has "± —" with its note, never "nan"; the columns align on their "±"."""
+    from lwrl.cli import output
+    from lwrl.runners.episodes import EpisodeResults
+
+    results = EpisodeResults.empty(3, 10)
+    results.steps[:, :4] = [[100, 90, 80, 70], [1200, 110, 95, 85], [130, 100, 90, 60]]
+    results.steps[0, 4] = 50
+    results.returns[:] = -results.steps
+    results.uptime[:] = results.steps * 0.02
+    results.interrupted = True
+    output.print_results(results, [0, 1, 2], "", with_uptime=True)
+    printed = capsys.readouterr().out
+    assert "nan" not in printed.lower()
+    assert "—: episodes not run (the run was interrupted)" in printed
+    assert "± —: one agent ran these episodes, so no standard error" in printed
+    table = printed.splitlines()[:11]
+    assert table[0].split() == ["episodes", "steps", "return", "up-time", "(s)"]
+    assert table[5].split()[:4] == ["5", "50.00", "±", "—"] and set(table[6].split()[1:]) == {"—"}
+    marks = {tuple(i for i, char in enumerate(line) if char == "±") for line in table[1:5]}
+    assert len(marks) == 1 and len(next(iter(marks))) == 3, table
+
+
+def test_rollout_leaves_out_up_time_where_a_task_has_none(capsys):
+    assert cli.main(["rollout", "mountain_car.cost_to_go", "--steps", "20"]) == 0
+    out = capsys.readouterr().out
+    assert "up-time" not in out and "nan" not in out
+    assert cli.main(["rollout", "cartpole.balance", "--steps", "30"]) == 0
+    assert "up-time (s)" in capsys.readouterr().out

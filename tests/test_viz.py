@@ -7,8 +7,10 @@ only where no Vulkan driver is installed.
 """
 
 import glob
+import io
 import math
 import socket
+import time
 import warnings
 
 import mujoco
@@ -18,6 +20,7 @@ import pytest
 import rerun as rr
 
 from lwrl import tasks
+from lwrl.cli import main as cli
 from lwrl.runners.config import RunConfig, task_defaults
 from lwrl.tasks import mountain_car
 from lwrl.runners.recording import EpisodeRecording
@@ -455,9 +458,12 @@ def test_view_binds_localhost(no_display, tmp_path):
     """`view` runs the viewer bound to 127.0.0.1; without a display only the web viewer."""
     command = viz.view_command("x.rrd", web=True, web_port=9191)
     assert command[1:] == ["x.rrd", "--bind", "127.0.0.1", "--web-viewer", "--web-viewer-port", "9191"]
+    assert viz.view_command("x.rrd", web=True, web_port=9191, grpc_port=9292)[4:6] == ["--port", "9292"]
+    assert viz.web_viewer_url(9191, 9292) == \
+        "http://127.0.0.1:9191/?url=rerun%2Bhttp%3A%2F%2F127.0.0.1%3A9292%2Fproxy"
     with pytest.raises(FileNotFoundError):
         viz.view(tmp_path / "missing.rrd")
-    (tmp_path / "a.rrd").write_bytes(b"")
+    (tmp_path / "a.rrd").write_bytes(viz.RRD_MAGIC)
     with pytest.raises(viz.ViewerUnavailable, match="no display"):
         viz.view(tmp_path / "a.rrd")
 
@@ -500,9 +506,10 @@ def test_recording_shapes_are_checked():
 VULKAN_DRIVERS = "/usr/share/vulkan/icd.d/*.json"
 
 
-def test_headless_render_is_not_blank(tmp_path):
-    """`rerun - --headless --screenshot-to PNG < FILE.rrd` renders the layout: the PNG has
-    the window's size and varied pixels, and the 3-D scene's corner of it is not flat."""
+def test_headless_render_is_not_blank(tmp_path, capsys):
+    """`lwrl view FILE.rrd --screenshot PNG` (`rerun - --headless --screenshot-to PNG <
+    FILE.rrd`) renders the layout: the PNG has the window's size and varied pixels, and the
+    3-D scene's corner of it is not flat."""
     if not glob.glob(VULKAN_DRIVERS):
         pytest.skip("no Vulkan driver for the headless viewer: "
                     "apt-get install mesa-vulkan-drivers (Mesa's lavapipe software renderer)")
@@ -517,7 +524,9 @@ def test_headless_render_is_not_blank(tmp_path):
     viz.log_episode(rec, recording, value_ranges=(features.low, features.high))
     viz.log_value_function(rec, "pendulum.swingup", features, recording.weights, episode=0)
     viz.close_recording(rec)
-    png = viz.screenshot(path, tmp_path / "shot.png", window_size="960x600")
+    png = tmp_path / "shot.png"
+    assert cli.main(["view", str(path), "--screenshot", str(png), "--window-size", "960x600"]) == 0
+    assert f"wrote {png}: the first screen of {path} in a 960x600 window" in capsys.readouterr().out
     pixels = np.asarray(Image.open(png).convert("RGB"), dtype=np.float64)
     assert pixels.shape[1] >= 960 and pixels.shape[0] >= 600
     assert pixels.std() > 10
@@ -525,3 +534,83 @@ def test_headless_render_is_not_blank(tmp_path):
     scene_part = pixels[int(0.1 * height):int(0.4 * height), int(0.15 * width):int(0.4 * width)]
     assert scene_part.std() > 5
     assert len(np.unique(scene_part.reshape(-1, 3), axis=0)) > 20
+
+
+# --- the first screen of a recording, opened as a user opens it ---------------------------
+
+
+def view_pixels(viewer, view_id) -> np.ndarray:
+    """One view of the viewer's screen, as an RGB array."""
+    from PIL import Image
+
+    return np.asarray(Image.open(io.BytesIO(viewer.take_screenshot(view_id))).convert("RGB"))
+
+
+def saturated(pixels) -> int:
+    """Pixels of a colour (a plotted series, an image), not of the viewer's greys."""
+    pixels = pixels.astype(int)
+    return int(((pixels.max(axis=-1) - pixels.min(axis=-1)) > 80).sum())
+
+
+def near(pixels, colors, tolerance: float = 40.0) -> float:
+    """The share of pixels within `tolerance` of one of `colors`."""
+    distance = np.linalg.norm(pixels[:, :, None, :].astype(float) - np.asarray(colors, float), axis=-1)
+    return float((distance.min(axis=-1) < tolerance).mean())
+
+
+def cursor_positions(viewer, seconds: float) -> set:
+    """Where the time cursor of the viewer's recording sits, sampled for `seconds` (it must
+    be on the `step` timeline)."""
+    found, stop = set(), time.monotonic() + seconds
+    while time.monotonic() < stop:
+        recording = viewer.get_state().recordings[0]
+        assert recording.current_timeline == names.STEP, recording.current_timeline
+        found.add(recording.current_time)
+        time.sleep(0.1)
+    return found
+
+
+def test_a_recording_opens_on_its_last_logged_episode(tmp_path):
+    """A recording of `lwrl train --rrd`, opened by its path as a user opens it, with no
+    click: the time cursor plays within the last logged episode on the `step` timeline (here
+    a Mountain-Car run whose first logged episode is ten times longer, which the viewer
+    would otherwise play through); the max_a Q panel shows an image, the greedy-action panel
+    the actions' colours, and every state variable's plot a line."""
+    if not glob.glob(VULKAN_DRIVERS):
+        pytest.skip("no Vulkan driver for the headless viewer: "
+                    "apt-get install mesa-vulkan-drivers (Mesa's lavapipe software renderer)")
+    from lwrl.cli.rerun_options import send_run
+    from lwrl.runners.run import run
+
+    config = RunConfig(task="mountain_car.cost_to_go", agents=1, episodes=12, seed=0)
+    _, results = run(config, record=[(0, 0), (0, 11)])
+    first, last = results.recordings
+    assert first.steps > 5 * last.steps
+    path = tmp_path / "mountain_car.rrd"
+    send_run(config, results, rrd_path=path)
+    definition = names.task_definition(config.task)
+    with viz.headless_viewer() as viewer:
+        viewer.open(str(path))
+        state = viewer.get_state()
+        views = {view.name: view.view_id for view in state.views}
+        wanted = ["max_a Q", "greedy action", *definition.state_names]
+        assert set(wanted) <= set(views), sorted(views)
+        deadline, shots, cursor = time.monotonic() + 90, {}, set()
+        while True:  # the viewer loads the file's chunks lazily, after `open` returns
+            cursor |= cursor_positions(viewer, seconds=0.5)
+            shots = {name: view_pixels(viewer, views[name]) for name in wanted}
+            empty = [name for name in definition.state_names if saturated(shots[name]) < 50]
+            if len(np.unique(shots["max_a Q"].reshape(-1, 3), axis=0)) < 200:
+                empty.append("max_a Q")
+            if near(shots["greedy action"], value.action_colors(definition.controls)) < 0.3:
+                empty.append("greedy action")
+            if not empty or time.monotonic() > deadline:
+                break
+            time.sleep(0.5)
+        cursor |= cursor_positions(viewer, seconds=3.0)  # it loops: never past the episode
+    from PIL import Image
+
+    for name, pixels in shots.items():
+        Image.fromarray(pixels).save(tmp_path / f"{name.replace(' ', '_')}.png")
+    assert not empty, f"empty after 90 s: {empty} (the views' pictures are in {tmp_path})"
+    assert len(cursor) > 1 and 0 <= min(cursor) and max(cursor) <= last.steps, sorted(cursor)

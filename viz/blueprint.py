@@ -8,7 +8,15 @@
     | + centroids  | action      |  / steps, returns, up-time per agent and |
     | + state path | + centroids |  mean (episode timeline)                 |
     +--------------+-------------+-----------------------------------------+
-    time panel on the `step` timeline
+    time panel on the `step` timeline (the blueprint and selection panels collapsed)
+
+A recording opens on the episode logged last: given its length (`replay_steps`), the time
+panel plays steps 0..T of the `step` timeline in a loop, so that with no click the scene
+moves through that episode and the value images show its value function and path (they are
+at step 0 of every episode, and the most recently logged one wins there); the plots show
+every logged episode whole. Without it Rerun plays the whole timeline once (the longest
+logged episode's steps, which in a task whose episodes shorten, such as Mountain-Car's,
+belong to an early episode) and stops at its end.
 
 The learning curves exist on the `episode` timeline only: switch the time panel to it to
 see them (Rerun's plots follow the time panel's timeline).
@@ -67,19 +75,35 @@ def scene_view(task: str) -> rrb.Spatial3DView:
                              line_grid=rrb.LineGrid3D(visible=False))
 
 
-def blueprint(task: str, size: int = GRID) -> rrb.Blueprint:
+def time_panel(replay_steps: int | None = None) -> rrb.TimePanel:
+    """The time panel on the `step` timeline; with `replay_steps` T, playing steps 0..T in a
+    loop (the selection Rerun shows, and loops over, on that timeline)."""
+    if replay_steps is None:
+        return rrb.TimePanel(timeline=names.STEP, state="collapsed")
+    if replay_steps < 0:
+        raise ValueError(f"replay_steps must be >= 0; got {replay_steps}")
+    return rrb.TimePanel(timeline=names.STEP, state="collapsed", play_state="playing",
+                         loop_mode="selection",
+                         time_selection=rrb.components.AbsoluteTimeRange(0, int(replay_steps)))
+
+
+def blueprint(task: str, size: int = GRID, replay_steps: int | None = None) -> rrb.Blueprint:
     """The default layout for `task` (`DOMAIN.TASK` or a bare domain); `size` is the value
-    images' side (`log_value_function`'s)."""
+    images' side (`log_value_function`'s); `replay_steps` the steps of the episode logged
+    last, which the recording opens on, playing in a loop (`time_panel`)."""
     left_column = rrb.Vertical(scene_view(task), rrb.Horizontal(*value_views(task, size)),
                                row_shares=[3, 2])
     right = rrb.Tabs(rrb.Grid(*signal_views(task), grid_columns=2, name="episode signals (step)"),
                      rrb.Vertical(*curve_views(task), name="learning curves (episode)"))
     return rrb.Blueprint(rrb.Horizontal(left_column, right, column_shares=[2, 3]),
-                         rrb.TimePanel(timeline=names.STEP), rrb.SelectionPanel(state="collapsed"))
+                         time_panel(replay_steps), rrb.BlueprintPanel(state="collapsed"),
+                         rrb.SelectionPanel(state="collapsed"))
 
 
-def send_blueprint(rec: rr.RecordingStream, task: str, size: int = GRID) -> rrb.Blueprint:
-    """Send `blueprint(task, size)` to `rec` as its active and default layout; return it."""
-    layout = blueprint(task, size)
+def send_blueprint(rec: rr.RecordingStream, task: str, size: int = GRID,
+                   replay_steps: int | None = None) -> rrb.Blueprint:
+    """Send `blueprint(task, size, replay_steps)` to `rec` as its active and default layout;
+    return it."""
+    layout = blueprint(task, size, replay_steps)
     rec.send_blueprint(layout, make_active=True, make_default=True)
     return layout

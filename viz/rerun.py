@@ -16,12 +16,15 @@ with one `rr.send_columns` per entity; nothing here touches the stream's own clo
 (`set_time`), and the only state is the stream handed in. Servers bind 127.0.0.1 only.
 """
 
+import contextlib
 import os
 import shutil
 import socket
 import subprocess
 import sys
+import tempfile
 import time
+import urllib.parse
 import uuid
 import warnings
 from pathlib import Path
@@ -65,7 +68,8 @@ def rerun_binary() -> str:
     return found
 
 
-def _free_port() -> int:
+def free_port() -> int:
+    """A TCP port free on 127.0.0.1 now."""
     with socket.socket() as probe:
         probe.bind((BIND, 0))
         return probe.getsockname()[1]
@@ -85,7 +89,7 @@ def spawn_viewer(port: int | None = None, memory_limit: str = "75%") -> str:
     if not has_display():
         raise ViewerUnavailable("no display (DISPLAY / WAYLAND_DISPLAY unset): cannot open a "
                                 "viewer window; save to an .rrd and `lwrl view` it elsewhere")
-    port = _free_port() if port is None else int(port)
+    port = free_port() if port is None else int(port)
     process = subprocess.Popen(
         [rerun_binary(), "--bind", BIND, "--port", str(port), "--memory-limit", memory_limit,
          "--expect-data-soon"],
@@ -182,6 +186,18 @@ def _run(command: list, timeout: float | None = None) -> subprocess.CompletedPro
                           env={**os.environ, "RERUN_APP_ONLY": "true"})
 
 
+WEB_PORT = 9090
+"""The web viewer's default HTTP port (Rerun's)."""
+
+
+def web_viewer_url(web_port: int = WEB_PORT, grpc_port: int = 9876) -> str:
+    """The address a browser opens to see what `view(..., web=True)` serves: the web viewer
+    at http://127.0.0.1:WEB_PORT, told where the recording is (`?url=` the gRPC proxy).
+    Without `?url=` the web viewer opens on its welcome screen, with no recording."""
+    proxy = urllib.parse.quote(f"rerun+http://{BIND}:{int(grpc_port)}/proxy", safe="")
+    return f"http://{BIND}:{int(web_port)}/?url={proxy}"
+
+
 def view_command(path, web: bool = False, web_port: int | None = None,
                  grpc_port: int | None = None) -> list:
     """The `rerun` command line `view` runs (every server bound to 127.0.0.1)."""
@@ -195,12 +211,14 @@ def view_command(path, web: bool = False, web_port: int | None = None,
     return command
 
 
-def view(path, web: bool = False, web_port: int | None = None) -> int:
+def view(path, web: bool = False, web_port: int | None = None,
+         grpc_port: int | None = None) -> int:
     """Open a saved .rrd: the native viewer (`rerun PATH --bind 127.0.0.1`), or with
-    `web=True` the web viewer served at http://127.0.0.1:WEB_PORT (default 9090; `rerun PATH
-    --web-viewer --bind 127.0.0.1`; it also tries to open a browser). Blocks until the viewer
-    or server stops; returns its exit code. Raises `ViewerUnavailable` for a native viewer
-    without a display, FileNotFoundError for a missing file."""
+    `web=True` the web viewer served at `web_viewer_url(web_port, grpc_port)` (`rerun PATH
+    --web-viewer --bind 127.0.0.1`; Rerun also opens that address in the browser `$BROWSER`
+    names, or the desktop's). Blocks until the viewer or server stops; returns its exit
+    code. Raises `ViewerUnavailable` for a native viewer without a display,
+    FileNotFoundError for a missing file."""
     if not Path(path).is_file():
         raise FileNotFoundError(f"no such recording: {path}")
     with open(path, "rb") as file:
@@ -209,7 +227,7 @@ def view(path, web: bool = False, web_port: int | None = None) -> int:
     if not web and not has_display():
         raise ViewerUnavailable("no display: use web=True (`lwrl view --web`) and open the "
                                 "printed http://127.0.0.1 address, or copy the .rrd elsewhere")
-    return _run(view_command(path, web, web_port)).returncode
+    return _run(view_command(path, web, web_port, grpc_port)).returncode
 
 
 def screenshot_command(png, window_size: str = "1280x800", grpc_port: int | None = None) -> list:
@@ -220,15 +238,16 @@ def screenshot_command(png, window_size: str = "1280x800", grpc_port: int | None
     From standard input the viewer has the whole recording before the screenshot; given
     the file's path it loads it lazily (through its local catalog) and the screenshot,
     taken about a second after start, shows the plots still empty."""
-    port = _free_port() if grpc_port is None else grpc_port
+    port = free_port() if grpc_port is None else grpc_port
     return [rerun_binary(), "-", "--headless", "--screenshot-to", str(png),
             "--window-size", window_size, "--bind", BIND, "--port", str(port)]
 
 
 def screenshot(path, png, window_size: str = "1280x800", timeout: float = 180.0) -> Path:
-    """Render a saved .rrd headless (its blueprint, at the end of its time panel's timeline)
-    to `png` (2x `window_size` in pixels); raises `ViewerUnavailable` with the viewer's
-    output when nothing was written."""
+    """Render a saved .rrd headless to `png` (2x `window_size` in pixels): its first screen,
+    as its blueprint lays it out with no click (a recording of `lwrl train` replaying its
+    last logged episode, at whichever of its steps the screenshot falls on). Raises
+    `ViewerUnavailable` with the viewer's output when nothing was written."""
     png = Path(png).resolve()
     if png.exists():
         png.unlink()
@@ -242,8 +261,51 @@ def screenshot(path, png, window_size: str = "1280x800", timeout: float = 180.0)
     return png
 
 
+@contextlib.contextmanager
+def headless_viewer(window_size: str = "1280x800", timeout: float = 30.0):
+    """A headless viewer (no window; a software renderer does) listening on 127.0.0.1 at a
+    free port, and a `rerun.experimental.ViewerClient` connected to it, which opens
+    recordings by path as a user does (`open`), reports the time cursor (`get_state`),
+    moves it (`set_time`) and takes pictures of the screen or of one view
+    (`take_screenshot`). The viewer stops when the block ends. Raises `ViewerUnavailable`
+    when it does not listen within `timeout` seconds."""
+    from rerun.experimental import ViewerClient
+
+    port = free_port()
+    log = tempfile.TemporaryFile()  # the viewer's messages (a pipe nobody reads would fill)
+    process = subprocess.Popen(
+        [rerun_binary(), "--headless", "--window-size", window_size, "--bind", BIND,
+         "--port", str(port), "--hide-welcome-screen"],
+        stdin=subprocess.DEVNULL, stdout=log, stderr=log,
+        env={**os.environ, "RERUN_APP_ONLY": "true"})
+    try:
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                socket.create_connection((BIND, port), timeout=0.2).close()
+                break
+            except OSError:
+                if process.poll() is not None or time.monotonic() > deadline:
+                    process.kill()
+                    process.wait()
+                    log.seek(0)
+                    raise ViewerUnavailable("the headless viewer did not start: "
+                                            f"{log.read().decode(errors='replace')[-2000:]}") from None
+                time.sleep(0.1)
+        yield ViewerClient.connect(f"rerun+http://{BIND}:{port}/proxy")
+    finally:
+        process.terminate()
+        try:
+            process.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+        log.close()
+
+
 __all__ = [
-    "APPLICATION_ID", "BIND", "ViewerUnavailable", "blueprint", "close_recording", "load_model",
-    "log_episode", "log_learning_curves", "log_task_scene", "log_value_function", "open_recording",
-    "screenshot", "send_blueprint", "spawn_viewer", "view", "view_command",
+    "APPLICATION_ID", "BIND", "WEB_PORT", "ViewerUnavailable", "blueprint", "close_recording",
+    "free_port", "headless_viewer", "load_model", "log_episode", "log_learning_curves",
+    "log_task_scene", "log_value_function", "open_recording", "screenshot", "send_blueprint",
+    "spawn_viewer", "view", "view_command", "web_viewer_url",
 ]
