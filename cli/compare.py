@@ -35,12 +35,9 @@ def add_parser(commands) -> None:
 
 def compare_plants(args) -> int:
     """Compare the plants of a task open loop, closed loop and in transfer; write a report."""
-    try:
-        from lwrl.studies.compare import closed_loop
-        from lwrl.studies.compare import comparison as compare
-        from lwrl.studies.paper import items as paper
-    except ImportError as error:
-        raise output.paper_extra_missing("compare", error) from None
+    closed_loop, compare, paper = output.study_modules(
+        "compare", "lwrl.studies.compare.closed_loop", "lwrl.studies.compare.comparison",
+        "lwrl.studies.paper.items")
     started = time.perf_counter()
     compare.check_task(args.task)
     outputs.check_directory(args.out, "--out", args.force, names=("report.md",))

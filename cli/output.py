@@ -4,6 +4,7 @@ writes, and a report of the outputs written."""
 
 import argparse
 import contextlib
+import importlib
 import os
 import signal
 import sys
@@ -167,7 +168,11 @@ def write_run(out: str, config, results) -> list:
     return paths
 
 
-def paper_extra_missing(command: str, error: ImportError) -> ValueError:
-    """The one-line error of a command whose 'paper' extra (pandas, matplotlib) is missing."""
-    return ValueError(f"lwrl {command} needs the 'paper' extra ({error.name} is missing): "
-                      "pip install -e '.[paper]'")
+def study_modules(command: str, *names) -> list:
+    """The modules `names` of a command that needs the 'paper' extra (pandas, matplotlib);
+    a one-line error naming the extra where it is missing."""
+    try:
+        return [importlib.import_module(name) for name in names]
+    except ImportError as error:
+        raise ValueError(f"lwrl {command} needs the 'paper' extra ({error.name} is missing): "
+                         "pip install -e '.[paper]'") from None

@@ -72,16 +72,14 @@ def add_parser(commands) -> None:
 
 def reproduce_items(args) -> int:
     """Run the paper's protocols (resuming whatever an earlier run finished) and report."""
-    try:
-        from lwrl.studies.paper.reproduce import reproduce
-    except ImportError as error:
-        raise output.paper_extra_missing("reproduce", error) from None
+    study, = output.study_modules("reproduce", "lwrl.studies.paper.reproduce")
     started = time.perf_counter()
     readings = {name: reading_value(name, text) for name, text in args.readings}
     outputs.check_directory(args.out, "--out")  # a reproduction resumes in its directory
-    path = reproduce(args.item, args.out, plant=args.plant, quick=args.quick,
-                     integrator=args.integrator, backend=args.backend, workers=args.workers,
-                     address=args.address, readings=readings, alphas=args.alphas)
+    path = study.reproduce(args.item, args.out, plant=args.plant, quick=args.quick,
+                           integrator=args.integrator, backend=args.backend,
+                           workers=args.workers, address=args.address, readings=readings,
+                           alphas=args.alphas)
     output.done(started, [path, f"the figures in {os.path.join(args.out, 'figures')}",
                           f"each item's results under {args.out}"])
     return 0

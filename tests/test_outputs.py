@@ -160,3 +160,22 @@ def test_what_hid_its_cause_now_names_it(tmp_path, capsys):
     status, _, err = run_cli(["compare", "pendulum.swingup", "--seeds", "100000000", "--out",
                               str(tmp_path / "compare")], capsys)
     assert status == 2 and "needs about" in err[0] and not (tmp_path / "compare").exists()
+
+
+def test_a_missing_extra_is_named(monkeypatch, capsys):
+    """Without pandas (the 'paper' extra) the studies' commands say what to install."""
+    import builtins
+
+    real_import = builtins.__import__
+
+    def without_pandas(name, *args, **kwargs):
+        if name == "pandas" or name.startswith("pandas."):
+            raise ImportError("No module named 'pandas'", name="pandas")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", without_pandas)
+    for module in [name for name in sys.modules if name.startswith(("lwrl.studies", "lwrl.analysis"))]:
+        monkeypatch.delitem(sys.modules, module)
+    status, _, err = run_cli(["reproduce", "fig3", "--quick"], capsys)
+    assert status == 2 and err == ["lwrl reproduce: error: lwrl reproduce needs the 'paper' extra "
+                                   "(pandas is missing): pip install -e '.[paper]'"]
