@@ -6,6 +6,7 @@ import io
 import json
 import math
 import os
+import shutil
 import string
 import tempfile
 import zipfile
@@ -20,6 +21,12 @@ from lwrl.cli import main as cli
 
 WORK = tempfile.mkdtemp(prefix="lwrl-bad-input-")
 """Where the commands may write: nothing of theirs may appear here."""
+
+
+@pytest.fixture(scope="module", autouse=True)
+def remove_work():
+    yield
+    shutil.rmtree(WORK, ignore_errors=True)
 
 
 def parses_as_float(text: str) -> bool:
@@ -162,8 +169,8 @@ def test_a_bad_task_or_path_is_one_line_and_status_2(command, name):
 
 
 @pytest.fixture(scope="module")
-def agent_file():
-    path = os.path.join(tempfile.mkdtemp(prefix="lwrl-agent-"), "agents.npz")
+def agent_file(tmp_path_factory):
+    path = str(tmp_path_factory.mktemp("agent") / "agents.npz")
     status, _ = run(["train", "mountain_car.cost_to_go", "--agents=2", "--episodes=1", "--save", path])
     assert status == 0
     return path
@@ -206,14 +213,15 @@ def damaged(source: str, how: str, blob: bytes) -> bytes:
                             "features", "task", "config"]),
        blob=st.binary(min_size=1, max_size=300), command=st.sampled_from(["eval", "export"]))
 def test_a_damaged_agent_file_is_one_line_and_status_2(agent_file, how, blob, command):
-    path = os.path.join(tempfile.mkdtemp(prefix="lwrl-damaged-"), "agents.npz")
-    with open(path, "wb") as file:
-        file.write(damaged(agent_file, how, blob))
     if command == "export" and how == "config":  # export needs no run configuration
         return
-    argv = (["eval", path, "--episodes=1"] if command == "eval"
-            else ["export", path, "--c", os.path.join(WORK, "c")])
-    assert_refused(argv)
+    with tempfile.TemporaryDirectory(prefix="lwrl-damaged-") as directory:
+        path = os.path.join(directory, "agents.npz")
+        with open(path, "wb") as file:
+            file.write(damaged(agent_file, how, blob))
+        argv = (["eval", path, "--episodes=1"] if command == "eval"
+                else ["export", path, "--c", os.path.join(WORK, "c")])
+        assert_refused(argv)
 
 
 def test_every_check_looks_at_a_real_file():
