@@ -1,5 +1,5 @@
 """Figures that several studies draw: learning curves with error bands, and saving a
-figure as PNG and SVG. Needs the 'paper' extra (matplotlib, pandas)."""
+figure as PNG and SVG. Needs the 'paper' extra (matplotlib, pandas, scipy)."""
 
 import os
 
@@ -11,6 +11,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from lwrl import outputs  # noqa: E402
+from lwrl.analysis import statistics  # noqa: E402
 
 
 def save_figure(figure, figure_dir: str, name: str) -> list:
@@ -25,15 +26,22 @@ def save_figure(figure, figure_dir: str, name: str) -> list:
     return paths
 
 
-def plot_learning_curve(results: pd.DataFrame, value: str, ylabel: str, title: str, axes=None):
-    """Mean over agents per episode, with a band of one standard error; on `axes` if given
+def plot_learning_curve(results: pd.DataFrame, value: str, ylabel: str, title: str, axes=None,
+                        interval: bool = False, label: str = "mean over agents"):
+    """Mean over agents per episode, with a band of one standard error, or with `interval`
+    of its 95 % bootstrap interval over agents (`analysis.statistics`); on `axes` if given
     (a panel of a larger figure), else on a figure of its own."""
     curve = results.groupby("episode")[value].agg(["mean", "std", "count"])
-    error = curve["std"] / np.sqrt(curve["count"])
+    if interval:
+        per_episode = results.pivot_table(index="seed", columns="episode", values=value)
+        bounds = statistics.episode_intervals(per_episode.to_numpy())
+        low, high, band = bounds[0], bounds[1], "95 % interval over agents"
+    else:
+        error = curve["std"] / np.sqrt(curve["count"])
+        low, high, band = curve["mean"] - error, curve["mean"] + error, "± one standard error"
     figure, axes = plt.subplots(figsize=(6, 4)) if axes is None else (axes.figure, axes)
-    axes.plot(curve.index, curve["mean"], label="mean over agents")
-    axes.fill_between(curve.index, curve["mean"] - error, curve["mean"] + error, alpha=0.3,
-                      label="± one standard error")
+    line, = axes.plot(curve.index, curve["mean"], label=label)
+    axes.fill_between(curve.index, low, high, alpha=0.3, color=line.get_color(), label=band)
     axes.set_xlabel("episode")
     axes.set_ylabel(ylabel)
     axes.set_title(title)
