@@ -34,7 +34,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from lwrl.analysis import statistics as st  # noqa: E402
-from lwrl.analysis.plots import plot_learning_curve, save_figure  # noqa: E402
+from lwrl.analysis.plots import Evidence, plot_learning_curve, save_figure  # noqa: E402
 from lwrl.runners.config import RunConfig  # noqa: E402
 
 LAMBDAS = (0.0, 0.4, 0.7, 0.8, 0.9, 0.95, 0.99)
@@ -86,6 +86,8 @@ class Section:
     """The confirmation run: how many agents, which seeds."""
     paper_sized_verdict: str | None = None
     """The paper-sized run's own verdict, where the verdict is the confirmation's."""
+    evidence: list = dataclasses.field(default_factory=list)
+    """The judged quantities' `Evidence`, for the figure of claims against intervals."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -245,7 +247,11 @@ def _merge(section: Section, confirmed: tuple | None, description: str) -> Secti
     """`section` (the paper-sized run's) with the confirmation run's rows, verdict and rule."""
     if confirmed is None:
         return section
-    rows, verdict, rule = confirmed
+    rows, verdict, rule, evidence = confirmed
+    def labelled(items, run):
+        return [dataclasses.replace(item, label=f"{item.label}, {run}") for item in items]
+    section.evidence = (labelled(section.evidence, "paper-sized run")
+                        + labelled(evidence, "confirmation run"))
     section.paper_sized_verdict, section.verdict = section.verdict, verdict
     section.rule = f"{rule} (the paper-sized run alone: {section.paper_sized_verdict})"
     section.confirmed = {quantity: ours for quantity, ours, _ in rows}
@@ -282,7 +288,7 @@ def fig2_analyse(results, figure_dir, confirmation=None):
     del confirmation  # Fig. 2 takes no confirmation run
     agents = per_agent(results, "steps")
     choice = choose(agents, "steps", True, ("features", "trace", "lam"), ("alpha",))
-    measured, lines = choice.measured, []
+    measured, lines, evidence = choice.measured, [], []
     rows, consistent, nrbf_wins, lambdas = [], 0, 0, sorted(choice.cells["lam"].unique())
     for lam in lambdas:
         chosen = choice.cells[np.isclose(choice.cells["lam"], lam)]
@@ -300,6 +306,9 @@ def fig2_analyse(results, figure_dir, confirmation=None):
             improvement = st.improvement_interval(best["nrbf"][1], best["cmac"][1],
                                                   higher_is_better=False)
             nrbf_wins += st.outcome(improvement) == 1
+            evidence.append(Evidence("Fig. 2: P(NRBF takes fewer steps than CMAC) at the best α, "
+                                     "second half of the seeds", f"λ {lam:g}", improvement,
+                                     (0.5, 1.0)))
             parts.append(f"P(NRBF {best['nrbf'][2]} takes fewer steps than CMAC "
                          f"{best['cmac'][2]}) {improvement.text(2)}")
         paper_alpha = PAPER_BEST_ALPHA.get(lam)
@@ -332,7 +341,7 @@ def fig2_analyse(results, figure_dir, confirmation=None):
              "An α at which any agent of the first half diverged is excluded from the "
              "best-α choice; episodes that hit the 10 000-step cap count with their 10 000 "
              "steps."]
-    return Section(rows, verdict, rule, notes, figures,
+    return Section(rows, verdict, rule, notes, figures, evidence=evidence,
                    claim="“Figure 2 shows the average number of steps per episode for the best "
                          "α values (4.9, 4.3, 4.3, 4.7, 3.9, 3.3 and 2.5) as a function of λ "
                          "[…] The results using gradient-descent Sarsa(λ) and NRBF are "
@@ -388,7 +397,12 @@ def fig3_analyse(results, figure_dir, confirmation=None):
     rule = (f"yes if the converged level ({level.value:.1f}) is within 50 to 75 steps and the "
             f"curve settles there to stay within 20 to 60 episodes ({settled.value:g}); "
             "partly if one holds")
-    return Section(rows, _verdict(score, 2, yes=2, partly=1), rule, [], figures,
+    agents = f"mean over {len(steps)} agents"
+    evidence = [Evidence("Fig. 3: the converged level (steps per episode)", agents, level,
+                         (50, 75), paper=60),
+                Evidence("Fig. 3: the episode from which the curve stays converged", agents,
+                         settled, (20, 60), paper=40, never=episodes)]
+    return Section(rows, _verdict(score, 2, yes=2, partly=1), rule, [], figures, evidence=evidence,
                    claim="“Convergence to an average of 60 steps per episode is achieved after "
                          "about 40 episodes.” (section 4.1, Fig. 3: replacing, α 3.9, λ 0.9)",
                    measure="the mean over agents of the steps per episode (the curve of Fig. 3); "
@@ -450,10 +464,12 @@ def _fig5_judge(results):
              f"{first.notna().sum()} of {len(first)}; {'never' if median > episodes else f'{median:g}'}",
              "—")]
     verdict = "yes" if 5 <= stays.value <= 20 else "partly" if stays.value <= 50 else "no"
+    evidence = [Evidence("Fig. 5: the episode from which the agents' mean up-time stays above "
+                         "40 s", f"mean over {agents} agents", stays, (5, 20), paper=10, never=episodes)]
     rule = (f"the mean up-time stays above 40 s from episode {episode_text(stays, episodes)}; "
             "yes if from an episode within 5 to 20 (the paper's about 10), partly if within "
             f"50, no if later or never ({agents} agents)")
-    return rows, verdict, rule
+    return rows, verdict, rule, evidence
 
 
 def fig5_analyse(results, figure_dir, confirmation=None):
@@ -474,8 +490,8 @@ def fig5_analyse(results, figure_dir, confirmation=None):
     axes[1].grid(alpha=0.3)
     axes[1].legend(fontsize=7)
     figures = save_figure(figure, figure_dir, "fig5")
-    rows, verdict, rule = _fig5_judge(results)
-    section = Section(rows, verdict, rule, [], figures,
+    rows, verdict, rule, evidence = _fig5_judge(results)
+    section = Section(rows, verdict, rule, [], figures, evidence=evidence,
                       claim="“An uptime over 40 seconds signifies that the pendulum is "
                             "successfully balanced until the end, which occurs after about 10 "
                             "episodes.” (section 4.2; Fig. 5: “Average up-time for the "
@@ -514,10 +530,11 @@ def traces_confirm(configs, results, agents):
     return at_cells(configs, _best_alpha_choice(results).cells, agents)
 
 
-def _compare_traces(measured, cells, better, other, label):
+def _compare_traces(measured, cells, better, other, label, figure):
     """Per lambda, both traces' mean up-time at their chosen alpha on `measured` agents and
-    the probability that `better` does better: rows, outcomes and the figure's points."""
-    rows, outcomes, lines = [], [], []
+    the probability that `better` does better: rows, outcomes, the figure's points and the
+    evidence (`figure`: the paper's figure, naming the panel)."""
+    rows, outcomes, lines, evidence = [], [], [], []
     for lam in sorted(cells["lam"].unique()):
         parts, samples = [], {}
         for trace in (better, other):
@@ -533,11 +550,14 @@ def _compare_traces(measured, cells, better, other, label):
         if len(samples) == 2:
             improvement = st.improvement_interval(samples[better], samples[other])
             outcomes.append(st.outcome(improvement))
+            evidence.append(Evidence(f"{figure}: P({better} has the longer up-time than "
+                                     f"{other}) at the best α", f"λ {lam:g}", improvement,
+                                     (0.5, 1.0)))
             word = {1: f"{better} better", -1: f"{other} better", 0: "a tie not excluded"}
             parts.append(f"P({better} > {other}) {improvement.text(2)}: {word[outcomes[-1]]}")
         rows.append((f"λ = {lam:g}: mean up-time at the best α; probability of improvement",
                      "; ".join(parts), f"{better} slightly better"))
-    return rows, outcomes, lines
+    return rows, outcomes, lines, evidence
 
 
 def _trace_rule(outcomes, better, other):
@@ -558,8 +578,10 @@ def _uptime_against_lambda(results, figure_dir, name, title, better, sensitive, 
     agents = per_agent(results, "uptime_s")
     choice = _best_alpha_choice(results)
     other = "accumulating" if better == "replacing" else "replacing"
-    rows, outcomes, lines = _compare_traces(choice.measured, choice.cells, better, other,
-                                            "paper-sized run, second half")
+    figure = title.split(":")[0]
+    rows, outcomes, lines, evidence = _compare_traces(choice.measured, choice.cells, better,
+                                                      other, "paper-sized run, second half",
+                                                      figure)
     verdict, rule = _trace_rule(outcomes, better, other)
     spreads = []
     for trace, cells in agents.groupby("trace"):
@@ -569,17 +591,18 @@ def _uptime_against_lambda(results, figure_dir, name, title, better, sensitive, 
     rows.append(("range of the mean up-time over α (largest − smallest mean of a cell), all λ, "
                  "every agent", "; ".join(spreads),
                  f"{sensitive} more sensitive to α" if sensitive else "similar sensitivity"))
-    section = Section(rows, verdict, rule, [], [], claim=claim,
+    section = Section(rows, verdict, rule, [], [], claim=claim, evidence=evidence,
                       measure="each agent's mean up-time over its 200 episodes, at the best α "
                               f"per trace and λ: {choice.how}; “better”: the probability that "
                               "an agent of one trace has the longer up-time than one of the "
                               "other, with its interval")
     if confirmation is not None:
-        confirmed_rows, confirmed_outcomes, confirmed_lines = _compare_traces(
-            per_agent(confirmation, "uptime_s"), choice.cells, better, other, "confirmation run")
+        confirmed_rows, confirmed_outcomes, confirmed_lines, confirmed_evidence = _compare_traces(
+            per_agent(confirmation, "uptime_s"), choice.cells, better, other, "confirmation run",
+            figure)
         lines += confirmed_lines
-        _merge(section, (confirmed_rows, *_trace_rule(confirmed_outcomes, better, other)),
-               confirmation_text(confirmation))
+        _merge(section, (confirmed_rows, *_trace_rule(confirmed_outcomes, better, other),
+                         confirmed_evidence), confirmation_text(confirmation))
     section.figures = save_figure(plot_against_lambda(pd.DataFrame(lines), "average up-time (s)",
                                                       title), figure_dir, name)
     return section
@@ -650,7 +673,7 @@ def longest_run(condition) -> int:
 
 
 def _table1_judge(results, cells):
-    rows, best = [], math.inf
+    rows, best, evidence = [], math.inf, []
     for _, cell in cells.iterrows():
         runs = at(results, cell)
         uptime = matrix(runs, "uptime_s")
@@ -660,6 +683,9 @@ def _table1_judge(results, cells):
         learners = int((st.first_run_of(uptime >= CARTPOLE_FULL_S, LEARNED_WINDOW) <= episodes).sum())
         best = min(best, learned.value)
         name = f"{cell['trace']} (best: λ {cell['lam']:g}, α {cell['alpha']:g})"
+        evidence.append(Evidence("Table 1: the episode by which most agents have learned to "
+                                 f"balance (240 s in {LEARNED_WINDOW} episodes in a row)", name,
+                                 learned, (50, 200), paper=100, never=episodes))
         rows += [(f"{name}: episode by which most agents have learned to balance (the whole "
                   f"240 s in each of {LEARNED_WINDOW} consecutive episodes)",
                   f"{episode_text(learned, episodes)} ({learners} of {agents} agents learn)",
@@ -683,15 +709,15 @@ def _table1_judge(results, cells):
             f"{'never' if best > episodes else f'{best:g}'}; yes if by 50 to 200 (the paper's "
             "about 100; the literature's 20 to 200), partly if most learn but outside that "
             "range, no if most never do")
-    return rows, verdict, rule
+    return rows, verdict, rule, evidence
 
 
 def table1_analyse(results, figure_dir, confirmation=None):
     del figure_dir
     choice = _table1_choice(results)
     measured = results.merge(choice.measured[list(CELL) + ["seed"]], on=list(CELL) + ["seed"])
-    rows, verdict, rule = _table1_judge(measured, choice.cells)
-    section = Section(rows, verdict, rule, [], [],
+    rows, verdict, rule, evidence = _table1_judge(measured, choice.cells)
+    section = Section(rows, verdict, rule, [], [], evidence=evidence,
                       claim="“Table 1 indicates approximate numbers for how many episodes were "
                             "required before most agents have successfully learned to balance "
                             "the pole.” (section 4.3; Table 1: this paper, 100)",

@@ -19,6 +19,7 @@ import os
 import time
 
 from lwrl import outputs, tasks
+from lwrl.analysis.plots import plot_claims, save_figure
 from lwrl.runners import sweep
 from lwrl.studies.paper.items import ITEMS
 
@@ -173,10 +174,14 @@ def reproduce(item, out_dir: str, plant: str = "analytic", quick: bool = False,
             sweep.write_configs(extra, os.path.join(item_dir, "confirmation-configs.jsonl"))
         sections[name] = (ITEMS[name].analyse(results, figure_dir, confirmation), len(configs),
                           len(results), None if confirmation is None else len(extra))
+    evidence = [item for section, *_ in sections.values() for item in section.evidence]
+    claims = None if quick or not evidence else save_figure(
+        plot_claims(evidence, f"The paper's claims against our 95 % intervals ({plant} plant)"),
+        figure_dir, "claims")[0]
     path = os.path.join(out_dir, "report.md")
     with outputs.atomic_write(path) as file:
         file.write(report(sections, timings, plant, integrator, quick, out_dir, readings or {},
-                          alphas))
+                          alphas, claims))
     return path
 
 
@@ -202,7 +207,7 @@ def verdict(section, quick: bool) -> str:
 
 
 def report(sections: dict, timings: dict, plant: str, integrator: str, quick: bool,
-           out_dir: str, readings: dict, alphas=None) -> str:
+           out_dir: str, readings: dict, alphas=None, claims: str | None = None) -> str:
     """The Markdown report: a headline table, then each item's claim, the quantity it is
     judged on and our numbers beside the paper's (and the confirmation run's, if any)."""
     confirming = any(confirmed is not None for _, _, _, confirmed in sections.values())
@@ -230,6 +235,11 @@ def report(sections: dict, timings: dict, plant: str, integrator: str, quick: bo
         else:
             lines.append(f"| {name} | {verdict(section, quick)} | {runs} | {rows} | "
                          f"{timings[name]['seconds']:.0f} |")
+    if claims is not None:
+        lines += ["", "Each judged quantity's 95 % interval (blue; the point: our estimate), "
+                  "the range the item's rule counts as reproducing the paper (green) and the "
+                  "paper's own value where it states one (red):", "",
+                  f"![the paper's claims against our intervals]({os.path.relpath(claims, out_dir)})"]
     for name, (section, _, _, _) in sections.items():
         judged = (f"Reproduces: **{section.verdict}** — {section.rule}." if not quick else
                   f"Reproduces: {NO_VERDICT}: the rule of a full run would be: {section.rule}.")
