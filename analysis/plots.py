@@ -67,12 +67,15 @@ class Evidence:
     """The paper's own value, where it states one."""
     never: float | None = None
     """Values above this read "never" (an episode beyond the run's last)."""
+    judged: bool = True
+    """False for an estimate shown beside the judged one (e.g. a smaller run's)."""
 
 
 def plot_claims(evidence: list, title: str):
     """Per judged quantity (a panel each), our 95 % intervals as bars with the point
-    estimate, the range the claim accepts shaded, and the paper's value as a diamond: in the
-    style of rliable's interval plots, the paper's claims against our estimates at a glance."""
+    estimate (grey where not judged), the range the claim accepts shaded, and the paper's
+    value as a diamond: in the style of rliable's interval plots, the paper's claims against
+    our estimates at a glance."""
     panels = list(dict.fromkeys(item.panel for item in evidence))
     heights = [1 + 0.28 * sum(item.panel == panel for item in evidence) for panel in panels]
     figure, axes = plt.subplots(len(panels), 1, figsize=(7.5, sum(heights) + 0.6),
@@ -93,10 +96,12 @@ def plot_claims(evidence: list, title: str):
                    label="what the claim accepts")
         for y, item in enumerate(rows):
             value = shown(item.estimate.value)
+            color = "tab:blue" if item.judged else "0.6"
+            label = "our estimate, judged" if item.judged else "our estimate, not judged"
             if np.isfinite(item.estimate.low):
                 ax.plot([shown(item.estimate.low), shown(item.estimate.high)], [y, y],
-                        color="tab:blue", lw=3, solid_capstyle="butt")
-            ax.plot(value, y, "o", color="tab:blue", ms=5)
+                        color=color, lw=3, solid_capstyle="butt")
+            ax.plot(value, y, "o", color=color, ms=5, label=label)
             if never is not None and item.estimate.value > never:
                 ax.annotate("never", (value, y), xytext=(4, -3), textcoords="offset points",
                             fontsize=7)
@@ -114,5 +119,5 @@ def plot_claims(evidence: list, title: str):
                for handle, label in zip(*ax.get_legend_handles_labels())}
     figure.legend(handles.values(), handles.keys(), loc="upper right", fontsize=7)
     figure.suptitle(title, fontsize=9, x=0.02, ha="left")
-    figure.tight_layout()
+    figure.tight_layout(rect=(0, 0, 1, 1 - 0.5 / figure.get_figheight()))
     return figure

@@ -136,6 +136,7 @@ def test_the_claims_figure_draws_each_judged_quantity_beside_the_claim(tmp_path)
     section = items.fig5_analyse(table(uptime), str(tmp_path), confirmation=table(uptime))
     assert [item.label for item in section.evidence] == [
         "mean over 10 agents, paper-sized run", "mean over 10 agents, confirmation run"]
+    assert [item.judged for item in section.evidence] == [False, True]
     first = section.evidence[0]
     assert first.estimate.value == 9 and first.accepted == (5, 20) and first.paper == 10
     figure = plots.plot_claims(section.evidence, "claims")

@@ -60,6 +60,9 @@ LEARNED_WINDOW = 10
 consecutive episodes (the paper's agents may un-learn later: its section 4.3)."""
 SETTLE_WINDOW = 5
 """Fig. 3: the curve is judged through its mean over this many episodes."""
+SAME_AT_LAMBDA_0 = ("At λ = 0 the traces are one algorithm (with nothing carried over, eq. 2, "
+                    "5 and 6 all make the trace the current gradient), so both traces' agents "
+                    "are the same agents: a tie by construction.")
 CELL = ("features", "trace", "lam", "alpha")
 """The settings that tell the runs of an item's grid apart."""
 
@@ -248,10 +251,12 @@ def _merge(section: Section, confirmed: tuple | None, description: str) -> Secti
     if confirmed is None:
         return section
     rows, verdict, rule, evidence = confirmed
-    def labelled(items, run):
-        return [dataclasses.replace(item, label=f"{item.label}, {run}") for item in items]
-    section.evidence = (labelled(section.evidence, "paper-sized run")
-                        + labelled(evidence, "confirmation run"))
+    order = list(dict.fromkeys(item.label for item in section.evidence + evidence))
+    pairs = sorted([(item, "paper-sized run", False) for item in section.evidence]
+                   + [(item, "confirmation run", True) for item in evidence],
+                   key=lambda pair: order.index(pair[0].label))  # each quantity's two rows together
+    section.evidence = [dataclasses.replace(item, label=f"{item.label}, {run}", judged=judged)
+                        for item, run, judged in pairs]
     section.paper_sized_verdict, section.verdict = section.verdict, verdict
     section.rule = f"{rule} (the paper-sized run alone: {section.paper_sized_verdict})"
     section.confirmed = {quantity: ours for quantity, ours, _ in rows}
@@ -336,7 +341,8 @@ def fig2_analyse(results, figure_dir, confirmation=None):
             f"at {nrbf_wins} of {n} λ, and the paper's best α not worse than ours (the "
             f"interval of P(ours better) holds or lies below 1/2) at {consistent} of {n} λ; "
             "yes if both hold at all but one λ, partly if at half of them")
-    notes = ["The paper's step counts are about 50 % below most other papers' (its section "
+    notes = [SAME_AT_LAMBDA_0,
+             "The paper's step counts are about 50 % below most other papers' (its section "
              "4.1); ours come from the same cost-to-go task and random starts.",
              "An α at which any agent of the first half diverged is excluded from the "
              "best-α choice; episodes that hit the 10 000-step cap count with their 10 000 "
@@ -591,7 +597,8 @@ def _uptime_against_lambda(results, figure_dir, name, title, better, sensitive, 
     rows.append(("range of the mean up-time over α (largest − smallest mean of a cell), all λ, "
                  "every agent", "; ".join(spreads),
                  f"{sensitive} more sensitive to α" if sensitive else "similar sensitivity"))
-    section = Section(rows, verdict, rule, [], [], claim=claim, evidence=evidence,
+    notes = [SAME_AT_LAMBDA_0]
+    section = Section(rows, verdict, rule, notes, [], claim=claim, evidence=evidence,
                       measure="each agent's mean up-time over its 200 episodes, at the best α "
                               f"per trace and λ: {choice.how}; “better”: the probability that "
                               "an agent of one trace has the longer up-time than one of the "
