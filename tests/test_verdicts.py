@@ -7,7 +7,7 @@ import pytest
 
 from lwrl.analysis import plots
 from lwrl.analysis import statistics as st
-from lwrl.studies.paper import items
+from lwrl.studies.paper import items, judging
 
 
 def table(values, value="uptime_s", **cell):
@@ -104,11 +104,11 @@ def test_the_best_alpha_is_chosen_on_one_half_and_judged_on_the_other():
                                           [second], [second], [second], [second], [second]],
                                          3, axis=1), alpha=alpha)
                          for alpha, (first, second) in halves.items()], ignore_index=True)
-    choice = items.choose(items.per_agent(results, "uptime_s"), "uptime_s", False,
+    choice = judging.choose(judging.per_agent(results, "uptime_s"), "uptime_s", False,
                           ("features", "trace", "lam"), ("alpha",))
     assert choice.cells["alpha"].tolist() == [0.1]
     assert sorted(choice.measured["seed"].unique()) == [5, 6, 7, 8, 9]
-    assert items.at(choice.measured, choice.cells.iloc[0])["uptime_s"].tolist() == [10.0] * 5
+    assert judging.at(choice.measured, choice.cells.iloc[0])["uptime_s"].tolist() == [10.0] * 5
     assert "first half" in choice.how and "seeds 5–9" in choice.how
 
 
@@ -116,14 +116,14 @@ def test_the_best_alpha_is_chosen_on_one_half_and_judged_on_the_other():
     ([0, 1, 1, 1, 1, 0, 0], "yes"), ([0, 1, 0, 0, 0, 0, 0], "partly"), ([0] * 7, "partly"),
     ([0, 1, 1, 1, 1, 1, -1], "partly"), ([0, -1, -1, 1, 0, 0, 0], "no")])
 def test_trace_verdict_counts_decided_comparisons(outcomes, verdict):
-    assert items.trace_verdict(outcomes)[0] == verdict
+    assert judging.trace_verdict(outcomes)[0] == verdict
 
 
 def test_confirmation_runs_are_fresh_agents_at_the_chosen_cells():
     configs = items.fig8_configs("analytic", False, "semi_implicit")
     cells = pd.DataFrame([{"features": "nrbf", "trace": "accumulating", "lam": 0.7, "alpha": 0.5},
                           {"features": "nrbf", "trace": "replacing", "lam": 0.4, "alpha": 0.1}])
-    chosen = items.at_cells(configs, cells, 50)
+    chosen = judging.at_cells(configs, cells, 50)
     assert [(c.trace, c.lam, c.alpha, c.agents, c.seeds[0]) for c in chosen] == [
         ("replacing", 0.4, 0.1, 50, 10), ("accumulating", 0.7, 0.5, 50, 10)]
 

@@ -14,17 +14,12 @@ How the items judge (the report says it again beside each):
   stay as secondary rows.
 - Every mean has a 95 % bootstrap interval over agents (`lwrl.analysis.statistics`), and
   "trace A better than trace B" is the probability of improvement with its interval.
-- Where a best alpha (or lambda) is chosen, it is chosen on the first half of each run's
-  agents (seeds) and measured on the second half, so that the choice does not flatter the
-  number it is judged by (the winner's curse).
-- Items with `confirm` take a confirmation run: more agents on fresh seeds at the cells
-  chosen on the first half (`lwrl reproduce --agents-per-cell N`); the verdict is then
-  judged on it, and the paper-sized run's own verdict is kept beside it.
+- A best alpha (or lambda) is chosen on one half of the seeds and judged on the other, and
+  a confirmation run judges the chosen cells on fresh agents (`studies.paper.judging`).
 """
 
 import dataclasses
 import math
-from typing import Callable
 
 import matplotlib
 
@@ -36,6 +31,10 @@ import pandas as pd  # noqa: E402
 from lwrl.analysis import statistics as st  # noqa: E402
 from lwrl.analysis.plots import Evidence, plot_learning_curve, save_figure  # noqa: E402
 from lwrl.runners.config import RunConfig  # noqa: E402
+from lwrl.studies.paper.judging import (CELL, Item, Section, at, at_cells, choose,  # noqa: E402
+                                        confirmation_text, episode_text, matrix,
+                                        merge_confirmation, per_agent, score_verdict,
+                                        seeds_text, trace_verdict)
 
 LAMBDAS = (0.0, 0.4, 0.7, 0.8, 0.9, 0.95, 0.99)
 """The lambdas of Fig. 2 (Singh and Sutton's), used for every lambda sweep."""
@@ -63,162 +62,11 @@ SETTLE_WINDOW = 5
 SAME_AT_LAMBDA_0 = ("At λ = 0 the traces are one algorithm (with nothing carried over, eq. 2, "
                     "5 and 6 all make the trace the current gradient), so both traces' agents "
                     "are the same agents: a tie by construction.")
-CELL = ("features", "trace", "lam", "alpha")
-"""The settings that tell the runs of an item's grid apart."""
-
-
-@dataclasses.dataclass
-class Section:
-    """An item's part of the report."""
-
-    rows: list
-    """(quantity, ours, paper's) triples, from the paper-sized run."""
-    verdict: str
-    """`yes`, `partly` or `no`: the confirmation run's where there is one."""
-    rule: str
-    """How the verdict was decided."""
-    notes: list = dataclasses.field(default_factory=list)
-    figures: list = dataclasses.field(default_factory=list)
-    claim: str = ""
-    """The paper's sentence the verdict judges."""
-    measure: str = ""
-    """The quantity lwrl measures for it, and on which agents."""
-    confirmed: dict | None = None
-    """Quantity -> the confirmation run's value (None: no confirmation run)."""
-    confirmation: str = ""
-    """The confirmation run: how many agents, which seeds."""
-    paper_sized_verdict: str | None = None
-    """The paper-sized run's own verdict, where the verdict is the confirmation's."""
-    evidence: list = dataclasses.field(default_factory=list)
-    """The judged quantities' `Evidence`, for the figure of claims against intervals."""
-
-
-@dataclasses.dataclass(frozen=True)
-class Item:
-    """One figure or table of the paper."""
-
-    name: str
-    title: str
-    configs: Callable[[str, bool, str], list]
-    """`configs(plant, quick, integrator)`: the runs it needs."""
-    analyse: Callable[..., Section]
-    """`analyse(results, figure_dir, confirmation=None)`: figures and the report section;
-    `confirmation` the results of the runs `confirm` asked for."""
-    confirm: Callable[[list, pd.DataFrame, int], list] | None = None
-    """`confirm(configs, results, agents)`: the confirmation runs, `agents` fresh agents at
-    each cell the analysis chooses from `results` (None: the item takes none)."""
-
-
 def grid(task, plant, integrator, traces, lambdas, alphas, agents, episodes, **fields):
     """RunConfigs over traces x lambdas x alphas, each with agents seeded 0..agents-1."""
     return [RunConfig(task=task, plant=plant, integrator=integrator, trace=trace, alpha=alpha,
                       lam=lam, agents=agents, episodes=episodes, **fields)
             for trace in traces for lam in lambdas for alpha in alphas]
-
-
-def per_agent(results: pd.DataFrame, value: str, keys=CELL):
-    """Each agent's mean of `value` over its episodes, with the run's keys, its seed and
-    whether it is in the first half of its run's agents (`selection`); NaN for an agent that
-    diverged (its run cannot count as a working configuration)."""
-    grouped = results.groupby(list(keys) + ["agent", "seed"], sort=True)
-    means = grouped[value].mean()
-    means[grouped["diverged"].any()] = np.nan
-    table = means.reset_index()
-    size = table.groupby(list(keys))["agent"].transform("count")
-    table["selection"] = table["agent"] < size / 2
-    return table
-
-
-def best_alpha(agents: pd.DataFrame, value: str, minimise: bool,
-               keys=("features", "trace", "lam"), over=("alpha",)):
-    """Per `keys`, the cell (values of `over`) whose agents' mean `value` is best, with that
-    mean and its standard error over agents; also every cell. Cells with a diverged agent
-    are excluded from the choice."""
-    cells = agents.groupby(list(keys) + list(over))[value].agg(
-        mean=lambda v: v.mean() if v.notna().all() else np.nan,
-        error=lambda v: v.std(ddof=1) / math.sqrt(len(v)) if len(v) > 1 else np.nan)
-    cells = cells.reset_index()
-    valid = cells.dropna(subset=["mean"])
-    by = valid.groupby(list(keys))["mean"]
-    return valid.loc[by.idxmin() if minimise else by.idxmax()].reset_index(drop=True), cells
-
-
-@dataclasses.dataclass
-class Choice:
-    """The cells chosen per `keys` and the agents they are measured on."""
-
-    cells: pd.DataFrame
-    """`keys`, `over` and `mean` (on the agents the choice was made on) per chosen cell."""
-    measured: pd.DataFrame
-    """The per-agent rows the chosen cells are judged on (the other half of the seeds)."""
-    how: str
-    """The choice, in words, for the report."""
-
-
-def _seeds(rows: pd.DataFrame) -> str:
-    seeds = sorted(rows["seed"].unique())
-    return f"seed {seeds[0]}" if len(seeds) == 1 else f"seeds {seeds[0]}–{seeds[-1]}"
-
-
-def choose(agents: pd.DataFrame, value: str, minimise: bool, keys, over) -> Choice:
-    """Per `keys`, the best cell over `over`, chosen on the first half of each run's agents
-    and measured on the second half; where there is nothing to choose (one cell per `keys`),
-    every agent is measured."""
-    names = " and ".join("α" if name == "alpha" else "λ" for name in over)
-    if (agents.groupby(list(keys))[list(over)].nunique() <= 1).all(axis=None):
-        best, _ = best_alpha(agents, value, minimise, keys, over)
-        return Choice(best, agents, f"one {names} per cell, measured on every agent "
-                                    f"({_seeds(agents)})")
-    first, second = agents[agents["selection"]], agents[~agents["selection"]]
-    best, _ = best_alpha(first, value, minimise, keys, over)
-    return Choice(best, second, f"the best {names} chosen on the first half of each cell's "
-                                f"agents ({_seeds(first)}) and measured on the second half "
-                                f"({_seeds(second)})")
-
-
-def at(rows: pd.DataFrame, cell, columns=CELL) -> pd.DataFrame:
-    """The rows of `rows` in `cell` (a mapping with the values of `columns` it has)."""
-    mask = np.ones(len(rows), dtype=bool)
-    for column in columns:
-        if column in cell:
-            mask &= np.isclose(rows[column], cell[column]) if column in ("lam", "alpha") \
-                else (rows[column] == cell[column]).to_numpy()
-    return rows[mask]
-
-
-def at_cells(configs, cells: pd.DataFrame, agents: int) -> list:
-    """The runs of `configs` in the chosen `cells`, each with `agents` fresh agents: seeded
-    from the end of the run's own seeds on, so they share no seed with it."""
-    chosen = [row for _, row in cells.iterrows()]
-    return [dataclasses.replace(config, agents=agents, seed=config.seed + config.agents)
-            for config in configs
-            if any(config.features == row["features"] and config.trace == row["trace"]
-                   and math.isclose(config.lam, row["lam"]) and math.isclose(config.alpha, row["alpha"])
-                   for row in chosen)]
-
-
-def matrix(results: pd.DataFrame, value: str) -> np.ndarray:
-    """`value` as an agents x episodes array (agents in seed order)."""
-    return results.pivot_table(index="seed", columns="episode", values=value).to_numpy()
-
-
-def episode_text(estimate: st.Estimate, episodes: int) -> str:
-    """An episode number and its interval; beyond the run's last episode reads "never"."""
-    def one(x):
-        return "never" if x > episodes else f"{x:g}"
-    if math.isnan(estimate.low):
-        return one(estimate.value)
-    return f"{one(estimate.value)} [{one(estimate.low)}, {one(estimate.high)}]"
-
-
-def trace_verdict(outcomes) -> tuple[str, int, int, int]:
-    """From the per-lambda outcomes (+1 the paper's trace better, -1 worse, 0 a tie not
-    excluded): the verdict and the counts of better, worse and ties."""
-    wins, losses = outcomes.count(1), outcomes.count(-1)
-    ties = len(outcomes) - wins - losses
-    if losses == 0 and wins >= (len(outcomes) + 1) // 2:
-        return "yes", wins, losses, ties
-    return ("no" if losses > wins else "partly"), wins, losses, ties
 
 
 def plot_against_lambda(lines: pd.DataFrame, ylabel: str, title: str, log: bool = False):
@@ -240,36 +88,6 @@ def plot_against_lambda(lines: pd.DataFrame, ylabel: str, title: str, log: bool 
     axes.legend(fontsize=7)
     axes.grid(alpha=0.3)
     return figure
-
-
-def _verdict(score: int, total: int, yes: int, partly: int) -> str:
-    return "yes" if score >= yes else "partly" if score >= partly else "no"
-
-
-def _merge(section: Section, confirmed: tuple | None, description: str) -> Section:
-    """`section` (the paper-sized run's) with the confirmation run's rows, verdict and rule."""
-    if confirmed is None:
-        return section
-    rows, verdict, rule, evidence = confirmed
-    order = list(dict.fromkeys(item.label for item in section.evidence + evidence))
-    pairs = sorted([(item, "paper-sized run", False) for item in section.evidence]
-                   + [(item, "confirmation run", True) for item in evidence],
-                   key=lambda pair: order.index(pair[0].label))  # each quantity's two rows together
-    section.evidence = [dataclasses.replace(item, label=f"{item.label}, {run}", judged=judged)
-                        for item, run, judged in pairs]
-    section.paper_sized_verdict, section.verdict = section.verdict, verdict
-    section.rule = f"{rule} (the paper-sized run alone: {section.paper_sized_verdict})"
-    section.confirmed = {quantity: ours for quantity, ours, _ in rows}
-    known = {quantity for quantity, _, _ in section.rows}
-    section.rows += [row[:1] + ("—",) + row[2:] for row in rows if row[0] not in known]
-    section.confirmation = description
-    return section
-
-
-def confirmation_text(confirmation: pd.DataFrame) -> str:
-    per_run = confirmation.groupby("run")["agent"].nunique()
-    agents = per_run.iloc[0] if per_run.nunique() == 1 else f"{per_run.min()} to {per_run.max()}"
-    return f"{agents} agents per cell, {_seeds(confirmation)}, at the cells chosen above"
 
 
 # --- Fig. 2: Mountain-Car, steps per episode against lambda at the best alpha -------------
@@ -336,7 +154,7 @@ def fig2_analyse(results, figure_dir, confirmation=None):
         "Fig. 2: Mountain-Car, best α per λ (second half of the seeds)", log=True),
         figure_dir, "fig2")
     n = len(lambdas)
-    verdict = _verdict(min(consistent, nrbf_wins), n, yes=n - 1, partly=(n + 1) // 2)
+    verdict = score_verdict(min(consistent, nrbf_wins), yes=n - 1, partly=(n + 1) // 2)
     rule = (f"NRBF better than CMAC (interval of the probability of improvement above 1/2) "
             f"at {nrbf_wins} of {n} λ, and the paper's best α not worse than ours (the "
             f"interval of P(ours better) holds or lies below 1/2) at {consistent} of {n} λ; "
@@ -408,12 +226,12 @@ def fig3_analyse(results, figure_dir, confirmation=None):
                          (50, 75), paper=60),
                 Evidence("Fig. 3: the episode from which the curve stays converged", agents,
                          settled, (20, 60), paper=40, never=episodes)]
-    return Section(rows, _verdict(score, 2, yes=2, partly=1), rule, [], figures, evidence=evidence,
+    return Section(rows, score_verdict(score, yes=2, partly=1), rule, [], figures, evidence=evidence,
                    claim="“Convergence to an average of 60 steps per episode is achieved after "
                          "about 40 episodes.” (section 4.1, Fig. 3: replacing, α 3.9, λ 0.9)",
                    measure="the mean over agents of the steps per episode (the curve of Fig. 3); "
                            f"converged: its {SETTLE_WINDOW}-episode mean stays within 10 % of "
-                           f"the level of the last 20 episodes to the end ({_seeds(results)})")
+                           f"the level of the last 20 episodes to the end ({seeds_text(results)})")
 
 
 # --- Fig. 5: the best pendulum agent's up-time per episode ---------------------------------
@@ -505,9 +323,9 @@ def fig5_analyse(results, figure_dir, confirmation=None):
                             "α 1.5, λ 0.4)",
                       measure="the up-time per episode averaged over the agents (the curve of "
                               "Fig. 5), and the episode from which it stays above 40 s to the "
-                              f"end of the run; intervals over agents ({_seeds(results)})")
+                              f"end of the run; intervals over agents ({seeds_text(results)})")
     if confirmation is not None:
-        _merge(section, _fig5_judge(confirmation), confirmation_text(confirmation))
+        merge_confirmation(section, _fig5_judge(confirmation), confirmation_text(confirmation))
     return section
 
 
@@ -608,7 +426,7 @@ def _uptime_against_lambda(results, figure_dir, name, title, better, sensitive, 
             per_agent(confirmation, "uptime_s"), choice.cells, better, other, "confirmation run",
             figure)
         lines += confirmed_lines
-        _merge(section, (confirmed_rows, *_trace_rule(confirmed_outcomes, better, other),
+        merge_confirmation(section, (confirmed_rows, *_trace_rule(confirmed_outcomes, better, other),
                          confirmed_evidence), confirmation_text(confirmation))
     section.figures = save_figure(plot_against_lambda(pd.DataFrame(lines), "average up-time (s)",
                                                       title), figure_dir, name)
@@ -734,7 +552,7 @@ def table1_analyse(results, figure_dir, confirmation=None):
                               "there, at each trace's best λ and α (by mean up-time): "
                               f"{choice.how}")
     if confirmation is not None:
-        _merge(section, _table1_judge(confirmation, choice.cells),
+        merge_confirmation(section, _table1_judge(confirmation, choice.cells),
                confirmation_text(confirmation))
     return section
 
