@@ -259,7 +259,7 @@ def report(sections: dict, timings: dict, plant: str, integrator: str, quick: bo
                       "|---|---|---|---|"]
             lines += [f"| {quantity} | {ours} | {section.confirmed.get(quantity, '—')} | {paper} |"
                       for quantity, ours, paper in section.rows]
-        lines += [""] + [f"- {note}" for note in section.notes]
+        lines += [""] + [f"- {note}" for note in section.notes] + ([""] if section.notes else [])
         lines += [f"![{name}]({os.path.relpath(path, out_dir)})" for path in section.figures
                   if path.endswith(".png")]
     lines += ["", "## Readings of SPEC.md's open points used here", ""]
