@@ -236,7 +236,8 @@ def report(sections: dict, timings: dict, plant: str, integrator: str, quick: bo
             lines.append(f"| {name} | {verdict(section, quick)} | {runs} | {rows} | "
                          f"{timings[name]['seconds']:.0f} |")
     if claims is not None:
-        lines += ["", "Each judged quantity's 95 % interval (blue; the point: our estimate), "
+        lines += ["", "Each judged quantity's 95 % interval (blue, or grey beside the judged one; the "
+                  "point: our estimate), "
                   "the range the item's rule counts as reproducing the paper (green) and the "
                   "paper's own value where it states one (red):", "",
                   f"![the paper's claims against our intervals]({os.path.relpath(claims, out_dir)})"]
