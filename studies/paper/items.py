@@ -517,7 +517,7 @@ def _table1_judge(results, cells):
                   "about 100"),
                  (f"{name}: the same, balancing in every episode from then to the end",
                   episode_text(st.matrix_interval(_stay_learned, uptime), episodes), "—"),
-                 (f"{name}: the same, balancing the whole 240 s once (the earlier rule)",
+                 (f"{name}: the same, balancing the whole 240 s once (touching once, as the earlier rule did)",
                   f"{episode_text(st.matrix_interval(_touched, uptime), episodes)} (longest "
                   f"{uptime.max():.0f} s)", "—"),
                  (f"{name}: fraction of episodes balanced the whole 240 s, episodes "
