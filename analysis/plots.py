@@ -8,6 +8,7 @@ import os
 import matplotlib
 
 matplotlib.use("Agg")
+matplotlib.rcParams["svg.hashsalt"] = "lwrl"  # the same figure, the same SVG bytes
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
@@ -22,7 +23,8 @@ def save_figure(figure, figure_dir: str, name: str) -> list:
     for extension in ("png", "svg"):
         path = os.path.join(figure_dir, f"{name}.{extension}")
         with outputs.atomic_path(path) as temporary:
-            figure.savefig(temporary, format=extension, dpi=120, bbox_inches="tight")
+            figure.savefig(temporary, format=extension, dpi=120, bbox_inches="tight",
+                           metadata={"Date": None} if extension == "svg" else None)
         paths.append(path)
     plt.close(figure)
     return paths
