@@ -1,16 +1,20 @@
-"""Figures that several studies draw: learning curves with error bands, and saving a
-figure as PNG and SVG. Needs the 'paper' extra (matplotlib, pandas)."""
+"""Figures that several studies draw: learning curves with error bands, claims against
+interval estimates, and saving a figure as PNG and SVG. Needs the 'paper' extra (matplotlib,
+pandas, scipy)."""
 
+import dataclasses
 import os
 
 import matplotlib
 
 matplotlib.use("Agg")
+matplotlib.rcParams["svg.hashsalt"] = "lwrl"  # the same figure, the same SVG bytes
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from lwrl import outputs  # noqa: E402
+from lwrl.analysis import statistics  # noqa: E402
 
 
 def save_figure(figure, figure_dir: str, name: str) -> list:
@@ -19,24 +23,103 @@ def save_figure(figure, figure_dir: str, name: str) -> list:
     for extension in ("png", "svg"):
         path = os.path.join(figure_dir, f"{name}.{extension}")
         with outputs.atomic_path(path) as temporary:
-            figure.savefig(temporary, format=extension, dpi=120, bbox_inches="tight")
+            figure.savefig(temporary, format=extension, dpi=120, bbox_inches="tight",
+                           metadata={"Date": None} if extension == "svg" else None)
         paths.append(path)
     plt.close(figure)
     return paths
 
 
-def plot_learning_curve(results: pd.DataFrame, value: str, ylabel: str, title: str, axes=None):
-    """Mean over agents per episode, with a band of one standard error; on `axes` if given
+def plot_learning_curve(results: pd.DataFrame, value: str, ylabel: str, title: str, axes=None,
+                        interval: bool = False, label: str = "mean over agents"):
+    """Mean over agents per episode, with a band of one standard error, or with `interval`
+    of its 95 % bootstrap interval over agents (`analysis.statistics`); on `axes` if given
     (a panel of a larger figure), else on a figure of its own."""
     curve = results.groupby("episode")[value].agg(["mean", "std", "count"])
-    error = curve["std"] / np.sqrt(curve["count"])
+    if interval:
+        per_episode = results.pivot_table(index="seed", columns="episode", values=value)
+        bounds = statistics.episode_intervals(per_episode.to_numpy())
+        low, high, band = bounds[0], bounds[1], "95 % interval over agents"
+    else:
+        error = curve["std"] / np.sqrt(curve["count"])
+        low, high, band = curve["mean"] - error, curve["mean"] + error, "± one standard error"
     figure, axes = plt.subplots(figsize=(6, 4)) if axes is None else (axes.figure, axes)
-    axes.plot(curve.index, curve["mean"], label="mean over agents")
-    axes.fill_between(curve.index, curve["mean"] - error, curve["mean"] + error, alpha=0.3,
-                      label="± one standard error")
+    line, = axes.plot(curve.index, curve["mean"], label=label)
+    axes.fill_between(curve.index, low, high, alpha=0.3, color=line.get_color(), label=band)
     axes.set_xlabel("episode")
     axes.set_ylabel(ylabel)
     axes.set_title(title)
     axes.legend()
     axes.grid(alpha=0.3)
     return figure, curve
+
+
+@dataclasses.dataclass(frozen=True)
+class Evidence:
+    """One judged quantity for `plot_claims`: our estimate beside what the claim accepts."""
+
+    panel: str
+    """The quantity and its unit; one panel per distinct `panel`."""
+    label: str
+    """The row within the panel (e.g. "λ 0.4, confirmation run")."""
+    estimate: statistics.Estimate
+    accepted: tuple
+    """`(low, high)`: the range the verdict's rule counts as reproducing the claim."""
+    paper: float | None = None
+    """The paper's own value, where it states one."""
+    never: float | None = None
+    """Values above this read "never" (an episode beyond the run's last)."""
+    judged: bool = True
+    """False for an estimate shown beside the judged one (e.g. a smaller run's)."""
+
+
+def plot_claims(evidence: list, title: str):
+    """Per judged quantity (a panel each), our 95 % intervals as bars with the point
+    estimate (grey where not judged), the range the claim accepts shaded, and the paper's
+    value as a diamond: in the style of rliable's interval plots, the paper's claims against
+    our estimates at a glance."""
+    panels = list(dict.fromkeys(item.panel for item in evidence))
+    heights = [1 + 0.28 * sum(item.panel == panel for item in evidence) for panel in panels]
+    figure, axes = plt.subplots(len(panels), 1, figsize=(7.5, sum(heights) + 0.6),
+                                gridspec_kw={"height_ratios": heights}, squeeze=False)
+    for ax, panel in zip(axes[:, 0], panels):
+        rows = [item for item in evidence if item.panel == panel]
+        never = min((item.never for item in rows if item.never is not None), default=None)
+
+        def shown(x):
+            """Where `x` is drawn: an episode beyond the run's last at the one after it."""
+            return x if never is None or x <= never else never + 1
+        ends = [x for item in rows
+                for x in (*item.accepted, item.paper, *(shown(v) for v in (
+                    item.estimate.value, item.estimate.low, item.estimate.high)))
+                if x is not None and np.isfinite(x)]
+        low, high = min(ends), max(ends)
+        ax.axvspan(*rows[0].accepted, color="tab:green", alpha=0.15, lw=0,
+                   label="what the claim accepts")
+        for y, item in enumerate(rows):
+            value = shown(item.estimate.value)
+            color = "tab:blue" if item.judged else "0.6"
+            label = "our estimate, judged" if item.judged else "our estimate, not judged"
+            if np.isfinite(item.estimate.low):
+                ax.plot([shown(item.estimate.low), shown(item.estimate.high)], [y, y],
+                        color=color, lw=3, solid_capstyle="butt")
+            ax.plot(value, y, "o", color=color, ms=5, label=label)
+            if never is not None and item.estimate.value > never:
+                ax.annotate("never", (value, y), xytext=(4, -3), textcoords="offset points",
+                            fontsize=7)
+            if item.paper is not None:
+                ax.plot(item.paper, y, "D", color="tab:red", ms=5,
+                        label="the paper" if y == 0 else None)
+        ax.set_yticks(range(len(rows)), [item.label for item in rows], fontsize=7)
+        ax.set_ylim(len(rows) - 0.5, -0.5)
+        pad = 0.05 * (high - low or 1)
+        ax.set_xlim(low - pad, high + pad)
+        ax.set_title(panel, fontsize=8, loc="left")
+        ax.tick_params(axis="x", labelsize=7)
+        ax.grid(alpha=0.3, axis="x")
+    handles = {label: handle for ax in axes[:, 0]
+               for handle, label in zip(*ax.get_legend_handles_labels())}
+    figure.legend(handles.values(), handles.keys(), loc="upper right", fontsize=7)
+    figure.suptitle(title, fontsize=9, x=0.02, ha="left")
+    figure.tight_layout(rect=(0, 0, 1, 1 - 0.5 / figure.get_figheight()))
+    return figure

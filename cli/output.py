@@ -169,7 +169,7 @@ def write_run(out: str, config, results) -> list:
 
 
 def study_modules(command: str, *names) -> list:
-    """The modules `names` of a command that needs the 'paper' extra (pandas, matplotlib);
+    """The modules `names` of a command that needs the 'paper' extra (pandas, matplotlib, scipy);
     a one-line error naming the extra where it is missing."""
     try:
         return [importlib.import_module(name) for name in names]

@@ -40,6 +40,18 @@ def reading_value(name: str, text: str):
     return numbers if len(numbers) > 1 else numbers[0]
 
 
+def agents_per_cell(text: str) -> int:
+    """`--agents-per-cell`: an integer of at least 2 (an interval needs two agents)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 2:
+        raise argparse.ArgumentTypeError(f"must be an integer of at least 2 (an interval needs "
+                                         f"two agents); got {text!r}")
+    return value
+
+
 def add_parser(commands) -> None:
     paper = commands.add_parser(
         "reproduce", help="reproduce the paper's figures and table",
@@ -60,6 +72,10 @@ def add_parser(commands) -> None:
     paper.add_argument("--alphas", metavar="A,A,...", type=fields.numbers,
                        help="the NRBF runs' alpha grid instead of the items' own (the CMAC "
                             "baseline keeps its grid)")
+    paper.add_argument("--agents-per-cell", metavar="N", type=agents_per_cell,
+                       help="a confirmation run beside the paper-sized one: N fresh agents at "
+                            "each cell the analysis chooses on the first half of the seeds "
+                            "(Fig. 5, 6, 8, Table 1); the verdict is judged on them")
     paper.add_argument("--quick", action="store_true", help="tiny grids: a smoke test in seconds")
     paper.add_argument("--out", metavar="DIR", default="reproduction",
                        help="output directory (default: reproduction)")
@@ -79,7 +95,7 @@ def reproduce_items(args) -> int:
     path = study.reproduce(args.item, args.out, plant=args.plant, quick=args.quick,
                            integrator=args.integrator, backend=args.backend,
                            workers=args.workers, address=args.address, readings=readings,
-                           alphas=args.alphas)
+                           alphas=args.alphas, agents_per_cell=args.agents_per_cell)
     output.done(started, [path, f"the figures in {os.path.join(args.out, 'figures')}",
                           f"each item's results under {args.out}"])
     return 0

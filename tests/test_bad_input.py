@@ -100,6 +100,8 @@ BAD_FLAGS = {
                   integers_below(1)),
     "--alphas": (["reproduce", "fig3", "--quick", "--out", os.path.join(WORK, "reproduction")],
                  st.one_of(non_finite, not_numbers)),
+    "--agents-per-cell": (["reproduce", "fig5", "--quick", "--out", os.path.join(WORK, "reproduction")],
+                          integers_below(2)),
 }
 BAD_SETS = st.one_of(
     st.tuples(st.sampled_from(["r2", "epsilon"]),  # (epsilon=none is its default)

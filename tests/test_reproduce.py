@@ -55,14 +55,20 @@ def test_a_killed_sweep_resumes_to_the_same_results(tmp_path):
 
 
 def test_quick_reproduction_writes_every_item(tmp_path):
-    """`lwrl reproduce all --quick`: a report with every item and a verdict, the figures in
-    PNG and SVG, and per item a tidy results table with the configuration on every row."""
-    report = reproduce("all", str(tmp_path), quick=True)
+    """`lwrl reproduce all --quick --agents-per-cell 3`: a report with every item and a
+    verdict, the figures in PNG and SVG, per item a tidy results table with the configuration
+    on every row, and the confirmation runs of the items that take them beside the rest."""
+    report = reproduce("all", str(tmp_path), quick=True, agents_per_cell=3)
     text = open(report).read()
     for name, item in ITEMS.items():
         assert item.title in text
         assert os.path.exists(tmp_path / name / "results.csv.gz")
         assert os.path.exists(tmp_path / name / "configs.jsonl")
+        assert os.path.exists(tmp_path / name / "confirmation.csv.gz") == (item.confirm is not None)
+    confirmation = pd.read_csv(tmp_path / "fig8" / "confirmation.csv.gz")
+    assert sorted(confirmation["seed"].unique()) == [2, 3, 4]  # fresh: the run's own are 0, 1
+    assert "| quantity | ours, paper-sized run | ours, confirmation run | paper |" in text
+    assert "The paper: “" in text and "Judged on: " in text
     for name in ("fig2", "fig3", "fig5", "fig6", "fig8"):
         assert os.path.exists(tmp_path / "figures" / f"{name}.png")
         assert os.path.exists(tmp_path / "figures" / f"{name}.svg")
@@ -76,6 +82,8 @@ def test_quick_reproduction_writes_every_item(tmp_path):
 def test_unknown_item_and_backend():
     with pytest.raises(ValueError, match="unknown item 'fig4'; allowed: fig2, fig3"):
         reproduce("fig4", "unused")
+    with pytest.raises(ValueError, match="agents per cell must be at least 2"):
+        reproduce("fig5", "unused", agents_per_cell=1)
     with pytest.raises(ValueError, match="unknown backend 'spark'; allowed: local, ray"):
         sweep.run_sweep([], "unused", backend="spark")
 
@@ -122,7 +130,8 @@ def test_mujoco_runs_batch_too(tmp_path):
 def test_fig3_verdict_counts_both_conditions(tmp_path, level, settle, verdict):
     """A curve at 300 steps until episode `settle`, then at `level`: the verdict needs the
     level within 50 to 75 steps and the settling episode within 20 to 60."""
-    rows = [{"agent": agent, "episode": episode, "steps": 300.0 if episode < settle else level}
+    rows = [{"agent": agent, "seed": agent, "episode": episode,
+             "steps": 300.0 if episode < settle else level}
             for agent in range(3) for episode in range(1, 101)]
     section = ITEMS["fig3"].analyse(pd.DataFrame(rows), str(tmp_path))
     assert section.verdict == verdict

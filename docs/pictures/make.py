@@ -1,12 +1,10 @@
 """The README's pictures, made again by the commands they show.
 
-    python docs/pictures/make.py [learning_curve] [fig5] [viewer]    (all three by default)
+    python docs/pictures/make.py [learning_curve] [viewer]    (both by default)
 
 - `learning_curve.png`: `lwrl train mountain_car.cost_to_go --out DIR` (the README's first
   command: the paper's best Mountain-Car agent, 30 agents x 40 episodes), steps per episode
   of every agent and their mean with one standard error, beside the paper's level.
-- `fig5.png`: `lwrl reproduce fig5 --out DIR`, the figure the reproduction writes for the
-  paper's Fig. 5 (the best pendulum agent's up-time per episode).
 - `viewer.png`: `lwrl train pendulum.swingup --plant mujoco --agents 1 --episodes 20
   --log-episodes 1,10,20 --rrd REC`, opened by its path in a headless Rerun viewer as a user
   opens it, then paused at step 2400 of the last logged episode.
@@ -18,7 +16,6 @@ lavapipe: apt-get install mesa-vulkan-drivers). About a minute on two cores.
 
 import argparse
 import os
-import shutil
 import sys
 import tempfile
 import time
@@ -75,15 +72,6 @@ def learning_curve(work: str) -> str:
     return path
 
 
-def fig5(work: str) -> str:
-    """The reproduction's figure of the paper's Fig. 5."""
-    out = os.path.join(work, "reproduction")
-    run(["reproduce", "fig5", "--out", out])
-    path = os.path.join(HERE, "fig5.png")
-    shutil.copyfile(os.path.join(out, "figures", "fig5.png"), path)
-    return path
-
-
 def viewer(work: str) -> str:
     """The Rerun viewer on a recording, opened by its path in a headless viewer."""
     from lwrl.viz import rerun as viz
@@ -101,7 +89,7 @@ def viewer(work: str) -> str:
     return path
 
 
-PICTURES = {"learning_curve": learning_curve, "fig5": fig5, "viewer": viewer}
+PICTURES = {"learning_curve": learning_curve, "viewer": viewer}
 
 
 def main(argv=None) -> None:

@@ -6,6 +6,8 @@ Layout of the output directory:
     <item>/results.csv.gz    the item's tidy table: one row per agent-run and episode,
                              with every configuration field
     <item>/configs.jsonl     every run's full configuration
+    <item>/confirmation.csv.gz, confirmation-configs.jsonl
+                             the confirmation runs (`agents_per_cell`), likewise
     figures/<item>.png/.svg  the paper's figures, redrawn
     report.md                our numbers beside the paper's, item by item
 """
@@ -17,6 +19,7 @@ import os
 import time
 
 from lwrl import outputs, tasks
+from lwrl.analysis.plots import plot_claims, save_figure
 from lwrl.runners import sweep
 from lwrl.studies.paper.items import ITEMS
 
@@ -30,9 +33,21 @@ READINGS = [
     "ẋ ∈ [−1.5, 1.5], θ ∈ [−12°, 12°], θ̇ ∈ [−150°/s, 150°/s]; failure also at |x| > 2.4 m.",
     "CMAC baseline (Fig. 2): 5 tilings of 9 × 9 tiles, α from 0.1 to 1.0 divided by the "
     "tilings, replacing traces with resetting (eq. 5) and accumulating traces.",
-    "Best α: the α with the best mean over its agents; an α at which an agent diverged is "
-    "excluded.",
+    "Best α: the α with the best mean over the first half of its agents (seeds); an α at "
+    "which one of them diverged is excluded. The chosen α is judged on the second half.",
 ]
+
+INTERVALS = (
+    "Intervals are 95 % percentile bootstrap intervals over agents (`scipy.stats.bootstrap`, "
+    "10 000 resamples, seed 0; `lwrl.analysis.statistics`): an agent's episodes stay together, "
+    "and a statistic of several runs resamples each run's agents within the run (stratified). "
+    "“A better than B” is the probability of improvement of Agarwal et al. (2021): the chance "
+    "that an agent of A does better than one of B, ties counting half, over every pair; 0.5 "
+    "when neither is ahead. A comparison is decided where its interval excludes 0.5. Where a "
+    "best α (or λ) is chosen, it is chosen on the first half of each cell's agents and judged "
+    "on the second half, so the choice does not flatter the number it is judged by; a "
+    "confirmation run (`--agents-per-cell N`) judges the same chosen cells on N fresh agents "
+    "each, and its verdict is the item's. Episode numbers beyond the run read “never”.")
 
 
 def selected(items) -> list:
@@ -102,15 +117,22 @@ def with_alphas(configs, alphas) -> list:
 def reproduce(item, out_dir: str, plant: str = "analytic", quick: bool = False,
               integrator: str = "semi_implicit", backend: str = "local",
               workers: int | None = None, address: str | None = None,
-              readings: dict | None = None, alphas=None) -> str:
+              readings: dict | None = None, alphas=None,
+              agents_per_cell: int | None = None) -> str:
     """Run and analyse `item` (a name, `all`, or a list of names); return the report's path.
 
     `readings` sets SPEC.md's open points for every run that has them (`with_readings`),
     e.g. `{"r2": 0.05}`: the author's cart-pole script's spread. `alphas` replaces the
-    items' alpha grids of the NRBF runs (`with_alphas`). The wall time of each item is kept
+    items' alpha grids of the NRBF runs (`with_alphas`). `agents_per_cell` adds a
+    confirmation run to the items that take one (`Item.confirm`): that many fresh agents at
+    each cell the item's analysis chooses on the first half of the paper-sized run's seeds.
+    The wall time of each item is kept
     in `timings.json` from the invocation that computed its runs (a resumed item: only the
     resumed part), so that re-analysing finished runs does not overwrite it.
     """
+    if agents_per_cell is not None and agents_per_cell < 2:
+        raise ValueError(f"agents per cell must be at least 2 (an interval needs two agents); "
+                         f"got {agents_per_cell}")
     plan = {}  # every item's runs, checked before anything is written
     for name in selected(item):
         plan[name] = with_readings(ITEMS[name].configs(plant, quick, integrator), readings or {})
@@ -135,11 +157,31 @@ def reproduce(item, out_dir: str, plant: str = "analytic", quick: bool = False,
         with outputs.atomic_path(os.path.join(item_dir, "results.csv.gz")) as temporary:
             results.to_csv(temporary, index=False, compression="gzip")
         sweep.write_configs(configs, os.path.join(item_dir, "configs.jsonl"))
-        sections[name] = (ITEMS[name].analyse(results, figure_dir), len(configs), len(results))
+        confirmation, confirming = None, ITEMS[name].confirm
+        if agents_per_cell and confirming is not None:
+            extra = confirming(configs, results, agents_per_cell)
+            start, key = time.perf_counter(), f"{name} confirmation"
+            confirmation, computed = sweep.run_sweep(extra, out_dir, backend=backend,
+                                                     workers=workers, address=address,
+                                                     description=key)
+            if computed or key not in timings:
+                timings[key] = {"seconds": time.perf_counter() - start, "runs_computed": computed,
+                                "runs": len(extra)}
+            with outputs.atomic_write(timings_path) as file:
+                json.dump(timings, file, indent=2)
+            with outputs.atomic_path(os.path.join(item_dir, "confirmation.csv.gz")) as temporary:
+                confirmation.to_csv(temporary, index=False, compression="gzip")
+            sweep.write_configs(extra, os.path.join(item_dir, "confirmation-configs.jsonl"))
+        sections[name] = (ITEMS[name].analyse(results, figure_dir, confirmation), len(configs),
+                          len(results), None if confirmation is None else len(extra))
+    evidence = [item for section, *_ in sections.values() for item in section.evidence]
+    claims = None if quick or not evidence else save_figure(
+        plot_claims(evidence, f"The paper's claims against our 95 % intervals ({plant} plant)"),
+        figure_dir, "claims")[0]
     path = os.path.join(out_dir, "report.md")
     with outputs.atomic_write(path) as file:
         file.write(report(sections, timings, plant, integrator, quick, out_dir, readings or {},
-                          alphas))
+                          alphas, claims))
     return path
 
 
@@ -165,25 +207,60 @@ def verdict(section, quick: bool) -> str:
 
 
 def report(sections: dict, timings: dict, plant: str, integrator: str, quick: bool,
-           out_dir: str, readings: dict, alphas=None) -> str:
-    """The Markdown report: a headline table, then each item's numbers beside the paper's."""
+           out_dir: str, readings: dict, alphas=None, claims: str | None = None) -> str:
+    """The Markdown report: a headline table, then each item's claim, the quantity it is
+    judged on and our numbers beside the paper's (and the confirmation run's, if any)."""
+    confirming = any(confirmed is not None for _, _, _, confirmed in sections.values())
     lines = [f"# Reproduction of Främling (2008){' — quick smoke run' if quick else ''}", "",
              f"Plant: **{plant}** (Mountain-Car always analytic); Euler scheme: {integrator}; "
              f"{describe_readings(readings)}{describe_alphas(alphas)}. "
              f"Written {datetime.date.today().isoformat()}. Wall time: "
              "of the invocation that computed the item's runs, on this machine (an item that "
              "shares another's runs, like Table 1, or resumed an interrupted run shows less).",
-             "", "| item | reproduces? | runs | rows | wall time (s) |", "|---|---|---|---|---|"]
-    for name, (section, runs, rows) in sections.items():
-        lines.append(f"| {name} | {verdict(section, quick)} | {runs} | {rows} | "
-                     f"{timings[name]['seconds']:.0f} |")
-    for name, (section, _, _) in sections.items():
+             "", INTERVALS, ""]
+    if confirming:
+        lines += ["| item | reproduces? | the paper-sized run alone | runs | rows | wall time (s) "
+                  "| confirmation runs | their wall time (s) |", "|---|---|---|---|---|---|---|---|"]
+    else:
+        lines += ["| item | reproduces? | runs | rows | wall time (s) |", "|---|---|---|---|---|"]
+    for name, (section, runs, rows, confirmed) in sections.items():
+        if confirming:
+            extra = timings.get(f"{name} confirmation")
+            lines.append(
+                f"| {name} | {verdict(section, quick)} | "
+                f"{verdict(section, quick) if quick else section.paper_sized_verdict or section.verdict} | "
+                f"{runs} | {rows} | "
+                f"{timings[name]['seconds']:.0f} | {'—' if confirmed is None else confirmed} | "
+                f"{'—' if extra is None or confirmed is None else format(extra['seconds'], '.0f')} |")
+        else:
+            lines.append(f"| {name} | {verdict(section, quick)} | {runs} | {rows} | "
+                         f"{timings[name]['seconds']:.0f} |")
+    if claims is not None:
+        lines += ["", "Each judged quantity's 95 % interval (blue, or grey beside the judged one; the "
+                  "point: our estimate), "
+                  "the range the item's rule counts as reproducing the paper (green) and the "
+                  "paper's own value where it states one (red):", "",
+                  f"![the paper's claims against our intervals]({os.path.relpath(claims, out_dir)})"]
+    for name, (section, _, _, _) in sections.items():
         judged = (f"Reproduces: **{section.verdict}** — {section.rule}." if not quick else
                   f"Reproduces: {NO_VERDICT}: the rule of a full run would be: {section.rule}.")
-        lines += ["", f"## {ITEMS[name].title}", "", judged,
-                  "", "| quantity | ours | paper |", "|---|---|---|"]
-        lines += [f"| {quantity} | {ours} | {paper} |" for quantity, ours, paper in section.rows]
-        lines += [""] + [f"- {note}" for note in section.notes]
+        lines += ["", f"## {ITEMS[name].title}", ""]
+        if section.claim:
+            lines += [f"The paper: {section.claim}", ""]
+        if section.measure:
+            lines += [f"Judged on: {section.measure}.", ""]
+        if section.confirmed is not None:
+            lines += [f"Confirmation run: {section.confirmation}; the verdict is judged on it.", ""]
+        lines += [judged, ""]
+        if section.confirmed is None:
+            lines += ["| quantity | ours | paper |", "|---|---|---|"]
+            lines += [f"| {quantity} | {ours} | {paper} |" for quantity, ours, paper in section.rows]
+        else:
+            lines += ["| quantity | ours, paper-sized run | ours, confirmation run | paper |",
+                      "|---|---|---|---|"]
+            lines += [f"| {quantity} | {ours} | {section.confirmed.get(quantity, '—')} | {paper} |"
+                      for quantity, ours, paper in section.rows]
+        lines += [""] + [f"- {note}" for note in section.notes] + ([""] if section.notes else [])
         lines += [f"![{name}]({os.path.relpath(path, out_dir)})" for path in section.figures
                   if path.endswith(".png")]
     lines += ["", "## Readings of SPEC.md's open points used here", ""]
