@@ -32,3 +32,13 @@ def test_jax_peer_quick_prints_its_tables(capsys):
     for task in ("mountain_car.cost_to_go", "cartpole.balance"):
         assert out.count(f"| {task} |") == len(jax_peer.QUICK_AGENTS)
     assert "| JAX peer |" in out and "| lwrl |" in out and "Compile times" in out
+
+
+def test_mujoco_plant_quick_prints_its_tables(capsys):
+    """The MuJoCo plant's benchmark in its smoke mode: its timed copy of the stepped loop
+    gives the library's results (it checks them), and it prints its tables."""
+    from benchmarks import mujoco_plant
+
+    mujoco_plant.main(["--quick"])
+    out = capsys.readouterr().out
+    assert "Ratio 2 / 1" in out and "| `mujoco.rollout` call |" in out and "| whole |" in out
