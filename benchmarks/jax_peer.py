@@ -456,7 +456,7 @@ def compile_lwrl(task_name: str) -> tuple[float, str]:
     """Seconds of lwrl's first call of the task's compiled loop (one agent, one episode),
     and what it did: compile, or load from the kernel cache, or nothing (already loaded)."""
     config = RunConfig(task=task_name, plant="analytic")
-    kernel = compiled_loop(tasks.definition(config.domain, config.task_name).transition)
+    kernel = compiled_loop(tasks.definition(config.domain, config.task_name))
     loaded = kernel._dispatcher is not None
     start = time.perf_counter()
     run_lwrl(task_name, 1, 1)
