@@ -24,7 +24,7 @@ def test_logging_overhead_is_never_negative():
 def test_jax_peer_quick_prints_its_tables(capsys):
     """The JAX peer's benchmark in its smoke mode (skipped where JAX is not installed; CI
     does not install it)."""
-    pytest.importorskip("jax", reason="the JAX peer needs JAX (pip install jax)")
+    pytest.importorskip("jax", reason="the JAX peer needs JAX (the jax extra)")
     from benchmarks import jax_peer
 
     jax_peer.main(["--quick", "--cached"])
@@ -35,8 +35,8 @@ def test_jax_peer_quick_prints_its_tables(capsys):
 
 
 def test_mujoco_plant_quick_prints_its_tables(capsys):
-    """The MuJoCo plant's benchmark in its smoke mode: its timed copy of the stepped loop
-    gives the library's results (it checks them), and it prints its tables."""
+    """The MuJoCo plant's benchmark in its smoke mode: the stepped path gives the compiled
+    loop's results (it checks them), and it prints its tables."""
     from benchmarks import mujoco_plant
 
     mujoco_plant.main(["--quick"])
