@@ -57,7 +57,7 @@ features as a chain of reshaped outer products, as one broadcast product (kept),
 without optimisation barriers (no difference beyond the noise); the resets under a
 `lax.cond` (kept: one agent skips them on most steps).
 
-Run from the repository root (needs `pip install jax`; CPU only):
+Run from the repository root (needs the `jax` extra, `pip install -e .[jax]`; CPU only):
 
     python -m benchmarks.jax_peer              # about 3 s per measurement, a few minutes
     python -m benchmarks.jax_peer --quick      # smoke test

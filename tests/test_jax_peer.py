@@ -1,11 +1,11 @@
 """The JAX peer of the speed benchmark (`benchmarks/jax_peer.py`) computes lwrl's algorithm:
 the same features and plant steps, and its agents learn as lwrl's do. It measures no speed
-here. CI does not install JAX; these tests run where it is (`pip install jax`)."""
+here. CI does not install JAX; these tests run where it is (the `jax` extra)."""
 
 import numpy as np
 import pytest
 
-pytest.importorskip("jax", reason="the JAX peer needs JAX (pip install jax); CI does not "
+pytest.importorskip("jax", reason="the JAX peer needs JAX (the jax extra); CI does not "
                                   "install it")
 
 import jax  # noqa: E402
