@@ -29,6 +29,8 @@ FULL_PHYSICS = int(mujoco.mjtState.mjSTATE_FULLPHYSICS)
 WARMSTART = int(mujoco.mjtState.mjSTATE_WARMSTART)
 CONTROLS = int(mujoco.mjtState.mjSTATE_CTRL)
 WARNINGS = int(mujoco.mjtWarning.mjNWARNING)
+LIBRARIES = (f"libmujoco.so.{mujoco.__version__}", "libmujoco*.dylib", "mujoco.dll")
+"""The library's file in the `mujoco` package: Linux, macOS, Windows."""
 
 Engine = collections.namedtuple("Engine", "make_data delete_data set_state get_state step")
 """MuJoCo's functions as ctypes objects (a data pointer is `uint8*` to compiled code)."""
@@ -43,15 +45,19 @@ Workspace = collections.namedtuple("Workspace", "data physics control zeros")
 
 @functools.lru_cache(maxsize=None)
 def engine() -> Engine:
-    """The functions of the MuJoCo library that the `mujoco` package loaded."""
-    path = pathlib.Path(mujoco.__file__).parent / f"libmujoco.so.{mujoco.__version__}"
-    library = ctypes.CDLL(str(path))
+    """The functions of the MuJoCo library that the `mujoco` package ships (and loaded)."""
+    package = pathlib.Path(mujoco.__file__).parent
+    found = [path for pattern in LIBRARIES for path in sorted(package.glob(pattern))]
+    if not found:
+        raise OSError(f"no MuJoCo library ({', '.join(LIBRARIES)}) in {package}")
+    library = ctypes.CDLL(str(found[0]))
+    # The model goes in as its address, an integer passed as a pointer is on 64-bit ABIs.
     data, model, array = ctypes.POINTER(ctypes.c_uint8), ctypes.c_size_t, ctypes.c_void_p
 
     def function(name, restype, *argtypes):
-        found = getattr(library, name)
-        found.restype, found.argtypes = restype, list(argtypes)
-        return found
+        c_function = getattr(library, name)
+        c_function.restype, c_function.argtypes = restype, list(argtypes)
+        return c_function
 
     return Engine(
         make_data=function("mj_makeData", data, model),
@@ -104,6 +110,8 @@ def step_state(plant, workspace, state, control, next_state):
         physics[1 + half + j] = state[2 * j + 1]
     engine.set_state(plant.model, data, physics.ctypes, FULL_PHYSICS)
     engine.set_state(plant.model, data, workspace.zeros.ctypes, WARMSTART)
+    # mjWarningStat is (lastinfo, number), two ints: warning i's count is int i * 2 from
+    # the first count.
     counters = numba.carray(data, plant.warnings + 8 * WARNINGS)[plant.warnings:].view(np.int32)
     for i in range(WARNINGS):
         counters[i * 2] = 0
