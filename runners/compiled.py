@@ -64,9 +64,10 @@ PLANT_STEPS = {
                {"plant_transition": _mujoco_transition}),
 }
 """What the loop calls to step each plant, as kernel bindings and helpers
-(`lwrl.kernels`): `open_plant(plant)` once per call of the kernel (MuJoCo: the calling
-thread's `mjData`), `plant_transition(state, control, next_state, observation, plant,
-workspace, params)` per step, `close_plant(plant, workspace)` at the end."""
+(`lwrl.kernels`): `open_plant(plant)` once per call of the kernel (MuJoCo: an `mjData`
+of the call's own, as each thread of `mujoco.rollout` has one), `plant_transition(state,
+control, next_state, observation, plant, workspace, params)` per step, and
+`close_plant(plant, workspace)` at the end."""
 
 
 def _loop(start, stop, first, count, starts, start_observations, controls, dt, plant, params,

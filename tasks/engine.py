@@ -40,7 +40,8 @@ EnginePlant = collections.namedtuple(
 steps per agent step, the driven actuator's index, the model's actuator count (`nu`), the
 full physics state's size and the byte offset of the warning counters in an `mjData`."""
 Workspace = collections.namedtuple("Workspace", "data physics control zeros")
-"""One thread's `mjData` and buffers for `step_state`."""
+"""An `mjData` and buffers for `step_state`, one per thread at work (a compiled loop opens
+one per call of its kernel)."""
 
 
 @functools.lru_cache(maxsize=None)
