@@ -33,6 +33,11 @@ def arrive(state, observation, params):
     raise NotImplementedError("the compiled loop's kernel binds each task's arrive")
 
 
+def limit_state(state):
+    """The domain's `DomainPlants.limit_state` (or `no_limit`), bound by each kernel."""
+    raise NotImplementedError("the compiled loop's kernel binds each domain's limit_state")
+
+
 @register_jitable
 def analytic_open(plant):
     """The analytic plant needs no workspace."""
@@ -50,10 +55,16 @@ def _analytic_transition(state, control, next_state, observation, plant, workspa
     return transition(state, control, next_state, observation, dt, semi_implicit, slips, params)
 
 
+@register_jitable
+def no_limit(state):
+    """The `limit_state` of a domain without a limit: the state as it is."""
+
+
 def _mujoco_transition(state, control, next_state, observation, plant, workspace, params):
-    """MuJoCo's step (`tasks.engine.step_state`), then the task's `arrive`; `plant` an
-    `EnginePlant`."""
+    """MuJoCo's step (`tasks.engine.step_state`), the domain's `limit_state`, then the
+    task's `arrive`; `plant` an `EnginePlant`."""
     step_state(plant, workspace, state, control, next_state)
+    limit_state(next_state)
     return arrive(next_state, observation, params)
 
 
@@ -117,23 +128,22 @@ def _loop(start, stop, first, count, starts, start_observations, controls, dt, p
 def compiled_loop(definition, plant: str = "analytic") -> kernels.Kernel:
     """The compiled loop's kernel for one task (`TaskDefinition`) on `plant`, cached on disk
     (`lwrl.kernels`): a second process compiles nothing."""
-    return _compiled_loop(definition.transition, definition.arrive, plant)
+    limit = tasks.domain(definition.domain).plants.limit_state or no_limit
+    return _compiled_loop(definition.transition, definition.arrive, limit, plant)
 
 
 @functools.lru_cache(maxsize=None)
-def _compiled_loop(task_transition, task_arrive, plant: str) -> kernels.Kernel:
+def _compiled_loop(task_transition, task_arrive, task_limit, plant: str) -> kernels.Kernel:
     module = task_transition.__module__.replace(".", "_")
     bindings, helpers = PLANT_STEPS[plant]
     return kernels.kernel(f"loop_{plant}_{module}", _loop,
-                          {"transition": task_transition, "arrive": task_arrive, **bindings},
-                          helpers)
+                          {"transition": task_transition, "arrive": task_arrive,
+                           "limit_state": task_limit, **bindings}, helpers)
 
 
 def compiles(domain: str, plant: str) -> bool:
-    """True where `run_compiled` runs `plant`: the analytic plant, and MuJoCo where the
-    domain bounds no state after MuJoCo's steps (a `DomainPlants.limit`)."""
-    plants = tasks.domain(domain).plants
-    return plant == "analytic" or (plant == "mujoco" and plants.limit is None)
+    """True where `run_compiled` runs `plant` of `domain`: the analytic plant and MuJoCo."""
+    return plant in PLANT_STEPS and plant in tasks.domain(domain).plants.names
 
 
 def plant_of(domain: str, plant: str, integrator: str, equations: str):
@@ -142,15 +152,13 @@ def plant_of(domain: str, plant: str, integrator: str, equations: str):
     plants = tasks.domain(domain).plants
     if plant == "analytic":
         return (plants.timestep, check_integrator(integrator), check_equations(equations))
-    if not compiles(domain, plant):
-        raise ValueError(f"the compiled loop runs {domain} on the analytic plant only")
     return engine_plant(plants.model, plants.mujoco_physics.ACTUATOR, plants.substeps)
 
 
 def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, seeds,
                  learn: bool = True, integrator: str = "semi_implicit", equations: str = "paper",
                  progress=None, record=(), plant: str = "analytic", **options) -> EpisodeResults:
-    """B agents on `plant` (analytic, or mujoco where `compiles`) of `domain.task`, in one
+    """B agents on `plant` (analytic or mujoco) of `domain.task`, in one
     compiled loop; environment b is seeded with `seeds[b]` as in `BatchedEnv`. Episodes run
     in about 20 blocks, after each of which `progress(episodes_done)` is called. The
     `(agent, episode)` pairs in `record` are recorded step by step (`results.recordings`)."""

@@ -10,9 +10,8 @@ Three ways to run the same thing, giving the same numbers for the same seeds (te
   numba-compiled loop that calls the task's own `transition` (or MuJoCo's `mj_step` and the
   task's `arrive`) and the agent's own `agent_step`.
 
-`run` picks the compiled loop where it runs the plant (`runners.compiled.compiles`: not a
-MuJoCo plant whose domain bounds the state after MuJoCo's steps) and the stepped one
-elsewhere. An agent
+`run` picks the compiled loop where it runs the plant (`runners.compiled.compiles`: the
+analytic plant and MuJoCo) and the stepped one elsewhere. An agent
 stops after K episodes, or when it diverges (its weights are frozen, the episode it diverged
 in is cut there and its later episodes are not run: NaN).
 """

@@ -153,6 +153,12 @@ def limit(shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_
 
 
 @register_jitable
+def limit_state(state):
+    """`limit` of one state `(4,)` in place, for compiled loops."""
+    state[0], state[1], state[2], state[3] = limit(state[0], state[1], state[2], state[3])
+
+
+@register_jitable
 def step(shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_velocity,
          torque, dt, semi_implicit, slips):
     """One agent step of `dt` (0.2 s): four Euler steps of dt / 4, the torque held, then the
@@ -273,7 +279,8 @@ DOMAIN = Domain(
     name="acrobot", tasks={"swingup": swingup},
     plants=DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=AnalyticPhysicsAcrobot,
                         analytic_options=("integrator",), mujoco_physics=MujocoPhysicsAcrobot,
-                        model="acrobot", substeps=SUBSTEPS, limit=limit),
+                        model="acrobot", substeps=SUBSTEPS, limit=limit,
+                        limit_state=limit_state),
     value_axes=("shoulder_angle", "elbow_angle"),
     comparison=PlantComparison(tolerances={"shoulder_angle": 0.05, "elbow_angle": 0.05},
                                transfer_episodes=3, rest_start=rest_start))

@@ -16,15 +16,16 @@ import numpy as np
 from lwrl.agent.sarsa import BATCH_STEP
 from lwrl.runners.compiled import compiled_loop
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import run
+from lwrl.runners.run import make_agent, run, run_batched
+from lwrl.tasks.batched import BatchedEnv
 from lwrl.tasks import mountain_car, pendulum
 config = RunConfig(task="mountain_car.cost_to_go", agents=2, episodes=3)
 _, results = run(config)
 engine = RunConfig(task="pendulum.swingup", plant="mujoco", agents=2, episodes=1)
 _, engine_results = run(engine)
-stepped = RunConfig(task="acrobot.swingup", plant="mujoco", agents=2, episodes=1,
-                    task_options={"time_limit": 10.0})
-_, stepped_results = run(stepped)
+stepped = RunConfig(task="acrobot.swingup", plant="mujoco", agents=2, episodes=1)
+stepped_results = run_batched(BatchedEnv("acrobot", "swingup", "mujoco", stepped.seeds,
+                                         time_limit=10.0), make_agent(stepped), 1)
 stats = {name: kernel.dispatcher.stats for name, kernel in
          (("loop", compiled_loop(mountain_car.cost_to_go())),
           ("mujoco_loop", compiled_loop(pendulum.swingup(), "mujoco")),

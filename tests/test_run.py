@@ -46,7 +46,7 @@ def test_dm_env_batched_and_compiled_paths_agree(task):
     assert np.any(compiled.truncated) or domain == "cartpole"
 
 
-@pytest.mark.parametrize("task", ["pendulum.swingup", "cartpole.balance"])
+@pytest.mark.parametrize("task", ["pendulum.swingup", "cartpole.balance", "acrobot.swingup"])
 def test_the_compiled_loop_steps_mujoco_as_the_batched_stepper_does(task):
     """On MuJoCo, the compiled loop (MuJoCo's `mj_step` called from it) and the batched
     stepper (`mujoco.rollout`): identical episodes, weights and recordings, agent by agent;
