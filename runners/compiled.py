@@ -1,11 +1,13 @@
-"""The agent-environment loop compiled: B agents on the analytic plant of a task, one numba
-loop that calls the task's own `transition` and the agent's own `agent_step`, in parallel
-over agents. Its bookkeeping is the stepped loop's (`tasks.definition.advance_episode`,
+"""The agent-environment loop compiled: B agents on a plant of a task, one numba loop that
+calls the task's own `transition` (the analytic plant) or MuJoCo's own `mj_step` and the
+task's `arrive` (`tasks.engine`), and the agent's own `agent_step`, in parallel over agents.
+Its bookkeeping is the stepped loop's (`tasks.definition.advance_episode`,
 `runners.episodes.finish_episode`, `runners.recording`), and its numbers too (tested)."""
 
 import functools
 
 import numpy as np
+from numba.extending import register_jitable
 
 from lwrl import kernels, tasks
 from lwrl.agent.features import check_count
@@ -15,23 +17,79 @@ from lwrl.runners.episodes import EpisodeResults, episode_starts, finish_episode
 from lwrl.runners.recording import (make_tape, record_end, record_state, record_transition,
                                     recordings)
 from lwrl.tasks.definition import advance_episode
+from lwrl.tasks.engine import close_workspace, engine_plant, open_workspace, step_state
 from lwrl.tasks.integrators import check_integrator
 from lwrl.tasks.plants import check_equations
 
 
 def transition(state, control, next_state, observation, dt, semi_implicit, slips, params):
     """The task's `transition` (`TaskDefinition.transition`): each compiled loop's kernel
-    binds its task's own in place of this name."""
+    binds its task's own in place of this name, and its `arrive` in place of the next."""
     raise NotImplementedError("the compiled loop's kernel binds each task's transition")
 
 
-def _loop(start, stop, first, count, starts, start_observations, controls, dt, semi_implicit,
-          slips, params, step_limit, learn, memory, hyper, spec, steps, returns, uptime,
-          truncated, diverged_episode, done, tape, cancel):
-    """The whole learning loop around the task's `transition`: agents `start..stop-1` run
+def arrive(state, observation, params):
+    """The task's `arrive` (`TaskDefinition.arrive`), bound by each kernel."""
+    raise NotImplementedError("the compiled loop's kernel binds each task's arrive")
+
+
+def limit_state(state):
+    """The domain's `DomainPlants.limit_state` (or `no_limit`), bound by each kernel."""
+    raise NotImplementedError("the compiled loop's kernel binds each domain's limit_state")
+
+
+@register_jitable
+def analytic_open(plant):
+    """The analytic plant needs no workspace."""
+    return 0
+
+
+@register_jitable
+def analytic_close(plant, workspace):
+    """Nothing to free."""
+
+
+def _analytic_transition(state, control, next_state, observation, plant, workspace, params):
+    """The task's `transition`; `plant` = (dt, semi_implicit, slips)."""
+    dt, semi_implicit, slips = plant
+    return transition(state, control, next_state, observation, dt, semi_implicit, slips, params)
+
+
+@register_jitable
+def no_limit(state):
+    """The `limit_state` of a domain without a limit: the state as it is."""
+
+
+def _mujoco_transition(state, control, next_state, observation, plant, workspace, params):
+    """MuJoCo's step (`tasks.engine.step_state`), the domain's `limit_state`, then the
+    task's `arrive`; `plant` an `EnginePlant`."""
+    step_state(plant, workspace, state, control, next_state)
+    limit_state(next_state)
+    return arrive(next_state, observation, params)
+
+
+PLANT_STEPS = {
+    "analytic": ({"open_plant": analytic_open, "close_plant": analytic_close},
+                 {"plant_transition": _analytic_transition}),
+    "mujoco": ({"open_plant": open_workspace, "close_plant": close_workspace},
+               {"plant_transition": _mujoco_transition}),
+}
+"""What the loop calls to step each plant, as kernel bindings and helpers
+(`lwrl.kernels`): `open_plant(plant)` once per call of the kernel (MuJoCo: an `mjData`
+of the call's own, as each thread of `mujoco.rollout` has one), `plant_transition(state,
+control, next_state, observation, plant, workspace, params)` per step, and
+`close_plant(plant, workspace)` at the end."""
+
+
+def _loop(start, stop, first, count, starts, start_observations, controls, dt, plant, params,
+          step_limit, learn, memory, hyper, spec, steps, returns, uptime, truncated,
+          diverged_episode, done, tape, cancel):
+    """The whole learning loop around the plant's transition: agents `start..stop-1` run
     episodes `first..first+count-1` (their starts given) unless diverged; once `cancel[0]`
-    is set (Ctrl-C), each agent stops after the episode it is in (at most tens of ms)."""
+    is set (Ctrl-C), each agent stops after the episode it is in (at most tens of ms).
+    `dt`: seconds of up-time per step up."""
     dim = starts.shape[2]
+    workspace = open_plant(plant)
     for b in range(start, stop):
         state = np.empty(dim)
         next_state = np.empty(dim)
@@ -47,9 +105,8 @@ def _loop(start, stop, first, count, starts, start_observations, controls, dt, s
                 record_state(tape, r, 0, state, start_observations[b, k], memory.q[b])
             n, total, up, terminal, last = 0, 0.0, 0.0, False, False
             while not last:
-                reward, terminal, is_up = transition(state, controls[action], next_state,
-                                                     observation, dt, semi_implicit, slips,
-                                                     params)
+                reward, terminal, is_up = plant_transition(state, controls[action], next_state,
+                                                           observation, plant, workspace, params)
                 n, up, last = advance_episode(n, up, is_up, terminal, dt, step_limit)
                 total += reward
                 state[:] = next_state
@@ -65,29 +122,51 @@ def _loop(start, stop, first, count, starts, start_observations, controls, dt, s
             finish_episode(b, k, n, total, up, not terminal and n >= step_limit,
                            memory.diverged[b], steps, returns, uptime, truncated,
                            diverged_episode, done)
+    close_plant(plant, workspace)
+
+
+def compiled_loop(definition, plant: str = "analytic") -> kernels.Kernel:
+    """The compiled loop's kernel for one task (`TaskDefinition`) on `plant`, cached on disk
+    (`lwrl.kernels`): a second process compiles nothing."""
+    limit = tasks.domain(definition.domain).plants.limit_state or no_limit
+    return _compiled_loop(definition.transition, definition.arrive, limit, plant)
 
 
 @functools.lru_cache(maxsize=None)
-def compiled_loop(task_transition) -> kernels.Kernel:
-    """The compiled loop's kernel for one task's `transition`, cached on disk
-    (`lwrl.kernels`): a second process compiles nothing."""
+def _compiled_loop(task_transition, task_arrive, task_limit, plant: str) -> kernels.Kernel:
     module = task_transition.__module__.replace(".", "_")
-    return kernels.kernel(f"loop_{module}_{task_transition.__name__}", _loop,
-                          {"transition": task_transition})
+    bindings, helpers = PLANT_STEPS[plant]
+    return kernels.kernel(f"loop_{plant}_{module}", _loop,
+                          {"transition": task_transition, "arrive": task_arrive,
+                           "limit_state": task_limit, **bindings}, helpers)
+
+
+def compiles(domain: str, plant: str) -> bool:
+    """True where `run_compiled` runs `plant` of `domain`: the analytic plant and MuJoCo."""
+    return plant in PLANT_STEPS and plant in tasks.domain(domain).plants.names
+
+
+def plant_of(domain: str, plant: str, integrator: str, equations: str):
+    """What the loop's `plant_transition` takes: (dt, semi_implicit, slips) for the analytic
+    plant, the `tasks.engine.EnginePlant` of the domain's model for MuJoCo."""
+    plants = tasks.domain(domain).plants
+    if plant == "analytic":
+        return (plants.timestep, check_integrator(integrator), check_equations(equations))
+    return engine_plant(plants.model, plants.mujoco_physics.ACTUATOR, plants.substeps)
 
 
 def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, seeds,
                  learn: bool = True, integrator: str = "semi_implicit", equations: str = "paper",
-                 progress=None, record=(), **options) -> EpisodeResults:
-    """B agents on the analytic plant of `domain.task`, in one compiled loop; environment b
-    is seeded with `seeds[b]` as in `BatchedEnv`. Episodes run in about 20 blocks, after each
-    of which `progress(episodes_done)` is called. The `(agent, episode)` pairs in `record`
-    are recorded step by step (`results.recordings`)."""
+                 progress=None, record=(), plant: str = "analytic", **options) -> EpisodeResults:
+    """B agents on `plant` (analytic or mujoco) of `domain.task`, in one
+    compiled loop; environment b is seeded with `seeds[b]` as in `BatchedEnv`. Episodes run
+    in about 20 blocks, after each of which `progress(episodes_done)` is called. The
+    `(agent, episode)` pairs in `record` are recorded step by step (`results.recordings`)."""
     episodes = check_count("episodes", episodes, 1)
     plant_options = {name: value for name, value in (("integrator", integrator), ("equations", equations))
-                     if name in tasks.plant_option_names(domain, "analytic")}
-    definition, _, _ = tasks.resolve(domain, task, "analytic", **options, **plant_options)
-    semi_implicit, slips = check_integrator(integrator), check_equations(equations)
+                     if name in tasks.plant_option_names(domain, plant)}
+    definition, _, _ = tasks.resolve(domain, task, plant, **options, **plant_options)
+    stepped = plant_of(domain, plant, integrator, equations)
     seeds = list(seeds)
     if len(seeds) != agent.batch_size:
         raise ValueError(f"{len(seeds)} seeds for a batch of {agent.batch_size} agents")
@@ -96,7 +175,7 @@ def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, see
     steps = np.zeros((batch, episodes), dtype=np.int64)
     starts = episode_starts(definition, seeds, episodes)
     step_limit = definition.step_limit if np.isfinite(definition.step_limit) else np.iinfo(np.int64).max
-    loop = compiled_loop(definition.transition)
+    loop = compiled_loop(definition, plant)
     tape = make_tape(record, batch, episodes, definition.step_limit, starts.shape[2],
                      agent.num_actions, agent.features.num_features)
     done = np.zeros(batch, dtype=np.int64)  # episodes each agent has finished
@@ -107,9 +186,8 @@ def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, see
             count = min(block, episodes - first)
             run_in_chunks(
                 loop, batch, first, count, starts, definition.observe(starts),
-                np.asarray(definition.controls, dtype=np.float64),
-                tasks.domain(domain).plants.timestep, semi_implicit, slips,
-                np.asarray(definition.params, dtype=np.float64), int(step_limit), bool(learn),
+                np.asarray(definition.controls, dtype=np.float64), definition.control_timestep,
+                stepped, np.asarray(definition.params, dtype=np.float64), int(step_limit), bool(learn),
                 agent.memory, agent.hyper, agent.spec, steps, results.returns, results.uptime,
                 results.truncated, results.diverged_episode, done, tape, cancel, min_chunk=1,
                 chunks_per_worker=8, cancel=cancel)
@@ -123,5 +201,5 @@ def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, see
     results.uptime[~ran] = np.nan
     if not definition.has_uptime:
         results.uptime[:] = np.nan
-    results.recordings = recordings(tape, definition, "analytic", seeds)
+    results.recordings = recordings(tape, definition, plant, seeds)
     return results

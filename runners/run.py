@@ -6,10 +6,12 @@ Three ways to run the same thing, giving the same numbers for the same seeds (te
   step (through `run_batched` and `tasks.batched.SteppedEnvs`);
 - `runners.stepped.run_batched`: B agents on a `tasks.batched.BatchedEnv` (any plant), one
   array step at a time;
-- `runners.compiled.run_compiled`: B agents on the analytic plant in one numba-compiled loop
-  that calls the task's own `transition` and the agent's own `agent_step`.
+- `runners.compiled.run_compiled`: B agents on the analytic plant, or on MuJoCo, in one
+  numba-compiled loop that calls the task's own `transition` (or MuJoCo's `mj_step` and the
+  task's `arrive`) and the agent's own `agent_step`.
 
-`run` picks the compiled loop on the analytic plant and the stepped one on MuJoCo. An agent
+`run` picks the compiled loop where it runs the plant (`runners.compiled.compiles`: the
+analytic plant and MuJoCo) and the stepped one elsewhere. An agent
 stops after K episodes, or when it diverges (its weights are frozen, the episode it diverged
 in is cut there and its later episodes are not run: NaN).
 """
@@ -18,7 +20,7 @@ import math
 
 from lwrl import tasks
 from lwrl.agent.sarsa import BatchedSarsa
-from lwrl.runners.compiled import run_compiled
+from lwrl.runners.compiled import compiles, run_compiled
 from lwrl.runners.episodes import EpisodeResults
 from lwrl.runners.stepped import run_batched, run_dm_env
 from lwrl.tasks.batched import BatchedEnv
@@ -57,17 +59,17 @@ def make_agent(*configs) -> BatchedSarsa:
 
 def run(config, agent: BatchedSarsa | None = None, learn: bool = True,
         progress=None, record=(), seeds=None) -> tuple[BatchedSarsa, EpisodeResults]:
-    """Run a `RunConfig`: the compiled loop on the analytic plant, the batched stepper on
-    MuJoCo. Returns the agents (new ones unless given) and their results, with recordings of
+    """Run a `RunConfig`: the compiled loop where it runs the plant, else the batched
+    stepper. Returns the agents (new ones unless given) and their results, with recordings of
     the `(agent, episode)` pairs in `record`. `seeds` (one per agent of a given `agent`)
     replaces the configuration's, for batches that join several configurations."""
     agent = make_agent(config) if agent is None else agent
     seeds = config.seeds if seeds is None else list(seeds)
     domain, task = config.domain, config.task_name
-    if config.plant_name == "analytic":
+    if compiles(domain, config.plant_name):
         results = run_compiled(domain, task, agent, config.episodes, seeds, learn=learn,
-                               progress=progress, record=record, **config.plant_options,
-                               **config.task_options)
+                               progress=progress, record=record, plant=config.plant_name,
+                               **config.plant_options, **config.task_options)
     else:
         env = BatchedEnv(domain, task, config.plant_name, seeds, **config.plant_options,
                          **config.task_options)

@@ -153,6 +153,12 @@ def limit(shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_
 
 
 @register_jitable
+def limit_state(state):
+    """`limit` of one state `(4,)` in place, for compiled loops."""
+    state[0], state[1], state[2], state[3] = limit(state[0], state[1], state[2], state[3])
+
+
+@register_jitable
 def step(shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_velocity,
          torque, dt, semi_implicit, slips):
     """One agent step of `dt` (0.2 s): four Euler steps of dt / 4, the torque held, then the
@@ -187,14 +193,20 @@ def outcome(shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angula
 
 
 @register_jitable
+def arrive(state, observation, params):
+    """The observation of entering one state `(4,)`, written into `observation`, and the
+    state's `outcome`."""
+    observation[0], observation[1] = wrap_angle(state[0]), state[1]
+    observation[2], observation[3] = wrap_angle(state[2]), state[3]
+    return outcome(state[0], state[1], state[2], state[3])
+
+
+@register_jitable
 def transition(state, control, next_state, observation, dt, semi_implicit, slips, params):
     """One agent step of one state `(4,)` for compiled loops."""
-    th1, th1_dot, th2, th2_dot = step(state[0], state[1], state[2], state[3], control, dt,
-                                      semi_implicit, slips)
-    next_state[0], next_state[1], next_state[2], next_state[3] = th1, th1_dot, th2, th2_dot
-    observation[0], observation[1] = wrap_angle(th1), th1_dot
-    observation[2], observation[3] = wrap_angle(th2), th2_dot
-    return outcome(th1, th1_dot, th2, th2_dot)
+    next_state[0], next_state[1], next_state[2], next_state[3] = step(
+        state[0], state[1], state[2], state[3], control, dt, semi_implicit, slips)
+    return arrive(next_state, observation, params)
 
 
 def initial_states(rng: np.random.Generator, count: int) -> np.ndarray:
@@ -231,7 +243,7 @@ def swingup(time_limit: float = TIME_LIMIT) -> TaskDefinition:
     return TaskDefinition(
         domain="acrobot", task="swingup", state_names=STATE_NAMES, controls=TORQUES,
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
-        initial_states=initial_states, observe=_observe, outcome=outcome, transition=transition,
+        initial_states=initial_states, observe=_observe, outcome=outcome, transition=transition, arrive=arrive,
         bounds=BOUNDS, defaults=AGENT, angles=("shoulder_angle", "elbow_angle"),
         has_uptime=False,
     )
@@ -267,7 +279,8 @@ DOMAIN = Domain(
     name="acrobot", tasks={"swingup": swingup},
     plants=DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=AnalyticPhysicsAcrobot,
                         analytic_options=("integrator",), mujoco_physics=MujocoPhysicsAcrobot,
-                        model="acrobot", substeps=SUBSTEPS, limit=limit),
+                        model="acrobot", substeps=SUBSTEPS, limit=limit,
+                        limit_state=limit_state),
     value_axes=("shoulder_angle", "elbow_angle"),
     comparison=PlantComparison(tolerances={"shoulder_angle": 0.05, "elbow_angle": 0.05},
                                transfer_episodes=3, rest_start=rest_start))

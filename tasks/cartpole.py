@@ -120,13 +120,19 @@ def outcome(cart_position, cart_velocity, pole_angle, pole_angular_velocity, tra
 
 
 @register_jitable
+def arrive(state, observation, params):
+    """The observation of entering one state `(4,)` (the state itself), written into
+    `observation`, and the state's `outcome`; `params` = (track_limit,)."""
+    observation[:] = state
+    return outcome(state[0], state[1], state[2], state[3], params[0])
+
+
+@register_jitable
 def transition(state, control, next_state, observation, dt, semi_implicit, slips, params):
     """One Euler step of one state `(4,)` for compiled loops; `params` = (track_limit,)."""
-    x, x_dot, theta, theta_dot = step(state[0], state[1], state[2], state[3], control, dt,
-                                      semi_implicit, slips)
-    next_state[0], next_state[1], next_state[2], next_state[3] = x, x_dot, theta, theta_dot
-    observation[:] = next_state
-    return outcome(x, x_dot, theta, theta_dot, params[0])
+    next_state[0], next_state[1], next_state[2], next_state[3] = step(
+        state[0], state[1], state[2], state[3], control, dt, semi_implicit, slips)
+    return arrive(next_state, observation, params)
 
 
 def initial_states(rng: np.random.Generator, count: int) -> np.ndarray:
@@ -170,7 +176,7 @@ def balance(time_limit: float = TIME_LIMIT, track_limit=TRACK_LIMIT) -> TaskDefi
         domain="cartpole", task="balance", state_names=STATE_NAMES, controls=FORCES,
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
         initial_states=initial_states, observe=lambda state: state, outcome=outcome,
-        transition=transition, bounds=bounds(limit), defaults=PAPER_AGENT,
+        transition=transition, arrive=arrive, bounds=bounds(limit), defaults=PAPER_AGENT,
         angles=("pole_angle",), params=(limit,),
     )
 

@@ -4,7 +4,8 @@ A `TaskDefinition` holds the functions of one task: its start distribution, its 
 and its `outcome` (reward, termination and up-time). The dm_env environment (`tasks.base`)
 calls them with a batch of one; the batched stepper (`tasks.batched`) with a batch of B; and
 the domain's `transition`, which compiled loops call, steps the analytic plant and then
-calls the same `outcome`.
+calls the same `outcome` (through `arrive`, which compiled loops also call after a MuJoCo
+step).
 States are arrays of shape `(..., d)` in the order of `state_names`.
 """
 
@@ -73,7 +74,11 @@ class TaskDefinition:
     """`transition(state, control, next_state, observation, dt, semi_implicit, slips, params)`:
     one analytic-plant step of one state `(d,)` for compiled loops, with the Euler scheme
     and the equations (`tasks.plants.EQUATIONS`) bound as flags. It writes the next state
-    and its observation and returns its `outcome`."""
+    and calls `arrive`."""
+    arrive: Callable
+    """`arrive(state, observation, params)`: on entering one state `(d,)` for compiled loops,
+    writes its observation (as `observe`) and returns its `outcome`; what follows a step of
+    any plant."""
     bounds: tuple
     """`(low, high)`, one value per state variable: every observation of an episode lies
     within them, the terminal one included (`inf` where a variable is unbounded)."""

@@ -83,12 +83,19 @@ def outcome(position, velocity):
 
 
 @register_jitable
+def arrive(state, observation, params):
+    """The observation of entering one state `(2,)` (the state itself), written into
+    `observation`, and the state's `outcome`."""
+    observation[:] = state
+    return outcome(state[0], state[1])
+
+
+@register_jitable
 def transition(state, control, next_state, observation, dt, semi_implicit, slips, params):
     """One step of one state `(2,)` for compiled loops (`dt`, `semi_implicit`, `slips` and
     `params` are unused: the paper's equation is its own integrator)."""
     next_state[0], next_state[1] = step(state[0], state[1], control)
-    observation[:] = next_state
-    return outcome(next_state[0], next_state[1])
+    return arrive(next_state, observation, params)
 
 
 def initial_states(rng: np.random.Generator, count: int) -> np.ndarray:
@@ -110,8 +117,8 @@ def cost_to_go(time_limit: float = STEP_LIMIT) -> TaskDefinition:
         domain="mountain_car", task="cost_to_go", state_names=STATE_NAMES, controls=THRUSTS,
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
         initial_states=initial_states,
-        observe=lambda state: state, outcome=outcome, transition=transition, bounds=BOUNDS,
-        defaults=PAPER_AGENT, has_uptime=False,
+        observe=lambda state: state, outcome=outcome, transition=transition, arrive=arrive,
+        bounds=BOUNDS, defaults=PAPER_AGENT, has_uptime=False,
     )
 
 

@@ -95,12 +95,18 @@ def outcome(angle, angular_velocity):
 
 
 @register_jitable
+def arrive(state, observation, params):
+    """The observation of entering one state `(2,)`, written into `observation`, and the
+    state's `outcome`."""
+    observation[0], observation[1] = wrap_angle(state[0]), state[1]
+    return outcome(state[0], state[1])
+
+
+@register_jitable
 def transition(state, control, next_state, observation, dt, semi_implicit, slips, params):
     """One Euler step of one state `(2,)` for compiled loops."""
-    angle, angular_velocity = step(state[0], state[1], control, dt, semi_implicit, slips)
-    next_state[0], next_state[1] = angle, angular_velocity
-    observation[0], observation[1] = wrap_angle(angle), angular_velocity
-    return outcome(angle, angular_velocity)
+    next_state[0], next_state[1] = step(state[0], state[1], control, dt, semi_implicit, slips)
+    return arrive(next_state, observation, params)
 
 
 def initial_states(rng: np.random.Generator, count: int) -> np.ndarray:
@@ -122,7 +128,7 @@ def swingup(time_limit: float = TIME_LIMIT) -> TaskDefinition:
     return TaskDefinition(
         domain="pendulum", task="swingup", state_names=STATE_NAMES, controls=TORQUES,
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
-        initial_states=initial_states, observe=_observe, outcome=outcome, transition=transition,
+        initial_states=initial_states, observe=_observe, outcome=outcome, transition=transition, arrive=arrive,
         bounds=((-np.pi, -np.inf), (np.pi, np.inf)), defaults=PAPER_AGENT, angles=("angle",),
     )
 

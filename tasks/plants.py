@@ -116,6 +116,9 @@ class DomainPlants:
     """`limit(*state_columns) -> state_columns`, element-wise: what the task bounds after
     each agent step (e.g. velocity limits). The analytic `step` applies it itself; the
     MuJoCo plants apply it after MuJoCo's steps."""
+    limit_state: Optional[Callable] = None
+    """`limit_state(state)`: `limit` of one state `(d,)` in place, numba-jitable, for the
+    compiled loop's MuJoCo steps; given with `limit`."""
 
     @property
     def names(self) -> tuple:

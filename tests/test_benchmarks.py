@@ -1,4 +1,6 @@
-"""Smoke test of the speed benchmark (it measures; it asserts no speed)."""
+"""Smoke tests of the speed benchmarks (they measure; they assert no speed)."""
+
+import pytest
 
 from benchmarks import agent_speed
 
@@ -17,3 +19,26 @@ def test_logging_overhead_is_never_negative():
     assert overhead(10.0, 10.5, 0.1) == "5.0 %"
     assert overhead(10.0, 10.05, 0.1) == "within noise (spread 1.0 %)"
     assert overhead(10.0, 8.65, 0.3) == "within noise (spread 3.0 %)"
+
+
+def test_jax_peer_quick_prints_its_tables(capsys):
+    """The JAX peer's benchmark in its smoke mode (skipped where JAX is not installed; CI
+    does not install it)."""
+    pytest.importorskip("jax", reason="the JAX peer needs JAX (the jax extra)")
+    from benchmarks import jax_peer
+
+    jax_peer.main(["--quick", "--cached"])
+    out = capsys.readouterr().out
+    for task in ("mountain_car.cost_to_go", "cartpole.balance"):
+        assert out.count(f"| {task} |") == len(jax_peer.QUICK_AGENTS)
+    assert "| JAX peer |" in out and "| lwrl |" in out and "Compile times" in out
+
+
+def test_mujoco_plant_quick_prints_its_tables(capsys):
+    """The MuJoCo plant's benchmark in its smoke mode: the stepped path gives the compiled
+    loop's results (it checks them), and it prints its tables."""
+    from benchmarks import mujoco_plant
+
+    mujoco_plant.main(["--quick"])
+    out = capsys.readouterr().out
+    assert "Ratio 2 / 1" in out and "| `mujoco.rollout` call |" in out and "| whole |" in out

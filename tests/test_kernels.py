@@ -16,15 +16,22 @@ import numpy as np
 from lwrl.agent.sarsa import BATCH_STEP
 from lwrl.runners.compiled import compiled_loop
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import run
-from lwrl.tasks import mountain_car
+from lwrl.runners.run import make_agent, run, run_batched
+from lwrl.tasks.batched import BatchedEnv
+from lwrl.tasks import mountain_car, pendulum
 config = RunConfig(task="mountain_car.cost_to_go", agents=2, episodes=3)
 _, results = run(config)
-stepped = RunConfig(task="pendulum.swingup", plant="mujoco", agents=2, episodes=1)
-_, stepped_results = run(stepped)
+engine = RunConfig(task="pendulum.swingup", plant="mujoco", agents=2, episodes=1)
+_, engine_results = run(engine)
+stepped = RunConfig(task="acrobot.swingup", plant="mujoco", agents=2, episodes=1)
+stepped_results = run_batched(BatchedEnv("acrobot", "swingup", "mujoco", stepped.seeds,
+                                         time_limit=10.0), make_agent(stepped), 1)
 stats = {name: kernel.dispatcher.stats for name, kernel in
-         (("loop", compiled_loop(mountain_car.transition)), ("batch_step", BATCH_STEP))}
+         (("loop", compiled_loop(mountain_car.cost_to_go())),
+          ("mujoco_loop", compiled_loop(pendulum.swingup(), "mujoco")),
+          ("batch_step", BATCH_STEP))}
 print(json.dumps({"steps": results.steps.tolist(), "returns": stepped_results.returns.tolist(),
+                  "engine_returns": engine_results.returns.tolist(),
                   "misses": {name: sum(s.cache_misses.values()) for name, s in stats.items()},
                   "hits": {name: sum(s.cache_hits.values()) for name, s in stats.items()},
                   "cached_in": {name: s.cache_path for name, s in stats.items()}}))
@@ -49,9 +56,9 @@ def runs(tmp_path_factory):
 def test_a_second_process_compiles_nothing(runs, tmp_path_factory):
     first, second, _ = runs
     assert all(path.startswith(str(tmp_path_factory.getbasetemp())) for path in first["cached_in"].values())
-    assert first["misses"] == {"loop": 1, "batch_step": 1}
-    assert second["misses"] == {"loop": 0, "batch_step": 0}
-    assert second["hits"] == {"loop": 1, "batch_step": 1}
+    assert first["misses"] == {"loop": 1, "mujoco_loop": 1, "batch_step": 1}
+    assert second["misses"] == {"loop": 0, "mujoco_loop": 0, "batch_step": 0}
+    assert second["hits"] == {"loop": 1, "mujoco_loop": 1, "batch_step": 1}
 
 
 def test_cached_kernels_compute_what_fresh_ones_do(runs):
@@ -60,7 +67,8 @@ def test_cached_kernels_compute_what_fresh_ones_do(runs):
     first, second, in_memory = runs
     assert first["steps"] == second["steps"] == in_memory["steps"]
     assert first["returns"] == second["returns"] == in_memory["returns"]
-    assert in_memory["cached_in"] == {"loop": None, "batch_step": None}
+    assert first["engine_returns"] == second["engine_returns"] == in_memory["engine_returns"]
+    assert in_memory["cached_in"] == {"loop": None, "mujoco_loop": None, "batch_step": None}
 
 
 def test_the_cache_follows_the_sources(tmp_path, monkeypatch):

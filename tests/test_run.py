@@ -46,9 +46,33 @@ def test_dm_env_batched_and_compiled_paths_agree(task):
     assert np.any(compiled.truncated) or domain == "cartpole"
 
 
-def test_mujoco_dm_env_and_batched_paths_agree():
-    """On the MuJoCo cart-pole, the dm_env path and the batched (mujoco.rollout) path give
-    the same episodes and weights."""
+@pytest.mark.parametrize("task", ["pendulum.swingup", "cartpole.balance", "acrobot.swingup"])
+def test_the_compiled_loop_steps_mujoco_as_the_batched_stepper_does(task):
+    """On MuJoCo, the compiled loop (MuJoCo's `mj_step` called from it) and the batched
+    stepper (`mujoco.rollout`): identical episodes, weights and recordings, agent by agent;
+    learning and acting greedily."""
+    config = RunConfig(task=task, plant="mujoco", agents=3, episodes=3, seed=5)
+    domain, name = config.domain, config.task_name
+    options = {"time_limit": SHORT[task]}
+    record = [(0, 0), (2, 2)]
+    compiled_agent, batched_agent = make_agent(config), make_agent(config)
+    for learn in (True, False):
+        compiled = run_compiled(domain, name, compiled_agent, 3, config.seeds, learn=learn,
+                                record=record, plant="mujoco", **options)
+        batched = run_batched(BatchedEnv(domain, name, "mujoco", config.seeds, **options),
+                              batched_agent, 3, learn=learn, record=record)
+        assert_same_results(compiled, batched)
+        np.testing.assert_array_equal(compiled_agent.weights, batched_agent.weights)
+        for ours, theirs in zip(compiled.recordings, batched.recordings, strict=True):
+            for field in ("states", "observations", "actions", "rewards", "td_errors",
+                          "q_values", "uptime", "weights"):
+                np.testing.assert_array_equal(getattr(ours, field), getattr(theirs, field),
+                                              err_msg=field)
+
+
+def test_mujoco_dm_env_and_compiled_paths_agree():
+    """On the MuJoCo cart-pole, the dm_env path and `run`'s (the compiled loop, stepping
+    MuJoCo itself) give the same episodes and weights."""
     config = RunConfig(task="cartpole.balance", plant="mujoco", agents=2, episodes=5, seed=3)
     batched_agent, batched = run(config)
     single_agent = make_agent(RunConfig(task="cartpole.balance", agents=1, episodes=5, seed=4))
