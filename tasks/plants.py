@@ -44,6 +44,14 @@ class AnalyticPlant:
         return np.stack(columns, axis=-1)
 
 
+def apply_limit(limit: Optional[Callable], state: np.ndarray) -> np.ndarray:
+    """`state` `(B, d)` after the domain's element-wise `limit` (`DomainPlants.limit`; None:
+    no limit)."""
+    if limit is None:
+        return state
+    return np.stack(limit(*np.moveaxis(state, -1, 0)), axis=-1)
+
+
 class MujocoPlant:
     """B copies of an MJCF model stepped with `mujoco.rollout`, one thread per core.
 
@@ -82,9 +90,7 @@ class MujocoPlant:
         next_state = np.empty_like(state)
         next_state[:, 0::2] = after[:, -1, 1:1 + nq]
         next_state[:, 1::2] = after[:, -1, 1 + nq:]
-        if self._limit is not None:
-            next_state = np.stack(self._limit(*np.moveaxis(next_state, -1, 0)), axis=-1)
-        return next_state
+        return apply_limit(self._limit, next_state)
 
 
 @dataclasses.dataclass(frozen=True)
