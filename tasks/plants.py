@@ -1,4 +1,5 @@
-"""Plants that step a batch of states: the paper's equations, or MuJoCo.
+"""Plants that step a batch of states: the paper's equations, or MuJoCo (its C engine, or
+MJX in `tasks.mjx_plant`).
 
 A plant maps states `(B, d)` and controls `(B,)` to the next states `(B, d)`, one control
 step of the task. States are in the task's order, which interleaves each coordinate with its
@@ -93,6 +94,13 @@ class MujocoPlant:
         return apply_limit(self._limit, next_state)
 
 
+BATCHED_ONLY = ("mjx",)
+"""Plants that step batches only (`DomainPlants.batch`), not a dm_env environment: MJX,
+whose one call per step pays off over a batch but costs tens of C steps for one state, and
+which needs JAX; a single environment runs on the C engine, the reference
+(`tasks.mjx_plant`)."""
+
+
 @dataclasses.dataclass(frozen=True)
 class DomainPlants:
     """How a domain builds its plants, batched (`batch`) or as a dm_control Physics
@@ -125,12 +133,22 @@ class DomainPlants:
 
     @property
     def names(self) -> tuple:
-        """The domain's plants, the default first."""
-        return ("mujoco", "analytic") if self.model else ("analytic",)
+        """The domain's plants, the default first: with a model, the C engine (`mujoco`),
+        the equations and MJX (`mjx`, `BATCHED_ONLY`)."""
+        return ("mujoco", "analytic", "mjx") if self.model else ("analytic",)
+
+    @property
+    def environment_names(self) -> tuple:
+        """The plants of a single dm_env environment (`physics`): all but `BATCHED_ONLY`."""
+        return tuple(name for name in self.names if name not in BATCHED_ONLY)
 
     def batch(self, plant: str, batch_size: int, integrator: str = "semi_implicit",
               equations: str = "paper"):
         """A plant stepping `batch_size` states at once."""
+        if plant == "mjx":
+            from lwrl.tasks.mjx_plant import MjxPlant  # here: it imports this module
+            return MjxPlant(self.model, self.mujoco_physics.ACTUATOR, batch_size, self.substeps,
+                            self.limit)
         if plant == "mujoco":
             model = mujoco.MjModel.from_xml_string(models.read(self.model))
             return MujocoPlant(model, self.mujoco_physics.ACTUATOR, batch_size, self.substeps,
@@ -144,6 +162,9 @@ class DomainPlants:
 
     def physics(self, plant: str, integrator: str = "semi_implicit", equations: str = "paper"):
         """The dm_control Physics of one environment."""
+        if plant in BATCHED_ONLY:
+            raise ValueError(f"the {plant} plant steps batches only (lwrl train, tasks.batched); "
+                             f"one environment runs on: {', '.join(self.environment_names)}")
         if plant == "mujoco":
             physics = self.mujoco_physics.from_xml_string(models.read(self.model))
             physics.substeps, physics.limit = self.substeps, self.limit
