@@ -9,8 +9,10 @@ def add_parser(commands) -> None:
 
 
 def run(args) -> None:
-    """Print every task with its plants, the default first."""
+    """Print every task with its plants, the default first, the batched-only marked."""
     del args
     width = max(map(len, tasks.TASK_NAMES)) + 2
     for domain, task in tasks.ALL_TASKS:
-        print(f"{f'{domain}.{task}':<{width}}plants: {', '.join(tasks.PLANTS[domain])}")
+        plants = [plant if plant in tasks.ENVIRONMENT_PLANTS[domain] else f"{plant} (batched only)"
+                  for plant in tasks.PLANTS[domain]]
+        print(f"{f'{domain}.{task}':<{width}}plants: {', '.join(plants)}")

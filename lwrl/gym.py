@@ -8,9 +8,9 @@
 
 or, without the import, `gymnasium.make("lwrl.gym:lwrl/cartpole-balance-mujoco-v0")`
 (Gymnasium 1.x imports the module named before the colon; it no longer loads plugins from
-entry points). Every `(domain, task, plant)` of the suite is registered as
-`lwrl/{domain}-{task}-{plant}-v0` (`ENV_IDS`); `register_envs()` registers them again if
-needed and is idempotent.
+entry points). Every `(domain, task, plant)` of the suite's dm_env environments
+(`tasks.ENVIRONMENT_PLANTS`) is registered as `lwrl/{domain}-{task}-{plant}-v0`
+(`ENV_IDS`); `register_envs()` registers them again if needed and is idempotent.
 
 `SuiteEnv` wraps the suite's dm_env environment (`tasks.load`):
 
@@ -63,10 +63,10 @@ def env_id(domain: str, task: str, plant: str) -> str:
 
 
 ENVIRONMENTS = {env_id(domain, task, plant): (domain, task, plant)
-             for domain, task in tasks.ALL_TASKS for plant in tasks.PLANTS[domain]}
+             for domain, task in tasks.ALL_TASKS for plant in tasks.ENVIRONMENT_PLANTS[domain]}
 """`(domain, task, plant)` of each registered id."""
 ENV_IDS = tuple(ENVIRONMENTS)
-"""The registered ids, every task on every plant."""
+"""The registered ids, every task on every plant of a dm_env environment."""
 
 
 def observation_bounds(definition) -> tuple:

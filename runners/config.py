@@ -76,7 +76,8 @@ class EnvironmentSettings:
     task: str = dataclasses.field(metadata={"cli": False})
     """DOMAIN.TASK of the suite."""
     plant: str | None = None
-    """`mujoco` or `analytic` (default: the domain's first, MuJoCo where there is one)."""
+    """`mujoco`, `analytic` or `mjx` (MuJoCo's XLA port, batched runs only; default: the
+    domain's first, MuJoCo where there is one)."""
     integrator: str = dataclasses.field(default="semi_implicit", metadata=choices(*INTEGRATORS))
     """Euler scheme of the analytic plant: `semi_implicit` (MuJoCo's) or `explicit` (the
     paper's literal reading)."""

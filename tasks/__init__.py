@@ -10,8 +10,9 @@
 Each domain is one module, `tasks/<domain>.py`, ending with its `DOMAIN` (`tasks.domain`),
 and one line of `DOMAIN_MODULES` below. `DOMAINS[name]` is a domain's `Domain`;
 `ALL_TASKS` lists `(domain, task)` pairs; `PLANTS[domain]` the plants of a domain, the
-default first. `definition(...)` gives a task's array functions and `tasks.batched` steps
-many copies of a task at once.
+default first, and `ENVIRONMENT_PLANTS[domain]` those of a single environment.
+`definition(...)` gives a task's array functions and `tasks.batched` steps many copies of a
+task at once.
 """
 
 import importlib
@@ -41,6 +42,9 @@ ALL_TASKS = tuple((name, task) for name, domain in DOMAINS.items() for task in d
 TASK_NAMES = tuple(f"{domain}.{task}" for domain, task in ALL_TASKS)
 """Every task as DOMAIN.TASK."""
 PLANTS = {name: domain.plants.names for name, domain in DOMAINS.items()}
+ENVIRONMENT_PLANTS = {name: domain.plants.environment_names for name, domain in DOMAINS.items()}
+"""The plants of `load`'s dm_env environments per domain: `PLANTS` less the batched-only
+(`tasks.plants.BATCHED_ONLY`)."""
 
 
 def domain(name: str) -> Domain:

@@ -1,4 +1,5 @@
-"""Plants that step a batch of states: the paper's equations, or MuJoCo.
+"""Plants that step a batch of states: the paper's equations, or MuJoCo (its C engine, or
+MJX in `tasks.mjx_plant`).
 
 A plant maps states `(B, d)` and controls `(B,)` to the next states `(B, d)`, one control
 step of the task. States are in the task's order, which interleaves each coordinate with its
@@ -44,6 +45,14 @@ class AnalyticPlant:
         return np.stack(columns, axis=-1)
 
 
+def apply_limit(limit: Optional[Callable], state: np.ndarray) -> np.ndarray:
+    """`state` `(B, d)` after the domain's element-wise `limit` (`DomainPlants.limit`; None:
+    no limit)."""
+    if limit is None:
+        return state
+    return np.stack(limit(*np.moveaxis(state, -1, 0)), axis=-1)
+
+
 class MujocoPlant:
     """B copies of an MJCF model stepped with `mujoco.rollout`, one thread per core.
 
@@ -82,9 +91,14 @@ class MujocoPlant:
         next_state = np.empty_like(state)
         next_state[:, 0::2] = after[:, -1, 1:1 + nq]
         next_state[:, 1::2] = after[:, -1, 1 + nq:]
-        if self._limit is not None:
-            next_state = np.stack(self._limit(*np.moveaxis(next_state, -1, 0)), axis=-1)
-        return next_state
+        return apply_limit(self._limit, next_state)
+
+
+BATCHED_ONLY = ("mjx",)
+"""Plants that step batches only (`DomainPlants.batch`), not a dm_env environment: MJX,
+whose one call per step pays off over a batch but costs tens of C steps for one state, and
+which needs JAX; a single environment runs on the C engine, the reference
+(`tasks.mjx_plant`)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -122,12 +136,22 @@ class DomainPlants:
 
     @property
     def names(self) -> tuple:
-        """The domain's plants, the default first."""
-        return ("mujoco", "analytic") if self.model else ("analytic",)
+        """The domain's plants, the default first: with a model, the C engine (`mujoco`),
+        the equations and MJX (`mjx`, `BATCHED_ONLY`)."""
+        return ("mujoco", "analytic", "mjx") if self.model else ("analytic",)
+
+    @property
+    def environment_names(self) -> tuple:
+        """The plants of a single dm_env environment (`physics`): all but `BATCHED_ONLY`."""
+        return tuple(name for name in self.names if name not in BATCHED_ONLY)
 
     def batch(self, plant: str, batch_size: int, integrator: str = "semi_implicit",
               equations: str = "paper"):
         """A plant stepping `batch_size` states at once."""
+        if plant == "mjx":
+            from lwrl.tasks.mjx_plant import MjxPlant  # here: it imports this module
+            return MjxPlant(self.model, self.mujoco_physics.ACTUATOR, batch_size, self.substeps,
+                            self.limit)
         if plant == "mujoco":
             model = mujoco.MjModel.from_xml_string(models.read(self.model))
             return MujocoPlant(model, self.mujoco_physics.ACTUATOR, batch_size, self.substeps,
@@ -141,6 +165,9 @@ class DomainPlants:
 
     def physics(self, plant: str, integrator: str = "semi_implicit", equations: str = "paper"):
         """The dm_control Physics of one environment."""
+        if plant in BATCHED_ONLY:
+            raise ValueError(f"the {plant} plant steps batches only (lwrl train, tasks.batched); "
+                             f"one environment runs on: {', '.join(self.environment_names)}")
         if plant == "mujoco":
             physics = self.mujoco_physics.from_xml_string(models.read(self.model))
             physics.substeps, physics.limit = self.substeps, self.limit

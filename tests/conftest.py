@@ -1,11 +1,11 @@
-"""Shared fixtures: every (domain, task, plant) of the suite."""
+"""Shared fixtures: every (domain, task, plant) of the suite's dm_env environments."""
 
 import pytest
 
 from lwrl import tasks
 
 TASK_PLANTS = [(domain, task, plant) for domain, task in tasks.ALL_TASKS
-               for plant in tasks.PLANTS[domain]]
+               for plant in tasks.ENVIRONMENT_PLANTS[domain]]
 
 
 @pytest.fixture(params=TASK_PLANTS, ids=lambda p: f"{p[0]}.{p[1]}-{p[2]}")

@@ -42,3 +42,13 @@ def test_mujoco_plant_quick_prints_its_tables(capsys):
     mujoco_plant.main(["--quick"])
     out = capsys.readouterr().out
     assert "Ratio 2 / 1" in out and "| `mujoco.rollout` call |" in out and "| whole |" in out
+
+
+def test_mjx_plant_quick_prints_its_table(capsys):
+    """The mjx plant's benchmark in its smoke mode (skipped where MJX is not installed)."""
+    pytest.importorskip("mujoco.mjx", reason="the mjx plant needs MJX: pip install 'lwrl[mjx]'")
+    from benchmarks import mjx_plant
+
+    mjx_plant.main(["--quick"])
+    out = capsys.readouterr().out
+    assert "| 4. learning run, plant mjx, stepped path |" in out and "Compiling MJX's step" in out

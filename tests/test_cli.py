@@ -16,7 +16,7 @@ def test_tasks_lists_every_task_and_plant(capsys):
     out = capsys.readouterr().out
     assert "mountain_car.cost_to_go" in out and "plants: analytic" in out
     assert "pendulum.swingup" in out and "cartpole.balance" in out and "acrobot.swingup" in out
-    assert out.count("plants: mujoco, analytic") == 3
+    assert out.count("plants: mujoco, analytic, mjx (batched only)") == 3
 
 
 @pytest.mark.parametrize("argv", [
@@ -45,6 +45,7 @@ def test_rollout_reports_finished_cartpole_episodes(capsys):
     (["rollout", "cartpole.swing"], "unknown task 'swing'"),
     (["rollout", "mountain_car.cost_to_go", "--plant", "mujoco"], "unknown plant 'mujoco'"),
     (["rollout", "pendulum.swingup", "--steps", "0"], "must be a positive integer"),
+    (["rollout", "pendulum.swingup", "--plant", "mjx"], "the mjx plant steps batches only"),
     (["frobnicate"], "invalid choice"),
     (["train", "cartpole.balance", "--alpha", "0"], "alpha must be a finite number > 0; got 0.0"),
     (["train", "cartpole.balance", "--lambda", "1.5"], "lambda must be a number in [0, 1]; got 1.5"),
@@ -65,6 +66,17 @@ def test_bad_input_is_one_line_and_status_2(argv, message):
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and message in lines[0], result.stderr
+
+
+def test_mjx_without_jax_names_the_extra():
+    """Without JAX (hidden here), `--plant mjx` ends with one line naming the extra."""
+    hide_jax = ("import sys; sys.modules['jax'] = None; from lwrl.cli import main; "
+                "sys.exit(main.main(['train', 'cartpole.balance', '--plant', 'mjx', "
+                "'--agents', '1', '--episodes', '1']))")
+    result = subprocess.run([sys.executable, "-c", hide_jax], capture_output=True, text=True)
+    assert result.returncode == 2
+    assert result.stderr.strip() == ("lwrl train: error: the mjx plant needs JAX and MuJoCo MJX: "
+                                     "pip install 'lwrl[mjx]'"), result.stderr
 
 
 @pytest.mark.parametrize("argv", [["--help"], ["rollout", "--help"], ["tasks", "--help"],

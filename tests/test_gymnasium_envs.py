@@ -23,7 +23,7 @@ from lwrl.gym import ENV_IDS, SuiteEnv, env_id, register_envs  # noqa: E402
 pytestmark = pytest.mark.filterwarnings("error")
 
 TASK_PLANTS = [(domain, task, plant) for domain, task in tasks.ALL_TASKS
-               for plant in tasks.PLANTS[domain]]
+               for plant in tasks.ENVIRONMENT_PLANTS[domain]]
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 

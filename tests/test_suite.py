@@ -253,6 +253,7 @@ def test_pendulum_observation_wraps_the_angle():
     (lambda: tasks.load("cartpol", "balance"), "unknown domain 'cartpol'; available: mountain_car, pendulum, cartpole"),
     (lambda: tasks.load("cartpole", "swingup"), "unknown task 'swingup' of domain 'cartpole'; available: balance"),
     (lambda: tasks.load("mountain_car", "cost_to_go", plant="mujoco"), "unknown plant 'mujoco' for mountain_car; available: analytic"),
+    (lambda: tasks.load("pendulum", "swingup", plant="mjx"), "the mjx plant steps batches only (lwrl train, tasks.batched); one environment runs on: mujoco, analytic"),
     (lambda: tasks.load("cartpole", "balance", plant="mujoco", integrator="explicit"), "unknown option 'integrator'"),
     (lambda: tasks.load("cartpole", "balance", plant="analytic", integrator="rk4"), "unknown integrator 'rk4'; allowed: semi_implicit, explicit"),
     (lambda: tasks.load("pendulum", "swingup", plant="mujoco", equations="kfnnet"), "unknown option 'equations'"),

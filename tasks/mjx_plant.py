@@ -1,0 +1,103 @@
+"""The `mjx` plant: B copies of an MJCF model stepped by MJX, MuJoCo's XLA port.
+
+MJX steps the same model (`lwrl.models.read`) with the same Euler step as the C engine, in
+float64, as one compiled vector function over the whole batch (the states vmapped, the
+substeps in a loop) where the C engine steps the states one by one. It agrees with the C
+engine (`MujocoPlant`) to round-off, not bit for bit (XLA orders the arithmetic its own way):
+hence a plant of its own, and `mujoco` stays the C engine, the reference, on which every
+result stays bit-identical. It steps batches only (`tasks.batched`, `lwrl train`); a dm_env
+environment (`tasks.load`) runs on the C engine (`tasks.plants.BATCHED_ONLY`).
+
+JAX is an optional extra (`pip install 'lwrl[mjx]'`), imported when a plant is first made.
+"""
+
+import contextlib
+import functools
+import io
+
+import mujoco
+import numpy as np
+
+from lwrl import models
+from lwrl.tasks.plants import apply_limit
+
+MOTIONLESS_FLAGS = mujoco.mjtEnableBit.mjENBL_ENERGY
+"""Flags the models enable that MJX does not implement (`mjx.put_model` refuses them) and
+that do not enter the motion, cleared for MJX: the energy flag only has MuJoCo fill
+`MjData.energy`, a diagnostic that is no input to the step."""
+
+
+def _jax_and_mjx():
+    """`(jax, mujoco.mjx)`, or a one-line ValueError naming the extra that installs them."""
+    try:
+        import jax
+        with contextlib.redirect_stdout(io.StringIO()):  # mjx prints that Warp is not installed
+            from mujoco import mjx
+    except ImportError:
+        raise ValueError("the mjx plant needs JAX and MuJoCo MJX: "
+                         "pip install 'lwrl[mjx]'") from None
+    return jax, mjx
+
+
+def motion_model(name: str) -> mujoco.MjModel:
+    """The MJCF model `name` as MJX steps it: `MOTIONLESS_FLAGS` cleared."""
+    model = mujoco.MjModel.from_xml_string(models.read(name))
+    model.opt.enableflags &= ~int(MOTIONLESS_FLAGS)
+    return model
+
+
+@functools.cache
+def compiled_step(name: str, actuator: str, substeps: int):
+    """The jitted batch step of model `name`: `(state (B, d), control (B,)) -> state (B, d)`
+    in the task's order `(q0, q0_dot, q1, ...)`, `substeps` MJX steps with `control` on
+    `actuator`. Made once per process and model; JAX compiles it once per batch size.
+    Call it under `jax.enable_x64(True)`."""
+    jax, mjx = _jax_and_mjx()
+    model = motion_model(name)
+    actuator_id = model.actuator(actuator).id
+    with jax.enable_x64(True):
+        device_model = mjx.put_model(model)
+        rest = mjx.make_data(device_model)
+
+    def step_one(state, control):
+        # A fresh MjData per step, as `MujocoPlant`'s rollout starts from time, qpos and qvel:
+        # without contacts or activations nothing else carries over between steps.
+        data = rest.replace(qpos=state[0::2], qvel=state[1::2],
+                            ctrl=rest.ctrl.at[actuator_id].set(control))
+        data = jax.lax.fori_loop(0, substeps, lambda _, data: mjx.step(device_model, data), data)
+        return jax.numpy.stack([data.qpos, data.qvel], axis=-1).ravel()
+
+    return jax.jit(jax.vmap(step_one))
+
+
+class MjxPlant:
+    """B copies of the MJCF model `model` (its name in `models/`) stepped by MJX.
+
+    The interface of `MujocoPlant`: one agent step is `substeps` MJX steps with the control
+    on `actuator` held, then `limit`. `step` takes up to `batch_size` states (a batched
+    environment steps only those whose episode goes on) and pads them to `batch_size`, so
+    that JAX compiles one step per batch size, not one per number of running episodes.
+    """
+
+    def __init__(self, model: str, actuator: str, batch_size: int, substeps: int = 1,
+                 limit=None):
+        self._jax = _jax_and_mjx()[0]
+        self.batch_size = batch_size
+        self.substeps = int(substeps)
+        mj_model = motion_model(model)
+        self.timestep = float(mj_model.opt.timestep) * self.substeps
+        self._limit = limit
+        self._step = compiled_step(model, actuator, self.substeps)
+        self._state = np.zeros((batch_size, mj_model.nq + mj_model.nv))
+        self._control = np.zeros(batch_size)
+
+    def step(self, state: np.ndarray, control: np.ndarray) -> np.ndarray:
+        count = len(state)
+        if count > self.batch_size:
+            raise ValueError(f"{count} states for a plant of batch size {self.batch_size}")
+        if count == 0:
+            return state.copy()
+        self._state[:count], self._control[:count] = state, control
+        with self._jax.enable_x64(True):
+            next_state = np.array(self._step(self._state, self._control))[:count]
+        return apply_limit(self._limit, next_state)
