@@ -28,6 +28,7 @@ Run from the repository root:
 import argparse
 import dataclasses
 import math
+import os
 import time
 from typing import Callable
 
@@ -198,6 +199,14 @@ def cpu_model() -> str:
     return "unknown"
 
 
+def machine(cores: str, *modules) -> str:
+    """A benchmark's machine line: `cores`, the CPU, the load average now (other jobs change
+    what the figures mean) and the versions of `modules`."""
+    load = " ".join(f"{x:.2f}" for x in os.getloadavg())
+    versions = ", ".join(f"{module.__name__} {module.__version__}" for module in modules)
+    return f"Machine: {cores}, CPU {cpu_model()}, load average {load} at the end; {versions}."
+
+
 def cell(measurement: Measurement, reference: Measurement | None = None) -> str:
     """A rate, and its ratio to `reference`'s."""
     text = f"{measurement.rate:,.0f}"
@@ -252,8 +261,7 @@ def main(argv=None) -> None:
           f"| lwrl {BATCH} agents (agent-steps/s, ratio to plain) |")
     print("|---|---:|---:|---:|")
     print("\n".join(rows))
-    print(f"\nMachine: {workers()} cores used (agent.threads.workers()), CPU {cpu_model()}, "
-          f"numpy {np.__version__}, numba {numba.__version__}.")
+    print("\n" + machine(f"{workers()} cores used (agent.threads.workers())", np, numba))
     print("\nRuns measured:")
     print("\n".join(runs))
     print(f"\nTotal {time.perf_counter() - script_start:.1f} s, of which {compile_seconds:.1f} s "

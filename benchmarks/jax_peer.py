@@ -79,7 +79,7 @@ import jax.numpy as jnp
 import numba
 import numpy as np
 
-from benchmarks.agent_speed import cpu_model, plural
+from benchmarks.agent_speed import machine, plural
 from lwrl import tasks
 from lwrl.agent.threads import workers
 from lwrl.agent.traces import FLUSH_THRESHOLD
@@ -556,10 +556,8 @@ def main(argv=None) -> None:
     print("|---|---:|---:|")
     for name, steps in check.items():
         print(f"| {name} | {steps_cell(steps[:, :1])} | {steps_cell(steps[:, window])} |")
-    print(f"\nMachine: {workers()} cores (lwrl's threads, agent.threads.workers()), CPU "
-          f"{cpu_model()}, load average {' '.join(f'{x:.2f}' for x in os.getloadavg())} "
-          f"at the end; numpy {np.__version__}, numba {numba.__version__}, jax "
-          f"{jax.__version__} ({jax.default_backend()}).")
+    print("\n" + machine(f"{workers()} cores (lwrl's threads, agent.threads.workers()), JAX "
+                         f"on {jax.default_backend()}", np, numba, jax))
     print("\nCompile times (in no rate):")
     print("\n".join(compiles))
     print("\nRuns measured (each from zero weights):")

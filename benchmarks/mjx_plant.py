@@ -35,9 +35,9 @@ import jax
 import mujoco
 import numpy as np
 
-from benchmarks.agent_speed import cpu_model
-from benchmarks.mujoco_plant import (AGENTS, QUICK, Clock, config, engine_open_loop, per_step,
-                                     timed, timed_run)
+from benchmarks.agent_speed import machine
+from benchmarks.mujoco_plant import (Clock, config, engine_open_loop, parse_batch_args,
+                                     per_step, timed, timed_run)
 from lwrl.runners.run import make_agent, run_batched
 from lwrl.tasks.batched import BatchedEnv
 
@@ -77,24 +77,10 @@ def stepped_run(args, plant: str) -> tuple[Clock, Clock, int]:
 
 
 def parse_args(argv=None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(
-        description="Per agent-step wall and CPU time of the mjx plant, open loop and in a "
-                    "learning run of pendulum agents, against mujoco.rollout's and the "
-                    "mujoco plant's; prints a Markdown table.")
-    parser.add_argument("--agents", type=int, default=AGENTS,
-                        help=f"agents in the batch (default: {AGENTS})")
-    parser.add_argument("--episodes", type=int, default=2,
-                        help="episodes of each learning run (default: 2, of 3000 steps each)")
-    parser.add_argument("--quick", action="store_true",
-                        help="smoke test: 16 agents, one episode of 100 steps")
-    args = parser.parse_args(argv)
-    args.time_limit = 60.0
-    if args.quick:
-        args.agents, args.episodes, args.time_limit = (QUICK["agents"], QUICK["episodes"],
-                                                       QUICK["time_limit"])
-    if args.agents < 1 or args.episodes < 1:
-        parser.error("--agents and --episodes must be at least 1")
-    return args
+    return parse_batch_args(
+        "Per agent-step wall and CPU time of the mjx plant, open loop and in a learning run of "
+        "pendulum agents, against mujoco.rollout's and the mujoco plant's; prints a Markdown "
+        "table.", argv)
 
 
 def main(argv=None) -> None:
@@ -130,9 +116,7 @@ def main(argv=None) -> None:
               f"{cpu / engine_cpu:.2f} |")
     print(f"\nCompiling MJX's step and its scan for {args.agents} states (left out above): "
           f"{compiling.wall:.1f} s.")
-    print(f"\nMachine: {os.cpu_count()} cores, CPU {cpu_model()}, load average "
-          f"{' '.join(f'{x:.2f}' for x in os.getloadavg())} at the end; mujoco "
-          f"{mujoco.__version__}, jax {jax.__version__}, numpy {np.__version__}.")
+    print("\n" + machine(f"{os.cpu_count()} cores", mujoco, jax, np))
     print(f"Total {time.perf_counter() - script_start:.1f} s.")
 
 

@@ -42,7 +42,7 @@ import mujoco
 import numba
 import numpy as np
 
-from benchmarks.agent_speed import cpu_model
+from benchmarks.agent_speed import machine
 from lwrl.agent.threads import workers
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent, run, run_batched
@@ -141,18 +141,18 @@ def timed_run(run_config, learn: bool = True, agent=None):
     return agent, results, Clock(time.perf_counter() - wall, time.process_time() - cpu, 1)
 
 
-def parse_args(argv=None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(
-        description="Per agent-step wall and CPU time of lwrl's MuJoCo plant in a learning run "
-                    "of pendulum agents against mujoco.rollout's own open-loop stepping, and "
-                    "where the difference goes; prints Markdown tables.")
+def parse_batch_args(description: str, argv=None, repeats: bool = False) -> argparse.Namespace:
+    """The arguments of a benchmark of a batch of pendulum agents: `--agents`, `--episodes`,
+    `--quick` and, with `repeats`, `--repeats`; `time_limit` set (60 s, or `QUICK`'s)."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--agents", type=int, default=AGENTS,
                         help=f"agents in the batch (default: {AGENTS})")
     parser.add_argument("--episodes", type=int, default=2,
                         help="episodes of each learning run (default: 2, of 3000 steps each)")
-    parser.add_argument("--repeats", type=int, default=2,
-                        help="measurements of runs 1 and 2, alternately, the fastest kept "
-                             "(default: 2)")
+    if repeats:
+        parser.add_argument("--repeats", type=int, default=2,
+                            help="measurements of runs 1 and 2, alternately, the fastest kept "
+                                 "(default: 2)")
     parser.add_argument("--quick", action="store_true",
                         help="smoke test: 16 agents, one episode of 100 steps")
     args = parser.parse_args(argv)
@@ -160,9 +160,17 @@ def parse_args(argv=None) -> argparse.Namespace:
     if args.quick:
         args.agents, args.episodes, args.time_limit = (QUICK["agents"], QUICK["episodes"],
                                                        QUICK["time_limit"])
-    if args.agents < 1 or args.episodes < 1 or args.repeats < 1:
-        parser.error("--agents, --episodes and --repeats must be at least 1")
+    if min(args.agents, args.episodes, getattr(args, "repeats", 1)) < 1:
+        parser.error(f"--agents, --episodes{' and --repeats' if repeats else ''} must be at "
+                     "least 1")
     return args
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    return parse_batch_args(
+        "Per agent-step wall and CPU time of lwrl's MuJoCo plant in a learning run of pendulum "
+        "agents against mujoco.rollout's own open-loop stepping, and where the difference "
+        "goes; prints Markdown tables.", argv, repeats=True)
 
 
 def per_step(clock: Clock, agent_steps: int) -> tuple[float, float]:
@@ -228,10 +236,8 @@ def main(argv=None) -> None:
         wall, cpu = per_step(clocks[key], agent_steps)
         share = clocks[key].wall / clocks["whole"].wall
         print(f"| {name} | {wall:.3f} | {cpu:.3f} | {100 * share:.0f} % |")
-    print(f"\nMachine: {os.cpu_count()} cores ({workers()} lwrl threads, "
-          f"{min(args.agents, os.cpu_count())} rollout threads), CPU {cpu_model()}, load average "
-          f"{' '.join(f'{x:.2f}' for x in os.getloadavg())} at the end; mujoco "
-          f"{mujoco.__version__}, numpy {np.__version__}, numba {numba.__version__}.")
+    print("\n" + machine(f"{os.cpu_count()} cores ({workers()} lwrl threads, "
+                         f"{min(args.agents, os.cpu_count())} rollout threads)", mujoco, np, numba))
     print(f"Total {time.perf_counter() - script_start:.1f} s.")
 
 
