@@ -58,17 +58,13 @@ def interval(statistic, *samples, seed: int = SEED, resamples: int = RESAMPLES) 
                     float(result.confidence_interval.high))
 
 
-def _mean(values, axis=-1):
-    return np.mean(values, axis=axis)
-
-
 def mean_interval(values, seed: int = SEED) -> Estimate:
     """The mean of `values` (NaN dropped: a diverged agent's) with its interval."""
     values = np.asarray(values, dtype=float)
     values = values[~np.isnan(values)]
     if len(values) == 0:
         return Estimate(math.nan, math.nan, math.nan)
-    return interval(_mean, values, seed=seed)
+    return interval(np.mean, values, seed=seed)
 
 
 def probability_of_improvement(x, y, axis=-1):

@@ -18,7 +18,6 @@ How the items judge (the report says it again beside each):
   a confirmation run judges the chosen cells on fresh agents (`studies.paper.judging`).
 """
 
-import dataclasses
 import math
 
 import matplotlib
@@ -32,7 +31,7 @@ from lwrl.analysis import statistics as st  # noqa: E402
 from lwrl.analysis.plots import Evidence, plot_learning_curve, save_figure  # noqa: E402
 from lwrl.runners.config import RunConfig  # noqa: E402
 from lwrl.studies.paper.judging import (CELL, Item, Section, at, at_cells, choose,  # noqa: E402
-                                        confirmation_text, episode_text, matrix,
+                                        confirmation_text, episode_text, fresh_agents, matrix,
                                         merge_confirmation, per_agent, score_verdict,
                                         seeds_text, trace_verdict)
 
@@ -244,8 +243,7 @@ def fig5_configs(plant, quick, integrator):
 
 def fig5_confirm(configs, results, agents):
     del results  # one cell: nothing to choose
-    return [dataclasses.replace(config, agents=agents, seed=config.seed + config.agents)
-            for config in configs]
+    return [fresh_agents(config, agents) for config in configs]
 
 
 def first_episode_over(results: pd.DataFrame, value: str, level: float) -> pd.Series:

@@ -135,12 +135,17 @@ def at(rows: pd.DataFrame, cell, columns=CELL) -> pd.DataFrame:
     return rows[mask]
 
 
+def fresh_agents(config, agents: int):
+    """`config` with `agents` fresh agents: seeded from the end of the run's own seeds on, so
+    they share no seed with it."""
+    return dataclasses.replace(config, agents=agents, seed=config.seed + config.agents)
+
+
 def at_cells(configs, cells: pd.DataFrame, agents: int) -> list:
-    """The runs of `configs` in the chosen `cells`, each with `agents` fresh agents: seeded
-    from the end of the run's own seeds on, so they share no seed with it."""
+    """The runs of `configs` in the chosen `cells`, each with `agents` fresh agents
+    (`fresh_agents`)."""
     chosen = [row for _, row in cells.iterrows()]
-    return [dataclasses.replace(config, agents=agents, seed=config.seed + config.agents)
-            for config in configs
+    return [fresh_agents(config, agents) for config in configs
             if any(config.features == row["features"] and config.trace == row["trace"]
                    and math.isclose(config.lam, row["lam"]) and math.isclose(config.alpha, row["alpha"])
                    for row in chosen)]

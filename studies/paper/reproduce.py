@@ -143,35 +143,15 @@ def reproduce(item, out_dir: str, plant: str = "analytic", quick: bool = False,
     timings_path = os.path.join(out_dir, "timings.json")
     timings = json.load(open(timings_path)) if os.path.exists(timings_path) else {}
     sections = {}
+    sweep_options = dict(backend=backend, workers=workers, address=address)
     for name, configs in plan.items():
-        start = time.perf_counter()
-        results, computed = sweep.run_sweep(configs, out_dir, backend=backend, workers=workers,
-                                            address=address, description=name)
-        if computed or name not in timings:
-            timings[name] = {"seconds": time.perf_counter() - start, "runs_computed": computed,
-                             "runs": len(configs)}
-        with outputs.atomic_write(timings_path) as file:
-            json.dump(timings, file, indent=2)
         item_dir = os.path.join(out_dir, name)
-        os.makedirs(item_dir, exist_ok=True)
-        with outputs.atomic_path(os.path.join(item_dir, "results.csv.gz")) as temporary:
-            results.to_csv(temporary, index=False, compression="gzip")
-        sweep.write_configs(configs, os.path.join(item_dir, "configs.jsonl"))
+        results = run_and_keep(configs, name, out_dir, item_dir, "", timings, **sweep_options)
         confirmation, confirming = None, ITEMS[name].confirm
         if agents_per_cell and confirming is not None:
             extra = confirming(configs, results, agents_per_cell)
-            start, key = time.perf_counter(), f"{name} confirmation"
-            confirmation, computed = sweep.run_sweep(extra, out_dir, backend=backend,
-                                                     workers=workers, address=address,
-                                                     description=key)
-            if computed or key not in timings:
-                timings[key] = {"seconds": time.perf_counter() - start, "runs_computed": computed,
-                                "runs": len(extra)}
-            with outputs.atomic_write(timings_path) as file:
-                json.dump(timings, file, indent=2)
-            with outputs.atomic_path(os.path.join(item_dir, "confirmation.csv.gz")) as temporary:
-                confirmation.to_csv(temporary, index=False, compression="gzip")
-            sweep.write_configs(extra, os.path.join(item_dir, "confirmation-configs.jsonl"))
+            confirmation = run_and_keep(extra, f"{name} confirmation", out_dir, item_dir,
+                                        "confirmation", timings, **sweep_options)
         sections[name] = (ITEMS[name].analyse(results, figure_dir, confirmation), len(configs),
                           len(results), None if confirmation is None else len(extra))
     evidence = [item for section, *_ in sections.values() for item in section.evidence]
@@ -183,6 +163,29 @@ def reproduce(item, out_dir: str, plant: str = "analytic", quick: bool = False,
         file.write(report(sections, timings, plant, integrator, quick, out_dir, readings or {},
                           alphas, claims))
     return path
+
+
+def run_and_keep(configs, key: str, out_dir: str, item_dir: str, kind: str, timings: dict,
+                 **sweep_options):
+    """Run `configs` (`runners.sweep`, resuming from `out_dir/runs`) and return their tidy
+    table, written whole to `item_dir` as `results.csv.gz` and `configs.jsonl` (`kind`
+    empty) or `<kind>.csv.gz` and `<kind>-configs.jsonl`. The wall time goes into `timings`
+    (and `out_dir/timings.json`) under `key` when this invocation computed runs or none is
+    kept yet."""
+    start = time.perf_counter()
+    results, computed = sweep.run_sweep(configs, out_dir, description=key, **sweep_options)
+    if computed or key not in timings:
+        timings[key] = {"seconds": time.perf_counter() - start, "runs_computed": computed,
+                        "runs": len(configs)}
+    with outputs.atomic_write(os.path.join(out_dir, "timings.json")) as file:
+        json.dump(timings, file, indent=2)
+    os.makedirs(item_dir, exist_ok=True)
+    table = f"{kind}.csv.gz" if kind else "results.csv.gz"
+    with outputs.atomic_path(os.path.join(item_dir, table)) as temporary:
+        results.to_csv(temporary, index=False, compression="gzip")
+    sweep.write_configs(configs, os.path.join(item_dir, f"{kind}-configs.jsonl" if kind
+                                              else "configs.jsonl"))
+    return results
 
 
 def describe_readings(readings: dict) -> str:
