@@ -243,7 +243,8 @@ def swingup(time_limit: float = TIME_LIMIT) -> TaskDefinition:
     return TaskDefinition(
         domain="acrobot", task="swingup", state_names=STATE_NAMES, controls=TORQUES,
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
-        initial_states=initial_states, observe=_observe, outcome=outcome, transition=transition, arrive=arrive,
+        initial_states=initial_states, observe=_observe, outcome=outcome, transition=transition,
+        arrive=arrive,
         bounds=BOUNDS, defaults=AGENT, angles=("shoulder_angle", "elbow_angle"),
         has_uptime=False,
     )

@@ -128,7 +128,8 @@ def swingup(time_limit: float = TIME_LIMIT) -> TaskDefinition:
     return TaskDefinition(
         domain="pendulum", task="swingup", state_names=STATE_NAMES, controls=TORQUES,
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
-        initial_states=initial_states, observe=_observe, outcome=outcome, transition=transition, arrive=arrive,
+        initial_states=initial_states, observe=_observe, outcome=outcome, transition=transition,
+        arrive=arrive,
         bounds=((-np.pi, -np.inf), (np.pi, np.inf)), defaults=PAPER_AGENT, angles=("angle",),
     )
 

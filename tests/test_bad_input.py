@@ -29,24 +29,17 @@ def remove_work():
     shutil.rmtree(WORK, ignore_errors=True)
 
 
-def parses_as_float(text: str) -> bool:
+def parses_as(kind, text: str) -> bool:
+    """Whether `kind(text)` (float or int) reads `text`."""
     try:
-        float(text)
-        return True
-    except ValueError:
-        return False
-
-
-def parses_as_int(text: str) -> bool:
-    try:
-        int(text)
+        kind(text)
         return True
     except ValueError:
         return False
 
 
 words = st.text(alphabet=string.ascii_letters + string.digits + "._-:/", min_size=1, max_size=12)
-not_numbers = words.filter(lambda text: not parses_as_float(text) and not text.startswith("-"))
+not_numbers = words.filter(lambda text: not parses_as(float, text) and not text.startswith("-"))
 non_finite = st.sampled_from(["inf", "-inf", "nan", "Infinity", "NaN"])
 
 
@@ -61,8 +54,8 @@ def floats_outside(low, high=None):
 
 def integers_below(minimum):
     return st.one_of(st.integers(max_value=minimum - 1).map(str),
-                     not_numbers.filter(lambda text: not parses_as_int(text)),
-                     st.floats(allow_nan=True).map(repr).filter(lambda text: not parses_as_int(text)))
+                     not_numbers.filter(lambda text: not parses_as(int, text)),
+                     st.floats(allow_nan=True).map(repr).filter(lambda text: not parses_as(int, text)))
 
 
 TRAIN = ["train", "mountain_car.cost_to_go", "--agents=1", "--episodes=1"]
