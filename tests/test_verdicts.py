@@ -7,7 +7,8 @@ import pytest
 
 from lwrl.analysis import plots
 from lwrl.analysis import statistics as st
-from lwrl.studies.paper import items, judging
+from lwrl.studies.paper import judging
+from lwrl.studies.paper.items import fig5, table1, traces
 
 
 def table(values, value="uptime_s", **cell):
@@ -60,7 +61,7 @@ def test_touching_40_s_once_is_not_balancing():
     mean up-time over agents never stays above 40 s, so it does not."""
     uptime = np.full((10, 200), 20.0)
     uptime[np.arange(10), np.arange(4, 14)] = 50.0
-    rows, verdict, *_ = items._fig5_judge(table(uptime))
+    rows, verdict, *_ = fig5.judge(table(uptime))
     assert verdict == "no"
     assert dict((q, o) for q, o, _ in rows)[
         "episode from which the mean up-time over agents stays above 40 s to the end"].startswith("never")
@@ -73,7 +74,7 @@ def test_fig5_judges_the_episode_the_mean_stays_above_40_s(start, verdict):
     uptime = np.full((10, 200), 20.0)
     uptime[:, start - 1:] = 50.0
     uptime[3, 150] = 10.0
-    rows, judged, *_ = items._fig5_judge(table(uptime))
+    rows, judged, *_ = fig5.judge(table(uptime))
     assert judged == verdict
     assert rows[0][1].startswith(f"{start} [")
 
@@ -85,12 +86,12 @@ def test_table1_needs_agents_that_keep_balancing():
     uptime[:6, 79:] = 240.0
     uptime[6:, 59] = 240.0
     cells = pd.DataFrame([{"features": "nrbf", "trace": "accumulating", "lam": 0.7, "alpha": 0.5}])
-    rows, verdict, *_ = items._table1_judge(table(uptime, trace="accumulating", lam=0.7, alpha=0.5),
+    rows, verdict, *_ = table1.judge(table(uptime, trace="accumulating", lam=0.7, alpha=0.5),
                                            cells)
     assert verdict == "yes" and rows[0][1].startswith("80 [") and "6 of 10 agents learn" in rows[0][1]
     once = np.full((10, 200), 30.0)
     once[:, 59] = 240.0
-    rows, verdict, *_ = items._table1_judge(table(once, trace="accumulating", lam=0.7, alpha=0.5),
+    rows, verdict, *_ = table1.judge(table(once, trace="accumulating", lam=0.7, alpha=0.5),
                                            cells)
     assert verdict == "no" and rows[0][1].startswith("never")
     assert rows[2][1].startswith("60 [60, 60]")  # the first touch, a secondary row
@@ -120,7 +121,7 @@ def test_trace_verdict_counts_decided_comparisons(outcomes, verdict):
 
 
 def test_confirmation_runs_are_fresh_agents_at_the_chosen_cells():
-    configs = items.fig8_configs("analytic", False, "semi_implicit")
+    configs = traces.fig8_configs("analytic", False, "semi_implicit")
     cells = pd.DataFrame([{"features": "nrbf", "trace": "accumulating", "lam": 0.7, "alpha": 0.5},
                           {"features": "nrbf", "trace": "replacing", "lam": 0.4, "alpha": 0.1}])
     chosen = judging.at_cells(configs, cells, 50)
@@ -133,7 +134,7 @@ def test_the_claims_figure_draws_each_judged_quantity_beside_the_claim(tmp_path)
     confirmation run adds its own row, labelled, to the same panel."""
     uptime = np.full((10, 200), 20.0)
     uptime[:, 8:] = 50.0
-    section = items.fig5_analyse(table(uptime), str(tmp_path), confirmation=table(uptime))
+    section = fig5.analyse(table(uptime), str(tmp_path), confirmation=table(uptime))
     assert [item.label for item in section.evidence] == [
         "mean over 10 agents, paper-sized run", "mean over 10 agents, confirmation run"]
     assert [item.judged for item in section.evidence] == [False, True]
