@@ -87,12 +87,12 @@ def test_table1_needs_agents_that_keep_balancing():
     uptime[6:, 59] = 240.0
     cells = pd.DataFrame([{"features": "nrbf", "trace": "accumulating", "lam": 0.7, "alpha": 0.5}])
     rows, verdict, *_ = table1.judge(table(uptime, trace="accumulating", lam=0.7, alpha=0.5),
-                                           cells)
+                                     cells)
     assert verdict == "yes" and rows[0][1].startswith("80 [") and "6 of 10 agents learn" in rows[0][1]
     once = np.full((10, 200), 30.0)
     once[:, 59] = 240.0
     rows, verdict, *_ = table1.judge(table(once, trace="accumulating", lam=0.7, alpha=0.5),
-                                           cells)
+                                     cells)
     assert verdict == "no" and rows[0][1].startswith("never")
     assert rows[2][1].startswith("60 [60, 60]")  # the first touch, a secondary row
 
