@@ -31,10 +31,12 @@ import dm_env
 import numpy as np
 from dm_env import specs
 
+from lwrl import agent as learners
 from lwrl.agent.features import check_box
-from lwrl.agent.sarsa import BatchedSarsa
-from lwrl.runners.config import AgentSettings, ProtocolSettings, check_choices, fill
+from lwrl.agent.learner import Agents, TaskInfo
+from lwrl.runners.config import LearnerChoice, ProtocolSettings, compose
 from lwrl.runners.run import EpisodeResults, run_batched
+from lwrl.settings import check_choices, fill
 from lwrl.tasks.batched import SteppedEnvs, flatten_observation
 
 MAX_DIMENSIONS = 6
@@ -271,30 +273,52 @@ class ExternalEnvironment:
     action; not for discrete actions)."""
 
 
-@dataclasses.dataclass(frozen=True, kw_only=True)
-class ExternalConfig(ProtocolSettings, AgentSettings, ExternalEnvironment):
+@dataclasses.dataclass(frozen=True, kw_only=True, init=False)
+class ExternalConfig(LearnerChoice, ProtocolSettings, ExternalEnvironment):
     """One run: B agents, each on its own copy of an external environment (agent b and its
-    environment seeded with `seed + b`). Fields left None take the environment's preset
-    (`EXTERNAL_PRESETS`), then `DEFAULTS`; the observation box (`low`, `high`: one value
-    per observation dimension), then the observation space's finite bounds (`prepare`)."""
+    environment seeded with `seed + b`). `ExternalConfig(env=..., learner=..., **settings)`
+    as `RunConfig`. Fields left None take the environment's preset (`EXTERNAL_PRESETS`),
+    then `DEFAULTS`, each where the learner has that setting; the observation box (`low`,
+    `high`: one value per observation dimension, the learner's normalisation ranges), then
+    the observation space's finite bounds (`prepare`). The learner must take a box (a
+    linear learner's `low` and `high`)."""
 
-    def __post_init__(self):
-        settings = {**DEFAULTS, **EXTERNAL_PRESETS.get(self.env, {})}
-        if self.low is not None or self.high is not None:  # an explicit box replaces the preset's
-            settings.pop("low", None)
-            settings.pop("high", None)
-        fill(self, **{name: value for name, value in settings.items() if getattr(self, name) is None})
+    def __init__(self, **values):
+        preset = {**DEFAULTS, **EXTERNAL_PRESETS.get(values.get("env"), {})}
+        if values.get("low") is not None or values.get("high") is not None:
+            preset.pop("low", None)  # an explicit box replaces the preset's
+            preset.pop("high", None)
+        compose(self, values, preset)
         check_choices(self)
+        names = {field.name for field in dataclasses.fields(self.agent)}
+        if not {"low", "high"} <= names:
+            raise ValueError(f"{self.learner} takes no observation box (low, high): other "
+                             "suites' environments run learners that do")
         if self.low is not None or self.high is not None:
-            fill(self, **dict(zip(("low", "high"), check_box(self.low, self.high))))
+            fill(self, agent=dataclasses.replace(self.agent, **dict(zip(
+                ("low", "high"), check_box(self.low, self.high)))))
         if self.actions is not None:
             fill(self, actions=tuple(float(value) for value in self.actions))
-        self.check_agent()
         self.check_protocol()
 
-    def feature_map(self):
-        """The agents' features over the observation box."""
-        return self.feature_map_over(self.low, self.high)
+    @property
+    def low(self):
+        """The observation box's lower ends (the learner's `low`), or None."""
+        return self.agent.low
+
+    @property
+    def high(self):
+        """The observation box's upper ends (the learner's `high`), or None."""
+        return self.agent.high
+
+    def task_info(self, env) -> TaskInfo:
+        """What the learner may know of the environment `env` (an `ExternalEnv`), with the
+        run's observation box as its ranges."""
+        return TaskInfo(self.env, tuple(f"observation[{j}]" for j in range(env.dim)),
+                        env.num_actions, self.low, self.high)
+
+    def describe(self) -> str:
+        return self.agent.describe(len(self.low))
 
     def to_json(self) -> str:
         return json.dumps(dataclasses.asdict(self), indent=2)
@@ -316,20 +340,24 @@ def observation_box(config: ExternalConfig, env: ExternalEnv) -> tuple[tuple, tu
     return config.low, config.high
 
 
-def prepare(config: ExternalConfig) -> tuple[ExternalConfig, BatchedSarsa, SteppedEnvs]:
+def prepare(config: ExternalConfig) -> tuple[ExternalConfig, Agents, SteppedEnvs]:
     """The run's environments (b seeded with `seed + b`), its config with the observation box
-    checked against them, and its agents with zero weights."""
+    checked against them, and its untrained agents."""
     envs = [load(config.env, seed, config.actions) for seed in config.seeds]
     low, high = observation_box(config, envs[0])
     config = dataclasses.replace(config, low=low, high=high)
-    agent = BatchedSarsa(config.feature_map(), envs[0].num_actions, alpha=config.alpha,
-                         lam=config.lam, epsilon=config.epsilon, trace=config.trace,
-                         gamma=config.gamma, seeds=config.seeds)
+    info = config.task_info(envs[0])
+    learner = learners.learner(config.learner)
+    reason = learner.fits(info)
+    if reason is not None:
+        raise ValueError(reason)
+    config.agent.check(info)
+    agent = learner.make([config.agent] * config.agents, info, config.seeds)
     return config, agent, SteppedEnvs(envs)
 
 
 def run_external(config: ExternalConfig, progress=None,
-                 ) -> tuple[ExternalConfig, BatchedSarsa, EpisodeResults]:
+                 ) -> tuple[ExternalConfig, Agents, EpisodeResults]:
     """Train a config's agents (`run_batched`): the config with its observation box, the
     agents and their results (up-time NaN; Ctrl-C keeps the finished episodes)."""
     config, agent, envs = prepare(config)

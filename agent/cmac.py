@@ -17,8 +17,9 @@ import dataclasses
 import numpy as np
 from numba.extending import register_jitable
 
-from lwrl.agent.features import FeatureMap, check_count, normalise
+from lwrl.agent.features import FeatureMap, normalise
 from lwrl.kernels import kernel
+from lwrl.settings import check_count
 
 
 @register_jitable

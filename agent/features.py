@@ -27,13 +27,6 @@ def check_box(low, high):
     return tuple(low.tolist()), tuple(high.tolist())
 
 
-def check_count(name: str, value, minimum: int) -> int:
-    """An integer parameter `>= minimum`, or a one-line error."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}; got {value!r}")
-    return int(value)
-
-
 class FeatureMap:
     """Base of the frozen feature-map dataclasses: the checked state box `low`, `high` and
     batch evaluation through the subclass's `num_features` and compiled

@@ -29,8 +29,9 @@ import dataclasses
 import numpy as np
 from numba.extending import register_jitable
 
-from lwrl.agent.features import FeatureMap, check_count, normalise
+from lwrl.agent.features import FeatureMap, normalise
 from lwrl.kernels import kernel
+from lwrl.settings import check_count
 
 DEFAULT_R2 = 0.01
 """r^2, the spread of eq. 8; the paper uses 0.01 in all tasks."""

@@ -76,13 +76,14 @@ class PlainSarsa:
         paper = task_defaults(config.task)
         self.low = np.array(paper["low"])
         self.span = np.array(paper["high"]) - self.low
-        grid = (np.arange(config.n) + 0.5) / config.n
+        settings = config.agent
+        grid = (np.arange(settings.n) + 0.5) / settings.n
         axes = np.meshgrid(*[grid] * len(self.low), indexing="ij")
         self.centroids = np.stack(axes, axis=-1).reshape(-1, len(self.low))
-        self.r2 = config.r2
-        self.alpha, self.epsilon, self.gamma = config.alpha, config.epsilon, config.gamma
-        self.gamma_lambda = config.gamma * config.lam
-        self.accumulating = config.trace == "accumulating"
+        self.r2 = settings.r2
+        self.alpha, self.epsilon, self.gamma = settings.alpha, settings.epsilon, settings.gamma
+        self.gamma_lambda = settings.gamma * settings.lam
+        self.accumulating = settings.trace == "accumulating"
         self.weights = np.zeros((len(self.centroids), num_actions))
         self.traces = np.zeros_like(self.weights)
         self.rng = rng

@@ -83,6 +83,7 @@ from benchmarks.agent_speed import machine, plural
 from lwrl import tasks
 from lwrl.agent.threads import workers
 from lwrl.agent.traces import FLUSH_THRESHOLD
+from lwrl import agent as learners
 from lwrl.runners.compiled import compiled_loop
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent, run, run_compiled
@@ -336,13 +337,14 @@ def peer_agents(task_name: str, agents: int, seed: int = 0):
     """The task's paper agent (`RunConfig` defaults) for the peer: `(Agent, hyper, keys)`,
     agent b keyed with `seed + b`."""
     config = RunConfig(task=task_name, agents=agents, seed=seed)
-    features_map = config.feature_map()
+    settings, info = config.agent, config.task_info
+    features_map = settings.feature_map(info.low, info.high)
     agent = Agent(tuple(features_map.low), tuple(features_map.high), features_map.n,
-                  features_map.r2, config.trace == "accumulating", len(TASKS[task_name].controls))
-    if config.trace not in ("replacing", "accumulating"):
-        raise ValueError(f"the peer has replacing and accumulating traces; got {config.trace}")
+                  features_map.r2, settings.trace == "accumulating", len(TASKS[task_name].controls))
+    if settings.trace not in ("replacing", "accumulating"):
+        raise ValueError(f"the peer has replacing and accumulating traces; got {settings.trace}")
     hyper = tuple(jnp.full(agents, value, dtype=jnp.float64)
-                  for value in (config.alpha, config.gamma, config.lam, config.epsilon))
+                  for value in (settings.alpha, settings.gamma, settings.lam, settings.epsilon))
     keys = jax.vmap(jax.random.key)(jnp.asarray(config.seeds))
     return agent, hyper, keys
 
@@ -456,7 +458,8 @@ def compile_lwrl(task_name: str) -> tuple[float, str]:
     """Seconds of lwrl's first call of the task's compiled loop (one agent, one episode),
     and what it did: compile, or load from the kernel cache, or nothing (already loaded)."""
     config = RunConfig(task=task_name, plant="analytic")
-    kernel = compiled_loop(tasks.definition(config.domain, config.task_name))
+    kernel = compiled_loop(tasks.definition(config.domain, config.task_name),
+                           learners.learner(config.learner))
     loaded = kernel._dispatcher is not None
     start = time.perf_counter()
     run_lwrl(task_name, 1, 1)

@@ -16,7 +16,7 @@ agent-step (one plant transition of one agent):
 3. **the stepped path**: the same agents through `runners.stepped.run_batched` over a
    `tasks.batched.BatchedEnv` (one `mujoco.rollout` call per step of the batch, what `run`
    did before the compiled loop stepped MuJoCo), with clocks wrapped around the library's
-   own functions: the agents' step (`BatchedSarsa.step`), the `rollout` call, the rest of
+   own functions: the agents' step (`Agents.step`), the `rollout` call, the rest of
    `MujocoPlant.step` and of `BatchedEnv.step` (starts, outcomes, observations), and the
    rest of the loop. Its results are checked equal to run 2's, bit for bit;
 4. **reference**: the same agents on the analytic plant in the compiled loop (the learner's
@@ -226,7 +226,7 @@ def main(argv=None) -> None:
           "to run 2's), microseconds per agent-step:\n")
     print("| part | wall | CPU | share of the wall time |")
     print("|---|---:|---:|---:|")
-    parts = (("agents' step (`BatchedSarsa.step`)", "agents"),
+    parts = (("agents' step (`Agents.step`)", "agents"),
              ("`mujoco.rollout` call", "rollout"),
              ("rest of `MujocoPlant.step` (state packing, copies)", "plant"),
              ("rest of `BatchedEnv.step` (starts, outcomes, observations)", "env"),

@@ -27,7 +27,7 @@ from lwrl import tasks
 from lwrl.runners.config import RunConfig
 from lwrl.cli.rerun_options import DEFAULT_EPISODES, episodes_to_log, send_run
 from lwrl.runners.recording import EpisodeRecording
-from lwrl.runners.run import run
+from lwrl.runners.run import make_agent, run
 from lwrl.viz import names
 from lwrl.viz import rerun as viz
 from lwrl.viz import scene
@@ -42,7 +42,7 @@ def synthetic_recording(task: str, steps: int, seed: int = 0, plant: str | None 
     rng = np.random.default_rng(seed)
     dim, actions = len(definition.state_names), definition.num_actions
     states = rng.normal(scale=0.1, size=(steps + 1, dim)).cumsum(axis=0)
-    features = RunConfig(task=key).feature_map()
+    features = make_agent(RunConfig(task=key, agents=1)).features
     return EpisodeRecording(
         task=key, plant=plant or tasks.PLANTS[domain][0], agent=0, seed=seed, episode=episode,
         timestep=float(definition.control_timestep), state_names=definition.state_names,
@@ -51,7 +51,7 @@ def synthetic_recording(task: str, steps: int, seed: int = 0, plant: str | None 
         td_errors=rng.normal(size=steps), q_values=rng.normal(size=(steps + 1, actions)),
         uptime=np.arange(1, steps + 1) * definition.control_timestep if definition.has_uptime
         else np.full(steps, np.nan),
-        weights=rng.normal(size=(features.num_features, actions)))
+        weights=rng.normal(size=(actions, features.num_features)))
 
 
 def time_columns(recording: EpisodeRecording, directory) -> tuple[float, float, float]:
@@ -62,9 +62,9 @@ def time_columns(recording: EpisodeRecording, directory) -> tuple[float, float, 
     viz.log_task_scene(rec, recording.task)
     rec.flush()
     model = viz.load_model(recording.task) if scene.has_model(recording.task) else None
-    features = RunConfig(task=recording.task).feature_map()
+    box = make_agent(RunConfig(task=recording.task, agents=1)).value_box()
     start, cpu = time.perf_counter(), time.process_time()
-    viz.log_episode(rec, recording, model=model, value_ranges=(features.low, features.high))
+    viz.log_episode(rec, recording, model=model, value_ranges=box)
     call = time.perf_counter() - start
     rec.flush()
     wall, cpu = time.perf_counter() - start, time.process_time() - cpu
@@ -132,8 +132,8 @@ def training_overhead(task: str, which: str = DEFAULT_EPISODES, repeats: int = 3
             run(config)
             plain.append((time.perf_counter() - start, time.process_time() - cpu))
             start, cpu = time.perf_counter(), time.process_time()
-            _, results = run(config, record=record)
-            send_run(config, results, rrd_path=Path(directory) / f"run{repeat}.rrd")
+            agent, results = run(config, record=record)
+            send_run(config, results, agent, rrd_path=Path(directory) / f"run{repeat}.rrd")
             logged.append((time.perf_counter() - start, time.process_time() - cpu))
     (plain_wall, plain_cpu), (logged_wall, logged_cpu) = np.median(plain, axis=0), np.median(logged, axis=0)
     plain, logged = np.asarray(plain), np.asarray(logged)

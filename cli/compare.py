@@ -3,6 +3,7 @@ transfer, held to the paper's item for the task where it has one."""
 
 import time
 
+from lwrl import agent as learners
 from lwrl import outputs, tasks
 from lwrl.cli import fields, output
 from lwrl.runners.config import RunConfig
@@ -22,6 +23,10 @@ def add_parser(commands) -> None:
                             help="open-loop trials and agents per plant, seeds 0..N-1 (default 10)")
     comparison.add_argument("--episodes", type=fields.positive_int,
                             help="training episodes per agent (default: the task's)")
+    comparison.add_argument("--learner", choices=learners.LEARNER_NAMES,
+                            default=learners.DEFAULT_LEARNER,
+                            help="the learner trained on each plant, with its settings for the "
+                                 f"task (default {learners.DEFAULT_LEARNER})")
     comparison.add_argument("--out", metavar="DIR", default="compare",
                             help="output directory (default: compare)")
     comparison.add_argument("--rrd", metavar="PATH",
@@ -44,18 +49,21 @@ def compare_plants(args) -> int:
     if args.rrd:
         outputs.check_file(args.rrd, "--rrd", args.force)
     episodes = compare.QUICK["episodes"] if args.quick else args.episodes
-    trained = RunConfig(task=args.task, agents=args.seeds, episodes=episodes)
+    trained = RunConfig(task=args.task, agents=args.seeds, episodes=episodes,
+                        learner=args.learner)
     outputs.check_memory(len(closed_loop.PLANTS) * memory_needed(trained),
                          f"{plural(args.seeds, 'agent')} on each of {len(closed_loop.PLANTS)} plants")
     total = closed_loop.total_episodes(args.task, args.seeds, episodes,
-                                       compare.QUICK["eval_episodes"] if args.quick else None)
+                                       compare.QUICK["eval_episodes"] if args.quick else None,
+                                       learner=args.learner)
     print(f"comparing the plants of {args.task} with seeds 0..{args.seeds - 1}"
           f"{' (quick)' if args.quick else ''}")
     bar, update = output.progress_bar(total, "closed loop")
     with bar:
         result = compare.compare(args.task, seeds=args.seeds, episodes=args.episodes,
                                  out_dir=args.out, rrd_path=args.rrd, quick=args.quick,
-                                 progress=update, judge=paper.judge(args.task))
+                                 progress=update, judge=paper.judge(args.task),
+                                 learner=args.learner)
     parts = ", ".join(f"{part} {output.duration(seconds)}" for part, seconds in result.timings.items())
     output.done(started, [result.report_path, f"the tables and figures under {args.out}"]
                 + ([f"the recording {args.rrd}"] if args.rrd else []), detail=parts)

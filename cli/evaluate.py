@@ -1,4 +1,4 @@
-"""`lwrl eval`: saved agents run greedily (epsilon 0, no learning)."""
+"""`lwrl eval`: saved agents run greedily (no exploration, no learning)."""
 
 import time
 
@@ -36,13 +36,15 @@ def evaluate_agents(args) -> int:
         config = RunConfig(**settings)
     except (KeyError, TypeError) as error:
         raise ValueError(f"{args.path}: no usable run configuration in the file ({error})") from None
+    if config.learner != agent.learner.name:
+        raise ValueError(f"{args.path} holds {agent.learner.name} agents but names a run of "
+                         f"{config.learner}")
     tasks.definition(config.domain, config.task_name, **config.task_options).check_fits(
-        agent.features.dim, agent.num_actions, args.path)
+        agent.dim, agent.num_actions, args.path)
     frozen = np.flatnonzero(agent.diverged)
-    agent.hyper.epsilon[:] = 0.0
     bar, update = output.progress_bar(config.agents * config.episodes, "evaluating")
     with bar:
-        _, results = run(config, agent=agent, learn=False, progress=update)
+        _, results = run(config, agent=agent, learn=False, greedy=True, progress=update)
     output.print_results(results, config.seeds,
                          f"{config.task} on the {config.plant_name} plant: "
                          f"{plural(config.agents, 'saved agent')}, greedy, "

@@ -19,6 +19,8 @@ import math
 import textwrap
 import types
 
+from lwrl.settings import base_type
+
 
 def finite_number(text: str) -> float:
     """A finite float, or an argparse error."""
@@ -90,14 +92,6 @@ def field_docs(cls) -> dict:
     return docs
 
 
-def base_type(annotation):
-    """`float` of `float | None`."""
-    if isinstance(annotation, types.UnionType):
-        kinds = [kind for kind in annotation.__args__ if kind is not type(None)]
-        return kinds[0] if len(kinds) == 1 else str
-    return annotation
-
-
 def parser_of(field: dataclasses.Field):
     """The argparse type of a field's values, from its choices or its type."""
     if field.metadata.get("choices"):
@@ -120,20 +114,48 @@ def flags_of(field: dataclasses.Field) -> tuple:
     return field.metadata.get("flags", (f"--{field.name.replace('_', '-')}",))
 
 
+def _add_flag(group, field: dataclasses.Field, help_text: str, allowed=None) -> None:
+    """The flag of one field: a switch for a bool, else a value read by its type."""
+    help_text = help_text.replace("%", "%%")
+    if base_type(field.type) is bool:
+        group.add_argument(*flags_of(field), dest=field.name, action="store_true",
+                           default=None, help=help_text)
+        return
+    allowed = allowed if allowed is not None else field.metadata.get("choices")
+    metavar = ("{" + ",".join(allowed) + "}" if allowed else "V,V,..."
+               if base_type(field.type) is tuple else flags_of(field)[0][2:].upper())
+    kind = word(allowed) if allowed else parser_of(field)
+    group.add_argument(*flags_of(field), dest=field.name, type=kind, default=None,
+                       metavar=metavar, help=help_text)
+
+
 def add_fields(parser: argparse.ArgumentParser, *classes, title: str | None = None) -> None:
     """One flag per command-line field of the dataclasses `classes`."""
     group = parser.add_argument_group(title) if title else parser
     for cls, field in cli_fields(*classes):
-        help_text = field_docs(cls).get(field.name, "").replace("%", "%%")
-        if base_type(field.type) is bool:
-            group.add_argument(*flags_of(field), dest=field.name, action="store_true",
-                               default=None, help=help_text)
-            continue
-        allowed = field.metadata.get("choices")
-        metavar = ("{" + ",".join(allowed) + "}" if allowed else "V,V,..."
-                   if base_type(field.type) is tuple else flags_of(field)[0][2:].upper())
-        group.add_argument(*flags_of(field), dest=field.name, type=parser_of(field), default=None,
-                           metavar=metavar, help=help_text)
+        _add_flag(group, field, field_docs(cls).get(field.name, ""))
+
+
+def learner_fields(learners) -> dict:
+    """`{name: [(learner, settings class, field), ...]}`: each command-line setting of the
+    learners, with the learners that have it, in order."""
+    found = {}
+    for learner in learners:
+        for cls, field in cli_fields(learner.settings):
+            found.setdefault(field.name, []).append((learner, cls, field))
+    return found
+
+
+def add_learner_fields(parser: argparse.ArgumentParser, learners, title: str) -> None:
+    """One flag per setting of any of `learners` (`agent.LEARNERS`' values): its help is the
+    first learner's docstring of it, followed by the learners that take it; its choices
+    are all of theirs (the chosen learner checks its own)."""
+    group = parser.add_argument_group(title)
+    for name, owners in learner_fields(learners).items():
+        _, cls, field = owners[0]
+        allowed = [value for _, _, f in owners for value in f.metadata.get("choices", ())]
+        help_text = (f"{field_docs(cls).get(name, '')} [{', '.join(l.name for l, _, _ in owners)}]")
+        _add_flag(group, field, help_text, tuple(dict.fromkeys(allowed)) or None)
 
 
 def given(args: argparse.Namespace, *classes) -> dict:
@@ -142,10 +164,17 @@ def given(args: argparse.Namespace, *classes) -> dict:
             if getattr(args, field.name, None) is not None}
 
 
-def parse_value(cls, name: str, text: str):
-    """`text` read as the value of field `name` of `cls` (for `--set NAME=VALUE`); raises
-    argparse.ArgumentTypeError naming the field."""
-    field = {f.name: f for f in dataclasses.fields(cls)}[name]
+def given_learner_settings(args: argparse.Namespace, learners) -> dict:
+    """`{field: value}` of the learners' command-line settings that were given."""
+    return {name: getattr(args, name) for name in learner_fields(learners)
+            if getattr(args, name, None) is not None}
+
+
+def parse_value(classes, name: str, text: str):
+    """`text` read as the value of field `name` of the first of the dataclasses `classes`
+    that has it (for `--set NAME=VALUE`); raises argparse.ArgumentTypeError naming the
+    field."""
+    field = next(f for cls in classes for f in dataclasses.fields(cls) if f.name == name)
     if base_type(field.type) is bool:
         if text.lower() not in ("true", "false"):
             raise argparse.ArgumentTypeError(f"{name} must be true or false; got {text!r}")

@@ -5,6 +5,7 @@ import dataclasses
 import os
 import time
 
+from lwrl import agent as learners
 from lwrl import outputs
 from lwrl.cli import fields, output
 from lwrl.runners.config import RunConfig
@@ -26,9 +27,10 @@ def reading(text: str) -> tuple:
 def reading_value(name: str, text: str):
     """A reading's value: as its configuration field reads it (`cli.fields`), or, for a
     task's option, `none`, a number, numbers separated by commas (a tuple) or a word."""
-    if name in {field.name for field in dataclasses.fields(RunConfig)}:
+    classes = (RunConfig, *(learner.settings for learner in learners.LEARNERS.values()))
+    if name in {field.name for cls in classes for field in dataclasses.fields(cls)}:
         try:
-            return fields.parse_value(RunConfig, name, text)
+            return fields.parse_value(classes, name, text)
         except argparse.ArgumentTypeError as error:
             raise ValueError(f"--set {error}") from None
     if text.lower() == "none":

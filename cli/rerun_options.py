@@ -8,6 +8,8 @@ episode numbers (from 1). `--log-agents` is a comma list of agent indices (defau
 
 import numpy as np
 
+from lwrl.agent.learner import NoValues
+
 
 DEFAULT_EPISODES = "every:20"
 """What `--log-episodes` logs by default: it keeps logging under a tenth of a paper run's
@@ -70,8 +72,10 @@ def check_viewer() -> None:
         raise ValueError(f"--rerun: {error}") from None
 
 
-def send_run(config, results, rrd_path=None, spawn: bool = False) -> None:
-    """The run's recorded episodes, value functions and learning curves to Rerun.
+def send_run(config, results, agents, rrd_path=None, spawn: bool = False) -> None:
+    """The run's recorded episodes, value functions (through the learner contract, from the
+    run's `agents`) and learning curves to Rerun; one line says so where the learner has no
+    values to show.
 
     Episodes go in training order (by episode, then agent), so that where several have a
     step the viewer shows the latest; the recording opens replaying the one logged last."""
@@ -83,9 +87,15 @@ def send_run(config, results, rrd_path=None, spawn: bool = False) -> None:
     viz.send_blueprint(rec, config.task, replay_steps=logged[-1].steps if logged else None)
     viz.log_task_scene(rec, config.task)
     model = viz.load_model(config.task) if scene.has_model(config.task) else None
-    features = config.feature_map()
+    box, with_values = agents.value_box(), True
     for recording in logged:
-        viz.log_episode(rec, recording, model=model, value_ranges=(features.low, features.high))
-        viz.log_value_function(rec, config.task, features, recording.weights, recording.episode)
+        viz.log_episode(rec, recording, model=model, value_ranges=box)
+        if not with_values:
+            continue
+        try:
+            viz.log_value_function(rec, config.task, agents, recording.weights, recording.episode)
+        except NoValues as error:
+            print(f"{error}: the recording has no value images")
+            with_values = False
     viz.log_learning_curves(rec, results, config.seeds)
     viz.close_recording(rec)

@@ -1,7 +1,8 @@
 """`lwrl train`: agents trained on a task of the suite, or of dm_control's suite or Gymnasium.
 
 Every setting of the run is a flag generated from the configuration (`runners.config`:
-environment, agent and protocol); unset ones take the task's defaults.
+environment, learner and protocol) and from every learner's settings (`agent.LEARNERS`);
+unset ones take the task's defaults.
 """
 
 import argparse
@@ -9,12 +10,13 @@ import dataclasses
 import re
 import time
 
+from lwrl import agent as learners
 from lwrl import outputs, tasks
 from lwrl.adapters import external
 from lwrl.agent import io as agent_io
 from lwrl.cli import fields, output
 from lwrl.cli import rerun_options as logging_rerun
-from lwrl.runners.config import AgentSettings, EnvironmentSettings, ProtocolSettings, RunConfig
+from lwrl.runners.config import EnvironmentSettings, LearnerChoice, ProtocolSettings, RunConfig
 from lwrl.runners.run import make_agent, memory_needed, run, run_batched
 from lwrl.runners.summary import plural
 
@@ -30,7 +32,7 @@ def train_task(name: str) -> str:
 
 def add_parser(commands) -> None:
     train = commands.add_parser(
-        "train", help="train NRBF Sarsa(lambda) agents on a task",
+        "train", help="train agents of a learner (default: NRBF Sarsa(lambda)) on a task",
         description="Train agents with the task's settings unless told otherwise; print the "
                     "mean and standard error over agents per block of episodes.")
     train.add_argument("task", metavar="DOMAIN.TASK", type=train_task,
@@ -39,7 +41,10 @@ def add_parser(commands) -> None:
                             + ", ".join(external.EXTERNAL_PRESETS))
     fields.add_fields(train, EnvironmentSettings, title="the task's plant (lwrl's own tasks)")
     fields.add_fields(train, external.ExternalEnvironment, title="dmc: and gym: environments")
-    fields.add_fields(train, AgentSettings, title="the agent (default: the task's)")
+    fields.add_fields(train, LearnerChoice, title="the learner")
+    fields.add_learner_fields(train, learners.LEARNERS.values(),
+                              title="the learner's settings (default: the task's; in brackets: "
+                                    "the learners that take each)")
     fields.add_fields(train, ProtocolSettings, title="the protocol")
     files = train.add_argument_group("outputs")
     files.add_argument("--out", metavar="DIR", help="write config.json and episodes.csv here")
@@ -79,7 +84,8 @@ def train_agents(args) -> int:
         raise ValueError(f"--actions applies to dmc: and gym: environments only; {args.task} "
                          "has its own")
     started = time.perf_counter()
-    settings = fields.given(args, EnvironmentSettings, AgentSettings, ProtocolSettings)
+    settings = {**fields.given(args, EnvironmentSettings, LearnerChoice, ProtocolSettings),
+                **fields.given_learner_settings(args, learners.LEARNERS.values())}
     settings["plant"] = tasks.resolve(*tasks.split_name(args.task), settings.get("plant"))[1]
     config = RunConfig(task=args.task, **settings)  # config.json names the plant it ran on
     check_outputs(args)
@@ -94,7 +100,7 @@ def train_agents(args) -> int:
                          f"{plural(config.agents, 'agent')} of {config.task}")
     agent = make_agent(config)  # checks the hyper-parameters before anything runs
     print(f"{config.task} on the {config.plant_name} plant: {plural(config.agents, 'agent')}, "
-          f"{config.describe(len(config.ranges[0]))}, {plural(config.episodes, 'episode')}")
+          f"{config.describe()}, {plural(config.episodes, 'episode')}")
     bar, update = output.progress_bar(config.agents * config.episodes, "training")
     with bar:
         agent, results = run(config, agent=agent, progress=update, record=record)
@@ -110,11 +116,12 @@ def train_agents(args) -> int:
 
         def record_run():
             if not args.rrd:
-                logging_rerun.send_run(config, results, spawn=True)
+                logging_rerun.send_run(config, results, agent, spawn=True)
                 print(f"sent the recording to the viewer: {episodes}")
                 return []
             with outputs.atomic_path(args.rrd) as temporary:
-                logging_rerun.send_run(config, results, rrd_path=temporary, spawn=args.rerun)
+                logging_rerun.send_run(config, results, agent, rrd_path=temporary,
+                                       spawn=args.rerun)
             return [f"the recording {args.rrd} ({episodes})"]
         written.write(f"--rrd {args.rrd}" if args.rrd else "--rerun", record_run)
     if args.out:
@@ -138,12 +145,13 @@ def _train_external(args) -> int:
         if value:
             raise ValueError(f"--{name} applies to lwrl's own tasks only, not to {args.task}")
     config = external.ExternalConfig(env=args.task, **fields.given(
-        args, external.ExternalEnvironment, AgentSettings, ProtocolSettings))
+        args, external.ExternalEnvironment, LearnerChoice, ProtocolSettings),
+        **fields.given_learner_settings(args, learners.LEARNERS.values()))
     check_outputs(args)
     config, agent, envs = external.prepare(config)
     actions = (", ".join(f"{value:g}" for value in config.actions) if config.actions
                else f"{agent.num_actions} discrete")
-    print(f"{config.env}: {plural(config.agents, 'agent')}, {config.describe(len(config.low))}, "
+    print(f"{config.env}: {plural(config.agents, 'agent')}, {config.describe()}, "
           f"actions {actions}, {plural(config.episodes, 'episode')}")
     bar, update = output.progress_bar(config.agents * config.episodes, "training")
     with bar:

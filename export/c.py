@@ -1,8 +1,9 @@
-"""The embedded controller: a trained NRBF agent as a dependency-free C99 function.
+"""The embedded controller: a trained agent as a dependency-free C99 function.
 
 Främling (2008) argues that the trained controller is cheap enough for embedded software.
-`export_c` writes one saved agent (a file of `lwrl train --save`, read by `agent.io.load`) as
-two files in `out_dir`:
+`export_c` writes one saved agent (a file of `lwrl train --save`, read by `agent.io.load`)
+whose learner has a C controller (`Agents.controller`: the template it fills and the values;
+today NRBF agents, below) as two files in `out_dir`:
 
 - `lwrl_policy.h`: the interface. `int lwrl_act(const lwrl_real *state)` returns the greedy
   action index; `void lwrl_q_values(const lwrl_real *state, lwrl_real *q)` writes Q(s, .).
@@ -49,7 +50,6 @@ import numpy as np
 
 from lwrl import outputs, tasks
 from lwrl.agent import io as agent_io
-from lwrl.agent.nrbf import NRBF, clamp_margin
 
 SOURCE = "lwrl_policy.c"
 """The exported file names, fixed so that firmware does not change when the controller is
@@ -60,7 +60,7 @@ _VALUES_PER_LINE = 6
 
 
 def template(name: str) -> string.Template:
-    """The template of the exported file `name` (`lwrl_policy.c` or `lwrl_policy.h`)."""
+    """The template `templates/<name>.in` (e.g. `lwrl_policy.c`)."""
     return string.Template(resources.files(__package__).joinpath("templates", f"{name}.in").read_text())
 
 
@@ -111,7 +111,7 @@ def _task_description(metadata: dict, dim: int, num_actions: int, source: str):
 
 
 def _weights_block(rows: np.ndarray, dtype: str) -> str:
-    """The initialiser of `WEIGHTS` (A, N): one brace block per action."""
+    """The initialiser of a 2-D array (e.g. `WEIGHTS` (A, N)): one brace block per row."""
     width = len(str(rows.shape[1] - 1))
     blocks = []
     for a, row in enumerate(rows):
@@ -124,68 +124,78 @@ def _weights_block(rows: np.ndarray, dtype: str) -> str:
     return "".join(blocks)
 
 
+def _rendered(value, dtype: str) -> str:
+    """A controller value as C text (`ControllerForm.values`)."""
+    if isinstance(value, np.ndarray) and value.ndim == 2:
+        return _weights_block(value, dtype)
+    if isinstance(value, np.ndarray):
+        return ", ".join(_literal(v, dtype) for v in value)
+    if isinstance(value, float):
+        return _literal(value, dtype)
+    return str(value)
+
+
 def export_c(agent_path, out_dir, agent_index: int = 0, dtype: str = "float") -> dict:
     """Write agent `agent_index` of the saved agents at `agent_path` as C99 code in `out_dir`.
 
     `dtype`: `"float"` (default; single-precision FPUs) or `"double"`. Writes `lwrl_policy.c`
     and `lwrl_policy.h` (created or overwritten; `out_dir` is created if needed). Refuses
-    (one-line ValueError) a file that is not an agent file, CMAC features, a diverged agent
-    (flagged, or non-finite weights), weights or constants that do not fit `dtype`, and an
-    index out of range. Returns a dict: `source`, `header` (paths), `task`, `agent_index`,
-    `dtype`, `state_dim`, `grid`, `neurons`, `actions`, `weight_bytes` (N x A values),
-    `constant_bytes` (the ranges low and high and r^2) and `flash_bytes` (their sum; the
-    compiled code comes on top, see `measure`).
+    (one-line ValueError) a file that is not an agent file, a learner or feature map with no
+    C controller (CMAC features), a diverged agent (flagged, or non-finite weights), weights
+    or constants that do not fit `dtype`, and an index out of range. Returns a dict:
+    `source`, `header` (paths), `task`, `agent_index`, `dtype`, `state_dim`, `actions`,
+    `weight_bytes` (the weights), `constant_bytes` (the other values it stores: an NRBF's
+    ranges and r^2) and `flash_bytes` (their sum; the compiled code comes on top, see
+    `measure`), and the controller's own values that are sizes (an NRBF's `grid`, `neurons`).
     """
     if dtype not in DTYPES:
         raise ValueError(f"dtype must be one of {', '.join(DTYPES)}; got {dtype!r}")
     agent, metadata = agent_io.load(agent_path)
-    features = agent.features
-    if not isinstance(features, NRBF):
-        raise ValueError(f"{agent_path}: only NRBF agents can be exported to C; this file "
-                         f"holds {type(features).__name__} features")
     b = _check_index(agent_index, agent.batch_size)
-    rows = agent.memory.weights[b]  # (A, N), action-major
-    if agent.diverged[b] or not np.all(np.isfinite(rows)):
+    try:
+        form = agent.controller(b)
+    except ValueError as error:
+        raise ValueError(f"{agent_path}: {error}") from None
+    weights = form.values["weights"]
+    if agent.diverged[b] or not np.all(np.isfinite(weights)):
         raise ValueError(f"{agent_path}: agent {b} diverged (non-finite weights); "
                          f"there is no controller to export")
     numpy_type = DTYPES[dtype]
-    margin = clamp_margin(features.n, features.r2)
     with np.errstate(over="ignore", invalid="ignore"):
-        rounded_rows = rows.astype(numpy_type)
-        low, high = np.array(features.low, numpy_type), np.array(features.high, numpy_type)
-        r2, s_max = numpy_type(features.r2), numpy_type(1.0 + margin)
-        fits = (np.all(np.isfinite(high - low)) and np.all(high - low > 0) and np.isfinite(s_max)
-                and np.isfinite(r2) and r2 >= np.finfo(numpy_type).tiny)
-    if not np.all(np.isfinite(rounded_rows)):
+        rounded = {name: value.astype(numpy_type) if isinstance(value, np.ndarray) else value
+                   for name, value in form.values.items()}
+    if not np.all(np.isfinite(rounded["weights"])):
         raise ValueError(f"{agent_path}: agent {b} has weights beyond the range of {dtype} "
-                         f"(largest |w| {np.abs(rows).max():.3g}); export with dtype='double'")
-    if not fits:
-        raise ValueError(f"{agent_path}: the ranges or r^2 = {features.r2!r} do not fit {dtype}")
+                         f"(largest |w| {np.abs(weights).max():.3g}); export with dtype='double'")
+    reason = form.check(numpy_type)
+    if reason is not None:
+        raise ValueError(f"{agent_path}: {reason}")
 
-    dim, n, num_actions = features.dim, features.n, agent.num_actions
-    neurons = features.num_features
+    dim, num_actions = agent.dim, agent.num_actions
     task, names, controls, config = _task_description(metadata, dim, num_actions, agent_path)
     with open(agent_path, "rb") as file:
         sha256 = hashlib.sha256(file.read()).hexdigest()
     size = np.dtype(numpy_type).itemsize
-    weight_bytes = neurons * num_actions * size
-    constant_bytes = (2 * dim + 1) * size
-    real = dtype
+    weight_bytes = weights.size * size
+    constant_bytes = sum(np.size(form.values[name]) for name in form.stored
+                         if name != "weights") * size
     run = ""
     if config:
-        keys = [("plant", "plant {}"), ("trace", "{} traces"), ("alpha", "alpha {:g}"),
-                ("lam", "lambda {:g}"), ("episodes", "{} episodes")]
-        parts = [fmt.format(config[key]) for key, fmt in keys if config.get(key) is not None]
+        agent_config = config.get("agent") if isinstance(config.get("agent"), dict) else config
+        keys = [("plant", "plant {}", config), ("trace", "{} traces", agent_config),
+                ("alpha", "alpha {:g}", agent_config), ("lam", "lambda {:g}", agent_config),
+                ("episodes", "{} episodes", config)]
+        parts = [fmt.format(source[key]) for key, fmt, source in keys
+                 if source.get(key) is not None]
         if isinstance(config.get("seed"), int):
             parts.append(f"seed {config['seed'] + b}")
         run = ("\n *   trained with " + _comment(", ".join(parts))) if parts else ""
     name_width = max(len(name) for name in names)
+    low, high = form.ranges
     fields = dict(
-        header=HEADER, source=SOURCE, real=real, task=_comment(task), dim=dim, n=n,
-        neurons=neurons, num_actions=num_actions, grid=" x ".join([str(n)] * dim),
-        r2=_literal(r2, dtype), r2_text=f"{features.r2:g}",
-        low=", ".join(_literal(v, dtype) for v in low),
-        high=", ".join(_literal(v, dtype) for v in high),
+        {name: _rendered(value, dtype) for name, value in rounded.items()},
+        header=HEADER, source=SOURCE, real=dtype, task=_comment(task), dim=dim,
+        num_actions=num_actions,
         state_lines="\n".join(f" *   state[{j}] {_comment(name)}" for j, name in enumerate(names)),
         action_line=("" if controls is None else " (action i applies control " + ", ".join(
             f"{i}: {c:g}" for i, c in enumerate(controls)) + ")"),
@@ -193,15 +203,13 @@ def export_c(agent_path, out_dir, agent_index: int = 0, dtype: str = "float") ->
         batch=agent.batch_size, run=run,
         range_lines="\n".join(
             f" *   state[{j}] {_comment(name):<{name_width}}  [{lo:g}, {hi:g}]"
-            for j, (name, lo, hi) in enumerate(zip(names, features.low, features.high))),
+            for j, (name, lo, hi) in enumerate(zip(names, low, high))),
         weight_bytes=weight_bytes, flash_bytes=weight_bytes + constant_bytes,
-        s_min=_literal(-margin, dtype), s_max=_literal(1.0 + margin, dtype),
-        weights=_weights_block(rounded_rows, dtype),
         zero=_literal(0.0, dtype), one=_literal(1.0, dtype), half=_literal(0.5, dtype),
         exp="expf" if dtype == "float" else "exp", fabs="fabsf" if dtype == "float" else "fabs",
     )
-    source_text = template(SOURCE).substitute(fields)
-    header_text = template(HEADER).substitute(fields)
+    source_text = template(f"{form.template}.c").substitute(fields)
+    header_text = template(f"{form.template}.h").substitute(fields)
     source_path, header_path = os.path.join(out_dir, SOURCE), os.path.join(out_dir, HEADER)
     try:
         os.makedirs(out_dir, exist_ok=True)
@@ -211,10 +219,12 @@ def export_c(agent_path, out_dir, agent_index: int = 0, dtype: str = "float") ->
             file.write(source_text)
     except OSError as error:
         raise ValueError(f"{out_dir}: cannot write the C files ({error.strerror or error})") from None
+    sizes = {name: value for name, value in form.values.items()
+             if isinstance(value, int) and not isinstance(value, bool)}
     return {"source": source_path, "header": header_path, "task": task, "agent_index": b,
-            "dtype": dtype, "state_dim": dim, "grid": n, "neurons": neurons,
-            "actions": num_actions, "weight_bytes": weight_bytes,
-            "constant_bytes": constant_bytes, "flash_bytes": weight_bytes + constant_bytes}
+            "dtype": dtype, "state_dim": dim, "actions": num_actions, **sizes,
+            "weight_bytes": weight_bytes, "constant_bytes": constant_bytes,
+            "flash_bytes": weight_bytes + constant_bytes}
 
 
 def find_compiler(compiler=None) -> str:

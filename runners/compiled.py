@@ -1,6 +1,7 @@
 """The agent-environment loop compiled: B agents on a plant of a task, one numba loop that
 calls the task's own `transition` (the analytic plant) or MuJoCo's own `mj_step` and the
-task's `arrive` (`tasks.engine`), and the agent's own `agent_step`, in parallel over agents.
+task's `arrive` (`tasks.engine`), and the learner's own step (`Learner.step`), in parallel
+over agents.
 Its bookkeeping is the stepped loop's (`tasks.definition.advance_episode`,
 `runners.episodes.finish_episode`, `runners.recording`), and its numbers too (tested)."""
 
@@ -10,12 +11,12 @@ import numpy as np
 from numba.extending import register_jitable
 
 from lwrl import kernels, tasks
-from lwrl.agent.features import check_count
-from lwrl.agent.sarsa import BatchedSarsa, agent_step
+from lwrl.agent.learner import Agents
 from lwrl.agent.threads import run_in_chunks
 from lwrl.runners.episodes import EpisodeResults, episode_starts, finish_episode
 from lwrl.runners.recording import (make_tape, record_end, record_state, record_transition,
                                     recordings)
+from lwrl.settings import check_count
 from lwrl.tasks.definition import advance_episode
 from lwrl.tasks.engine import close_workspace, engine_plant, open_workspace, step_state
 from lwrl.tasks.integrators import check_integrator
@@ -36,6 +37,11 @@ def arrive(state, observation, params):
 def limit_state(state):
     """The domain's `DomainPlants.limit_state` (or `no_limit`), bound by each kernel."""
     raise NotImplementedError("the compiled loop's kernel binds each domain's limit_state")
+
+
+def agent_step(b, first, reward, discount, observation, learn, greedy, arrays):
+    """The learner's `Learner.step`, bound by each kernel."""
+    raise NotImplementedError("the compiled loop's kernel binds each learner's step")
 
 
 @register_jitable
@@ -82,7 +88,7 @@ control, next_state, observation, plant, workspace, params)` per step, and
 
 
 def _loop(start, stop, first, count, starts, start_observations, controls, dt, plant, params,
-          step_limit, learn, memory, hyper, spec, steps, returns, uptime, truncated,
+          step_limit, learn, greedy, arrays, steps, returns, uptime, truncated,
           diverged_episode, done, tape, cancel):
     """The whole learning loop around the plant's transition: agents `start..stop-1` run
     episodes `first..first+count-1` (their starts given) unless diverged; once `cancel[0]`
@@ -95,14 +101,14 @@ def _loop(start, stop, first, count, starts, start_observations, controls, dt, p
         next_state = np.empty(dim)
         observation = np.empty(dim)
         for k in range(first, first + count):
-            if memory.diverged[b] or cancel[0]:
+            if arrays.diverged[b] or cancel[0]:
                 break
             state[:] = starts[b, k]
-            action = agent_step(b, True, 0.0, 1.0, start_observations[b, k], learn,
-                                memory, hyper, spec)
+            action = agent_step(b, True, 0.0, 1.0, start_observations[b, k], learn, greedy,
+                                arrays)
             r = tape.slot[b, k]
             if r >= 0:
-                record_state(tape, r, 0, state, start_observations[b, k], memory.q[b])
+                record_state(tape, r, 0, state, start_observations[b, k], arrays.q[b])
             n, total, up, terminal, last = 0, 0.0, 0.0, False, False
             while not last:
                 reward, terminal, is_up = plant_transition(state, controls[action], next_state,
@@ -112,33 +118,36 @@ def _loop(start, stop, first, count, starts, start_observations, controls, dt, p
                 state[:] = next_state
                 previous = action
                 action = agent_step(b, False, reward, 0.0 if terminal else 1.0, observation,
-                                    learn, memory, hyper, spec)
+                                    learn, greedy, arrays)
                 if r >= 0:
-                    record_state(tape, r, n, state, observation, memory.q[b])
-                    record_transition(tape, r, n, previous, reward, memory.delta[b])
-                last = last or memory.diverged[b]
+                    record_state(tape, r, n, state, observation, arrays.q[b])
+                    record_transition(tape, r, n, previous, reward, arrays.delta[b])
+                last = last or arrays.diverged[b]
             if r >= 0:
-                record_end(tape, r, n, memory.weights[b])
+                record_end(tape, r, n, arrays.weights[b])
             finish_episode(b, k, n, total, up, not terminal and n >= step_limit,
-                           memory.diverged[b], steps, returns, uptime, truncated,
+                           arrays.diverged[b], steps, returns, uptime, truncated,
                            diverged_episode, done)
     close_plant(plant, workspace)
 
 
-def compiled_loop(definition, plant: str = "analytic") -> kernels.Kernel:
-    """The compiled loop's kernel for one task (`TaskDefinition`) on `plant`, cached on disk
-    (`lwrl.kernels`): a second process compiles nothing."""
+def compiled_loop(definition, learner, plant: str = "analytic") -> kernels.Kernel:
+    """The compiled loop's kernel for one task (`TaskDefinition`) and learner (`Learner`)
+    on `plant`, cached on disk (`lwrl.kernels`): a second process compiles nothing."""
     limit = tasks.domain(definition.domain).plants.limit_state or no_limit
-    return _compiled_loop(definition.transition, definition.arrive, limit, plant)
+    return _compiled_loop(definition.transition, definition.arrive, limit, learner.step, plant)
 
 
 @functools.lru_cache(maxsize=None)
-def _compiled_loop(task_transition, task_arrive, task_limit, plant: str) -> kernels.Kernel:
+def _compiled_loop(task_transition, task_arrive, task_limit, learner_step,
+                   plant: str) -> kernels.Kernel:
     module = task_transition.__module__.replace(".", "_")
+    learner = learner_step.__module__.replace(".", "_")
     bindings, helpers = PLANT_STEPS[plant]
-    return kernels.kernel(f"loop_{plant}_{module}", _loop,
+    return kernels.kernel(f"loop_{plant}_{module}_{learner}", _loop,
                           {"transition": task_transition, "arrive": task_arrive,
-                           "limit_state": task_limit, **bindings}, helpers)
+                           "limit_state": task_limit, "agent_step": learner_step, **bindings},
+                          helpers)
 
 
 def compiles(domain: str, plant: str) -> bool:
@@ -155,11 +164,13 @@ def plant_of(domain: str, plant: str, integrator: str, equations: str):
     return engine_plant(plants.model, plants.mujoco_physics.ACTUATOR, plants.substeps)
 
 
-def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, seeds,
+def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
                  learn: bool = True, integrator: str = "semi_implicit", equations: str = "paper",
-                 progress=None, record=(), plant: str = "analytic", **options) -> EpisodeResults:
-    """B agents on `plant` (analytic or mujoco) of `domain.task`, in one
-    compiled loop; environment b is seeded with `seeds[b]` as in `BatchedEnv`. Episodes run
+                 progress=None, record=(), plant: str = "analytic", greedy: bool = False,
+                 **options) -> EpisodeResults:
+    """B agents of a compiled learner (`Learner.compiles`) on `plant` (analytic or mujoco)
+    of `domain.task`, in one compiled loop; environment b is seeded with `seeds[b]` as in
+    `BatchedEnv`; `learn` and `greedy` as for `Learner.step`. Episodes run
     in about 20 blocks, after each of which `progress(episodes_done)` is called. The
     `(agent, episode)` pairs in `record` are recorded step by step (`results.recordings`)."""
     episodes = check_count("episodes", episodes, 1)
@@ -175,9 +186,9 @@ def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, see
     steps = np.zeros((batch, episodes), dtype=np.int64)
     starts = episode_starts(definition, seeds, episodes)
     step_limit = definition.step_limit if np.isfinite(definition.step_limit) else np.iinfo(np.int64).max
-    loop = compiled_loop(definition, plant)
+    loop = compiled_loop(definition, agent.learner, plant)
     tape = make_tape(record, batch, episodes, definition.step_limit, starts.shape[2],
-                     agent.num_actions, agent.features.num_features)
+                     agent.num_actions, agent.arrays.weights.shape[1:])
     done = np.zeros(batch, dtype=np.int64)  # episodes each agent has finished
     cancel = np.zeros(1, dtype=bool)  # set on Ctrl-C: the loops stop after their episode
     block = max(1, episodes // 20)
@@ -188,7 +199,7 @@ def run_compiled(domain: str, task: str, agent: BatchedSarsa, episodes: int, see
                 loop, batch, first, count, starts, definition.observe(starts),
                 np.asarray(definition.controls, dtype=np.float64), definition.control_timestep,
                 stepped, np.asarray(definition.params, dtype=np.float64), int(step_limit), bool(learn),
-                agent.memory, agent.hyper, agent.spec, steps, results.returns, results.uptime,
+                bool(greedy), agent.arrays, steps, results.returns, results.uptime,
                 results.truncated, results.diverged_episode, done, tape, cancel, min_chunk=1,
                 chunks_per_worker=8, cancel=cancel)
             if progress is not None:

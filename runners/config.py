@@ -1,39 +1,31 @@
 """A run's configuration: frozen dataclasses, one per concern, composed into one.
 
 - `EnvironmentSettings`: the task and its plant;
-- `AgentSettings`: the learner (features, trace rule, step sizes);
+- the learner's settings (`agent/<learner>.py`, e.g. `agent.sarsa.SarsaSettings`): one
+  dataclass per learner;
 - `ProtocolSettings`: episodes, agents and seeds;
-- `RunConfig` = environment + agent + protocol (+ the task's options), written next to every
-  result; `adapters.external.ExternalConfig` composes the same agent and protocol with
-  another suite's environment.
+- `RunConfig` = environment + learner and its settings + protocol (+ the task's options),
+  written next to every result; `adapters.external.ExternalConfig` composes the same
+  learner and protocol with another suite's environment.
 
 Each field's docstring is its documentation and its command-line help: the `lwrl` command's
-flags are generated from these fields (`cli.fields`), so a new field needs one edit. A field's
-`metadata` may name its flags (`flags`), its allowed values (`choices`, checked here for
-every run) and keep it off the command line (`cli=False`). Fields left None take the task's
-defaults (`TaskDefinition.defaults`: the paper's settings, SPEC.md), resolved once, as the
-configuration is made; it cannot change afterwards.
+flags are generated from these fields (`cli.fields`), so a new field needs one edit; its
+metadata (`lwrl.settings`) says everything else that is derived from it: the run's key,
+the results tables' columns, what a batch may vary, what `--set` may change. Fields left
+None take the task's defaults (`TaskDefinition.defaults`: the paper's settings, SPEC.md),
+resolved once, as the configuration is made; it cannot change afterwards.
 """
 
 import dataclasses
 import hashlib
 import json
-import math
 
-import numpy as np
-
-from lwrl import tasks
-from lwrl.agent.cmac import CMAC
-from lwrl.agent.features import check_count
-from lwrl.agent.nrbf import DEFAULT_R2, NRBF
-from lwrl.agent.traces import TRACES
+from lwrl import agent, tasks
+from lwrl.agent.learner import LearnerSettings, TaskInfo
+from lwrl.settings import (LATE, SCALARS, WHEN_SET, base_type, check_choices, check_count,
+                           default_of, fill, setting)
 from lwrl.tasks.integrators import INTEGRATORS
 from lwrl.tasks.plants import EQUATIONS
-
-FEATURES = ("nrbf", "cmac")
-PLANT_OPTIONS = ("integrator", "equations")
-"""The settings that are options of a plant (`tasks.plant_option_names`)."""
-CENTROID_PLACEMENTS = ("midpoints", "edges")
 
 
 def task_defaults(task: str) -> dict:
@@ -44,128 +36,70 @@ def task_defaults(task: str) -> dict:
     return dataclasses.asdict(tasks.definition(*tasks.split_name(task)).defaults)
 
 
-def choices(*allowed) -> dict:
-    """A field's metadata: its allowed values."""
-    return {"choices": tuple(allowed)}
+def task_info(task: str, task_options: dict | None = None) -> TaskInfo:
+    """What a learner may know of `task` (DOMAIN.TASK) with its options."""
+    definition = tasks.definition(*tasks.split_name(task), **(task_options or {}))
+    return TaskInfo(task, definition.state_names, definition.num_actions,
+                    tuple(definition.defaults.low), tuple(definition.defaults.high))
 
 
-def fill(config, **values) -> None:
-    """Set fields of a frozen configuration while it is being made (`__post_init__` only)."""
-    for name, value in values.items():
-        object.__setattr__(config, name, value)
+def with_defaults(settings, defaults: dict):
+    """`settings` with each of its `task_default` fields that is None set from `defaults`."""
+    values = {field.name: defaults[field.name] for field in dataclasses.fields(settings)
+              if field.metadata.get("task_default") and getattr(settings, field.name) is None
+              and field.name in defaults}
+    return dataclasses.replace(settings, **values) if values else settings
 
 
-def check_choices(config) -> None:
-    """Every field with `choices` in its metadata holds one of them (or None)."""
-    for field in dataclasses.fields(config):
-        allowed = field.metadata.get("choices")
-        value = getattr(config, field.name)
-        if allowed and value is not None and value not in allowed:
-            raise ValueError(f"unknown {field.name} {value!r}; allowed: {', '.join(allowed)}")
-
-
-def _check_unit_interval(name: str, value) -> None:
-    if not (isinstance(value, (int, float, np.floating)) and 0.0 <= value <= 1.0):
-        raise ValueError(f"{name} must be a number in [0, 1]; got {value!r}")
+def learner_settings(name: str, given) -> LearnerSettings:
+    """Learner `name`'s settings from `given`: its settings dataclass, a dict of its fields,
+    or None (all unset); a one-line error names the fields it has."""
+    cls = agent.learner(name).settings
+    if given is None:
+        return cls()
+    if isinstance(given, cls):
+        return given
+    if not isinstance(given, dict):
+        raise ValueError(f"the settings of {name} must be a {cls.__name__} or a dict; got "
+                         f"{type(given).__name__}")
+    known = {field.name for field in dataclasses.fields(cls)}
+    unknown = sorted(set(given) - known)
+    if unknown:
+        raise ValueError(f"{unknown[0]} is not a setting of {name}; its settings: "
+                         f"{', '.join(sorted(known))}")
+    return cls(**given)
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class EnvironmentSettings:
     """Which task, on which plant."""
 
-    task: str = dataclasses.field(metadata={"cli": False})
+    task: str = setting(cli=False)
     """DOMAIN.TASK of the suite."""
     plant: str | None = None
     """`mujoco`, `analytic` or `mjx` (MuJoCo's XLA port, batched runs only; default: the
     domain's first, MuJoCo where there is one)."""
-    integrator: str = dataclasses.field(default="semi_implicit", metadata=choices(*INTEGRATORS))
+    integrator: str = setting("semi_implicit", choices=INTEGRATORS)
     """Euler scheme of the analytic plant: `semi_implicit` (MuJoCo's) or `explicit` (the
     paper's literal reading)."""
-    equations: str = dataclasses.field(default="paper", metadata=choices(*EQUATIONS))
+    equations: str = setting("paper", choices=EQUATIONS, key=WHEN_SET, reading=True)
     """Equations of the analytic plant: the paper's, or `kfnnet`, with the suspected slips
     of the author's code (SPEC.md, "Known traps")."""
 
 
-@dataclasses.dataclass(frozen=True, kw_only=True)
-class AgentSettings:
-    """The learner: features, trace rule and step sizes (None: the task's default)."""
-
-    trace: str | None = dataclasses.field(default=None, metadata=choices(*TRACES))
-    """Trace rule: `replacing` (eq. 6), `accumulating` (eq. 2) or `replacing_reset` (eq. 5)."""
-    alpha: float | None = None
-    """Learning rate alpha > 0 (eq. 1)."""
-    lam: float | None = dataclasses.field(default=None, metadata={"flags": ("--lambda",)})
-    """Trace decay lambda in [0, 1]."""
-    epsilon: float | None = None
-    """Exploration rate in [0, 1] of the epsilon-greedy policy."""
-    gamma: float | None = None
-    """Discount rate in [0, 1] (1 in all the paper's tasks)."""
-    features: str = dataclasses.field(default="nrbf", metadata=choices(*FEATURES))
-    """`nrbf` (the paper's network) or `cmac` (the tile-coding baseline)."""
-    n: int | None = dataclasses.field(default=None, metadata={"flags": ("--n", "--centroids")})
-    """NRBF centroids per dimension (>= 2), or CMAC intervals per dimension."""
-    r2: float = DEFAULT_R2
-    """NRBF spread r^2 of eq. 8, in normalised units (the paper: 0.01)."""
-    tilings: int = 5
-    """CMAC tilings."""
-    normalise_alpha: bool = False
-    """CMAC only: divide alpha by the tilings (Sutton's code)."""
-    low: tuple | None = None
-    """Lower end of each state variable's normalisation range, comma-separated (default:
-    the task's)."""
-    high: tuple | None = None
-    """Upper end of each state variable's normalisation range, comma-separated (default:
-    the task's)."""
-    centroids: str = dataclasses.field(default="midpoints", metadata={
-        **choices(*CENTROID_PLACEMENTS), "flags": ("--centroid-placement",)})
-    """NRBF centroid placement: `midpoints` of n cells, `(i + 0.5) / n` (the author's code),
-    or `edges`, `i / (n - 1)`, from one end of each range to the other (SPEC.md leaves it
-    open: the paper says "regularly spaced")."""
-
-    def check_agent(self) -> None:
-        """A one-line ValueError for the first agent setting out of its range."""
-        if not (isinstance(self.alpha, (int, float, np.floating)) and 0 < self.alpha < math.inf):
-            raise ValueError(f"alpha must be a finite number > 0; got {self.alpha!r}")
-        for name in ("lam", "epsilon", "gamma"):
-            _check_unit_interval("lambda" if name == "lam" else name, getattr(self, name))
-        check_count("n (centroids per dimension)", self.n, 2 if self.features == "nrbf" else 1)
-        check_count("tilings", self.tilings, 1)
-        if not (isinstance(self.r2, (int, float, np.floating)) and 0 < self.r2 < math.inf):
-            raise ValueError(f"r2 (the spread r^2) must be a finite number > 0; got {self.r2!r}")
-
-    def describe(self, dim: int) -> str:
-        """One line for a run's header: trace, alpha, lambda, epsilon, gamma (where not 1)
-        and the network over `dim` state variables."""
-        gamma = f", gamma {self.gamma:g}" if self.gamma != 1 else ""
-        return (f"{self.trace} traces, alpha {self.alpha:g}, lambda {self.lam:g}, epsilon "
-                f"{self.epsilon:g}{gamma}, {self.features} {self.n}^{dim}")
-
-    def feature_map_over(self, low, high):
-        """The agents' features over the normalisation ranges `low..high`.
-
-        Centroids at the `edges` are the midpoint grid of `agent.nrbf` over ranges widened by
-        half a spacing, `(high - low) / (2 (n - 1))`, at each end, with r^2 scaled by
-        `((n - 1) / n)^2`: in those units the distances, and so the features, are the same."""
-        if self.features == "cmac":
-            return CMAC(low, high, intervals=self.n, tilings=self.tilings,
-                        normalise_alpha=self.normalise_alpha)
-        if self.centroids == "edges":
-            low, high = np.array(low), np.array(high)
-            half = (high - low) / (2 * (self.n - 1))
-            return NRBF(tuple(low - half), tuple(high + half), self.n,
-                        self.r2 * ((self.n - 1) / self.n) ** 2)
-        return NRBF(low, high, self.n, self.r2)
+PLANT_OPTIONS = ("integrator", "equations")
+"""The settings that are options of a plant (`tasks.plant_option_names`)."""
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class ProtocolSettings:
     """How many agents, for how many episodes, from which seed (None: the task's)."""
 
-    episodes: int | None = None
+    episodes: int | None = setting(task_default=True)
     """Episodes per agent."""
-    agents: int | None = None
+    agents: int | None = setting(task_default=True, per_agent=True)
     """Agents B; agent b is seeded with `seed + b` (its starts and its random stream)."""
-    seed: int = 0
+    seed: int = setting(0, per_agent=True)
     """Seed of the first agent."""
 
     def check_protocol(self) -> None:
@@ -179,32 +113,73 @@ class ProtocolSettings:
         return list(range(self.seed, self.seed + self.agents))
 
 
-KEY_ORDER = ("task", "plant", "integrator", "equations", "trace", "alpha", "lam", "epsilon",
-             "gamma", "features", "n", "r2", "tilings", "normalise_alpha", "episodes", "agents",
-             "seed", "low", "high", "centroids", "task_options")
-"""The order in which a run's key hashes its fields: the order they had when the keys were
-introduced, so that a finished run keeps its file name. Fields not listed follow, in their
-own order."""
-OPTIONAL_FIELDS = ("low", "high", "centroids", "task_options", "equations")
-"""Readings of SPEC.md's open points that a key names only where a run departs from the
-default, so that results computed before those options existed keep their identity."""
-
-
 @dataclasses.dataclass(frozen=True, kw_only=True)
-class RunConfig(ProtocolSettings, AgentSettings, EnvironmentSettings):
-    """One run: B agents of one configuration, each with its own seed, on one task and plant.
+class LearnerChoice:
+    """Which learner, with which settings."""
 
-    Fields left None take the task's default (`task_defaults`), except `low` and `high`,
-    which stay None for the task's ranges (`ranges`).
+    learner: str = setting(agent.DEFAULT_LEARNER, choices=agent.LEARNER_NAMES, key=WHEN_SET)
+    """The learner, one of `agent.LEARNERS` (default: the paper's gradient-descent
+    Sarsa(lambda) over NRBF or CMAC features); its settings follow."""
+    agent: LearnerSettings | None = setting(cli=False)
+    """The learner's settings (its settings dataclass; None fields: the task's defaults)."""
+
+    def agent_fields(self, late: bool) -> list:
+        """The learner's settings fields, in order: those named in the key before the
+        protocol's fields, or (`late`) after them."""
+        return [field for field in dataclasses.fields(self.agent)
+                if (field.metadata.get("key") == LATE) == late]
+
+
+def compose(config, values: dict, defaults: dict | None = None) -> None:
+    """Fill a configuration `config` of a dataclass with a `LearnerChoice` (made with
+    `init=False`) from flat `values`: its own fields by name, the learner's settings from
+    `agent` (whole) and from the names that are not its own fields; then `defaults`
+    (`{name: value}` of either kind) for what is still unset (None). A name neither has is
+    a one-line error naming the learner's settings."""
+    cls = type(config)
+    learner = values.get("learner", agent.DEFAULT_LEARNER)
+    check_choices(LearnerChoice(learner=learner))
+    names = {field.name for field in dataclasses.fields(cls)}
+    own = {name: value for name, value in values.items() if name in names}
+    flat = {name: value for name, value in values.items() if name not in names}
+    settings = learner_settings(learner, own.pop("agent", None))
+    if flat:
+        learner_settings(learner, flat)  # names each unknown setting in one line
+        settings = dataclasses.replace(settings, **flat)
+    for field in dataclasses.fields(cls):
+        fill(config, **{field.name: own.get(field.name, default_of(field))})
+    defaults = defaults or {}
+    fill(config, **{name: value for name, value in defaults.items()
+                    if name in names and getattr(config, name) is None})
+    setting_names = {field.name for field in dataclasses.fields(settings)}
+    fill(config, agent=dataclasses.replace(settings, **{
+        name: value for name, value in defaults.items()
+        if name in setting_names and getattr(settings, name) is None}))
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True, init=False)
+class RunConfig(LearnerChoice, ProtocolSettings, EnvironmentSettings):
+    """One run: B agents of one learner and configuration, each with its own seed, on one
+    task and plant.
+
+    `RunConfig(task=..., learner=..., **settings)`: `settings` are fields of the
+    environment, the protocol or the learner's settings, by name (the learner's may also
+    come whole, as `agent`); fields left None take the task's defaults (`task_defaults`),
+    except a linear learner's `low` and `high`, which stay None for the task's ranges.
+    `dataclasses.replace` takes the learner's fields by name in the same way.
     """
 
-    task_options: dict = dataclasses.field(default_factory=dict, metadata={"cli": False})
+    task_options: dict = setting(default_factory=dict, cli=False, key=WHEN_SET)
     """Options of the task (e.g. the cart-pole's `track_limit`; `tasks.resolve` checks them)."""
+
+    def __init__(self, **values):
+        compose(self, values)
+        self.__post_init__()
 
     def __post_init__(self):
         defaults = task_defaults(self.task)
-        fill(self, **{name: value for name, value in defaults.items()
-                      if name not in ("low", "high") and getattr(self, name) is None})
+        fill(self, **{name: defaults[name] for name in ("episodes", "agents")
+                      if getattr(self, name) is None})
         check_choices(self)
         for field in dataclasses.fields(EnvironmentSettings):
             value = getattr(self, field.name)
@@ -212,14 +187,13 @@ class RunConfig(ProtocolSettings, AgentSettings, EnvironmentSettings):
                 raise ValueError(f"{field.name} {value!r} applies to the analytic plant of the tasks "
                                  f"that have it; {self.task} on the {self.plant_name} plant has "
                                  f"{', '.join(self.plant_options) or 'no plant options'}")
-        for name in ("low", "high"):
-            if getattr(self, name) is None:
-                continue
-            if len(getattr(self, name)) != len(defaults["low"]):
-                raise ValueError(f"{name} must have one value per state variable of {self.task} "
-                                 f"({len(defaults['low'])}); got {getattr(self, name)!r}")
-            fill(self, **{name: tuple(float(value) for value in getattr(self, name))})
-        self.check_agent()
+        learner = agent.learner(self.learner)
+        fill(self, agent=with_defaults(self.agent, defaults))
+        info = self.task_info
+        reason = learner.fits(info)
+        if reason is not None:
+            raise ValueError(reason)
+        self.agent.check(info)
         self.check_protocol()
 
     @property
@@ -242,37 +216,55 @@ class RunConfig(ProtocolSettings, AgentSettings, EnvironmentSettings):
                 for name in tasks.plant_option_names(self.domain, self.plant_name)}
 
     @property
-    def ranges(self) -> tuple:
-        """`(low, high)`: the normalisation ranges set here, else the task's."""
-        defaults = task_defaults(self.task)
-        return (self.low if self.low is not None else tuple(defaults["low"]),
-                self.high if self.high is not None else tuple(defaults["high"]))
-
-    def feature_map(self):
-        """The agents' features over the run's normalisation ranges (`feature_map_over`)."""
-        return self.feature_map_over(*self.ranges)
+    def task_info(self) -> TaskInfo:
+        """What the learner may know of the run's task."""
+        return task_info(self.task, self.task_options)
 
     @property
     def name(self) -> str:
-        """Task, plant, trace, alpha, lambda and seed, for directory names."""
-        return (f"{self.task}-{self.plant or 'default'}-{self.features}-{self.trace}"
-                f"-a{self.alpha:g}-l{self.lam:g}-s{self.seed}")
+        """Task, plant, the learner's label and the seed, for file and directory names."""
+        return f"{self.task}-{self.plant or 'default'}-{self.agent.label()}-s{self.seed}"
+
+    def describe(self) -> str:
+        """The learner's settings in one line, for a run's header."""
+        return self.agent.describe(len(self.task_info.state_names))
 
     def to_json(self) -> str:
         return json.dumps(dataclasses.asdict(self), indent=2)
 
+    def flat_fields(self) -> list:
+        """`(field, value)` of every setting of the run, the learner's among them, in the
+        order the run's key names them: the environment's, the learner's, the protocol's,
+        the learner's `LATE` readings, then the run's own (`learner`, `task_options`)."""
+        def of(obj, fields):
+            return [(field, getattr(obj, field.name)) for field in fields]
+        parts = {field.name for cls in (EnvironmentSettings, ProtocolSettings)
+                 for field in dataclasses.fields(cls)}
+        own = [field for field in dataclasses.fields(RunConfig)
+               if field.name not in parts and field.name != "agent"]
+        return (of(self, dataclasses.fields(EnvironmentSettings))
+                + of(self.agent, self.agent_fields(late=False))
+                + of(self, dataclasses.fields(ProtocolSettings))
+                + of(self.agent, self.agent_fields(late=True)) + of(self, own))
+
+    def flat(self) -> dict:
+        """`{name: value}` of `flat_fields`."""
+        return {field.name: value for field, value in self.flat_fields()}
+
+    def columns(self) -> dict:
+        """The settings repeated on every row of the run's results table: each of one value
+        (its type a `lwrl.settings.SCALARS`, not a tuple or a dict), but the seed, which the
+        rows carry per agent."""
+        return {field.name: value for field, value in self.flat_fields()
+                if field.name != "seed" and base_type(field.type) in SCALARS}
+
     def key_json(self) -> str:
-        """The JSON that identifies the run's results: every field in `KEY_ORDER`, but the
-        readings in `OPTIONAL_FIELDS` only where set."""
-        fields = dataclasses.asdict(self)
-        ordered = [name for name in KEY_ORDER if name in fields]
-        ordered += [name for name in fields if name not in KEY_ORDER]
-        for field in dataclasses.fields(self):
-            default = (field.default if field.default_factory is dataclasses.MISSING
-                       else field.default_factory())
-            if field.name in OPTIONAL_FIELDS and fields[field.name] == default:
-                ordered.remove(field.name)
-        return json.dumps({name: fields[name] for name in ordered}, indent=2)
+        """The JSON that identifies the run's results: every setting in `flat_fields`' order,
+        those whose metadata says `WHEN_SET` or `LATE` only where they depart from their
+        default, so that results computed before those settings existed keep their key."""
+        named = {field.name: value for field, value in self.flat_fields()
+                 if field.metadata.get("key") not in (WHEN_SET, LATE) or value != default_of(field)}
+        return json.dumps(named, indent=2)
 
     @property
     def key(self) -> str:

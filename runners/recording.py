@@ -44,11 +44,13 @@ class EpisodeRecording:
     td_errors: np.ndarray
     """`(T,)` the TD error delta of the update made after step t (NaN when not learning)."""
     q_values: np.ndarray
-    """`(T + 1, A)` Q(s_t, .) before the update at each observed state."""
+    """`(T + 1, A)` Q(s_t, .) before the update at each observed state (the learner's
+    action values, or the preferences it acts greedily on)."""
     uptime: np.ndarray
     """`(T,)` seconds up so far after each step (NaN where the task has none)."""
     weights: np.ndarray
-    """`(N, A)` the agent's weights at the end of the episode."""
+    """What the agent had learned at the end of the episode: its learner's
+    `arrays.weights[b]` (e.g. Sarsa's `(A, N)`), which the learner's values read."""
 
     @property
     def steps(self) -> int:
@@ -72,8 +74,9 @@ row of agent b's episode k (-1: not recorded); rows hold up to `L` steps."""
 
 
 def make_tape(record, agents: int, episodes: int, step_limit, dim: int, num_actions: int,
-              num_features: int) -> Tape:
-    """Empty buffers for the `(agent, episode)` pairs in `record` (a tiny dummy if none)."""
+              weights_shape: tuple) -> Tape:
+    """Empty buffers for the `(agent, episode)` pairs in `record` (a tiny dummy if none);
+    `weights_shape`: one agent's `arrays.weights`."""
     record = sorted(set(record))
     slot = np.full((agents, episodes), -1, dtype=np.int64)
     for row, (agent, episode) in enumerate(record):
@@ -87,7 +90,7 @@ def make_tape(record, agents: int, episodes: int, step_limit, dim: int, num_acti
     return Tape(slot, np.zeros((rows, length + 1, dim)), np.zeros((rows, length + 1, dim)),
                 np.zeros((rows, length), dtype=np.int64), np.zeros((rows, length)),
                 np.zeros((rows, length)), np.zeros((rows, length + 1, num_actions)),
-                np.zeros(rows, dtype=np.int64), np.zeros((rows, num_actions, num_features)))
+                np.zeros(rows, dtype=np.int64), np.zeros((rows,) + tuple(weights_shape)))
 
 
 @register_jitable
@@ -110,7 +113,7 @@ def record_transition(tape, r, n, action, reward, delta):
 
 @register_jitable
 def record_end(tape, r, steps, weights):
-    """The episode in tape row r ended after `steps` steps with the agent's `weights` `(A, N)`
+    """The episode in tape row r ended after `steps` steps with the agent's `weights`
     (an episode cut short by an interrupt is never ended, and left out)."""
     tape.length[r] = steps
     tape.weights[r] = weights
@@ -135,5 +138,5 @@ def recordings(tape: Tape, definition, plant: str, seeds) -> list:
             td_errors=tape.td_errors[row, :steps].copy(),
             q_values=tape.q_values[row, :steps + 1].copy(),
             uptime=np.cumsum(definition.uptime_increment(states[1:])),
-            weights=tape.weights[row].T.copy()))
+            weights=tape.weights[row].copy()))
     return found

@@ -8,18 +8,20 @@ Three ways to run the same thing, giving the same numbers for the same seeds (te
   array step at a time;
 - `runners.compiled.run_compiled`: B agents on the analytic plant, or on MuJoCo, in one
   numba-compiled loop that calls the task's own `transition` (or MuJoCo's `mj_step` and the
-  task's `arrive`) and the agent's own `agent_step`.
+  task's `arrive`) and the learner's own step.
 
 `run` picks the compiled loop where it runs the plant (`runners.compiled.compiles`: the
-analytic plant and MuJoCo) and the stepped one elsewhere. An agent
+analytic plant and MuJoCo) and the learner (`Learner.compiles`: it has a jitable step),
+and the stepped one elsewhere. An agent
 stops after K episodes, or when it diverges (its weights are frozen, the episode it diverged
 in is cut there and its later episodes are not run: NaN).
 """
 
 import math
 
+from lwrl import agent as learners
 from lwrl import tasks
-from lwrl.agent.sarsa import BatchedSarsa
+from lwrl.agent.learner import Agents
 from lwrl.runners.compiled import compiles, run_compiled
 from lwrl.runners.episodes import EpisodeResults
 from lwrl.runners.stepped import run_batched, run_dm_env
@@ -31,48 +33,48 @@ __all__ = ["EpisodeResults", "make_agent", "memory_needed", "run", "run_batched"
 
 def memory_needed(config, recorded_episodes: int = 0) -> int:
     """Bytes a run of `config` needs for its largest arrays, estimated before they are made:
-    each agent's weights and traces (A x N each), features and scratch, the per-episode
-    results and starts, and the tape of `recorded_episodes` episodes."""
+    each agent's arrays (the learner's `memory`), the per-episode results and starts, and
+    the tape of `recorded_episodes` episodes."""
     definition = tasks.definition(config.domain, config.task_name, **config.task_options)
-    features = config.feature_map().num_features
+    info = config.task_info
+    per_agent = learners.learner(config.learner).memory(config.agent, info)
     actions, dim = definition.num_actions, len(definition.state_names)
-    per_agent = 8 * (2 * actions * features + 2 * features + dim * config.n + 2 * actions)
     per_episode = 8 * (6 + dim)
     steps = definition.step_limit if recorded_episodes and math.isfinite(definition.step_limit) else 0
-    tape = recorded_episodes * (8 * int(steps) * (2 * dim + actions + 3) + 8 * actions * features)
+    tape = recorded_episodes * (8 * int(steps) * (2 * dim + actions + 3) + per_agent)
     return config.agents * (per_agent + per_episode * config.episodes) + tape
 
 
-def make_agent(*configs) -> BatchedSarsa:
-    """The agents of one or more `RunConfig`s, each configuration's `agents` in order, with
-    zero weights. Configurations after the first differ from it at most in trace, alpha,
-    lambda, epsilon and seeds (`sweep.batches` groups them so)."""
+def make_agent(*configs) -> Agents:
+    """The agents of one or more `RunConfig`s of one learner, each configuration's `agents`
+    in order, untrained. Configurations after the first differ from it at most in the
+    learner's per-agent settings and the seeds (`sweep.batches` groups them so)."""
     base = configs[0]
-    per_agent = [config for config in configs for _ in range(config.agents)]
-    definition = tasks.definition(base.domain, base.task_name, **base.task_options)
-    return BatchedSarsa(base.feature_map(), definition.num_actions,
-                        alpha=[c.alpha for c in per_agent], lam=[c.lam for c in per_agent],
-                        epsilon=[c.epsilon for c in per_agent],
-                        trace=[c.trace for c in per_agent], gamma=base.gamma,
-                        seeds=[seed for config in configs for seed in config.seeds])
+    learner = learners.learner(base.learner)
+    settings = [config.agent for config in configs for _ in range(config.agents)]
+    return learner.make(settings, base.task_info,
+                        [seed for config in configs for seed in config.seeds])
 
 
-def run(config, agent: BatchedSarsa | None = None, learn: bool = True,
-        progress=None, record=(), seeds=None) -> tuple[BatchedSarsa, EpisodeResults]:
-    """Run a `RunConfig`: the compiled loop where it runs the plant, else the batched
-    stepper. Returns the agents (new ones unless given) and their results, with recordings of
-    the `(agent, episode)` pairs in `record`. `seeds` (one per agent of a given `agent`)
-    replaces the configuration's, for batches that join several configurations."""
+def run(config, agent: Agents | None = None, learn: bool = True, greedy: bool = False,
+        progress=None, record=(), seeds=None) -> tuple[Agents, EpisodeResults]:
+    """Run a `RunConfig`: the compiled loop where it runs the plant and the learner, else
+    the batched stepper. Returns the agents (new ones unless given) and their results, with
+    recordings of the `(agent, episode)` pairs in `record`. `learn=False` runs without
+    updates, `greedy=True` with greedy actions (evaluation: both). `seeds` (one per agent of
+    a given `agent`) replaces the configuration's, for batches that join several
+    configurations."""
     agent = make_agent(config) if agent is None else agent
     seeds = config.seeds if seeds is None else list(seeds)
     domain, task = config.domain, config.task_name
-    if compiles(domain, config.plant_name):
+    if agent.learner.compiles and compiles(domain, config.plant_name):
         results = run_compiled(domain, task, agent, config.episodes, seeds, learn=learn,
-                               progress=progress, record=record, plant=config.plant_name,
-                               **config.plant_options, **config.task_options)
+                               greedy=greedy, progress=progress, record=record,
+                               plant=config.plant_name, **config.plant_options,
+                               **config.task_options)
     else:
         env = BatchedEnv(domain, task, config.plant_name, seeds, **config.plant_options,
                          **config.task_options)
-        results = run_batched(env, agent, config.episodes, learn=learn, progress=progress,
-                              record=record)
+        results = run_batched(env, agent, config.episodes, learn=learn, greedy=greedy,
+                              progress=progress, record=record)
     return agent, results

@@ -5,27 +5,29 @@ same bookkeeping (`runners.episodes.finish_episode`, `runners.recording`) and nu
 
 import numpy as np
 
-from lwrl.agent.features import check_count
-from lwrl.agent.sarsa import BatchedSarsa
+from lwrl.agent.learner import Agents
 from lwrl.runners.episodes import EpisodeResults, finish_episode
 from lwrl.runners.recording import (make_tape, record_end, record_state, record_transition,
                                     recordings)
+from lwrl.settings import check_count
 from lwrl.tasks.batched import BatchedEnv, SteppedEnvs
 
 
-def run_dm_env(env, agent: BatchedSarsa, episodes: int, learn: bool = True) -> EpisodeResults:
+def run_dm_env(env, agent: Agents, episodes: int, learn: bool = True,
+               greedy: bool = False) -> EpisodeResults:
     """One agent (`agent.batch_size == 1`) on one dm_env environment of the suite (`tasks.load`),
     step by step: `run_batched` on the environment alone."""
     if agent.batch_size != 1:
         raise ValueError(f"run_dm_env runs one agent; got a batch of {agent.batch_size}")
     return run_batched(SteppedEnvs([env], uptime=lambda single: single.task.uptime), agent,
-                       episodes, learn=learn)
+                       episodes, learn=learn, greedy=greedy)
 
 
-def run_batched(env: BatchedEnv, agent: BatchedSarsa, episodes: int, learn: bool = True,
-                progress=None, record=()) -> EpisodeResults:
-    """B agents on a batched environment of B copies (a `BatchedEnv`, or `SteppedEnvs` of B
-    dm_env environments); `progress(done_episodes)` is called as episodes finish. The
+def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = True,
+                progress=None, record=(), greedy: bool = False) -> EpisodeResults:
+    """B agents of any learner on a batched environment of B copies (a `BatchedEnv`, or
+    `SteppedEnvs` of B dm_env environments); `learn` and `greedy` as for `Agents.step`;
+    `progress(done_episodes)` is called as episodes finish. The
     `(agent, episode)` pairs in `record` are recorded step by step (`results.recordings`), as
     `run_compiled` records them; recording needs a `BatchedEnv`."""
     episodes = check_count("episodes", episodes, 1)
@@ -42,23 +44,23 @@ def run_batched(env: BatchedEnv, agent: BatchedSarsa, episodes: int, learn: bool
         definition = env.definition
         tape = make_tape(record, batch, episodes, definition.step_limit,
                          len(definition.state_names), agent.num_actions,
-                         agent.features.num_features)
+                         agent.arrays.weights.shape[1:])
     actions = np.zeros(batch, dtype=np.int64)
     ts = env.reset()
     try:
         while True:
             previous = actions
             actions = agent.step(ts.first(), ts.reward, ts.discount, ts.observation,
-                                 active=running, learn=learn)
+                                 active=running, learn=learn, greedy=greedy)
             rows = np.full(batch, -1)
             if recording:
                 rows = np.where(running, tape.slot[np.arange(batch), np.minimum(done, episodes - 1)], -1)
                 for b in np.flatnonzero(rows >= 0):
                     n = env.steps[b]
-                    record_state(tape, rows[b], n, env.state[b], ts.observation[b], agent.memory.q[b])
+                    record_state(tape, rows[b], n, env.state[b], ts.observation[b], agent.arrays.q[b])
                     if n > 0:
                         record_transition(tape, rows[b], n, previous[b], ts.reward[b],
-                                          agent.memory.delta[b])
+                                          agent.arrays.delta[b])
             newly_diverged = running & agent.diverged
             ended = running & (ts.last() | newly_diverged)
             for b in np.flatnonzero(ended):
@@ -67,7 +69,7 @@ def run_batched(env: BatchedEnv, agent: BatchedSarsa, episodes: int, learn: bool
                                results.steps, results.returns, results.uptime, results.truncated,
                                results.diverged_episode, done)
                 if rows[b] >= 0:
-                    record_end(tape, rows[b], env.steps[b], agent.memory.weights[b])
+                    record_end(tape, rows[b], env.steps[b], agent.arrays.weights[b])
             running &= (done < episodes) & ~agent.diverged
             if progress is not None and ended.any():
                 progress(int(ended.sum()))

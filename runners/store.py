@@ -57,7 +57,15 @@ class RunStore:
             table.to_csv(temporary, index=False, compression="gzip")
 
     def read(self, configs) -> pd.DataFrame:
-        return pd.concat([pd.read_csv(self.path(config)) for config in configs], ignore_index=True)
+        """The runs' tables, one after the other; a table written before one of its run's
+        settings was a column (`RunConfig.columns`) gets that column from the run."""
+        tables = []
+        for config in configs:
+            table = pd.read_csv(self.path(config))
+            missing = {name: value for name, value in config.columns().items()
+                       if name not in table.columns}
+            tables.append(table.assign(**missing) if missing else table)
+        return pd.concat(tables, ignore_index=True)
 
     def _claim_path(self, batch) -> pathlib.Path:
         digest = hashlib.sha1("\n".join(sorted(config.key for config in batch)).encode())

@@ -9,10 +9,10 @@ running when interrupted runs again whole); a damaged file is set aside and its 
 computed again; two processes sweeping into one directory share the batches. A diverged
 run is a finished run: its agents' `diverged` column says so.
 
-Runs that differ only in trace, alpha, lambda, epsilon and seeds are joined into batches
-that one learner and one stepper run together (the learner takes those per agent, and an
-agent's numbers do not depend on its batch): a grid of small runs costs about as much as
-one large one. Backends: `local` runs one batch at a time on this machine, on all its cores
+Runs that differ only in their learner's per-agent settings (Sarsa's trace, alpha, lambda
+and epsilon), their agents and seeds are joined into batches that one learner and one
+stepper run together (the learner takes those per agent, and an agent's numbers do not
+depend on its batch): a grid of small runs costs about as much as one large one. Backends: `local` runs one batch at a time on this machine, on all its cores
 (the learner's threads), its progress bar moving as episodes finish; `ray` sends batches
 to a Ray cluster (`pip install -e '.[ray]'`), one task each, and writes their results here
 as they come back.
@@ -32,29 +32,28 @@ from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent, run
 from lwrl.runners.store import RunStore
 
-CONFIG_COLUMNS = ("task", "plant", "integrator", "features", "trace", "alpha", "lam", "epsilon",
-                  "gamma", "n", "r2", "tilings", "normalise_alpha", "episodes")
-"""Configuration fields repeated on every row of the results table."""
 BACKENDS = ("local", "ray")
-
-
-BATCHED_FIELDS = ("trace", "alpha", "lam", "epsilon", "agents", "seed")
-"""Fields in which the runs of one batch may differ: the learner takes them per agent."""
 MAX_BATCH_AGENTS = 512
 """Agents in one batch at most. An interrupted batch is recomputed whole, so this bounds the
 work an interrupt loses; beyond a few hundred agents larger batches gain little (MuJoCo
 pendulum: 4.0 us of CPU per agent-step at 1024 agents, 5.0 at 256)."""
 
 
+def batch_key(config) -> str:
+    """What the runs of one batch share: every setting but those the metadata marks
+    `per_agent` (the learner takes them per agent; agents and seeds)."""
+    return json.dumps({field.name: value for field, value in config.flat_fields()
+                       if not field.metadata.get("per_agent")}, sort_keys=True)
+
+
 def batches(configs, max_agents: int = MAX_BATCH_AGENTS) -> list:
     """The configurations grouped into batches that one learner and one stepper can run:
-    same task, plant, features and protocol; at most `max_agents` agents (a run larger than
-    that is a batch of its own). Order is kept within a batch."""
+    same task, plant, learner and protocol, differing only in per-agent settings; at most
+    `max_agents` agents (a run larger than that is a batch of its own). Order is kept
+    within a batch."""
     groups = {}
     for config in configs:
-        fields = dataclasses.asdict(config)
-        key = json.dumps({name: fields[name] for name in sorted(fields) if name not in BATCHED_FIELDS})
-        groups.setdefault(key, []).append(config)
+        groups.setdefault(batch_key(config), []).append(config)
     result = []
     for group in groups.values():
         batch, size = [], 0
@@ -87,9 +86,8 @@ def run_batch(configs, progress=None) -> list:
 def results_table(config: RunConfig, results) -> pd.DataFrame:
     """A run's `EpisodeResults` as a tidy table with its configuration on every row."""
     table = pd.DataFrame(results.columns(config.seeds))
-    fields = dataclasses.asdict(config)
-    for column in reversed(CONFIG_COLUMNS):
-        table.insert(0, column, fields[column])
+    for column, value in reversed(config.columns().items()):
+        table.insert(0, column, value)
     table.insert(0, "run", config.key)
     return table
 

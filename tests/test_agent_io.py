@@ -29,9 +29,8 @@ def test_round_trip_keeps_everything_and_learning_continues_identically(trained)
     loaded, metadata = agent_io.load(path)
     assert metadata == {"config": {"task": "mountain_car.cost_to_go"}}
     np.testing.assert_array_equal(loaded.weights, agent.weights)
-    np.testing.assert_array_equal(loaded.memory.streams, agent.memory.streams)
-    for field in agent.hyper._fields:
-        np.testing.assert_array_equal(getattr(loaded.hyper, field), getattr(agent.hyper, field))
+    for field in ("streams", "alpha", "gamma", "lam", "epsilon", "trace"):
+        np.testing.assert_array_equal(getattr(loaded.arrays, field), getattr(agent.arrays, field))
     assert loaded.features == agent.features
     more = run_compiled("mountain_car", "cost_to_go", agent, 3, [7, 8, 9])
     more_loaded = run_compiled("mountain_car", "cost_to_go", loaded, 3, [7, 8, 9])
@@ -45,7 +44,7 @@ def test_cmac_agents_round_trip(tmp_path):
     agent_io.save(tmp_path / "cmac.npz", agent)
     loaded, _ = agent_io.load(tmp_path / "cmac.npz")
     assert loaded.features == cmac
-    np.testing.assert_array_equal(loaded.hyper.alpha, agent.hyper.alpha)  # 0.05 both
+    np.testing.assert_array_equal(loaded.arrays.alpha, agent.arrays.alpha)  # 0.05 both
 
 
 def rewrite(path, **changes):

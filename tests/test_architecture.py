@@ -1,28 +1,39 @@
 """The house's rules, read from the code: imports point down the rooms, studies do not borrow
-from each other, and nothing outside `tasks/` knows a domain by name.
+from each other, nothing outside `tasks/` knows a domain by name and nothing outside `agent/`
+knows a learner or a feature map by name.
 
 The rooms and their floors (docs/ARCHITECTURE.md): a module may import its own room and the
 rooms on lower floors only.
 """
 
 import ast
+import importlib
 import pathlib
 
 import numpy as np
 import pytest
 
-from lwrl import tasks
+from lwrl import agent, tasks
+from lwrl.agent.linear import FEATURE_MAPS
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-FLOORS = {"kernels": 0, "outputs": 0, "models": 0, "agent": 1, "tasks": 1, "analysis": 2, "gym": 2, "viz": 3,
-          "runners": 4, "adapters": 5, "export": 5, "studies": 6, "cli": 7}
+FLOORS = {"kernels": 0, "outputs": 0, "settings": 0, "models": 0, "agent": 1, "tasks": 1,
+          "analysis": 2, "gym": 2, "viz": 3, "runners": 4, "adapters": 5, "export": 5,
+          "studies": 6, "cli": 7}
 """Room -> floor. `gym` is `lwrl/gym.py`, the suite's Gymnasium face (it reads `tasks`);
-`kernels` and `outputs` (`lwrl/kernels.py`, `lwrl/outputs.py`), the cache of compiled
-kernels and the writing of whole files, are there for every room."""
-ISOLATED = {"agent": {"kernels", "outputs"}, "tasks": {"models", "kernels", "outputs"}}
+`kernels`, `outputs` and `settings` (`lwrl/kernels.py`, `lwrl/outputs.py`,
+`lwrl/settings.py`), the cache of compiled kernels, the writing of whole files and the
+settings dataclasses' metadata, are there for every room."""
+LWRL_MODULES = ("gym", "kernels", "outputs", "settings")
+"""The rooms that are one module of `lwrl/`."""
+ISOLATED = {"agent": {"kernels", "outputs", "settings"}, "tasks": {"models", "kernels", "outputs"}}
 """Rooms that may import only these others: the learner sees arrays only."""
 NAMING_DOMAINS_ALLOWED = ("studies/paper/",)
 """The paper's study names the tasks of its figures as data: the one exception."""
+NAMING_LEARNERS_ALLOWED = ("agent/", "studies/paper/")
+"""Where a learner or a feature map may be named: its own room, and the paper's study,
+whose items are about the paper's learners (NRBF against CMAC, the traces, Table 1's
+rivals) and name them as data."""
 
 
 def room_of(path: pathlib.Path) -> str:
@@ -34,7 +45,7 @@ def room_of(path: pathlib.Path) -> str:
 def package_files() -> list:
     """Every module the `lwrl` wheel installs."""
     return sorted(path for room in FLOORS for path in
-                  ([ROOT / "lwrl" / f"{room}.py"] if room in ("gym", "kernels", "outputs")
+                  ([ROOT / "lwrl" / f"{room}.py"] if room in LWRL_MODULES
                    else (ROOT / room).rglob("*.py"))
                   if path.exists())
 
@@ -163,3 +174,59 @@ def test_every_domain_fills_its_contract(name):
         assert len(defaults.low) == len(defaults.high) == len(state_names)
         if domain.comparison is not None:
             assert set(domain.comparison.tolerances) <= set(state_names)
+
+
+def learner_names() -> tuple:
+    """The words that name a learner or a feature map: their registry names, the modules
+    that define them, and the classes those modules define."""
+    modules = [f"lwrl.agent.{name}" for name in agent.LEARNER_MODULES]
+    modules += [cls.__module__ for cls in FEATURE_MAPS.values()]
+    words = set(agent.LEARNER_NAMES) | set(FEATURE_MAPS) | {m.split(".")[-1] for m in modules}
+    for module in map(importlib.import_module, modules):
+        words |= {name for name, value in vars(module).items()
+                  if isinstance(value, type) and value.__module__ == module.__name__}
+    return tuple(sorted(words))
+
+
+def learner_mentions(path: pathlib.Path, words=None) -> list:
+    """`(line, what)` of every place the code names a learner or a feature map: a string
+    equal to one of `learner_names()` (a comparison, a key, an argument), a name or an
+    attribute spelled so, or an import of such a module. Docstrings are prose."""
+    words = set(words or learner_names())
+    tree = ast.parse(path.read_text())
+    prose = docstring_nodes(tree)
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in prose:
+            if node.value in words:
+                found.append((node.lineno, repr(node.value)))
+        elif isinstance(node, ast.Attribute) and node.attr in words:
+            found.append((node.lineno, f".{node.attr}"))
+        elif isinstance(node, ast.Name) and node.id in words:
+            found.append((node.lineno, node.id))
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            modules = [alias.name for alias in node.names] + [getattr(node, "module", None) or ""]
+            found += [(node.lineno, f"import {m}") for m in modules if m.split(".")[-1] in words]
+    return found
+
+
+@pytest.mark.parametrize("path", [p for p in package_files()
+                                  if not str(p.relative_to(ROOT)).startswith(NAMING_LEARNERS_ALLOWED)],
+                         ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_room_but_agent_names_a_learner_or_a_feature_map(path):
+    """Everything about a learner lives in `agent/<learner>.py` (and what it alone needs);
+    other rooms go through the learner contract (`agent.learner`) and the registry
+    (`agent.LEARNERS`), so adding a learner touches no other room."""
+    assert learner_mentions(path) == []
+
+
+def test_the_check_finds_a_learner_named_in_code(tmp_path):
+    """The check above is not blind: it finds an import, a string, a class and an attribute."""
+    sample = tmp_path / "sample.py"
+    sample.write_text('"""Prose may say sarsa and nrbf."""\n'
+                      'from lwrl.agent.sarsa import BatchedSarsa\n'
+                      'def f(config):\n'
+                      '    """cmac in a docstring is prose."""\n'
+                      '    return config.features == "nrbf" or BatchedSarsa or config.cmac\n'
+                      'LEARNER = "sarsa"\n')
+    assert sorted(line for line, _ in learner_mentions(sample)) == [2, 2, 5, 5, 5, 6]

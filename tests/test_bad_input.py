@@ -222,4 +222,4 @@ def test_a_damaged_agent_file_is_one_line_and_status_2(agent_file, how, blob, co
 def test_every_check_looks_at_a_real_file():
     """The damaged files above are damaged: the undamaged one loads."""
     assert zipfile.is_zipfile(__file__) is False
-    assert agent_io.FORMAT == "lwrl-agent/1"
+    assert agent_io.FORMAT == "lwrl-agent/2"

@@ -50,7 +50,9 @@ def test_rollout_reports_finished_cartpole_episodes(capsys):
     (["train", "cartpole.balance", "--alpha", "0"], "alpha must be a finite number > 0; got 0.0"),
     (["train", "cartpole.balance", "--lambda", "1.5"], "lambda must be a number in [0, 1]; got 1.5"),
     (["train", "cartpole.balance", "--epsilon", "2"], "epsilon must be a number in [0, 1]; got 2.0"),
-    (["train", "cartpole.balance", "--trace", "dutch"], "must be one of replacing, accumulating, replacing_reset; got 'dutch'"),
+    (["train", "cartpole.balance", "--trace", "eligible"],
+     "must be one of replacing, accumulating, replacing_reset"),
+    (["train", "cartpole.balance", "--learner", "dqn"], "argument --learner: must be one of sarsa"),
     (["train", "cartpole.balance", "--alpha", "inf"], "argument --alpha: must be a finite number; got 'inf'"),
     (["reproduce", "fig8", "--quick", "--set", "r2=abc"], "--set r2 must be a finite number; got 'abc'"),
     (["train", "cartpole.balance", "--n", "1"], "must be an integer >= 2; got 1"),
@@ -99,7 +101,7 @@ def test_train_writes_config_and_episodes_and_eval_reads_the_agents(tmp_path, ca
     printed = capsys.readouterr().out
     assert "± " in printed and "seeds 5..7" in printed and "no agent diverged" in printed
     config = json.loads((out / "config.json").read_text())
-    assert config["task"] == "mountain_car.cost_to_go" and config["alpha"] == 3.9
+    assert config["task"] == "mountain_car.cost_to_go" and config["agent"]["alpha"] == 3.9
     with open(out / "episodes.csv") as file:
         rows = list(csv.DictReader(file))
     assert len(rows) == 12

@@ -10,28 +10,29 @@ import pytest
 from lwrl.runners.config import RunConfig
 from lwrl.studies.paper.items import ITEMS
 from lwrl.studies.paper.reproduce import with_alphas, with_readings
-from lwrl.runners.run import run
+from lwrl.runners.run import make_agent, run
 
 
 def test_edge_centroids_are_the_grid_from_end_to_end():
     """`centroids="edges"`: features of centroids at i / (n - 1) over the ranges, with the
     configuration's r^2, computed directly here."""
     config = RunConfig(task="cartpole.balance", centroids="edges", r2=0.02)
-    low, high = map(np.array, config.ranges)
+    low, high = map(np.array, (config.task_info.low, config.task_info.high))
     centres = np.array(list(itertools.product(*[np.arange(6) / 5] * 4)))
     states = np.random.default_rng(1).uniform(-1.3, 1.3, (50, 4)) * high
     distances = ((((states - low) / (high - low))[:, None, :] - centres[None]) ** 2).sum(axis=2)
     phi = np.exp(-distances / 0.02)
-    np.testing.assert_allclose(config.feature_map().features(states),
-                               phi / phi.sum(axis=1, keepdims=True), atol=1e-12)
-    midpoints = RunConfig(task="cartpole.balance", r2=0.02).feature_map().features(states)
-    assert np.abs(midpoints - config.feature_map().features(states)).max() > 0.1
+    edges = make_agent(config).features
+    np.testing.assert_allclose(edges.features(states), phi / phi.sum(axis=1, keepdims=True),
+                               atol=1e-12)
+    midpoints = make_agent(RunConfig(task="cartpole.balance", r2=0.02)).features.features(states)
+    assert np.abs(midpoints - edges.features(states)).max() > 0.1
 
 
 def test_ranges_default_to_the_paper_and_can_be_set():
     config = RunConfig(task="pendulum.swingup", low=(-3, -3), high=(3, 3))
-    assert config.feature_map().low == (-3.0, -3.0) and config.feature_map().high == (3.0, 3.0)
-    assert RunConfig(task="pendulum.swingup").feature_map().high[1] == 1.5
+    assert make_agent(config).value_box() == ((-3.0, -3.0), (3.0, 3.0))
+    assert make_agent(RunConfig(task="pendulum.swingup")).value_box()[1][1] == 1.5
     with pytest.raises(ValueError, match="low must have one value per state variable of "
                                          "pendulum.swingup \\(2\\)"):
         RunConfig(task="pendulum.swingup", low=(-1, -1, -1))
@@ -67,8 +68,8 @@ def test_readings_apply_to_the_runs_that_have_them():
         ITEMS["fig8"].configs("analytic", True, "semi_implicit")
     changed = with_readings(configs, {"r2": 0.05, "epsilon": 0.0, "track_limit": None})
     for before, after in zip(configs, changed):
-        assert after.r2 == (0.05 if before.features == "nrbf" else before.r2)
-        assert after.epsilon == 0.0
+        assert after.agent.r2 == (0.05 if before.agent.features == "nrbf" else before.agent.r2)
+        assert after.agent.epsilon == 0.0
         assert after.task_options == ({"track_limit": None} if before.domain == "cartpole" else {})
     with pytest.raises(ValueError, match="no run of these items has the reading 'track_limit'"):
         with_readings(ITEMS["fig2"].configs("analytic", True, "semi_implicit"), {"track_limit": 3})
@@ -103,11 +104,12 @@ def test_the_author_codes_equations_apply_to_analytic_pendulum_and_cartpole_runs
 def test_an_alpha_grid_replaces_the_nrbf_runs_alphas_only():
     configs = ITEMS["fig2"].configs("analytic", True, "semi_implicit")
     changed = with_alphas(configs, (0.05, 0.1))
-    nrbf = [c for c in configs if c.features == "nrbf"]
-    cmac = [c for c in configs if c.features == "cmac"]
-    distinct = {(c.trace, c.lam) for c in nrbf}
-    assert [c for c in changed if c.features == "cmac"] == cmac
-    assert sorted((c.trace, c.lam, c.alpha) for c in changed if c.features == "nrbf") == \
+    nrbf = [c for c in configs if c.agent.features == "nrbf"]
+    cmac = [c for c in configs if c.agent.features == "cmac"]
+    distinct = {(c.agent.trace, c.agent.lam) for c in nrbf}
+    assert [c for c in changed if c.agent.features == "cmac"] == cmac
+    assert sorted((c.agent.trace, c.agent.lam, c.agent.alpha) for c in changed
+                  if c.agent.features == "nrbf") == \
         sorted((trace, lam, alpha) for trace, lam in distinct for alpha in (0.05, 0.1))
     with pytest.raises(ValueError, match="alphas must name at least one learning rate"):
         with_alphas(configs, ())
@@ -128,3 +130,55 @@ def test_reproduce_sets_readings_from_the_command_line(tmp_path):
     bad = subprocess.run([sys.executable, "-m", "lwrl.cli", "reproduce", "fig8", "--quick",
                           "--out", str(tmp_path), "--set", "r2"], capture_output=True, text=True)
     assert bad.returncode == 2 and "must be NAME=VALUE" in bad.stderr.strip().splitlines()[-1]
+
+
+KEPT_KEYS = {
+    "mountain_car.cost_to_go-default-nrbf-replacing-a3.9-l0.9-s0-a95bbdc9b805":
+        dict(task="mountain_car.cost_to_go"),
+    "mountain_car.cost_to_go-default-cmac-replacing_reset-a0.5-l0.9-s0-59145ff71df3":
+        dict(task="mountain_car.cost_to_go", features="cmac", trace="replacing_reset", alpha=0.5,
+             normalise_alpha=True, agents=30, episodes=20),
+    "pendulum.swingup-mujoco-nrbf-replacing-a1.5-l0.4-s0-0ad35ea099a0":
+        dict(task="pendulum.swingup", plant="mujoco", trace="replacing", alpha=1.5, lam=0.4),
+    "pendulum.swingup-analytic-nrbf-replacing-a1.5-l0.4-s0-b28760c86b26":
+        dict(task="pendulum.swingup", plant="analytic", equations="kfnnet"),
+    "cartpole.balance-analytic-nrbf-accumulating-a0.5-l0.7-s0-7a4015b81103":
+        dict(task="cartpole.balance", plant="analytic", integrator="explicit", r2=0.05),
+    "cartpole.balance-default-nrbf-accumulating-a0.5-l0.7-s0-b39b90f673ad":
+        dict(task="cartpole.balance", centroids="edges", low=(-3, -2, -0.3, -3),
+             high=(3, 2, 0.3, 3), task_options={"track_limit": None}),
+    "acrobot.swingup-default-nrbf-replacing-a1-l0.9-s10-88444a8e383e":
+        dict(task="acrobot.swingup", seed=10, agents=50),
+}
+"""Keys of runs computed before the learners were open (the file names of kept runs), with
+every reading the paper's study sets."""
+
+
+@pytest.mark.parametrize("key", KEPT_KEYS)
+def test_kept_runs_keep_their_keys(key):
+    """A kept run is found again, not recomputed: its key is derived from the settings'
+    fields as it was from the old hand-kept order. A field added with a default, unless its
+    metadata says the key names it only where set (`lwrl.settings.WHEN_SET`), fails here."""
+    assert RunConfig(**KEPT_KEYS[key]).key == key
+
+
+def test_a_new_setting_changes_no_key_where_it_is_not_set():
+    """The rule the test above holds: a setting named `WHEN_SET` enters the key only where a
+    run departs from its default; one without that metadata enters every key."""
+    import dataclasses
+
+    from lwrl.agent.sarsa import SarsaSettings
+    from lwrl.settings import WHEN_SET, setting
+
+    @dataclasses.dataclass(frozen=True, kw_only=True)
+    class Quiet(SarsaSettings):
+        momentum: float = setting(0.0, key=WHEN_SET)
+
+    @dataclasses.dataclass(frozen=True, kw_only=True)
+    class Loud(SarsaSettings):
+        momentum: float = 0.0
+
+    plain = RunConfig(task="mountain_car.cost_to_go")
+    assert RunConfig(task="mountain_car.cost_to_go", agent=Quiet()).key == plain.key
+    assert RunConfig(task="mountain_car.cost_to_go", agent=Quiet(momentum=0.5)).key != plain.key
+    assert RunConfig(task="mountain_car.cost_to_go", agent=Loud()).key != plain.key

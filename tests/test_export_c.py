@@ -143,7 +143,7 @@ def check_against_python(path, out_dir, build_dir, agent_index, dtype, count=200
     states = sample_states(agent.features, count, np.random.default_rng(agent_index + 11),
                          np.float32 if dtype == "float" else np.float64)
     c_actions, c_q = run_driver(executable, states)
-    q = agent.q_values(states)[agent_index]  # float64, (M, A)
+    q = agent.action_values(states)[agent_index]  # float64, (M, A)
     phi = agent.features.features(states)
     scale = (phi @ np.abs(agent.weights[agent_index])).max(axis=1)
     rel, absolute = TOLERANCE[dtype]
@@ -189,7 +189,7 @@ def test_exported_files_describe_the_controller(agent_files, tmp_path):
     result = export_c(agent_files["cartpole"], tmp_path, agent_index=1)
     assert result["source"] == str(tmp_path / "lwrl_policy.c")
     assert result["header"] == str(tmp_path / "lwrl_policy.h")
-    assert (result["neurons"], result["actions"], result["grid"]) == (1296, 2, 6)
+    assert (result["neurons"], result["actions"], result["n"]) == (1296, 2, 6)
     assert result["weight_bytes"] == 1296 * 2 * 4
     assert result["flash_bytes"] == result["weight_bytes"] + (2 * 4 + 1) * 4
     source = (tmp_path / "lwrl_policy.c").read_text()
@@ -208,7 +208,7 @@ def test_exported_files_describe_the_controller(agent_files, tmp_path):
     values = [float(v.rstrip("f")) for line in body.splitlines() if "*/" in line and "action" not in line
               for v in line.split("*/")[1].split(",") if v.strip()]
     np.testing.assert_array_equal(np.array(values, dtype=np.float32),
-                                  agent.memory.weights[1].astype(np.float32).ravel())
+                                  agent.arrays.weights[1].astype(np.float32).ravel())
     # The same file gives the same code (no time stamps).
     export_c(agent_files["cartpole"], tmp_path / "again", agent_index=1)
     assert (tmp_path / "again" / "lwrl_policy.c").read_text() == source
@@ -260,7 +260,7 @@ def test_bad_inputs_are_refused_in_one_line(agent_files, tmp_path):
     export_c(tmp_path / "nan.npz", tmp_path / "ok", agent_index=0)  # agent 0 is fine
     one_line_error(lambda: export_c(tmp_path / "nan.npz", tmp_path / "out", 1), "agent 1 diverged")
     agent, metadata = agent_io.load(agent_files["pendulum"])
-    agent.memory.diverged[0] = True
+    agent.arrays.diverged[0] = True
     agent_io.save(tmp_path / "flagged.npz", agent, metadata)
     one_line_error(lambda: export_c(tmp_path / "flagged.npz", tmp_path / "out"), "agent 0 diverged")
     # Weights beyond float's range: refused for float, fine for double.

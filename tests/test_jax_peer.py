@@ -20,7 +20,8 @@ def test_the_peer_computes_lwrls_features(task):
     """The peer's NRBF features equal `agent/nrbf.py`'s, far outside the ranges too (the
     underflow guard and the clamp)."""
     agent, _, _ = jax_peer.peer_agents(task, 1)
-    features = RunConfig(task=task).feature_map()
+    config = RunConfig(task=task)
+    features = config.agent.feature_map(config.task_info.low, config.task_info.high)
     rng = np.random.default_rng(0)
     low, high = np.array(features.low), np.array(features.high)
     states = low + (high - low) * rng.uniform(-0.5, 1.5, size=(200, len(low)))

@@ -13,7 +13,8 @@ from lwrl import kernels
 RUN = """
 import json
 import numpy as np
-from lwrl.agent.sarsa import BATCH_STEP
+from lwrl.agent.learner import batch_step
+from lwrl.agent.sarsa import LEARNER
 from lwrl.runners.compiled import compiled_loop
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent, run, run_batched
@@ -27,9 +28,9 @@ stepped = RunConfig(task="acrobot.swingup", plant="mujoco", agents=2, episodes=1
 stepped_results = run_batched(BatchedEnv("acrobot", "swingup", "mujoco", stepped.seeds,
                                          time_limit=10.0), make_agent(stepped), 1)
 stats = {name: kernel.dispatcher.stats for name, kernel in
-         (("loop", compiled_loop(mountain_car.cost_to_go())),
-          ("mujoco_loop", compiled_loop(pendulum.swingup(), "mujoco")),
-          ("batch_step", BATCH_STEP))}
+         (("loop", compiled_loop(mountain_car.cost_to_go(), LEARNER)),
+          ("mujoco_loop", compiled_loop(pendulum.swingup(), LEARNER, "mujoco")),
+          ("batch_step", batch_step(LEARNER)))}
 print(json.dumps({"steps": results.steps.tolist(), "returns": stepped_results.returns.tolist(),
                   "engine_returns": engine_results.returns.tolist(),
                   "misses": {name: sum(s.cache_misses.values()) for name, s in stats.items()},

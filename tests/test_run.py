@@ -85,7 +85,7 @@ def test_an_agent_is_the_same_alone_and_in_any_batch():
     """Agent results depend on its own seed and hyper-parameters only: here an agent with
     seed 7 runs alone, then in the middle of a batch of agents with other alphas, lambdas
     and traces, in the compiled loop (with two threads splitting the batch)."""
-    features = RunConfig(task="mountain_car.cost_to_go").feature_map()
+    features = make_agent(RunConfig(task="mountain_car.cost_to_go")).features
     from lwrl.agent.sarsa import BatchedSarsa
 
     alone = BatchedSarsa(features, 3, alpha=3.9, lam=0.9, epsilon=0.0, trace="replacing", seeds=[7])
@@ -104,7 +104,7 @@ def test_divergence_freezes_one_agent_and_the_rest_continue():
     """Accumulating traces with alpha = 40 and lambda = 0.99 diverge on Mountain-Car: that
     agent is marked diverged in some episode, its later episodes are not run (NaN) and its
     weights are frozen; the other agent's results equal those it has alone."""
-    features = RunConfig(task="mountain_car.cost_to_go").feature_map()
+    features = make_agent(RunConfig(task="mountain_car.cost_to_go")).features
     from lwrl.agent.sarsa import BatchedSarsa
 
     batch = BatchedSarsa(features, 3, alpha=[40.0, 3.9], lam=[0.99, 0.9], epsilon=0.0,

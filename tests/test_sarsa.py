@@ -118,9 +118,9 @@ def test_lambda_zero_is_one_step_sarsa():
 def test_q_values_read_the_weights():
     features = NRBF(low=(0.0, 0.0), high=(1.0, 1.0), n=3)
     agent = make(features=features, seeds=(0, 1))
-    agent.memory.weights[:] = np.random.default_rng(0).normal(size=agent.memory.weights.shape)
+    agent.arrays.weights[:] = np.random.default_rng(0).normal(size=agent.arrays.weights.shape)
     states = np.random.default_rng(1).uniform(size=(5, 2))
-    q = agent.q_values(states)
+    q = agent.action_values(states)
     assert q.shape == (2, 5, 2)
     np.testing.assert_allclose(q[1], features.features(states) @ agent.weights[1], rtol=1e-12)
 

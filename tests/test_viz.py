@@ -24,7 +24,7 @@ from lwrl.cli import main as cli
 from lwrl.runners.config import RunConfig, task_defaults
 from lwrl.tasks import mountain_car
 from lwrl.runners.recording import EpisodeRecording
-from lwrl.runners.run import EpisodeResults
+from lwrl.runners.run import EpisodeResults, make_agent
 from lwrl.viz import names, scene, value
 from lwrl.viz import rerun as viz
 
@@ -52,14 +52,19 @@ def rollout(domain, task, plant, seed=0, agent=0, episode=0, steps=None) -> Epis
         if ts.last():
             break
     count = len(actions)
-    features = RunConfig(task=f"{domain}.{task}").feature_map()
+    features = agents_of(f"{domain}.{task}").features
     return EpisodeRecording(
         task=f"{domain}.{task}", plant=plant, agent=agent, seed=seed, episode=episode,
         timestep=definition.control_timestep, state_names=definition.state_names,
         controls=definition.controls, states=np.array(states), observations=np.array(observations),
         actions=np.array(actions), rewards=np.array(rewards), td_errors=rng.normal(size=count),
         q_values=rng.normal(size=(count + 1, definition.num_actions)), uptime=np.array(uptime),
-        weights=rng.normal(size=(features.num_features, definition.num_actions)))
+        weights=rng.normal(size=(definition.num_actions, features.num_features)))
+
+
+def agents_of(task: str, **settings):
+    """One untrained agent of the task's default learner (its values, value box, points)."""
+    return make_agent(RunConfig(task=task, agents=1, **settings))
 
 
 def read_chunks(path) -> dict:
@@ -112,7 +117,7 @@ def saved(task_plant, tmp_path):
     name = f"{domain}.{task}"
     episodes = [rollout(domain, task, plant, seed=3, agent=0, episode=0),
                 rollout(domain, task, plant, seed=4, agent=1, episode=7)]
-    features = RunConfig(task=name).feature_map()
+    agents = agents_of(name)
     rng = np.random.default_rng(0)
     results = EpisodeResults(
         steps=rng.integers(10, 500, size=(3, 6)).astype(float), returns=-rng.random((3, 6)),
@@ -122,12 +127,12 @@ def saved(task_plant, tmp_path):
     rec = viz.open_recording("lwrl_test", rrd_path=path)
     viz.send_blueprint(rec, name)
     geometry = viz.log_task_scene(rec, name)
-    ranges = (features.low, features.high)
-    logged = [viz.log_episode(rec, episode, value_ranges=ranges) for episode in episodes]
-    images = viz.log_value_function(rec, name, features, episodes[1].weights, episode=7)
+    logged = [viz.log_episode(rec, episode, value_ranges=agents.value_box())
+              for episode in episodes]
+    images = viz.log_value_function(rec, name, agents, episodes[1].weights, episode=7)
     curves = viz.log_learning_curves(rec, results, seeds=[10, 11, 12])
     viz.close_recording(rec)
-    return dict(name=name, domain=domain, plant=plant, episodes=episodes, features=features,
+    return dict(name=name, domain=domain, plant=plant, episodes=episodes, agents=agents,
                 results=results, path=path, geometry=geometry, logged=logged, images=images,
                 curves=curves, chunks=read_chunks(path))
 
@@ -287,11 +292,10 @@ def test_episodes_recorded_by_training(tmp_path):
     viz.send_blueprint(rec, config.task)
     viz.log_task_scene(rec, config.task)
     model = viz.load_model(config.task)
-    features = config.feature_map()
-    logged = [viz.log_episode(rec, r, model=model, value_ranges=(features.low, features.high))
+    logged = [viz.log_episode(rec, r, model=model, value_ranges=agent.value_box())
               for r in results.recordings]
-    images = viz.log_value_function(rec, config.task, config.feature_map(),
-                                    results.recordings[0].weights, episode=1)
+    images = viz.log_value_function(rec, config.task, agent, results.recordings[0].weights,
+                                    episode=1)
     viz.log_learning_curves(rec, results, config.seeds)
     viz.close_recording(rec)
     chunks = read_chunks(path)
@@ -302,8 +306,8 @@ def test_episodes_recorded_by_training(tmp_path):
         np.testing.assert_array_equal(scalars(temporal(chunks, paths["state/angle"]))[:, 0],
                                       recording.states[:, 0])
         np.testing.assert_array_equal(scalars(temporal(chunks, paths["uptime"]))[:, 0], recording.uptime)
-    grid = value.value_grid(config.task, features.low, features.high)
-    expected_q = value.q_on_grid(grid, features, agent.weights[0]).max(axis=-1)
+    grid = value.value_grid(config.task, *agent.value_box())
+    expected_q = agent.action_values(grid.states(), agent.arrays.weights[0]).max(axis=-1)
     np.testing.assert_allclose(images["max_q"], expected_q)
     np.testing.assert_array_equal(scalars(temporal(chunks, "curves/steps/agent1"))[:, 0], results.steps[1])
 
@@ -373,13 +377,14 @@ def test_mountain_car_car_follows_the_slope():
 def test_value_grid_q_and_pixels(task):
     """Q over the grid is phi(s) . w at each cell's state; a state maps to the pixel whose
     cell holds it; all-zero weights make every action tie (class 0)."""
-    features = RunConfig(task=task).feature_map()
-    grid = value.value_grid(task, features.low, features.high, size=20)
-    weights = np.random.default_rng(2).normal(size=(features.num_features, 3))
-    q = value.q_on_grid(grid, features, weights)
+    agents = agents_of(task)
+    features = agents.features
+    grid = value.value_grid(task, *agents.value_box(), size=20)
+    weights = np.random.default_rng(2).normal(size=(3, features.num_features))
+    q = value.values_on_grid(grid, agents, weights)[1]
     states = grid.states()
     for (i, j) in [(0, 0), (19, 0), (7, 13), (19, 19)]:
-        np.testing.assert_allclose(q[i, j], features.features(states[i, j]) @ weights)
+        np.testing.assert_allclose(q[i, j], weights @ features.features(states[i, j]))
         u, v = grid.to_pixels(states[i, j][None])[0]
         assert (int(u), int(v)) == (j, i)
     u_axis, v_axis = value.value_axes(task)
@@ -393,16 +398,19 @@ def test_value_grid_q_and_pixels(task):
 @pytest.mark.parametrize("kind", ["nrbf", "cmac"])
 def test_q_on_grid_equals_the_feature_maps(task, kind):
     """The NRBF's factorised evaluation (and the CMAC's state-by-state one) give the feature
-    map's own phi(s) . w over the grid, in and far beyond the ranges."""
-    features = RunConfig(task=task, features=kind).feature_map()
-    weights = np.random.default_rng(3).normal(size=(features.num_features, 2))
+    map's own phi(s) . w over the grid, in and far beyond the ranges; the state values are
+    their maximum."""
+    agents = agents_of(task, features=kind)
+    features = agents.features
+    weights = np.random.default_rng(3).normal(size=(2, features.num_features))
     low, high = np.array(task_defaults(task)["low"]), np.array(task_defaults(task)["high"])
     for scale in (1, 40):
         grid = value.value_grid(task, low * scale, high * scale, size=17)
-        expected = features.features(grid.states().reshape(-1, features.dim)) @ weights
-        np.testing.assert_allclose(value.q_on_grid(grid, features, weights).reshape(-1, 2),
-                                   expected, rtol=1e-12, atol=1e-12)
-    assert (value.centroid_states(features, grid) is None) == (kind == "cmac")
+        expected = features.features(grid.states().reshape(-1, features.dim)) @ weights.T
+        values, q = value.values_on_grid(grid, agents, weights)
+        np.testing.assert_allclose(q.reshape(-1, 2), expected, rtol=1e-12, atol=1e-12)
+        np.testing.assert_array_equal(values, q.max(axis=-1))
+    assert (value.plane_points(agents.feature_points(), grid) is None) == (kind == "cmac")
 
 
 def test_task_names_resolve_through_the_suite():
@@ -424,8 +432,8 @@ def test_an_episode_without_value_ranges_has_no_value_path(tmp_path):
 
 def test_cartpole_slice_goes_through_the_centre():
     """The cart-pole images slice (theta, theta_dot) at x = x_dot = 0."""
-    features = RunConfig(task="cartpole.balance").feature_map()
-    states = value.value_grid("cartpole.balance", features.low, features.high, size=8).states()
+    states = value.value_grid("cartpole.balance", *agents_of("cartpole.balance").value_box(),
+                              size=8).states()
     assert np.all(states[..., :2] == 0)
     assert states[..., 2].min() > -math.radians(12) and states[..., 2].max() < math.radians(12)
 
@@ -520,9 +528,9 @@ def test_headless_render_is_not_blank(tmp_path, capsys):
     viz.send_blueprint(rec, "pendulum.swingup")
     viz.log_task_scene(rec, "pendulum.swingup")
     recording = rollout("pendulum", "swingup", "mujoco", steps=60)
-    features = RunConfig(task="pendulum.swingup").feature_map()
-    viz.log_episode(rec, recording, value_ranges=(features.low, features.high))
-    viz.log_value_function(rec, "pendulum.swingup", features, recording.weights, episode=0)
+    agents = agents_of("pendulum.swingup")
+    viz.log_episode(rec, recording, value_ranges=agents.value_box())
+    viz.log_value_function(rec, "pendulum.swingup", agents, recording.weights, episode=0)
     viz.close_recording(rec)
     png = tmp_path / "shot.png"
     assert cli.main(["view", str(path), "--screenshot", str(png), "--window-size", "960x600"]) == 0
@@ -583,11 +591,11 @@ def test_a_recording_opens_on_its_last_logged_episode(tmp_path):
     from lwrl.runners.run import run
 
     config = RunConfig(task="mountain_car.cost_to_go", agents=1, episodes=12, seed=0)
-    _, results = run(config, record=[(0, 0), (0, 11)])
+    agent, results = run(config, record=[(0, 0), (0, 11)])
     first, last = results.recordings
     assert first.steps > 5 * last.steps
     path = tmp_path / "mountain_car.rrd"
-    send_run(config, results, rrd_path=path)
+    send_run(config, results, agent, rrd_path=path)
     definition = names.task_definition(config.task)
     with viz.headless_viewer() as viewer:
         viewer.open(str(path))

@@ -142,9 +142,9 @@ def test_web_viewer_shows_the_scene_and_the_plots_in_chromium(chromium, tmp_path
     from lwrl.runners.run import run
 
     config = RunConfig(task="mountain_car.cost_to_go", agents=1, episodes=3, seed=0)
-    _, results = run(config, record=[(0, 0), (0, 2)])
+    agent, results = run(config, record=[(0, 0), (0, 2)])
     path = tmp_path / "run.rrd"
-    send_run(config, results, rrd_path=path)
+    send_run(config, results, agent, rrd_path=path)
     hill = names.domain(config.task).drawing.fixed["hill"].color
     server = subprocess.Popen(
         [sys.executable, "-m", "lwrl.cli", "view", str(path), "--web", "--port", str(viz.free_port())],

@@ -6,7 +6,8 @@ learning curves, send the layout, and view or render a saved `.rrd`.
     viz.send_blueprint(rec, "cartpole.balance")
     viz.log_task_scene(rec, "cartpole.balance")                   # once: static geometry
     viz.log_episode(rec, recording)                               # an EpisodeRecording
-    viz.log_value_function(rec, "cartpole.balance", features, recording.weights, recording.episode)
+    viz.log_value_function(rec, "cartpole.balance", agents, recording.weights,   # Agents
+                           recording.episode)
     viz.log_learning_curves(rec, results, config.seeds)           # an EpisodeResults
     viz.close_recording(rec)                                      # finishes the .rrd
     viz.view("run.rrd")                                           # or web=True

@@ -2,13 +2,16 @@
 
 For a task's two plotted state variables (its domain's `value_axes`: e.g. position or angle
 across, velocity up; the other variables held at 0, e.g. the cart-pole's slice over pole
-angle and angular velocity at x = x_dot = 0), a `size x size` grid of cell-centre states over the feature map's
-normalisation ranges (the box its centroids span) is evaluated with the agent's features and weights (N, A): `value/max_q` is max_a Q as an
-RGB image (viridis, scaled to that image's own min..max, which the entity also carries as
+angle and angular velocity at x = x_dot = 0), a `size x size` grid of cell-centre states
+over the learner's value box (`Agents.value_box`: a feature map's normalisation ranges, the
+box its centroids span) is evaluated through the learner contract with one agent's weights:
+`value/max_q` is the state value (max_a Q for a learner of action values) as an RGB image
+(viridis, scaled to that image's own min..max, which the entity also carries as
 `max_q_min` / `max_q_max`), `value/greedy_action` the greedy action as a segmentation image
 (class a + 1 for action a, class 0 where actions tie, as with all-zero weights), and
-`value/centroids` the NRBF centroids projected on the plane, in the images' pixel
-coordinates (pixel (0, 0)'s top-left corner at the origin, u across, v down).
+`value/centroids` the learner's feature points (an NRBF's centroids) projected on the plane,
+in the images' pixel coordinates (pixel (0, 0)'s top-left corner at the origin, u across,
+v down).
 
 Images are logged on the `episode` timeline and also at step 0 / sim_time 0, so the `step`
 timeline shows the most recently logged one. `log_value_path` adds an episode's states over
@@ -20,7 +23,6 @@ import dataclasses
 import numpy as np
 import rerun as rr
 
-from lwrl.agent.nrbf import NRBF
 from lwrl.viz import names
 from lwrl.viz.columns import episode_indexes, log_static, one_row, send
 
@@ -32,9 +34,6 @@ def value_axes(task: str) -> tuple[int, int]:
     """The indices of the two state variables across (u) and up (v) a task's images."""
     state_names = names.task_definition(task).state_names
     return tuple(state_names.index(name) for name in names.domain(task).value_axes)
-
-BLOCK = 1024
-"""States evaluated at a time (bounds the features' memory: cart-pole has 1296)."""
 
 # Viridis, sampled at 0, 1/8, ..., 1.
 _VIRIDIS = np.array([(68, 1, 84), (71, 44, 122), (59, 81, 139), (44, 113, 142), (33, 144, 141),
@@ -72,6 +71,25 @@ class ValueGrid:
         grid[:, :, v] = ys[:, None]
         return grid
 
+    def axes_values(self) -> list:
+        """Per state variable, the values the grid's states take: the columns' (u) and the
+        rows' (v, high to low) on the plotted axes, the fixed value elsewhere."""
+        states = self.states()
+        u, v = self.axes
+        values = [self.fixed[j:j + 1] for j in range(len(self.fixed))]
+        values[u], values[v] = states[0, :, u], states[:, 0, v]
+        return values
+
+    def image(self, on_axes) -> np.ndarray:
+        """`(height, width, ...)` of values over `axes_values`' grid (shape `(n_0, ...,
+        n_{d-1}, ...)`, every axis but the plotted two of length 1)."""
+        on_axes = np.asarray(on_axes)
+        u, v = self.axes
+        dim = len(self.fixed)
+        squeezed = on_axes.reshape(tuple(on_axes.shape[j] for j in sorted((u, v)))
+                                   + on_axes.shape[dim:])
+        return squeezed if v < u else np.swapaxes(squeezed, 0, 1)
+
     def to_pixels(self, states) -> np.ndarray:
         """`(n, 2)` pixel coordinates (u, v) of states `(n, d)` (their two axes)."""
         states = np.asarray(states, dtype=np.float64)
@@ -92,54 +110,15 @@ def value_grid(task: str, low, high, size: int = GRID) -> ValueGrid:
                      np.zeros(len(low)))
 
 
-def nrbf_factors(features: NRBF, dim: int, values) -> np.ndarray:
-    """`(m, n)` the normalised per-dimension factors g_j / sum_k g_j[k] of an NRBF's features
-    for `m` values of state variable `dim` (agent.nrbf: the features are their outer product
-    over the dimensions), with the same guard against underflow."""
-    low, high = features.low[dim], features.high[dim]
-    centres = (np.arange(features.n) + 0.5) / features.n
-    distance = np.abs((np.asarray(values, dtype=np.float64)[:, None] - low) / (high - low) - centres)
-    nearest = distance.min(axis=1, keepdims=True)
-    g = np.exp(-(distance - nearest) * (distance + nearest) / features.r2)
-    return g / g.sum(axis=1, keepdims=True)
-
-
-def _q_nrbf(grid: ValueGrid, features: NRBF, weights) -> np.ndarray:
-    """Q over the grid from the NRBF's factorisation: the weights `(n,) * d + (A,)` are
-    contracted with the factors of the fixed variables, then of the two plotted ones, with no
-    `(cells, N)` feature matrix (cart-pole: 10 000 x 1296)."""
-    dim = features.dim
-    tensor = weights.reshape((features.n,) * dim + (weights.shape[1],))
-    u, v = grid.axes
-    states = grid.states()
-    letters = "ijklmnopqrstuvwxyz"[:dim]
-    operands, terms = [tensor], [letters + "a"]
-    for j in range(dim):
-        if j == u:
-            operands.append(nrbf_factors(features, j, states[0, :, j]))
-            terms.append("W" + letters[j])
-        elif j == v:
-            operands.append(nrbf_factors(features, j, states[:, 0, j]))
-            terms.append("H" + letters[j])
-        else:
-            operands.append(nrbf_factors(features, j, grid.fixed[j:j + 1])[0])
-            terms.append(letters[j])
-    return np.einsum(",".join(terms) + "->HWa", *operands, optimize=True)
-
-
-def q_on_grid(grid: ValueGrid, features, weights) -> np.ndarray:
-    """`(height, width, A)` Q(s, a) = phi(s) . w_a over the grid's states (an NRBF through its
-    factorisation, other feature maps state by state)."""
-    weights = np.asarray(weights, dtype=np.float64)
-    if weights.ndim != 2 or weights.shape[0] != features.num_features:
-        raise ValueError(f"weights must have shape ({features.num_features}, A); got {weights.shape}")
-    if isinstance(features, NRBF):
-        return _q_nrbf(grid, features, weights)
-    states = grid.states().reshape(-1, len(grid.low))
-    q = np.empty((len(states), weights.shape[1]))
-    for start in range(0, len(states), BLOCK):
-        q[start:start + BLOCK] = features.features(states[start:start + BLOCK]) @ weights
-    return q.reshape(grid.height, grid.width, -1)
+def values_on_grid(grid: ValueGrid, agents, weights) -> tuple:
+    """`(values (h, w), preferences (h, w, A))` of one agent's `weights` (its learner's
+    `arrays.weights[b]`) over the grid: the learner's state values and the action values
+    (or preferences) it acts greedily on, through the learner contract
+    (`Agents.state_values_on_grid`, `action_values_on_grid`). `agent.learner.NoValues`
+    where the learner has none."""
+    axes = grid.axes_values()
+    return (grid.image(agents.state_values_on_grid(axes, weights)),
+            grid.image(agents.action_values_on_grid(axes, weights)))
 
 
 def viridis(values, low: float, high: float) -> np.ndarray:
@@ -174,15 +153,12 @@ def greedy_annotations(controls) -> rr.AnnotationContext:
     return rr.AnnotationContext(classes)
 
 
-def centroid_states(features, grid: ValueGrid) -> np.ndarray | None:
-    """The NRBF centroids in task units, projected on the grid's plane (distinct points), or
-    None for feature maps without centroids."""
-    centroids = getattr(features, "centroids", None)
-    if centroids is None:
+def plane_points(points, grid: ValueGrid) -> np.ndarray | None:
+    """Feature points `(K, d)` (`Agents.feature_points`: e.g. an NRBF's centroids, in task
+    units) projected on the grid's plane (distinct points), or None where there are none."""
+    if points is None:
         return None
-    low, high = np.asarray(features.low), np.asarray(features.high)
-    states = low + np.asarray(centroids) * (high - low)
-    plane = np.unique(states[:, list(grid.axes)], axis=0)
+    plane = np.unique(np.asarray(points)[:, list(grid.axes)], axis=0)
     out = np.broadcast_to(grid.fixed, (len(plane), len(grid.fixed))).copy()
     out[:, list(grid.axes)] = plane
     return out
@@ -195,30 +171,32 @@ def _times(episode: int) -> list:
             rr.TimeColumn(names.SIM_TIME, duration=np.array([0.0]))]
 
 
-def log_value_function(rec: rr.RecordingStream, task: str, features, weights, episode: int, *,
+def log_value_function(rec: rr.RecordingStream, task: str, agents, weights, episode: int, *,
                        size: int = GRID) -> dict:
-    """Log max_a Q, the greedy action and the centroids of `features` (a `FeatureMap`) with
-    `weights` `(N, A)` over the task's grid on the features' ranges at `episode`. Returns
-    `{"max_q": (h, w) array, "greedy": (h, w) classes, "centroids": (n, 2) pixels or None}`."""
-    grid = value_grid(task, features.low, features.high, size)
-    q = q_on_grid(grid, features, weights)
-    max_q = q.max(axis=-1)
-    low, high = float(max_q.min()), float(max_q.max())
-    classes = greedy_classes(q)
+    """Log the state value, the greedy action and the feature points of one agent of
+    `agents` (any learner's `Agents`) with `weights` (its `arrays.weights[b]`, e.g. a
+    recording's) over the task's grid on the learner's value box, at `episode`. Returns
+    `{"max_q": (h, w) values, "greedy": (h, w) classes, "centroids": (n, 2) pixels or None}`;
+    a `NoValues` error where the learner has no values to show."""
+    low, high = agents.value_box()
+    grid = value_grid(task, low, high, size)
+    values, preferences = values_on_grid(grid, agents, weights)
+    low, high = float(values.min()), float(values.max())
+    classes = greedy_classes(preferences)
     controls = names.task_definition(task).controls
-    if len(controls) != q.shape[-1]:
-        raise ValueError(f"weights have {q.shape[-1]} actions; {task} has {len(controls)}")
+    if len(controls) != preferences.shape[-1]:
+        raise ValueError(f"weights have {preferences.shape[-1]} actions; {task} has {len(controls)}")
     times = _times(episode)
-    send(rec, names.MAX_Q, times, one_row(rr.Image(viridis(max_q, low, high)))
+    send(rec, names.MAX_Q, times, one_row(rr.Image(viridis(values, low, high)))
          + one_row(rr.AnyValues(max_q_min=low, max_q_max=high)))
     log_static(rec, names.GREEDY_ACTION, greedy_annotations(controls))
     send(rec, names.GREEDY_ACTION, times, one_row(rr.SegmentationImage(classes)))
-    centroids = centroid_states(features, grid)
+    points = plane_points(agents.feature_points(), grid)
     pixels = None
-    if centroids is not None:
-        pixels = grid.to_pixels(centroids)
+    if points is not None:
+        pixels = grid.to_pixels(points)
         log_static(rec, names.CENTROIDS, rr.Points2D(pixels, radii=0.6, colors=CENTROID_COLOR))
-    return {"max_q": max_q, "greedy": classes, "centroids": pixels}
+    return {"max_q": values, "greedy": classes, "centroids": pixels}
 
 
 def _split_wraps(pixels, grid: ValueGrid) -> list:

@@ -65,12 +65,16 @@ class ClosedLoop:
 
 
 def closed_loop(task: str, agents: int, episodes: int | None = None, seed: int = 0,
-                eval_episodes: int | None = None, progress=None) -> ClosedLoop:
-    """Train `agents` agents (seeds `seed`, `seed + 1`, ...) for `episodes` episodes (default:
-    the paper's) on every plant, then run each trained batch greedily for `eval_episodes`
-    episodes on every plant. `progress(episodes_done)` is called as episodes finish."""
+                eval_episodes: int | None = None, progress=None,
+                learner: str | None = None) -> ClosedLoop:
+    """Train `agents` agents of `learner` (default: the paper's; seeds `seed`, `seed + 1`,
+    ...) for `episodes` episodes (default: the paper's) on every plant, then run each trained
+    batch greedily for `eval_episodes` episodes on every plant. `progress(episodes_done)` is
+    called as episodes finish."""
     eval_episodes = eval_episodes_of(task) if eval_episodes is None else eval_episodes
-    configs = {plant: plant_config(task, plant, agents=agents, episodes=episodes, seed=seed)
+    chosen = {} if learner is None else {"learner": learner}
+    configs = {plant: plant_config(task, plant, agents=agents, episodes=episodes, seed=seed,
+                                   **chosen)
                for plant in PLANTS}
     trained, tables = {}, []
     for plant, config in configs.items():
@@ -78,12 +82,12 @@ def closed_loop(task: str, agents: int, episodes: int | None = None, seed: int =
         tables.append(results_table(config, results).assign(compared=plant))
     rows, replay = [], None
     for trained_on, agent in trained.items():
-        agent.hyper.epsilon[:] = 0.0
         for evaluated_on in PLANTS:
             config = plant_config(task, evaluated_on, agents=agents, episodes=eval_episodes,
-                                  seed=EVAL_SEED)
+                                  seed=EVAL_SEED, **chosen)
             record = [(0, 0)] if trained_on == evaluated_on == "mujoco" else ()
-            _, results = run(config, agent=agent, learn=False, progress=progress, record=record)
+            _, results = run(config, agent=agent, learn=False, greedy=True, progress=progress,
+                             record=record)
             if record:
                 replay = results.recordings[0]
             rows.append(pd.DataFrame(results.columns(config.seeds)).assign(
@@ -93,9 +97,10 @@ def closed_loop(task: str, agents: int, episodes: int | None = None, seed: int =
 
 
 def total_episodes(task: str, agents: int, episodes: int | None = None,
-                   eval_episodes: int | None = None) -> int:
+                   eval_episodes: int | None = None, learner: str | None = None) -> int:
     """The episodes `closed_loop` runs (for a progress bar)."""
-    config = RunConfig(task=task, agents=agents, episodes=episodes)
+    chosen = {} if learner is None else {"learner": learner}
+    config = RunConfig(task=task, agents=agents, episodes=episodes, **chosen)
     eval_episodes = eval_episodes_of(task) if eval_episodes is None else eval_episodes
     return len(PLANTS) * agents * (config.episodes + len(PLANTS) * eval_episodes)
 

@@ -96,10 +96,11 @@ def record(task: str, recording, rrd_path: str) -> dict:
 
 def compare(task: str, seeds: int = 10, episodes: int | None = None, out_dir: str = "compare",
             rrd_path: str | None = None, quick: bool = False, progress=None,
-            judge=None) -> Comparison:
+            judge=None, learner: str | None = None) -> Comparison:
     """Run the whole comparison of `task` with `seeds` trials and agents (seeds 0..seeds-1)
     and write its results under `out_dir`. `episodes` overrides the task's training
-    episodes; `quick` shortens everything to a smoke test; `progress(episodes_done)` follows
+    episodes, `learner` the paper's Sarsa(lambda) (`agent.LEARNERS`); `quick` shortens
+    everything to a smoke test; `progress(episodes_done)` follows
     the closed-loop part (`closed_loop.total_episodes` in all). `judge(table, figure_dir)
     -> (name, section)`, if given, holds each plant's training results to a claim (a
     section with `rows`, `verdict` and `rule`) and the report shows it per plant."""
@@ -113,7 +114,7 @@ def compare(task: str, seeds: int = 10, episodes: int | None = None, out_dir: st
     start = time.perf_counter()
     closed_result = cl.closed_loop(task, seeds, QUICK["episodes"] if quick else episodes,
                                    eval_episodes=QUICK["eval_episodes"] if quick else None,
-                                   progress=progress)
+                                   progress=progress, learner=learner)
     timings["closed loop and transfer"] = time.perf_counter() - start
     write_tables(open_result, closed_result, out_dir)
     transfer = compare_report.transfer_statistics(closed_result)

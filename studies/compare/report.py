@@ -198,8 +198,7 @@ def report(comparison, figures: dict, paper_sections: dict, out_dir: str) -> str
         "over the trials.",
         energy_table(open_result))
     lines += ["## Closed loop", ""] + _block(
-        f"{len(seeds)} agents per plant, {config.trace} traces, α {config.alpha:g}, "
-        f"λ {config.lam:g}, ε {config.epsilon:g}, NRBF {config.n}^d with r² {config.r2:g}, "
+        f"{len(seeds)} agents per plant of {config.learner}: {config.describe()}, "
         f"{config.episodes} episodes (the task's defaults, `tasks/{domain}.py`); "
         f"means ± standard errors over agents of each agent's mean {closed_result.measure[1]}.",
         learning_table(closed_result), figure("learning_curves"))

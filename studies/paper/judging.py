@@ -145,10 +145,14 @@ def at_cells(configs, cells: pd.DataFrame, agents: int) -> list:
     """The runs of `configs` in the chosen `cells`, each with `agents` fresh agents
     (`fresh_agents`)."""
     chosen = [row for _, row in cells.iterrows()]
-    return [fresh_agents(config, agents) for config in configs
-            if any(config.features == row["features"] and config.trace == row["trace"]
-                   and math.isclose(config.lam, row["lam"]) and math.isclose(config.alpha, row["alpha"])
-                   for row in chosen)]
+    settings = [(getattr(c.agent, "features", None), getattr(c.agent, "trace", None),
+                 getattr(c.agent, "lam", None), getattr(c.agent, "alpha", None)) for c in configs]
+    return [fresh_agents(config, agents) for config, (features, trace, lam, alpha)
+            in zip(configs, settings)
+            if features is not None and any(
+                features == row["features"] and trace == row["trace"]
+                and math.isclose(lam, row["lam"]) and math.isclose(alpha, row["alpha"])
+                for row in chosen)]
 
 
 def matrix(results: pd.DataFrame, value: str) -> np.ndarray:

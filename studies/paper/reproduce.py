@@ -21,6 +21,8 @@ import time
 from lwrl import outputs, tasks
 from lwrl.analysis.plots import plot_claims, save_figure
 from lwrl.runners import sweep
+from lwrl.runners.config import PLANT_OPTIONS, EnvironmentSettings
+from lwrl.settings import applies as applies_to
 from lwrl.studies.paper.items import ITEMS
 
 READINGS = [
@@ -59,41 +61,50 @@ def selected(items) -> list:
     return [name for name in ITEMS if name in names or "all" in names]
 
 
-NRBF_READINGS = ("r2", "centroids")
-"""Readings that only NRBF runs have (the CMAC baseline's runs keep theirs)."""
-PLANT_READINGS = ("equations",)
-"""Readings that only runs on the analytic plant of pendulum and cart-pole have."""
-CONFIG_READINGS = NRBF_READINGS + PLANT_READINGS + ("epsilon", "low", "high")
-"""RunConfig fields `readings` may set; any other name must be an option of a task."""
+def reading_fields(configs) -> dict:
+    """`{name: field}` of the settings a reading may set (metadata `reading`): the
+    environment's and those of the runs' learners."""
+    classes = [EnvironmentSettings] + [type(config.agent) for config in configs]
+    return {field.name: field for cls in classes for field in dataclasses.fields(cls)
+            if field.metadata.get("reading")}
 
 
 def with_readings(configs, readings: dict) -> list:
-    """The runs with `readings` (`{name: value}`) in place of the defaults: the fields in
-    `CONFIG_READINGS` and the options of the runs' tasks (e.g. the cart-pole's
-    `track_limit`), each applied to the runs that have it. A name no run has is an error."""
+    """The runs with `readings` (`{name: value}`) in place of the defaults: the settings
+    whose metadata marks them readings of SPEC.md's open points (`reading_fields`) and the
+    options of the runs' tasks (e.g. the cart-pole's `track_limit`), each applied to the
+    runs that have it: a learner's setting to its runs where it matters (`only_with`: an
+    NRBF's spread, not the CMAC baseline's), a plant's option where the run's plant has it.
+    A name no run has is an error."""
     used = set()
     configs = list(configs)
+    readable = reading_fields(configs)
     for index, config in enumerate(configs):
         options = tasks.task_options(config.domain, config.task_name)
+        agent_fields = {field.name: field for field in dataclasses.fields(config.agent)}
         fields, task_options = {}, dict(config.task_options)
         for name, value in readings.items():
-            applies = ((config.features == "nrbf" or name not in NRBF_READINGS)
-                       and (name in config.plant_options or name not in PLANT_READINGS))
-            if name in CONFIG_READINGS and applies:
+            if name in readable and name in PLANT_OPTIONS:
+                applies = name in config.plant_options
+            elif name in readable:
+                applies = name in agent_fields and applies_to(agent_fields[name], config.agent)
+            else:
+                applies = False
+            if applies:
                 fields[name] = value
-            elif name in options:
+            elif name in options and name not in readable:
                 task_options[name] = value
             else:
                 continue
             used.add(name)
         configs[index] = dataclasses.replace(config, **fields, task_options=task_options)
     unused = sorted(set(readings) - used)
-    if unused and unused[0] in PLANT_READINGS:
+    if unused and unused[0] in PLANT_OPTIONS:
         raise ValueError(f"no run of these items has the reading {unused[0]!r}: it applies to "
                          "the pendulum and cart-pole on the analytic plant (--plant analytic)")
     if unused:
         raise ValueError(f"no run of these items has the reading {unused[0]!r}; allowed: "
-                         f"{', '.join(CONFIG_READINGS)} and the tasks' options")
+                         f"{', '.join(readable)} and the tasks' options")
     return configs
 
 
@@ -106,7 +117,7 @@ def with_alphas(configs, alphas) -> list:
     result, seen = [], set()
     for config in configs:
         variants = ([dataclasses.replace(config, alpha=float(alpha)) for alpha in alphas]
-                    if config.features == "nrbf" else [config])
+                    if getattr(config.agent, "features", None) == "nrbf" else [config])
         for variant in variants:
             if variant.key_json() not in seen:
                 seen.add(variant.key_json())

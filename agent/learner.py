@@ -1,0 +1,260 @@
+"""The learner contract: what every learner of lwrl gives the rest of the house.
+
+A learner is one module, `agent/<learner>.py`, ending with `LEARNER = Learner(...)` and one
+line of `LEARNER_MODULES` (`agent/__init__.py`), as a domain is one module of `tasks/`
+ending with its `DOMAIN`. Nothing outside `agent/` names a learner: the runners, the
+recordings, the value images, the C export and the studies look everything up here.
+
+What a learner gives (`Learner`):
+
+- `settings`: a frozen dataclass of its settings (`lwrl.settings`): each field is a flag of
+  `lwrl train`, a column of the results tables and, unless its metadata says otherwise, part
+  of a run's key; fields marked `task_default` take the task's setting when left None;
+- `make(settings, task, seeds)`: a batch of B independent agents (`Agents`), agent b with
+  `settings[b]` and its own random stream from `seeds[b]`;
+- `step`: its per-agent step, numba-jitable, which the compiled loop binds as it binds a
+  domain's `transition` (`runners.compiled`):
+  `step(b, first, reward, discount, observation, learn, greedy, arrays) -> action`, where
+  `first` starts an episode (no update), `reward` and `discount` end the transition into
+  `observation` (discount 0: a terminal state, where no action is chosen), `learn=False`
+  makes no update and `greedy=True` acts greedily, both without touching the learner's
+  settings; `arrays` is the batch's `Agents.arrays`. None for a learner that runs only in
+  the stepped loop (its `Agents.step` does the work);
+- `fits(task)`: None, or one line saying why the learner does not fit a task (`TaskInfo`);
+- `load(document, arrays)`: agents from a file written by `agent.io.save`;
+- `memory(settings, task)`: the bytes one agent needs, before any is made.
+
+What a batch of agents gives (`Agents`): `step` over the batch (the stepped loop), `arrays`
+(a namedtuple whose fields `q` `(B, A)`, `delta` `(B,)`, `diverged` `(B,)` and `weights`
+`(B, ...)` the loops read for recordings: the action values or preferences at the latest
+observation, the latest TD error or NaN, the divergence flag, and what the learner has
+learned), action values and state values over states where the learner has them, its
+greedy controller as C where it has one, and what `agent.io` saves.
+"""
+
+import collections
+import dataclasses
+from typing import Callable
+
+import numpy as np
+
+from lwrl.agent.threads import run_in_chunks
+from lwrl.kernels import kernel
+from lwrl.settings import check_choices
+
+TaskInfo = collections.namedtuple("TaskInfo", "name state_names num_actions low high")
+"""What a learner may know of a task: its name (DOMAIN.TASK), the names of its state
+variables, its number of actions and the normalisation ranges of its run defaults
+(`TaskDefinition.defaults`)."""
+
+
+class NoValues(ValueError):
+    """A learner has no action values (or no state values) to show."""
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class LearnerSettings:
+    """Base of the learners' settings dataclasses."""
+
+    def __post_init__(self):
+        check_choices(self)
+
+    def check(self, task: TaskInfo) -> None:
+        """A one-line ValueError for the first setting out of its range on `task`, once the
+        task's defaults are in."""
+
+    def label(self) -> str:
+        """A few words for file and directory names (e.g. `nrbf-replacing-a3.9-l0.9`)."""
+        raise NotImplementedError
+
+    def describe(self, dim: int) -> str:
+        """One line for a run's header, for a task of `dim` state variables."""
+        raise NotImplementedError
+
+
+@dataclasses.dataclass(frozen=True)
+class Learner:
+    """Everything lwrl knows about a learner (see the module's docstring)."""
+
+    name: str
+    """Its name on the command line (`--learner NAME`) and in the registry."""
+    title: str
+    """What it is, in a few words."""
+    source: str
+    """The publication (or code) it follows."""
+    settings: type
+    """Its frozen settings dataclass (a `LearnerSettings`)."""
+    make: Callable
+    """`make(settings, task, seeds)`: B agents, `settings` one per agent (`TaskInfo` task)."""
+    load: Callable
+    """`load(document, arrays)`: agents from a saved file's document and arrays."""
+    memory: Callable
+    """`memory(settings, task)`: bytes one agent with `settings` needs on `task` (its
+    arrays), for the check that a batch fits the machine before it is made."""
+    step: Callable | None = None
+    """The numba-jitable per-agent step of the compiled loop; None: stepped loop only."""
+    fits: Callable = lambda task: None
+    """`fits(task)`: None, or one line saying why the learner does not fit the task."""
+
+    @property
+    def compiles(self) -> bool:
+        """True where the compiled loop can run this learner."""
+        return self.step is not None
+
+
+class Agents:
+    """A batch of B independent agents of one learner. Subclasses set `learner` and
+    `arrays` and implement `step`; the others have defaults a learner may override."""
+
+    learner: Learner
+    arrays: tuple
+    """A namedtuple of arrays with a leading axis B, with at least `q`, `delta`, `diverged`
+    and `weights` (see the module's docstring)."""
+    settings: tuple
+    """Each agent's settings."""
+    dim: int
+    """State variables of the observations it takes."""
+
+    @property
+    def batch_size(self) -> int:
+        return len(self.arrays.diverged)
+
+    @property
+    def num_actions(self) -> int:
+        return self.arrays.q.shape[1]
+
+    @property
+    def diverged(self) -> np.ndarray:
+        """`(B,)` True for agents whose learning went NaN or infinite (frozen since)."""
+        return self.arrays.diverged
+
+    def check_observation(self, observation) -> np.ndarray:
+        """`observation` as float64 `(B, d)`, or a one-line error."""
+        observation = np.ascontiguousarray(observation, dtype=np.float64)
+        if observation.shape != (self.batch_size, self.dim):
+            raise ValueError(f"observation must have shape ({self.batch_size}, {self.dim}); "
+                             f"got {observation.shape}")
+        return observation
+
+    def step(self, first, reward, discount, observation, active=None, learn=True,
+             greedy=False) -> np.ndarray:
+        """Feed each agent its time step (arrays with a leading axis B); return the actions.
+
+        `first`: the observation starts an episode; `reward`, `discount`: of the transition
+        into the observation (ignored where `first`); `observation` `(B, d)`. Agents where
+        `active` is False are left untouched (their action is 0). A compiled learner runs
+        its own jitted `step` over the batch, so both loops compute the same numbers."""
+        observation = self.check_observation(observation)
+        batch = self.batch_size
+        active = np.ones(batch, dtype=bool) if active is None else np.asarray(active, dtype=bool)
+        actions = np.zeros(batch, dtype=np.int64)
+        run_in_chunks(batch_step(self.learner), batch, np.asarray(first, dtype=bool),
+                      np.asarray(reward, dtype=np.float64),
+                      np.asarray(discount, dtype=np.float64), observation, active, bool(learn),
+                      bool(greedy), self.arrays, actions)
+        return actions
+
+    def action_values(self, states, weights=None) -> np.ndarray:
+        """`(B, ..., A)` every agent's action values (or the preferences it acts greedily on)
+        at states `(..., d)` in task units; with `weights` (one agent's `arrays.weights[b]`,
+        e.g. a recording's), `(..., A)` for those. `NoValues` where it has none."""
+        raise NoValues(f"{self.learner.name} has no action values")
+
+    def state_values(self, states, weights=None) -> np.ndarray:
+        """As `action_values`, the value of each state: max over the actions unless the
+        learner has a value of its own (a critic)."""
+        return self.action_values(states, weights).max(axis=-1)
+
+    def action_values_on_grid(self, axes, weights) -> np.ndarray:
+        """`(len(axes[0]), ..., len(axes[d-1]), A)` the action values of one agent's
+        `weights` over the grid of states whose variable j takes the values `axes[j]` (1-D
+        arrays). The default evaluates the states in blocks; a learner may factorise."""
+        return _on_grid(axes, lambda states: self.action_values(states, weights))
+
+    def state_values_on_grid(self, axes, weights) -> np.ndarray:
+        """As `action_values_on_grid`, the state values."""
+        return _on_grid(axes, lambda states: self.state_values(states, weights), actions=False)
+
+    def value_box(self) -> tuple:
+        """`(low, high)` per state variable: the box the learner's representation spans
+        (the value images' extent)."""
+        raise NotImplementedError
+
+    def feature_points(self) -> np.ndarray | None:
+        """`(K, d)` states (task units) where the learner's features are centred, for the
+        value images (an NRBF's centroids), or None."""
+        return None
+
+    def controller(self, b: int):
+        """Agent b's greedy controller as C (`export.c`): a `ControllerForm`, or a one-line
+        ValueError saying why there is none."""
+        raise ValueError(f"{self.learner.name} agents have no C controller")
+
+    def saved(self) -> tuple[dict, dict]:
+        """`(document, arrays)`: what `agent.io.save` writes (JSON and NumPy arrays); the
+        learner's `load` reads them back."""
+        raise NotImplementedError
+
+
+@dataclasses.dataclass(frozen=True)
+class ControllerForm:
+    """A greedy controller as the C export (`export.c`) writes it: a template pair of
+    `export/templates` (`{template}.c.in`, `{template}.h.in`, `string.Template`) and the
+    values its placeholders take, beside the ones every controller has (task, sizes,
+    source file), in the export's floating-point type."""
+
+    template: str
+    """Name of the template pair."""
+    values: dict
+    """`{placeholder: value}`: a 2-D array is written one brace block per row, a 1-D array
+    as comma-separated literals, a float as a literal, a str or int as it is. `weights`
+    (the learned parameters) is always there."""
+    stored: tuple
+    """The values the controller keeps in memory: its data bytes (the weights among them)."""
+    ranges: tuple
+    """`(low, high)` per state variable: the box the controller reads states in."""
+    check: Callable
+    """`check(real)`: None, or one line saying why the values do not fit the NumPy type
+    `real` (`np.float32`, `np.float64`)."""
+
+
+BLOCK = 1024
+"""States evaluated at a time on a grid (bounds the memory of a feature matrix)."""
+
+
+def _on_grid(axes, values, actions: bool = True) -> np.ndarray:
+    """`values(states)` over the grid of `axes`, in blocks of `BLOCK` states."""
+    axes = [np.asarray(axis, dtype=np.float64) for axis in axes]
+    shape = tuple(len(axis) for axis in axes)
+    states = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(axes))
+    parts = [values(states[start:start + BLOCK]) for start in range(0, len(states), BLOCK)]
+    joined = np.concatenate(parts, axis=0)
+    return joined.reshape(shape + joined.shape[1:]) if actions else joined.reshape(shape)
+
+
+def agent_step(b, first, reward, discount, observation, learn, greedy, arrays):
+    """A learner's per-agent step (`Learner.step`), bound by each learner's batch kernel
+    and by the compiled loop."""
+    raise NotImplementedError("each learner's kernels bind its own step")
+
+
+def _batch_step(start, stop, first, reward, discount, observation, active, learn, greedy,
+                arrays, actions):
+    """The learner's `step` for agents `start..stop-1` that are `active`."""
+    for b in range(start, stop):
+        if active[b]:
+            actions[b] = agent_step(b, first[b], reward[b], discount[b], observation[b], learn,
+                                    greedy, arrays)
+
+
+_BATCH_STEPS = {}
+
+
+def batch_step(learner: Learner):
+    """The compiled kernel that runs `learner.step` over a range of a batch."""
+    if learner.step is None:
+        raise ValueError(f"{learner.name} has no compiled step")
+    if learner.name not in _BATCH_STEPS:
+        _BATCH_STEPS[learner.name] = kernel(f"{learner.name}_batch_step", _batch_step,
+                                            {"agent_step": learner.step})
+    return _BATCH_STEPS[learner.name]
