@@ -9,7 +9,7 @@ share), `traces`, `policy`, `streams` and `threads`; `io` saves and loads agents
 
 import importlib
 
-LEARNER_MODULES = ("sarsa", "true_online_sarsa")
+LEARNER_MODULES = ("sarsa", "true_online_sarsa", "ase_ace")
 """The registry: the modules of `agent/` that each define one learner, the default first."""
 
 LEARNERS = {module.LEARNER.name: module.LEARNER for module in
