@@ -77,6 +77,15 @@ def test_quick_reproduction_writes_every_item(tmp_path):
             "steps", "return", "uptime_s", "diverged"} <= set(table.columns)
     assert set(table["features"]) == {"nrbf", "cmac"}
     assert "Readings of SPEC.md's open points" in text and "| fig8 |" in text
+    # Beside the paper's traces: true online Sarsa(lambda) on Fig. 6 and 8's grids, and the
+    # rival Table 1 quotes, run under the same protocol, each with its fresh agents.
+    assert set(pd.read_csv(tmp_path / "fig6" / "results.csv.gz")["trace"]) == {
+        "replacing", "accumulating", "dutch"}
+    assert "probability of improvement of dutch over replacing" in text
+    assert "ASE/ACE (Barto, Sutton and Anderson 1983, their constants): episode by which" in text
+    assert "| 80 (Barto et al., as Table 1 quotes them) |" in text
+    table1 = pd.read_csv(tmp_path / "table1" / "confirmation.csv.gz")
+    assert sorted(table1[table1["learner"] == "ase_ace"]["seed"].unique()) == [2, 3, 4]
 
 
 def test_unknown_item_and_backend():

@@ -1,5 +1,7 @@
 """Fig. 6 (pendulum) and Fig. 8 (cart-pole): the mean up-time against lambda at the best
-alpha, replacing against accumulating traces (sections 4.2 and 4.3)."""
+alpha, replacing against accumulating traces (sections 4.2 and 4.3), with the modern answer
+to the paper's question of which trace beside them: true online Sarsa(lambda)'s dutch trace
+(van Seijen et al. 2016; not in the paper), on the same grid, outside the verdict."""
 
 import numpy as np
 import pandas as pd
@@ -14,18 +16,33 @@ PENDULUM_ALPHAS = tuple(round(0.1 + 0.2 * i, 1) for i in range(15))
 """0.1 to 2.9 in steps of 0.2 (the paper's best, 1.5, in the middle)."""
 CARTPOLE_ALPHAS = tuple(round(0.1 + 0.2 * i, 1) for i in range(8))
 """0.1 to 1.5 in steps of 0.2 (the author's best, 0.5, inside)."""
+DUTCH = "dutch"
+"""True online Sarsa(lambda)'s trace, as its runs' `trace` column reads."""
+TRUE_ONLINE = {"learner": "true_online_sarsa"}
+DUTCH_NOTE = ("True online Sarsa(λ) with its dutch trace (van Seijen et al. 2016) is not in the "
+              "paper: it is the modern answer to the paper's question of which trace, run here "
+              "on the same grid of λ and α, its α chosen the same way; its rows stand beside "
+              "the paper's traces and the verdict judges those two only.")
+
+
+def with_dutch(task, plant, integrator, lambdas, alphas, agents, episodes):
+    """The paper's two traces over lambdas x alphas, and true online Sarsa(lambda) on the
+    same grid."""
+    return (grid(task, plant, integrator, TRACES, lambdas, alphas, agents, episodes)
+            + grid(task, plant, integrator, (DUTCH,), lambdas, alphas, agents, episodes,
+                   **TRUE_ONLINE))
 
 
 def fig6_configs(plant, quick, integrator):
     if quick:
-        return grid("pendulum.swingup", plant, integrator, TRACES, (0.4,), (1.5,), 2, 3)
-    return grid("pendulum.swingup", plant, integrator, TRACES, LAMBDAS, PENDULUM_ALPHAS, 10, 200)
+        return with_dutch("pendulum.swingup", plant, integrator, (0.4,), (1.5,), 2, 3)
+    return with_dutch("pendulum.swingup", plant, integrator, LAMBDAS, PENDULUM_ALPHAS, 10, 200)
 
 
 def fig8_configs(plant, quick, integrator):
     if quick:
-        return grid("cartpole.balance", plant, integrator, TRACES, (0.7,), (0.5,), 2, 5)
-    return grid("cartpole.balance", plant, integrator, TRACES, LAMBDAS, CARTPOLE_ALPHAS, 10, 200)
+        return with_dutch("cartpole.balance", plant, integrator, (0.7,), (0.5,), 2, 5)
+    return with_dutch("cartpole.balance", plant, integrator, LAMBDAS, CARTPOLE_ALPHAS, 10, 200)
 
 
 def _best_alpha_choice(results):
@@ -39,10 +56,11 @@ def confirm(configs, results, agents):
     return at_cells(configs, _best_alpha_choice(results).cells, agents)
 
 
-def _compare_traces(measured, cells, better, other, label, figure):
+def _compare_traces(measured, cells, better, other, label, figure, paper=None):
     """Per lambda, both traces' mean up-time at their chosen alpha on `measured` agents and
     the probability that `better` does better: rows, outcomes, the figure's points and the
-    evidence (`figure`: the paper's figure, naming the panel)."""
+    evidence (`figure`: the paper's figure, naming the panel; `paper`: the rows' paper
+    column, by default that `better` is slightly better)."""
     rows, outcomes, lines, evidence = [], [], [], []
     for lam in sorted(cells["lam"].unique()):
         parts, samples = [], {}
@@ -64,9 +82,20 @@ def _compare_traces(measured, cells, better, other, label, figure):
                                      (0.5, 1.0)))
             word = {1: f"{better} better", -1: f"{other} better", 0: "a tie not excluded"}
             parts.append(f"P({better} > {other}) {improvement.text(2)}: {word[outcomes[-1]]}")
-        rows.append((f"λ = {lam:g}: mean up-time at the best α; probability of improvement",
-                     "; ".join(parts), f"{better} slightly better"))
+        rows.append((f"λ = {lam:g}: mean up-time at the best α; probability of improvement"
+                     + ("" if paper is None else f" of {better} over {other}"),
+                     "; ".join(parts), f"{better} slightly better" if paper is None else paper))
     return rows, outcomes, lines, evidence
+
+
+def _dutch_beside(measured, cells, better, label, figure):
+    """Rows and the figure's points of true online Sarsa(lambda) against the paper's better
+    trace, per lambda (no evidence for the paper's claims); none without its runs."""
+    if DUTCH not in set(cells["trace"]):
+        return [], []
+    rows, _, lines, _ = _compare_traces(measured, cells, DUTCH, better, label, figure,
+                                        paper="not in the paper")
+    return rows, [line for line in lines if line["trace"] == DUTCH]
 
 
 def _trace_rule(outcomes, better, other):
@@ -88,9 +117,11 @@ def _uptime_against_lambda(results, figure_dir, name, title, better, sensitive, 
     choice = _best_alpha_choice(results)
     other = "accumulating" if better == "replacing" else "replacing"
     figure = title.split(":")[0]
+    label = "paper-sized run, second half"
     rows, outcomes, lines, evidence = _compare_traces(choice.measured, choice.cells, better,
-                                                      other, "paper-sized run, second half",
-                                                      figure)
+                                                      other, label, figure)
+    dutch_rows, dutch_lines = _dutch_beside(choice.measured, choice.cells, better, label, figure)
+    rows, lines = rows + dutch_rows, lines + dutch_lines
     verdict, rule = _trace_rule(outcomes, better, other)
     spreads = []
     for trace, cells in agents.groupby("trace"):
@@ -100,17 +131,20 @@ def _uptime_against_lambda(results, figure_dir, name, title, better, sensitive, 
     rows.append(("range of the mean up-time over α (largest − smallest mean of a cell), all λ, "
                  "every agent", "; ".join(spreads),
                  f"{sensitive} more sensitive to α" if sensitive else "similar sensitivity"))
-    notes = [SAME_AT_LAMBDA_0]
+    notes = [SAME_AT_LAMBDA_0] + ([DUTCH_NOTE] if dutch_rows else [])
     section = Section(rows, verdict, rule, notes, [], claim=claim, evidence=evidence,
                       measure="each agent's mean up-time over its 200 episodes, at the best α "
                               f"per trace and λ: {choice.how}; “better”: the probability that "
                               "an agent of one trace has the longer up-time than one of the "
                               "other, with its interval")
     if confirmation is not None:
+        confirmed_agents = per_agent(confirmation, "uptime_s")
         confirmed_rows, confirmed_outcomes, confirmed_lines, confirmed_evidence = _compare_traces(
-            per_agent(confirmation, "uptime_s"), choice.cells, better, other, "confirmation run",
-            figure)
-        lines += confirmed_lines
+            confirmed_agents, choice.cells, better, other, "confirmation run", figure)
+        confirmed_dutch, confirmed_dutch_lines = _dutch_beside(
+            confirmed_agents, choice.cells, better, "confirmation run", figure)
+        confirmed_rows += confirmed_dutch
+        lines += confirmed_lines + confirmed_dutch_lines
         merge_confirmation(section, (confirmed_rows, *_trace_rule(confirmed_outcomes, better, other),
                          confirmed_evidence), confirmation_text(confirmation))
     section.figures = save_figure(plot_against_lambda(pd.DataFrame(lines), "average up-time (s)",
