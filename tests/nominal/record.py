@@ -117,7 +117,7 @@ def _batched(domain: str, plant: str) -> dict:
     for _ in range(150):
         step = env.step(rng.integers(env.num_actions, size=env.batch_size))
         for name in ("observation", "reward", "discount", "step_type"):
-            records[name].append(getattr(step, name))
+            records[name].append(np.array(getattr(step, name)))  # a copy: it may be the state
         records["uptime"].append(env.uptime.copy())
     return {name: np.array(values) for name, values in records.items()}
 
