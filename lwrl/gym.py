@@ -35,8 +35,9 @@ entry points). Every `(domain, task, plant)` of the suite's dm_env environments
   NaN != NaN), `steps` (steps of the episode) and `plant`.
 - **Rendering**: none (`render_mode=None` only): the suite runs without an OpenGL display.
 - **make() kwargs**: the task's and plant's options (`time_limit`, `track_limit`,
-  `integrator`, `equations`) as in `tasks.load`; unknown ones raise a `ValueError` naming
-  the allowed.
+  `integrator`, `equations`, and `params={name: value}`, the physical parameters of
+  `Domain.parameters`) as in `tasks.load`; unknown ones raise a `ValueError` naming the
+  allowed.
   `seed` is not one (use `reset(seed=...)`), and kwargs cannot change the id's domain,
   task or plant.
 """

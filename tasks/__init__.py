@@ -4,6 +4,7 @@
     env = tasks.load("cartpole", "balance", plant="mujoco", seed=0)
     env = tasks.load("cartpole", "balance", task_kwargs={"random": 0},          # dm_control's
                      environment_kwargs={"flat_observation": True})            # spelling
+    env = tasks.load("cartpole", "balance", params={"pole_mass": 0.2})         # the physics
     ts = env.reset()
     ts = env.step(1)            # a discrete action index
 
@@ -12,7 +13,8 @@ and one line of `DOMAIN_MODULES` below. `DOMAINS[name]` is a domain's `Domain`;
 `ALL_TASKS` lists `(domain, task)` pairs; `PLANTS[domain]` the plants of a domain, the
 default first, and `ENVIRONMENT_PLANTS[domain]` those of a single environment.
 `definition(...)` gives a task's array functions and `tasks.batched` steps many copies of a
-task at once.
+task at once. Every task takes its domain's physical parameters as the option `params`
+(`Domain.parameters`, `tasks.parameters`).
 """
 
 import importlib
@@ -64,7 +66,7 @@ def split_name(name: str) -> tuple:
 
 
 def task_options(domain_name: str, task: str) -> list:
-    """The names of a task's options (e.g. `time_limit`, `track_limit`)."""
+    """The names of a task's options (e.g. `time_limit`, `track_limit`, `params`)."""
     tasks = domain(domain_name).tasks
     if task not in tasks:
         raise ValueError(f"unknown task {task!r} of domain {domain_name!r}; available: "
@@ -81,9 +83,9 @@ def plant_option_names(domain_name: str, plant: str) -> list:
 def resolve(domain_name: str, task: str, plant=None, **options):
     """Check a task, a plant and options; return `(definition, plant, plant_options)`.
 
-    Options are the task's (e.g. `time_limit`, `track_limit`) and, for the analytic plant
-    of the domains integrated with Euler's method, `integrator` and `equations`
-    (`tasks.plants.EQUATIONS`).
+    Options are the task's (e.g. `time_limit`, `track_limit`, `params`) and, for the
+    analytic plant of the domains integrated with Euler's method, `integrator` and
+    `equations` (`tasks.plants.EQUATIONS`).
     """
     task_option_names = task_options(domain_name, task)
     plants = domain(domain_name).plants.names
@@ -113,8 +115,9 @@ def load(domain_name: str, task: str, plant=None, seed=None, *, task_kwargs=None
          environment_kwargs=None, **options) -> control.Environment:
     """Return the dm_env environment of `domain.task` on `plant` (default: the domain's first).
 
-    `seed` seeds the task's random starts. As in dm_control's `suite.load`, `task_kwargs`
-    may hold the seed as `random` and the task's options, and `environment_kwargs` is
+    `seed` seeds the task's random starts. As in
+    dm_control's `suite.load`, `task_kwargs` may hold the seed as `random` and the task's
+    options (`params={name: value}`, the physical parameters), and `environment_kwargs` is
     passed to `control.Environment` (e.g. `flat_observation=True`). Unknown names or options
     raise a ValueError that names what is allowed.
     """
@@ -127,5 +130,6 @@ def load(domain_name: str, task: str, plant=None, seed=None, *, task_kwargs=None
     if twice:
         raise ValueError(f"option {twice[0]!r} given both in task_kwargs and as a keyword")
     task_definition, plant, plant_options = resolve(domain_name, task, plant, **task_kwargs, **options)
-    physics = domain(domain_name).plants.physics(plant, **plant_options)
+    physics = domain(domain_name).plants.physics(plant, **plant_options,
+                                                 physical=task_definition.physical)
     return control.Environment(physics, SuiteTask(task_definition, seed), **(environment_kwargs or {}))

@@ -6,7 +6,8 @@ own seed and random start stream, and resets itself on the step after its episod
 as a dm_env environment does when stepped after LAST. Given the same seeds and actions, B
 batched environments produce exactly the time steps of B single `tasks.load` environments.
 The task's reward, termination and up-time are the same `TaskDefinition` functions the
-single environments call.
+single environments call. Each environment may have physical parameter values of its own
+(`params={name: one value or B values}`), so that one batch spans a grid.
 """
 
 from typing import NamedTuple, Sequence
@@ -46,18 +47,32 @@ class BatchedTimeStep(NamedTuple):
 class BatchedEnv:
     """`len(seeds)` environments of `domain.task` on `plant`, stepped together.
 
-    Options are those of `tasks.load`. `uptime` and `steps` hold each environment's
-    current (or just finished) episode's up-time in seconds and step count.
+    Options are those of `tasks.load`, where `params` (the physical parameters) may give
+    one value per environment. `physical` `(B, P)`
+    holds each environment's parameter values and `controls` `(B, A)` its actions' controls;
+    `definition` is the task at the environments' values where they share them, else at
+    the paper's. `uptime` and `steps` hold each environment's current (or just finished)
+    episode's up-time in seconds and step count.
     """
 
-    def __init__(self, domain: str, task: str, plant=None, seeds: Sequence[int] = (0,), **options):
+    def __init__(self, domain: str, task: str, plant=None, seeds: Sequence[int] = (0,),
+                 params=None, **options):
         seeds = list(seeds)
         if not seeds:
             raise ValueError("seeds must name at least one environment")
-        self.definition, self.plant_name, plant_options = tasks.resolve(domain, task, plant, **options)
         self.batch_size = len(seeds)
-        self.plant = tasks.domain(domain).plants.batch(self.plant_name, self.batch_size, **plant_options)
-        self._controls = np.asarray(self.definition.controls)
+        self.physical = tasks.domain(domain).parameters.values(params, self.batch_size)
+        shared = bool(np.all(self.physical == self.physical[0]))
+        if shared and params:
+            options["params"] = dict(zip(tasks.domain(domain).parameters.names, self.physical[0]))
+        self.definition, self.plant_name, plant_options = tasks.resolve(domain, task, plant, **options)
+        self.plant = tasks.domain(domain).plants.batch(
+            self.plant_name, self.batch_size, **plant_options, physical=self.definition.physical)
+        self._rows = None if shared else self.physical
+        if not (shared or self.plant.takes_rows):
+            raise ValueError(f"the {self.plant_name} plant takes one set of parameter values for "
+                             f"the whole batch; give every environment the same params")
+        self.controls = self.definition.controls_at(self.physical)
         self.seeds = seeds
         self._rngs = [random_starts(seed) for seed in seeds]
         self.state = np.zeros((self.batch_size, len(self.definition.state_names)))
@@ -97,18 +112,20 @@ class BatchedEnv:
         self._start_episodes(starting)
         moving = ~starting
         definition = self.definition
-        moved = self.plant.step(self.state[moving], self._controls[actions[moving]])
+        controls = self.controls[np.flatnonzero(moving), actions[moving]]
+        physical = None if self._rows is None else self._rows[moving]
+        moved = self.plant.step(self.state[moving], controls, physical)
         self.state[moving] = moved
         reward = np.zeros(self.batch_size)
         terminal, last = np.zeros((2, self.batch_size), dtype=bool)
-        reward[moving], terminal[moving], up = definition.outcomes(moved)
+        reward[moving], terminal[moving], up = definition.outcomes(moved, physical)
         self.steps[moving], self.uptime[moving], last[moving] = advance_episode(
             self.steps[moving], self.uptime[moving], up, terminal[moving],
             definition.control_timestep, definition.step_limit)
         self._needs_reset = last
         step_type = np.where(starting, FIRST, np.where(last, LAST, MID)).astype(np.int8)
         return BatchedTimeStep(step_type, reward, np.where(terminal, 0.0, 1.0),
-                               definition.observe(self.state))
+                               self.definition.observe(self.state))
 
 
 def flatten_observation(observation) -> np.ndarray:

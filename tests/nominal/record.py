@@ -84,12 +84,12 @@ def _transition(domain: str, options: dict, states, controls) -> dict:
     transition = numba.njit(definition.transition)
     semi_implicit = options.get("integrator", "semi_implicit") == "semi_implicit"
     slips = options.get("equations", "paper") == "kfnnet"
-    params = np.array(definition.params, dtype=np.float64)
+    arguments = definition.loop_arguments()
     next_states, observations = np.empty_like(states), np.empty_like(states)
     outcome = np.empty((len(states), 3))
     for i, state in enumerate(states):
         outcome[i] = transition(state, controls[i, 0], next_states[i], observations[i],
-                                plants.timestep, semi_implicit, slips, params)
+                                plants.timestep, semi_implicit, slips, arguments)
     return {"next": next_states, "observation": observations, "outcome": outcome}
 
 
