@@ -91,6 +91,12 @@ class BatchedEnv:
         self.uptime[which] = self.definition.initial_uptime
         self._needs_reset[which] = False
 
+    def _observation(self) -> np.ndarray:
+        """The agents' observations of the states, an array of their own (a task that
+        observes its state as it is would otherwise hand out the state, which the next step
+        overwrites)."""
+        return np.array(self.definition.observe(self.state))
+
     def set_state(self, state: np.ndarray) -> None:
         """Overwrite the plants' states `(B, d)` (episodes go on from there)."""
         self.state[:] = check_finite_state(state, self.definition.state_names)
@@ -100,7 +106,7 @@ class BatchedEnv:
         self._start_episodes(np.ones(self.batch_size, dtype=bool))
         ones = np.ones(self.batch_size)
         return BatchedTimeStep(np.full(self.batch_size, FIRST, dtype=np.int8), 0 * ones, ones,
-                               self.definition.observe(self.state))
+                               self._observation())
 
     def step(self, actions) -> BatchedTimeStep:
         """Apply one action index per environment; environments whose episode ended reset."""
@@ -125,7 +131,7 @@ class BatchedEnv:
         self._needs_reset = last
         step_type = np.where(starting, FIRST, np.where(last, LAST, MID)).astype(np.int8)
         return BatchedTimeStep(step_type, reward, np.where(terminal, 0.0, 1.0),
-                               self.definition.observe(self.state))
+                               self._observation())
 
 
 def flatten_observation(observation) -> np.ndarray:
