@@ -30,11 +30,12 @@ Task `swingup`:
   theta2_dot in [-9 pi, 9 pi]. The angles are not wrapped in the state (like MuJoCo's
   hinges).
 - **Parameters** (`PARAMETERS`; the task option `params={name: value}`, the others at the
-  book's values): `link_mass_1` m1 and `link_mass_2` m2 (kg) 1, in [0.1, 10];
-  `link_length_1` l1 and `link_length_2` l2 (m) 1, in [0.1, 10]; `link_com_1` lc1 and
-  `link_com_2` lc2 (m) 0.5, in [0.05, 10]; `link_inertia_1` I1 and `link_inertia_2` I2
-  (kg m^2) 1, in [0.01, 100]; `gravity` g (m/s^2) 9.8, in [0, 30]; `torque` tau_max (N m)
-  1, in [0.1, 10]. The goal line stays one link (l1) above the shoulder. The MuJoCo plant
+  book's values): `link_mass_1` m1 (kg) 1, in [0.1, 10]; `link_mass_2` m2 (kg) 1, in
+  [0.1, 10]; `link_length_1` l1 (m) 1, in [0.1, 10]; `link_length_2` l2 (m) 1, in
+  [0.1, 10]; `link_com_1` lc1 (m) 0.5, in [0.05, 10]; `link_com_2` lc2 (m) 0.5, in
+  [0.05, 10]; `link_inertia_1` I1 (kg m^2) 1, in [0.01, 100]; `link_inertia_2` I2 (kg m^2)
+  1, in [0.01, 100]; `gravity` g (m/s^2) 9.8, in [0, 30]; `torque` tau_max (N m) 1, in
+  [0.1, 10]. The goal line stays one link (l1) above the shoulder. The MuJoCo plant
   takes them into its model through `mujoco.MjSpec`, recompiled (`edit_model`): a length
   moves the elbow, the centres of mass, the drawn links, the tip and the goal line, so the
   model is compiled anew rather than patched field by field; the torque is the motor's

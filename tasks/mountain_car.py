@@ -13,9 +13,10 @@ Task `cost_to_go`:
 - **Dynamics** (one step): v' = clip(v + 0.001 a - 0.0025 cos(3x), -0.07, 0.07);
   x' = max(x + v', -1.2), and v' = 0 when the left wall clipped x'.
 - **Parameters** (`PARAMETERS`; the task option `params={name: value}`, the others at the
-  paper's values): `thrust` (position/step^2) 0.001, in [0.0001, 0.01], the velocity
-  change per step and unit of thrust; `gravity` g (position/step^2) 0.0025, in [0, 0.01],
-  the slope's pull, times cos(3x). There is no MuJoCo model to set them in.
+  paper's values): `thrust` k (position/step^2) 0.001, in [0.0001, 0.01], the velocity
+  change per step and unit of thrust a (v' = v + k a - g cos(3x)); `gravity` g
+  (position/step^2) 0.0025, in [0, 0.01], the slope's pull. There is no MuJoCo model to set
+  them in.
 - **Reward**: -1 every step, 0 on the step that reaches the goal (cost to go).
 - **Start**: x ~ U[-1.2, 0.5], v ~ U[-0.07, 0.07] (random, unlike Gymnasium's
   MountainCar-v0).

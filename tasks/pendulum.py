@@ -67,6 +67,9 @@ SHAPING_ANGLE = np.pi / 5
 """Within this |theta| the reward also penalises the speed."""
 UP_ANGLE = np.pi / 2
 """Within this |theta| the pendulum counts as up."""
+POINT_INERTIA = 1e-12
+"""The MJCF point mass's own inertia about its centre, relative to m l^2 (MuJoCo needs a
+positive one): 1e-12 kg m^2 at the paper's m = l = 1."""
 
 
 @register_jitable
@@ -177,12 +180,14 @@ class _Accessors:
 
 def edit_model(spec, p) -> None:
     """`models/pendulum.xml`'s spec at the parameter values `p`: the point mass m at l from
-    the hinge (with the rod and the bob drawn to it); gravity; the hinge's damping mu; the
-    motor's control range +-tau_max."""
+    the hinge (with the rod and the bob drawn to it), whose own inertia MuJoCo needs
+    positive: `POINT_INERTIA` m l^2, which changes m l^2 by the same factor 1 + 1e-12 at any
+    values; gravity; the hinge's damping mu; the motor's control range +-tau_max."""
     spec.option.gravity = [0.0, 0.0, -p[P.gravity]]
-    body, length = spec.body("pendulum"), p[P.length]
-    body.mass = p[P.mass]
+    body, mass, length = spec.body("pendulum"), p[P.mass], p[P.length]
+    body.mass = mass
     body.ipos = [0.0, 0.0, length]
+    body.inertia = [POINT_INERTIA * mass * length * length] * 3
     spec.geom("rod").fromto = [0.0, 0.0, 0.0, 0.0, 0.0, length]
     spec.geom("bob").pos = [0.0, 0.0, length]
     spec.joint("hinge").damping[0] = p[P.friction]

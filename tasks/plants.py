@@ -113,7 +113,7 @@ class MujocoPlant:
         physics_state[:, 1 + nq:] = state[:, 1::2]
         controls = np.zeros((len(state), self.substeps, self.model.nu))
         controls[:, :, self._actuator] = np.asarray(control)[:, None]
-        after, _ = self._rollout.rollout(self.model, self._datas, physics_state, controls,
+        after, _ = self._rollout.rollout(model, self._datas, physics_state, controls,
                                          nstep=self.substeps)
         next_state = np.empty_like(state)
         next_state[:, 0::2] = after[:, -1, 1:1 + nq]
