@@ -7,7 +7,8 @@ as a dm_env environment does when stepped after LAST. Given the same seeds and a
 batched environments produce exactly the time steps of B single `tasks.load` environments.
 The task's reward, termination and up-time are the same `TaskDefinition` functions the
 single environments call. Each environment may have physical parameter values of its own
-(`params={name: one value or B values}`), so that one batch spans a grid.
+(`params={name: one value or B values}`), so that one batch spans a grid, and sensor and
+actuator options of its own (`tasks.disturbances`).
 """
 
 from typing import NamedTuple, Sequence
@@ -18,6 +19,7 @@ import numpy as np
 from lwrl import tasks
 from lwrl.tasks.definition import (advance_episode, check_actions, check_finite_state,
                                    random_starts)
+from lwrl.tasks.disturbances import Disturbances
 
 FIRST, MID, LAST = (int(t) for t in (dm_env.StepType.FIRST, dm_env.StepType.MID, dm_env.StepType.LAST))
 
@@ -47,8 +49,8 @@ class BatchedTimeStep(NamedTuple):
 class BatchedEnv:
     """`len(seeds)` environments of `domain.task` on `plant`, stepped together.
 
-    Options are those of `tasks.load`, where `params` (the physical parameters) may give
-    one value per environment. `physical` `(B, P)`
+    Options are those of `tasks.load`, where `params` (the physical parameters) and the
+    sensor and actuator options may give one value per environment. `physical` `(B, P)`
     holds each environment's parameter values and `controls` `(B, A)` its actions' controls;
     `definition` is the task at the environments' values where they share them, else at
     the paper's. `uptime` and `steps` hold each environment's current (or just finished)
@@ -65,7 +67,8 @@ class BatchedEnv:
         shared = bool(np.all(self.physical == self.physical[0]))
         if shared and params:
             options["params"] = dict(zip(tasks.domain(domain).parameters.names, self.physical[0]))
-        self.definition, self.plant_name, plant_options = tasks.resolve(domain, task, plant, **options)
+        self.definition, self.plant_name, plant_options, sensing = tasks.resolve_environment(
+            domain, task, plant, **options)
         self.plant = tasks.domain(domain).plants.batch(
             self.plant_name, self.batch_size, **plant_options, physical=self.definition.physical)
         self._rows = None if shared else self.physical
@@ -73,6 +76,9 @@ class BatchedEnv:
             raise ValueError(f"the {self.plant_name} plant takes one set of parameter values for "
                              f"the whole batch; give every environment the same params")
         self.controls = self.definition.controls_at(self.physical)
+        self.disturbances = Disturbances(self.definition.state_names, self.controls,
+                                         self.batch_size, **sensing)
+        self.disturbances.seed(seeds)
         self.seeds = seeds
         self._rngs = [random_starts(seed) for seed in seeds]
         self.state = np.zeros((self.batch_size, len(self.definition.state_names)))
@@ -90,12 +96,14 @@ class BatchedEnv:
         self.steps[which] = 0
         self.uptime[which] = self.definition.initial_uptime
         self._needs_reset[which] = False
+        self.disturbances.start(which)
 
     def _observation(self) -> np.ndarray:
-        """The agents' observations of the states, an array of their own (a task that
-        observes its state as it is would otherwise hand out the state, which the next step
-        overwrites)."""
-        return np.array(self.definition.observe(self.state))
+        """What the agents observe of the states, through their sensors: an array of its own
+        (a task that observes its state as it is would otherwise hand out the state, which
+        the next step overwrites)."""
+        return self.disturbances.observe(self.definition.observe(self.state),
+                                         np.arange(self.batch_size), self.steps)
 
     def set_state(self, state: np.ndarray) -> None:
         """Overwrite the plants' states `(B, d)` (episodes go on from there)."""
@@ -118,7 +126,9 @@ class BatchedEnv:
         self._start_episodes(starting)
         moving = ~starting
         definition = self.definition
-        controls = self.controls[np.flatnonzero(moving), actions[moving]]
+        rows = np.flatnonzero(moving)
+        controls = self.disturbances.actuate(self.controls[rows, actions[moving]], rows,
+                                             self.steps[moving])
         physical = None if self._rows is None else self._rows[moving]
         moved = self.plant.step(self.state[moving], controls, physical)
         self.state[moving] = moved
