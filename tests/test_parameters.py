@@ -9,6 +9,7 @@ run paths give one set of numbers.
 """
 
 import inspect
+import pathlib
 import math
 
 import mujoco
@@ -169,8 +170,8 @@ def trajectories(plant, starts, controls, rows) -> np.ndarray:
 
 
 @pytest.mark.parametrize("domain, steps, bound", [
-    # Measured: 7.1e-15 (cart-pole, 50 steps), 1.8e-11 and 1.6e-10 (pendulum, 50 and 200),
-    # 6.2e-15 and 4.5e-14 (acrobot, 50 and 200); the nominal bounds of test_plant_check.
+    # Measured: 1.8e-14 (cart-pole, 50 steps), 1.6e-11 and 6.0e-11 (pendulum, 50 and 200),
+    # 1.2e-14 and 7.8e-14 (acrobot, 50 and 200); the nominal bounds of test_plant_check.
     ("cartpole", 50, 1e-13), ("pendulum", 50, 5e-11), ("pendulum", 200, 5e-10),
     ("acrobot", 50, 1e-13), ("acrobot", 200, 1e-12),
 ])
@@ -187,7 +188,7 @@ def test_the_plants_agree_away_from_the_papers_values(domain, steps, bound):
 
 def test_the_cartpole_plants_fail_together_away_from_the_papers_values():
     """Random-action episodes to failure at values of their own: both plants fail on the same
-    step and agree until then. Measured: at most 3.2e-15, episodes of 11 to 68 steps."""
+    step and agree until then. Measured: at most 1.8e-15, episodes of 5 to 54 steps."""
     starts, controls, rows = off_nominal_trials("cartpole", 200)
     plants = tasks.domain("cartpole").plants
     definition = tasks.definition("cartpole", "balance")
@@ -371,3 +372,12 @@ def test_bad_parameter_values_are_one_line_naming_what_is_allowed(data, domain, 
         assert message.startswith(name) and f"[{parameter.low:g}, {parameter.high:g}]" in message
     else:
         assert message.startswith("params must be a mapping")
+
+
+def test_the_readme_has_each_domains_parameters():
+    """The README's tables are `lwrl tasks --parameters`'s (run it and paste them when a
+    declaration changes)."""
+    from lwrl.cli.tasks import parameter_tables
+
+    readme = (pathlib.Path(__file__).resolve().parents[1] / "README.md").read_text()
+    assert parameter_tables() in readme
