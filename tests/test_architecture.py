@@ -121,8 +121,12 @@ def domain_mentions(path: pathlib.Path) -> list:
     return found
 
 
-@pytest.mark.parametrize("path", [p for p in package_files()
-                                  if not str(p.relative_to(ROOT)).startswith(("tasks/", *NAMING_DOMAINS_ALLOWED))],
+def files_outside(*prefixes) -> list:
+    """The package's files but those under `prefixes` (e.g. `tasks/`)."""
+    return [path for path in package_files() if not str(path.relative_to(ROOT)).startswith(prefixes)]
+
+
+@pytest.mark.parametrize("path", files_outside("tasks/", *NAMING_DOMAINS_ALLOWED),
                          ids=lambda p: str(p.relative_to(ROOT)))
 def test_no_room_but_tasks_names_a_domain(path):
     """Everything about a domain lives in `tasks/<domain>.py` and `models/<domain>.xml`;
@@ -154,8 +158,7 @@ def parameter_mentions(path: pathlib.Path) -> list:
             and id(node) not in prose and node.value in names]
 
 
-@pytest.mark.parametrize("path", [p for p in package_files() if not str(p.relative_to(ROOT)).startswith("tasks/")],
-                         ids=lambda p: str(p.relative_to(ROOT)))
+@pytest.mark.parametrize("path", files_outside("tasks/"), ids=lambda p: str(p.relative_to(ROOT)))
 def test_no_room_but_tasks_names_a_parameter(path):
     """A domain's physical parameters are named in its module alone (`PARAMETERS`); other
     rooms read `Domain.parameters`, so adding a parameter touches no other room."""

@@ -13,7 +13,6 @@ import pathlib
 import math
 
 import mujoco
-import numba
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -24,9 +23,10 @@ from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent, run_batched, run_compiled, run_dm_env
 from lwrl.studies.compare.open_loop import random_trials
 from lwrl.tasks.batched import BatchedEnv
-from lwrl.tasks.engine import close_workspace, engine_plant, open_workspace, step_state
+from lwrl.tasks.engine import engine_plant
 from lwrl.tasks.plants import MujocoPlant
 from conftest import off_nominal
+from test_engine import step_states
 
 MODEL_DOMAINS = [name for name, domain in tasks.DOMAINS.items() if domain.model]
 SEEDS = range(20)
@@ -202,14 +202,6 @@ def test_the_cartpole_plants_fail_together_away_from_the_papers_values():
         assert np.abs(runs[0][i, :end] - runs[1][i, :end]).max() < 1e-12
 
 
-@numba.njit
-def engine_steps(plant, states, controls, out):
-    workspace = open_workspace(plant)
-    for i in range(states.shape[0]):
-        step_state(plant, workspace, states[i], controls[i], out[i])
-    close_workspace(plant, workspace)
-
-
 @pytest.mark.parametrize("domain", MODEL_DOMAINS)
 def test_the_compiled_loops_engine_steps_the_model_at_the_values(domain):
     """The compiled loop's MuJoCo step (`tasks.engine`) of the model at other values is
@@ -221,7 +213,7 @@ def test_the_compiled_loops_engine_steps_the_model_at_the_values(domain):
     controls = rng.uniform(-0.5, 0.5, size=16)
     ours = np.empty_like(states)
     model = plants.mujoco_model(values)
-    engine_steps(engine_plant(model, plants.mujoco_physics.ACTUATOR, plants.substeps), states,
+    step_states(engine_plant(model, plants.mujoco_physics.ACTUATOR, plants.substeps), states,
                  controls, ours)
     rollout = MujocoPlant(model, plants.mujoco_physics.ACTUATOR, 16, plants.substeps)
     np.testing.assert_array_equal(ours, rollout.step(states, controls))
