@@ -72,7 +72,9 @@ class MujocoPlant:
     One agent step is `substeps` calls of `mj_step` with the control held (default 1: the
     model's timestep is the control step; more, with a smaller timestep, for a fine
     reference). The full physics state is time, qpos and qvel: the models have no
-    activations and no contacts, so nothing else carries over between steps.
+    activations and no contacts, so nothing else carries over between steps. With
+    `model_at(values)`, the model at other parameter values, `step` takes parameter values
+    per state (`takes_rows`) and steps each state in its own model.
     """
 
     _STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
@@ -82,7 +84,6 @@ class MujocoPlant:
         self.model = model
         self._model_at = model_at
         self.takes_rows = model_at is not None
-        """`step` takes parameter values per state (with `model_at`, the model of each)."""
         self.substeps = int(substeps)
         self._limit = limit
         self.timestep = float(model.opt.timestep) * self.substeps

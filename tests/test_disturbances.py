@@ -3,6 +3,7 @@ action noise, the same on every plant and path, seeded per environment, and noth
 with the options at their defaults."""
 
 import math
+import warnings
 
 import numba
 import numpy as np
@@ -156,7 +157,10 @@ def test_gymnasium_takes_the_options_and_reset_seeds_them():
     import lwrl.gym  # noqa: F401
     options = every_option("cartpole")
     env = gymnasium.make("lwrl/cartpole-balance-mujoco-v0", **options)
-    check_env(env.unwrapped, skip_render_check=True)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(env.unwrapped, skip_render_check=True)
+    assert all("infinity" in str(warning.message) for warning in caught)  # the unbounded Box
     assert env.observation_space.high[0] == np.inf and env.observation_space.high[2] < np.inf
     actions = np.random.default_rng(4).integers(2, size=40)
     observation, _ = env.reset(seed=11)
