@@ -1,8 +1,9 @@
 """Numbers of every plant and run path at the nominal physics, recorded once as a fixture.
 
-`python tests/nominal/record.py` computes them and writes `tests/nominal/reference.npz`;
-`tests/test_nominal.py` computes them again and asserts that every array is the same, bit for
-bit. The fixture was written by the code before the physical constants became parameters
+`python tests/nominal/record.py` computes them and writes `tests/nominal/reference.npz`
+with the platform they were computed on (`platform_of`); `tests/test_nominal.py` computes
+them again and asserts that every array is the same, bit for bit, where the platform is the
+same (elsewhere the libraries may round otherwise: record them there from the same code). The fixture was written by the code before the physical constants became parameters
 (issue 23): with the parameters at their nominal values, every plant, every run path and
 every learning result stays what it was.
 
@@ -20,8 +21,10 @@ What is recorded, per domain (random states and controls from fixed seeds):
 
 import itertools
 import pathlib
+import platform
 import sys
 
+import mujoco
 import numba
 import numpy as np
 
@@ -165,8 +168,20 @@ def compute() -> dict:
     return arrays
 
 
+def platform_of() -> str:
+    """What the numbers depend on besides the code: the machine and its C library, the
+    versions of Python, NumPy, numba and MuJoCo, and the CPU features NumPy dispatches on
+    (its SIMD functions round some results otherwise than the C library)."""
+    from numpy._core import _multiarray_umath
+
+    features = sorted(name for name, on in _multiarray_umath.__cpu_features__.items() if on)
+    return (f"{platform.machine()} {'-'.join(platform.libc_ver())} python {platform.python_version()} "
+            f"numpy {np.__version__} numba {numba.__version__} mujoco {mujoco.__version__} "
+            f"cpu {','.join(features)}")
+
+
 def main() -> None:
-    arrays = compute()
+    arrays = {**compute(), "platform": np.array(platform_of())}
     np.savez_compressed(FIXTURE, **arrays)
     print(f"wrote {len(arrays)} arrays to {FIXTURE}", file=sys.stderr)
 
