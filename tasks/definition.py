@@ -11,6 +11,7 @@ States are arrays of shape `(..., d)` in the order of `state_names`.
 """
 
 import dataclasses
+import functools
 import math
 from typing import Callable
 
@@ -103,7 +104,7 @@ class TaskDefinition:
     def name(self) -> str:
         return f"{self.domain}.{self.task}"
 
-    @property
+    @functools.cached_property
     def controls(self) -> tuple:
         """Force, torque or thrust of each discrete action at the definition's parameter
         values, ascending: action i applies `controls[i]`."""
