@@ -372,4 +372,4 @@ def test_the_readme_has_each_domains_parameters():
     from lwrl.cli.tasks import parameter_tables
 
     readme = (pathlib.Path(__file__).resolve().parents[1] / "README.md").read_text()
-    assert parameter_tables() in readme
+    assert parameter_tables() in readme, "put `lwrl tasks --parameters`'s output in the README"
