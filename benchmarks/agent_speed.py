@@ -45,20 +45,23 @@ BATCH = 300
 """Agents in the sweep-sized batch."""
 QUICK_SECONDS = 0.1
 """Time budget per measurement with `--quick`."""
+MOUNTAIN_CAR, CARTPOLE = np.asarray(mountain_car.NOMINAL), np.asarray(cartpole.NOMINAL)
+"""The paper's physical parameter values of the benchmarked tasks."""
 
 
 def mountain_car_plant(state, thrust):
     """(next state, reward, terminal) through `tasks.mountain_car`'s own functions."""
-    next_state = mountain_car.step(*state, thrust)
-    reward, terminal, _ = mountain_car.outcome(*next_state)
+    next_state = mountain_car.step(*state, thrust, MOUNTAIN_CAR)
+    reward, terminal, _ = mountain_car.outcome(*next_state, MOUNTAIN_CAR)
     return next_state, reward, terminal
 
 
 def cartpole_plant(state, force):
     """(next state, reward, terminal) through `tasks.cartpole`'s own functions."""
     next_state = cartpole.step(*state, force, dt=cartpole.TIMESTEP, semi_implicit=True,
-                               slips=False)
-    reward, terminal, _ = cartpole.outcome(*next_state, track_limit=cartpole.TRACK_LIMIT)
+                               slips=False, p=CARTPOLE)
+    reward, terminal, _ = cartpole.outcome(*next_state, track_limit=cartpole.TRACK_LIMIT,
+                                           p=CARTPOLE)
     return next_state, reward, terminal
 
 

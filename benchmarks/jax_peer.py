@@ -106,10 +106,10 @@ CHECK_AGENTS, CHECK_EPISODES = 30, 40
 # --- The tasks, in JAX -----------------------------------------------------------------------
 
 def mountain_car_step(state, thrust):
-    """`tasks.mountain_car.step` on one state `(2,)`."""
+    """`tasks.mountain_car.step` on one state `(2,)` at the paper's values."""
     position, velocity = state[0], state[1]
-    velocity = jnp.clip(velocity + mountain_car.THRUST_GAIN * thrust
-                        - mountain_car.GRAVITY * jnp.cos(3.0 * position),
+    velocity = jnp.clip(velocity + mountain_car.NOMINAL.thrust * thrust
+                        - mountain_car.NOMINAL.gravity * jnp.cos(3.0 * position),
                         -mountain_car.MAX_SPEED, mountain_car.MAX_SPEED)
     unclipped = position + velocity
     position = jnp.maximum(unclipped, mountain_car.MIN_POSITION)
@@ -132,19 +132,19 @@ def mountain_car_start(uniforms):
 
 def cartpole_step(state, force):
     """`tasks.cartpole.step` on one state `(4,)` with semi-implicit Euler, the paper's
-    equations (no slips)."""
+    equations (no slips) at the paper's values (`cartpole.NOMINAL`)."""
+    paper = cartpole.NOMINAL
+    total_mass, pole_mass_length = paper.cart_mass + paper.pole_mass, paper.pole_mass * paper.half_length
     x, x_dot, theta, theta_dot = state[0], state[1], state[2], state[3]
     sin_theta, cos_theta = jnp.sin(theta), jnp.cos(theta)
-    friction = cartpole.CART_FRICTION * jnp.sign(x_dot)
-    spin = cartpole.POLE_MASS_LENGTH * theta_dot * theta_dot * sin_theta
+    friction = paper.cart_friction * jnp.sign(x_dot)
+    spin = pole_mass_length * theta_dot * theta_dot * sin_theta
     theta_acc = (
-        cartpole.GRAVITY * sin_theta
-        + cos_theta * (-force - spin + friction) / cartpole.TOTAL_MASS
-        - cartpole.POLE_FRICTION * theta_dot / cartpole.POLE_MASS_LENGTH
-    ) / (cartpole.HALF_LENGTH * (4.0 / 3.0 - cartpole.POLE_MASS * cos_theta * cos_theta
-                                 / cartpole.TOTAL_MASS))
-    x_acc = (force + spin - cartpole.POLE_MASS_LENGTH * theta_acc * cos_theta
-             - friction) / cartpole.TOTAL_MASS
+        paper.gravity * sin_theta
+        + cos_theta * (-force - spin + friction) / total_mass
+        - paper.pole_friction * theta_dot / pole_mass_length
+    ) / (paper.half_length * (4.0 / 3.0 - paper.pole_mass * cos_theta * cos_theta / total_mass))
+    x_acc = (force + spin - pole_mass_length * theta_acc * cos_theta - friction) / total_mass
     dt = cartpole.TIMESTEP
     x_dot = x_dot + dt * x_acc
     theta_dot = theta_dot + dt * theta_acc

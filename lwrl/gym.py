@@ -35,8 +35,11 @@ entry points). Every `(domain, task, plant)` of the suite's dm_env environments
   NaN != NaN), `steps` (steps of the episode) and `plant`.
 - **Rendering**: none (`render_mode=None` only): the suite runs without an OpenGL display.
 - **make() kwargs**: the task's and plant's options (`time_limit`, `track_limit`,
-  `integrator`, `equations`) as in `tasks.load`; unknown ones raise a `ValueError` naming
-  the allowed.
+  `integrator`, `equations`, and `params={name: value}`, the physical parameters of
+  `Domain.parameters`) and the sensor and actuator options (`observation_noise`,
+  `action_delay`, `action_noise`; `tasks.disturbances`, whose noise `reset(seed=s)` seeds
+  as `tasks.load(seed=s)` does) as in `tasks.load`; unknown ones raise a `ValueError`
+  naming the allowed. A variable with observation noise is unbounded in the Box.
   `seed` is not one (use `reset(seed=...)`), and kwargs cannot change the id's domain,
   task or plant.
 """
@@ -79,7 +82,8 @@ def observation_bounds(definition) -> tuple:
 def _options(domain: str, task: str, plant: str) -> list:
     """The make() kwargs that `domain.task` on `plant` takes (those `tasks.resolve` allows,
     less `plant` and `seed`, which the id and `reset` set)."""
-    return tasks.task_options(domain, task) + tasks.plant_option_names(domain, plant)
+    return (tasks.task_options(domain, task) + tasks.plant_option_names(domain, plant)
+            + list(tasks.disturbances.OPTIONS))
 
 
 class SuiteEnv(gymnasium.Env):
@@ -104,7 +108,7 @@ class SuiteEnv(gymnasium.Env):
             hint = "; seed the environment with reset(seed=...)" if "seed" in unknown else ""
             raise ValueError(f"unknown option {unknown[0]!r} for {domain}.{task} on the {plant} "
                              f"plant; allowed: {', '.join(allowed) or 'none'}{hint}")
-        definition, plant, _ = tasks.resolve(domain, task, plant, **options)  # checks the values
+        definition, plant, _, _ = tasks.resolve_environment(domain, task, plant, **options)  # checks
         self.domain, self.task_name, self.plant = domain, task, plant
         self.options = dict(options)
         self.dm_env = tasks.load(domain, task, plant=plant, **options)
@@ -114,6 +118,8 @@ class SuiteEnv(gymnasium.Env):
         self.render_mode = None
         self.action_space = spaces.Discrete(definition.num_actions)
         low, high = observation_bounds(definition)
+        noisy = self.suite_task.disturbances.sigma_observation[0] > 0
+        low[noisy], high[noisy] = -np.inf, np.inf
         self.observation_space = spaces.Box(low, high, dtype=np.float64)
         self._spec = None
         self._episode_over = True
@@ -157,6 +163,8 @@ class SuiteEnv(gymnasium.Env):
         if unknown:
             raise ValueError(f"unknown reset option {unknown[0]!r}; allowed: state")
         self.suite_task.random = self.np_random
+        if seed is not None:
+            self.suite_task.seed_disturbances(seed)
         observation = self._observation(self.dm_env.reset().observation)
         if "state" in options:
             observation = self._start_in(options["state"])

@@ -155,13 +155,13 @@ def compiles(domain: str, plant: str) -> bool:
     return plant in PLANT_STEPS and plant in tasks.domain(domain).plants.names
 
 
-def plant_of(domain: str, plant: str, integrator: str, equations: str):
+def plant_of(domain: str, plant: str, integrator: str, equations: str, physical=None):
     """What the loop's `plant_transition` takes: (dt, semi_implicit, slips) for the analytic
     plant, the `tasks.engine.EnginePlant` of the domain's model for MuJoCo."""
     plants = tasks.domain(domain).plants
     if plant == "analytic":
         return (plants.timestep, check_integrator(integrator), check_equations(equations))
-    return engine_plant(plants.model, plants.mujoco_physics.ACTUATOR, plants.substeps)
+    return engine_plant(plants.mujoco_model(physical), plants.mujoco_physics.ACTUATOR, plants.substeps)
 
 
 def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
@@ -177,7 +177,7 @@ def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
     plant_options = {name: value for name, value in (("integrator", integrator), ("equations", equations))
                      if name in tasks.plant_option_names(domain, plant)}
     definition, _, _ = tasks.resolve(domain, task, plant, **options, **plant_options)
-    stepped = plant_of(domain, plant, integrator, equations)
+    stepped = plant_of(domain, plant, integrator, equations, definition.physical)
     seeds = list(seeds)
     if len(seeds) != agent.batch_size:
         raise ValueError(f"{len(seeds)} seeds for a batch of {agent.batch_size} agents")
@@ -198,7 +198,7 @@ def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
             run_in_chunks(
                 loop, batch, first, count, starts, definition.observe(starts),
                 np.asarray(definition.controls, dtype=np.float64), definition.control_timestep,
-                stepped, np.asarray(definition.params, dtype=np.float64), int(step_limit), bool(learn),
+                stepped, definition.loop_arguments(), int(step_limit), bool(learn),
                 bool(greedy), agent.arrays, steps, results.returns, results.uptime,
                 results.truncated, results.diverged_episode, done, tape, cancel, min_chunk=1,
                 chunks_per_worker=8, cancel=cancel)

@@ -4,6 +4,8 @@
     env = tasks.load("cartpole", "balance", plant="mujoco", seed=0)
     env = tasks.load("cartpole", "balance", task_kwargs={"random": 0},          # dm_control's
                      environment_kwargs={"flat_observation": True})            # spelling
+    env = tasks.load("cartpole", "balance", params={"pole_mass": 0.2},         # the physics,
+                     observation_noise={"pole_angle": 0.01}, action_delay=1)   # the sensors
     ts = env.reset()
     ts = env.step(1)            # a discrete action index
 
@@ -12,7 +14,9 @@ and one line of `DOMAIN_MODULES` below. `DOMAINS[name]` is a domain's `Domain`;
 `ALL_TASKS` lists `(domain, task)` pairs; `PLANTS[domain]` the plants of a domain, the
 default first, and `ENVIRONMENT_PLANTS[domain]` those of a single environment.
 `definition(...)` gives a task's array functions and `tasks.batched` steps many copies of a
-task at once.
+task at once. Every task takes its domain's physical parameters as the option `params`
+(`Domain.parameters`, `tasks.parameters`); an environment also takes the sensor and
+actuator options of `tasks.disturbances`.
 """
 
 import importlib
@@ -28,6 +32,7 @@ if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
 
 from dm_control.rl import control  # noqa: E402
 
+from lwrl.tasks import disturbances  # noqa: E402
 from lwrl.tasks.base import SuiteTask  # noqa: E402
 from lwrl.tasks.definition import TaskDefinition  # noqa: E402
 from lwrl.tasks.domain import Domain  # noqa: E402
@@ -64,7 +69,7 @@ def split_name(name: str) -> tuple:
 
 
 def task_options(domain_name: str, task: str) -> list:
-    """The names of a task's options (e.g. `time_limit`, `track_limit`)."""
+    """The names of a task's options (e.g. `time_limit`, `track_limit`, `params`)."""
     tasks = domain(domain_name).tasks
     if task not in tasks:
         raise ValueError(f"unknown task {task!r} of domain {domain_name!r}; available: "
@@ -81,19 +86,32 @@ def plant_option_names(domain_name: str, plant: str) -> list:
 def resolve(domain_name: str, task: str, plant=None, **options):
     """Check a task, a plant and options; return `(definition, plant, plant_options)`.
 
-    Options are the task's (e.g. `time_limit`, `track_limit`) and, for the analytic plant
-    of the domains integrated with Euler's method, `integrator` and `equations`
-    (`tasks.plants.EQUATIONS`).
+    Options are the task's (e.g. `time_limit`, `track_limit`, `params`) and, for the
+    analytic plant of the domains integrated with Euler's method, `integrator` and
+    `equations` (`tasks.plants.EQUATIONS`).
     """
+    return _resolve(domain_name, task, plant, (), options)[:3]
+
+
+def resolve_environment(domain_name: str, task: str, plant=None, **options):
+    """`resolve` for an environment, which also takes the sensor and actuator options
+    (`tasks.disturbances.OPTIONS`): `(definition, plant, plant_options, disturbance
+    options)`."""
+    return _resolve(domain_name, task, plant, disturbances.OPTIONS, options)
+
+
+def _resolve(domain_name: str, task: str, plant, environment_options: tuple, options: dict):
     task_option_names = task_options(domain_name, task)
     plants = domain(domain_name).plants.names
     plant = plants[0] if plant is None else plant
     if plant not in plants:
         raise ValueError(f"unknown plant {plant!r} for {domain_name}; available: {', '.join(plants)}")
     plant_options = plant_option_names(domain_name, plant)
-    unknown = sorted(set(options) - set(task_option_names) - set(plant_options))
+    unknown = sorted(set(options) - set(task_option_names) - set(plant_options)
+                     - set(environment_options))
     if unknown:
-        allowed = ", ".join(["plant", "seed"] + task_option_names + plant_options)
+        allowed = ", ".join(["plant", "seed"] + task_option_names + plant_options
+                            + list(environment_options))
         raise ValueError(f"unknown option {unknown[0]!r} for {domain_name}.{task} on the {plant} "
                          f"plant; allowed: {allowed}")
     if "time_limit" in options and not (isinstance(options["time_limit"], (int, float))
@@ -101,7 +119,8 @@ def resolve(domain_name: str, task: str, plant=None, **options):
         raise ValueError(f"time_limit must be a positive number; got {options['time_limit']!r}")
     definition = domain(domain_name).tasks[task](
         **{k: v for k, v in options.items() if k in task_option_names})
-    return definition, plant, {k: v for k, v in options.items() if k in plant_options}
+    return (definition, plant, {k: v for k, v in options.items() if k in plant_options},
+            {k: v for k, v in options.items() if k in environment_options})
 
 
 def definition(domain_name: str, task: str, **options) -> TaskDefinition:
@@ -113,10 +132,12 @@ def load(domain_name: str, task: str, plant=None, seed=None, *, task_kwargs=None
          environment_kwargs=None, **options) -> control.Environment:
     """Return the dm_env environment of `domain.task` on `plant` (default: the domain's first).
 
-    `seed` seeds the task's random starts. As in dm_control's `suite.load`, `task_kwargs`
-    may hold the seed as `random` and the task's options, and `environment_kwargs` is
-    passed to `control.Environment` (e.g. `flat_observation=True`). Unknown names or options
-    raise a ValueError that names what is allowed.
+    `seed` seeds the task's random starts (and the sensors' and actuator's noise). As in
+    dm_control's `suite.load`, `task_kwargs` may hold the seed as `random` and the task's
+    options (`params={name: value}`, the physical parameters), and `environment_kwargs` is
+    passed to `control.Environment` (e.g. `flat_observation=True`). The sensor and actuator
+    options (`tasks.disturbances`) go in `task_kwargs` or as keywords, like the task's.
+    Unknown names or options raise a ValueError that names what is allowed.
     """
     task_kwargs = dict(task_kwargs or {})
     if "random" in task_kwargs:
@@ -126,6 +147,10 @@ def load(domain_name: str, task: str, plant=None, seed=None, *, task_kwargs=None
     twice = sorted(set(task_kwargs) & set(options))
     if twice:
         raise ValueError(f"option {twice[0]!r} given both in task_kwargs and as a keyword")
-    task_definition, plant, plant_options = resolve(domain_name, task, plant, **task_kwargs, **options)
-    physics = domain(domain_name).plants.physics(plant, **plant_options)
-    return control.Environment(physics, SuiteTask(task_definition, seed), **(environment_kwargs or {}))
+    task_definition, plant, plant_options, sensing = resolve_environment(
+        domain_name, task, plant, **task_kwargs, **options)
+    physics = domain(domain_name).plants.physics(plant, **plant_options,
+                                                 physical=task_definition.physical)
+    task_object = SuiteTask(task_definition, seed, disturbances.Disturbances(
+        task_definition.state_names, task_definition.controls, **sensing))
+    return control.Environment(physics, task_object, **(environment_kwargs or {}))

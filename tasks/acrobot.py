@@ -9,7 +9,7 @@ and `analytic` (the book's equations with Euler's method).
 Task `swingup`:
 
 - **Actions** (`DiscreteArray`, 3 values): index 0, 1, 2 apply the elbow torque
-  tau = -1, 0, +1 N m.
+  tau = -tau_max, 0, +tau_max, tau_max = 1 N m.
 - **Observations** (float64 scalars): `shoulder_angle` theta1 in rad, wrapped to
   [-pi, pi], 0 hanging straight down; `shoulder_angular_velocity` theta1_dot in rad/s,
   within [-4 pi, 4 pi]; `elbow_angle` theta2 in rad, link 2 relative to link 1, wrapped to
@@ -29,6 +29,17 @@ Task `swingup`:
   after the four (not after each) the velocities are clipped to theta1_dot in [-4 pi, 4 pi],
   theta2_dot in [-9 pi, 9 pi]. The angles are not wrapped in the state (like MuJoCo's
   hinges).
+- **Parameters** (`PARAMETERS`; the task option `params={name: value}`, the others at the
+  book's values): `link_mass_1` m1 (kg) 1, in [0.1, 10]; `link_mass_2` m2 (kg) 1, in
+  [0.1, 10]; `link_length_1` l1 (m) 1, in [0.1, 10]; `link_length_2` l2 (m) 1, in
+  [0.1, 10]; `link_com_1` lc1 (m) 0.5, in [0.05, 10]; `link_com_2` lc2 (m) 0.5, in
+  [0.05, 10]; `link_inertia_1` I1 (kg m^2) 1, in [0.01, 100]; `link_inertia_2` I2 (kg m^2)
+  1, in [0.01, 100]; `gravity` g (m/s^2) 9.8, in [0, 30]; `torque` tau_max (N m) 1, in
+  [0.1, 10]. The goal line stays one link (l1) above the shoulder. The MuJoCo plant
+  takes them into its model through `mujoco.MjSpec`, recompiled (`edit_model`): a length
+  moves the elbow, the centres of mass, the drawn links, the tip and the goal line, so the
+  model is compiled anew rather than patched field by field; the torque is the motor's
+  control range.
 - **Reward**: -1 every step, 0 on the step that reaches the goal (cost to go).
 - **Start**: all four variables 0, at rest hanging down (deterministic).
 - **Episode end**: terminal (discount 0) when the tip is more than one link above the
@@ -58,31 +69,32 @@ from numba.extending import register_jitable
 from lwrl.tasks.definition import RunDefaults, TaskDefinition, step_limit, wrap_angle
 from lwrl.tasks.domain import Domain, PlantComparison
 from lwrl.tasks.integrators import euler_pair
+from lwrl.tasks.parameters import Parameter, Parameters
 from lwrl.tasks.physics import physics_classes
 from lwrl.tasks.plants import DomainPlants
 
 STATE_NAMES = ("shoulder_angle", "shoulder_angular_velocity", "elbow_angle",
                "elbow_angular_velocity")
-TORQUES = (-1.0, 0.0, 1.0)
-"""tau (N m) at the elbow of each action."""
-LINK_MASS_1 = 1.0
-"""m1 (kg)."""
-LINK_MASS_2 = 1.0
-"""m2 (kg)."""
-LINK_LENGTH_1 = 1.0
-"""l1 (m)."""
-LINK_LENGTH_2 = 1.0
-"""l2 (m)."""
-LINK_COM_1 = 0.5
-"""lc1 (m): shoulder to link 1's centre of mass."""
-LINK_COM_2 = 0.5
-"""lc2 (m): elbow to link 2's centre of mass."""
-LINK_INERTIA_1 = 1.0
-"""I1 (kg m^2): link 1's moment of inertia about its centre of mass."""
-LINK_INERTIA_2 = 1.0
-"""I2 (kg m^2)."""
-GRAVITY = 9.8
-"""g (m/s^2), the book's."""
+PARAMETERS = Parameters(
+    Parameter("link_mass_1", "m1", "kg", 1.0, 0.1, 10.0, "link 1's mass"),
+    Parameter("link_mass_2", "m2", "kg", 1.0, 0.1, 10.0, "link 2's mass"),
+    Parameter("link_length_1", "l1", "m", 1.0, 0.1, 10.0, "link 1's length, shoulder to elbow"),
+    Parameter("link_length_2", "l2", "m", 1.0, 0.1, 10.0, "link 2's length, elbow to tip"),
+    Parameter("link_com_1", "lc1", "m", 0.5, 0.05, 10.0, "shoulder to link 1's centre of mass"),
+    Parameter("link_com_2", "lc2", "m", 0.5, 0.05, 10.0, "elbow to link 2's centre of mass"),
+    Parameter("link_inertia_1", "I1", "kg m^2", 1.0, 0.01, 100.0,
+              "link 1's moment of inertia about its centre of mass"),
+    Parameter("link_inertia_2", "I2", "kg m^2", 1.0, 0.01, 100.0,
+              "link 2's moment of inertia about its centre of mass"),
+    Parameter("gravity", "g", "m/s^2", 9.8, 0.0, 30.0, "gravity's acceleration (the book's)"),
+    Parameter("torque", "tau_max", "N m", 1.0, 0.1, 10.0,
+              "the elbow torque of the pushing actions, -tau_max or +tau_max"),
+)
+"""The book's physical constants (Sutton and Barto 1998, section 11.3) as parameters."""
+P = PARAMETERS.index
+"""Where each parameter sits in a parameter vector `p`: `p[P.link_mass_1]`."""
+NOMINAL = PARAMETERS.nominal
+"""The book's values: `NOMINAL.link_com_1` is 0.5 m."""
 SUBSTEPS = 4
 """Euler steps per agent step."""
 SUBSTEP = 0.05
@@ -98,29 +110,35 @@ TIME_LIMIT = 2000.0
 
 
 @register_jitable
-def mass_matrix(elbow_angle):
-    """(d1, d2, d22): the mass matrix [[d1, d2], [d2, d22]] of the book's equations, with
-    d22 = m2 lc2^2 + I2."""
+def mass_matrix(elbow_angle, p):
+    """(d1, d2, d22): the mass matrix [[d1, d2], [d2, d22]] of the book's equations at the
+    parameter values `p` (`PARAMETERS`), with d22 = m2 lc2^2 + I2."""
+    link_mass_1, link_mass_2 = p[P.link_mass_1], p[P.link_mass_2]
+    length_1, com_1, com_2 = p[P.link_length_1], p[P.link_com_1], p[P.link_com_2]
+    inertia_2 = p[P.link_inertia_2]
     cos_elbow = np.cos(elbow_angle)
-    d1 = (LINK_MASS_1 * LINK_COM_1 ** 2
-          + LINK_MASS_2 * (LINK_LENGTH_1 ** 2 + LINK_COM_2 ** 2
-                           + 2.0 * LINK_LENGTH_1 * LINK_COM_2 * cos_elbow)
-          + LINK_INERTIA_1 + LINK_INERTIA_2)
-    d2 = LINK_MASS_2 * (LINK_COM_2 ** 2 + LINK_LENGTH_1 * LINK_COM_2 * cos_elbow) + LINK_INERTIA_2
-    return d1, d2, LINK_MASS_2 * LINK_COM_2 ** 2 + LINK_INERTIA_2
+    d1 = (link_mass_1 * (com_1 * com_1)
+          + link_mass_2 * (length_1 * length_1 + com_2 * com_2
+                           + 2.0 * length_1 * com_2 * cos_elbow)
+          + p[P.link_inertia_1] + inertia_2)
+    d2 = link_mass_2 * (com_2 * com_2 + length_1 * com_2 * cos_elbow) + inertia_2
+    return d1, d2, link_mass_2 * (com_2 * com_2) + inertia_2
 
 
 @register_jitable
 def accelerations(shoulder_angle, shoulder_angular_velocity, elbow_angle,
-                  elbow_angular_velocity, torque):
-    """(theta1_dd, theta2_dd) of the book's equations (Sutton and Barto 1998, section 11.3)."""
-    d1, d2, d22 = mass_matrix(elbow_angle)
+                  elbow_angular_velocity, torque, p):
+    """(theta1_dd, theta2_dd) of the book's equations (Sutton and Barto 1998, section 11.3)
+    at the parameter values `p`."""
+    d1, d2, d22 = mass_matrix(elbow_angle, p)
+    link_mass_2, length_1, com_2 = p[P.link_mass_2], p[P.link_length_1], p[P.link_com_2]
+    gravity = p[P.gravity]
     sin_elbow = np.sin(elbow_angle)
-    coupling = LINK_MASS_2 * LINK_LENGTH_1 * LINK_COM_2
-    phi2 = LINK_MASS_2 * LINK_COM_2 * GRAVITY * np.cos(shoulder_angle + elbow_angle - np.pi / 2)
+    coupling = link_mass_2 * length_1 * com_2
+    phi2 = link_mass_2 * com_2 * gravity * np.cos(shoulder_angle + elbow_angle - np.pi / 2)
     phi1 = (-coupling * elbow_angular_velocity ** 2 * sin_elbow
             - 2.0 * coupling * elbow_angular_velocity * shoulder_angular_velocity * sin_elbow
-            + (LINK_MASS_1 * LINK_COM_1 + LINK_MASS_2 * LINK_LENGTH_1) * GRAVITY
+            + (p[P.link_mass_1] * p[P.link_com_1] + link_mass_2 * length_1) * gravity
             * np.cos(shoulder_angle - np.pi / 2)
             + phi2)
     elbow_acceleration = (torque + d2 / d1 * phi1
@@ -132,10 +150,11 @@ def accelerations(shoulder_angle, shoulder_angular_velocity, elbow_angle,
 
 @register_jitable
 def euler_step(shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_velocity,
-               torque, dt, semi_implicit):
-    """One Euler step of dt (one MuJoCo step of the model when `semi_implicit`)."""
+               torque, dt, semi_implicit, p):
+    """One Euler step of dt (one MuJoCo step of the model when `semi_implicit`) at the
+    parameter values `p`."""
     shoulder_acceleration, elbow_acceleration = accelerations(
-        shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_velocity, torque)
+        shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_velocity, torque, p)
     return euler_pair(shoulder_angle, shoulder_angular_velocity, elbow_angle,
                       elbow_angular_velocity, shoulder_acceleration, elbow_acceleration, dt,
                       semi_implicit)
@@ -160,53 +179,63 @@ def limit_state(state):
 
 @register_jitable
 def step(shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_velocity,
-         torque, dt, semi_implicit, slips):
-    """One agent step of `dt` (0.2 s): four Euler steps of dt / 4, the torque held, then the
-    velocity limit. The angles are not wrapped (like MuJoCo's hinges). `slips` is ignored:
-    the author's code has no acrobot, so there is no reading of its slips."""
+         torque, dt, semi_implicit, slips, p):
+    """One agent step of `dt` (0.2 s) at the parameter values `p`: four Euler steps of
+    dt / 4, the torque held, then the velocity limit. The angles are not wrapped (like
+    MuJoCo's hinges). `slips` is ignored: the author's code has no acrobot, so there is no
+    reading of its slips."""
     state = (shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_velocity)
     for _ in range(SUBSTEPS):
         state = euler_step(state[0], state[1], state[2], state[3], torque, dt / SUBSTEPS,
-                           semi_implicit)
+                           semi_implicit, p)
     return limit(state[0], state[1], state[2], state[3])
 
 
+def controls(p):
+    """tau of each action at the parameter values `p`: -tau_max, 0, +tau_max."""
+    return -p[P.torque], 0.0, p[P.torque]
+
+
+TORQUES = tuple(float(torque) for torque in controls(np.asarray(NOMINAL)))
+"""tau (N m) at the elbow of each action at the book's values: -1, 0, +1."""
+
+
 @register_jitable
-def tip_height(shoulder_angle, elbow_angle):
+def tip_height(shoulder_angle, elbow_angle, p):
     """Height of the tip above the shoulder (m): -l1 cos theta1 - l2 cos(theta1 + theta2)."""
-    return (-LINK_LENGTH_1 * np.cos(shoulder_angle)
-            - LINK_LENGTH_2 * np.cos(shoulder_angle + elbow_angle))
+    return (-p[P.link_length_1] * np.cos(shoulder_angle)
+            - p[P.link_length_2] * np.cos(shoulder_angle + elbow_angle))
 
 
 @register_jitable
-def reached_goal(shoulder_angle, elbow_angle):
+def reached_goal(shoulder_angle, elbow_angle, p):
     """True where the tip is more than one link (l1) above the shoulder: the terminal states."""
-    return tip_height(shoulder_angle, elbow_angle) > LINK_LENGTH_1
+    return tip_height(shoulder_angle, elbow_angle, p) > p[P.link_length_1]
 
 
 @register_jitable
-def outcome(shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_velocity):
-    """(reward, terminal, up) on entering a state: -1, or 0 on reaching the goal, which is
-    terminal; no up-time."""
-    goal = reached_goal(shoulder_angle, elbow_angle)
+def outcome(shoulder_angle, shoulder_angular_velocity, elbow_angle, elbow_angular_velocity, p):
+    """(reward, terminal, up) on entering a state at the parameter values `p`: -1, or 0 on
+    reaching the goal, which is terminal; no up-time."""
+    goal = reached_goal(shoulder_angle, elbow_angle, p)
     return goal - 1.0, goal, False
 
 
 @register_jitable
-def arrive(state, observation, params):
+def arrive(state, observation, arguments):
     """The observation of entering one state `(4,)`, written into `observation`, and the
-    state's `outcome`."""
+    state's `outcome`; `arguments` = ((), p)."""
     observation[0], observation[1] = wrap_angle(state[0]), state[1]
     observation[2], observation[3] = wrap_angle(state[2]), state[3]
-    return outcome(state[0], state[1], state[2], state[3])
+    return outcome(state[0], state[1], state[2], state[3], arguments[1])
 
 
 @register_jitable
-def transition(state, control, next_state, observation, dt, semi_implicit, slips, params):
-    """One agent step of one state `(4,)` for compiled loops."""
+def transition(state, control, next_state, observation, dt, semi_implicit, slips, arguments):
+    """One agent step of one state `(4,)` for compiled loops; `arguments` = ((), p)."""
     next_state[0], next_state[1], next_state[2], next_state[3] = step(
-        state[0], state[1], state[2], state[3], control, dt, semi_implicit, slips)
-    return arrive(next_state, observation, params)
+        state[0], state[1], state[2], state[3], control, dt, semi_implicit, slips, arguments[1])
+    return arrive(next_state, observation, arguments)
 
 
 def initial_states(rng: np.random.Generator, count: int) -> np.ndarray:
@@ -238,15 +267,16 @@ AGENT = RunDefaults(
 """Found for this suite (docs/acrobot/README.md): no paper gives an NRBF agent here."""
 
 
-def swingup(time_limit: float = TIME_LIMIT) -> TaskDefinition:
-    """The book's swing-up task; `time_limit` in seconds (a truncation)."""
+def swingup(time_limit: float = TIME_LIMIT, params=None) -> TaskDefinition:
+    """The book's swing-up task; `time_limit` in seconds (a truncation), `params` the
+    physical parameters' values `{name: value}` (`PARAMETERS`)."""
     return TaskDefinition(
-        domain="acrobot", task="swingup", state_names=STATE_NAMES, controls=TORQUES,
+        domain="acrobot", task="swingup", state_names=STATE_NAMES, controls_of=controls,
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
         initial_states=initial_states, observe=_observe, outcome=outcome, transition=transition,
         arrive=arrive,
         bounds=BOUNDS, defaults=AGENT, angles=("shoulder_angle", "elbow_angle"),
-        has_uptime=False,
+        has_uptime=False, physical=tuple(PARAMETERS.values(params).tolist()),
     )
 
 
@@ -270,17 +300,37 @@ class _Accessors:
         return self.state_vector()[3]
 
     def tip_height(self) -> float:
-        """The tip's height above the shoulder (m); the goal is above l1 = 1 m."""
+        """The tip's height above the shoulder (m); the goal is above l1 (1 m)."""
         state = self.state_vector()
-        return float(tip_height(state[0], state[2]))
+        return float(tip_height(state[0], state[2], self.physical))
+
+
+def edit_model(spec, p) -> None:
+    """`models/acrobot.xml`'s spec at the parameter values `p`: each link's mass, centre of
+    mass lc below its joint and inertia I about it; the elbow l1 below the shoulder; the
+    drawn links, the tip and the goal line one link (l1) above the shoulder; gravity; the
+    motor's control range +-tau_max."""
+    spec.option.gravity = [0.0, 0.0, -p[P.gravity]]
+    upper, lower = spec.body("upper_link"), spec.body("lower_link")
+    for body, mass, com, inertia in ((upper, P.link_mass_1, P.link_com_1, P.link_inertia_1),
+                                     (lower, P.link_mass_2, P.link_com_2, P.link_inertia_2)):
+        body.mass, body.ipos, body.inertia = p[mass], [0.0, 0.0, -p[com]], [p[inertia]] * 3
+    lower.pos = [0.0, 0.0, -p[P.link_length_1]]
+    spec.geom("upper_link").fromto = [0.0, 0.0, 0.0, 0.0, 0.0, -p[P.link_length_1]]
+    spec.geom("lower_link").fromto = [0.0, 0.0, 0.0, 0.0, 0.0, -p[P.link_length_2]]
+    spec.geom("tip").pos = [0.0, 0.0, -p[P.link_length_2]]
+    goal = spec.geom("goal")
+    goal.pos = [goal.pos[0], goal.pos[1], upper.pos[2] + p[P.link_length_1]]
+    spec.actuator("torque").ctrlrange = [-p[P.torque], p[P.torque]]
 
 
 AnalyticPhysicsAcrobot, MujocoPhysicsAcrobot = physics_classes("Acrobot", _Accessors, STATE_NAMES, "torque")
 DOMAIN = Domain(
     name="acrobot", tasks={"swingup": swingup},
     plants=DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=AnalyticPhysicsAcrobot,
-                        analytic_options=("integrator",), mujoco_physics=MujocoPhysicsAcrobot,
-                        model="acrobot", substeps=SUBSTEPS, limit=limit,
+                        parameters=PARAMETERS, analytic_options=("integrator",),
+                        mujoco_physics=MujocoPhysicsAcrobot, model="acrobot",
+                        edit_model=edit_model, substeps=SUBSTEPS, limit=limit,
                         limit_state=limit_state),
     value_axes=("shoulder_angle", "elbow_angle"),
     comparison=PlantComparison(tolerances={"shoulder_angle": 0.05, "elbow_angle": 0.05},

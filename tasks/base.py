@@ -7,6 +7,7 @@ from dm_control.rl import control
 from dm_env import specs
 
 from lwrl.tasks.definition import TaskDefinition, check_actions, random_starts
+from lwrl.tasks.disturbances import Disturbances
 
 
 class SuiteTask(control.Task):
@@ -14,12 +15,17 @@ class SuiteTask(control.Task):
 
     It calls the definition's array functions with a batch of one. It also counts the
     episode's steps (the time limit is a truncation with discount 1, decided here so that a
-    terminal state on the last allowed step still ends with discount 0) and its up-time.
+    terminal state on the last allowed step still ends with discount 0) and its up-time, and
+    puts the sensors and the actuator (`disturbances`, `tasks.disturbances`) between the
+    plant and the agent.
     """
 
-    def __init__(self, definition: TaskDefinition, seed=None):
+    def __init__(self, definition: TaskDefinition, seed=None, disturbances: Disturbances = None):
         self.definition = definition
         self.random = random_starts(seed)
+        self.disturbances = disturbances or Disturbances(definition.state_names,
+                                                         definition.controls)
+        self.disturbances.seed([seed])
         self._steps = 0
         self._uptime = 0.0
 
@@ -34,17 +40,26 @@ class SuiteTask(control.Task):
         has none."""
         return self._uptime
 
+    def seed_disturbances(self, seed) -> None:
+        """Key the sensors' and actuator's stream from `seed`, as `tasks.load(seed=seed)`
+        does (Gymnasium's `reset(seed=...)`)."""
+        self.disturbances.seed([seed])
+
     def initialize_episode(self, physics):
         physics.set_state_vector(self.definition.initial_states(self.random, 1)[0])
         self._steps = 0
         self._uptime = 0.0 if self.definition.has_uptime else float("nan")
+        self.disturbances.start(0)
 
     def before_step(self, action, physics):
         index = check_actions(action, self.definition.num_actions)
         if index.ndim != 0:
             raise ValueError(f"action must be one integer index in 0..{self.definition.num_actions - 1}; "
                              f"got {action!r}")
-        physics.set_control(self.definition.controls[int(index)])
+        control = self.definition.controls[int(index)]
+        if self.disturbances.active:
+            control = float(self.disturbances.actuate([control], [0], [self._steps])[0])
+        physics.set_control(control)
 
     def after_step(self, physics):
         self._steps += 1
@@ -60,7 +75,8 @@ class SuiteTask(control.Task):
             for name in self.definition.state_names)
 
     def get_observation(self, physics):
-        observation = self.definition.observe(physics.state_vector()[None])[0]
+        observation = self.disturbances.observe(
+            self.definition.observe(physics.state_vector()[None]), [0], [self._steps])[0]
         return collections.OrderedDict(
             (name, np.array(value)) for name, value in zip(self.definition.state_names, observation))
 

@@ -6,7 +6,9 @@ own seed and random start stream, and resets itself on the step after its episod
 as a dm_env environment does when stepped after LAST. Given the same seeds and actions, B
 batched environments produce exactly the time steps of B single `tasks.load` environments.
 The task's reward, termination and up-time are the same `TaskDefinition` functions the
-single environments call.
+single environments call. Each environment may have physical parameter values of its own
+(`params={name: one value or B values}`), so that one batch spans a grid, and sensor and
+actuator options of its own (`tasks.disturbances`).
 """
 
 from typing import NamedTuple, Sequence
@@ -17,6 +19,7 @@ import numpy as np
 from lwrl import tasks
 from lwrl.tasks.definition import (advance_episode, check_actions, check_finite_state,
                                    random_starts)
+from lwrl.tasks.disturbances import Disturbances
 
 FIRST, MID, LAST = (int(t) for t in (dm_env.StepType.FIRST, dm_env.StepType.MID, dm_env.StepType.LAST))
 
@@ -46,18 +49,36 @@ class BatchedTimeStep(NamedTuple):
 class BatchedEnv:
     """`len(seeds)` environments of `domain.task` on `plant`, stepped together.
 
-    Options are those of `tasks.load`. `uptime` and `steps` hold each environment's
-    current (or just finished) episode's up-time in seconds and step count.
+    Options are those of `tasks.load`, where `params` (the physical parameters) and the
+    sensor and actuator options may give one value per environment. `physical` `(B, P)`
+    holds each environment's parameter values and `controls` `(B, A)` its actions' controls;
+    `definition` is the task at the environments' values where they share them, else at
+    the paper's. `uptime` and `steps` hold each environment's current (or just finished)
+    episode's up-time in seconds and step count.
     """
 
-    def __init__(self, domain: str, task: str, plant=None, seeds: Sequence[int] = (0,), **options):
+    def __init__(self, domain: str, task: str, plant=None, seeds: Sequence[int] = (0,),
+                 params=None, **options):
         seeds = list(seeds)
         if not seeds:
             raise ValueError("seeds must name at least one environment")
-        self.definition, self.plant_name, plant_options = tasks.resolve(domain, task, plant, **options)
         self.batch_size = len(seeds)
-        self.plant = tasks.domain(domain).plants.batch(self.plant_name, self.batch_size, **plant_options)
-        self._controls = np.asarray(self.definition.controls)
+        self.physical = tasks.domain(domain).parameters.values(params, self.batch_size)
+        shared = bool(np.all(self.physical == self.physical[0]))
+        if shared and params:
+            options["params"] = dict(zip(tasks.domain(domain).parameters.names, self.physical[0]))
+        self.definition, self.plant_name, plant_options, sensing = tasks.resolve_environment(
+            domain, task, plant, **options)
+        self.plant = tasks.domain(domain).plants.batch(
+            self.plant_name, self.batch_size, **plant_options, physical=self.definition.physical)
+        self._rows = None if shared else self.physical
+        if not (shared or self.plant.takes_rows):
+            raise ValueError(f"the {self.plant_name} plant takes one set of parameter values for "
+                             f"the whole batch; give every environment the same params")
+        self.controls = self.definition.controls_at(self.physical)
+        self.disturbances = Disturbances(self.definition.state_names, self.controls,
+                                         self.batch_size, **sensing)
+        self.disturbances.seed(seeds)
         self.seeds = seeds
         self._rngs = [random_starts(seed) for seed in seeds]
         self.state = np.zeros((self.batch_size, len(self.definition.state_names)))
@@ -75,6 +96,14 @@ class BatchedEnv:
         self.steps[which] = 0
         self.uptime[which] = self.definition.initial_uptime
         self._needs_reset[which] = False
+        self.disturbances.start(which)
+
+    def _observation(self) -> np.ndarray:
+        """What the agents observe of the states, through their sensors: an array of its own
+        (a task that observes its state as it is would otherwise hand out the state, which
+        the next step overwrites)."""
+        return self.disturbances.observe(self.definition.observe(self.state),
+                                         np.arange(self.batch_size), self.steps)
 
     def set_state(self, state: np.ndarray) -> None:
         """Overwrite the plants' states `(B, d)` (episodes go on from there)."""
@@ -85,7 +114,7 @@ class BatchedEnv:
         self._start_episodes(np.ones(self.batch_size, dtype=bool))
         ones = np.ones(self.batch_size)
         return BatchedTimeStep(np.full(self.batch_size, FIRST, dtype=np.int8), 0 * ones, ones,
-                               self.definition.observe(self.state))
+                               self._observation())
 
     def step(self, actions) -> BatchedTimeStep:
         """Apply one action index per environment; environments whose episode ended reset."""
@@ -97,18 +126,22 @@ class BatchedEnv:
         self._start_episodes(starting)
         moving = ~starting
         definition = self.definition
-        moved = self.plant.step(self.state[moving], self._controls[actions[moving]])
+        rows = np.flatnonzero(moving)
+        controls = self.disturbances.actuate(self.controls[rows, actions[moving]], rows,
+                                             self.steps[moving])
+        physical = None if self._rows is None else self._rows[moving]
+        moved = self.plant.step(self.state[moving], controls, physical)
         self.state[moving] = moved
         reward = np.zeros(self.batch_size)
         terminal, last = np.zeros((2, self.batch_size), dtype=bool)
-        reward[moving], terminal[moving], up = definition.outcomes(moved)
+        reward[moving], terminal[moving], up = definition.outcomes(moved, physical)
         self.steps[moving], self.uptime[moving], last[moving] = advance_episode(
             self.steps[moving], self.uptime[moving], up, terminal[moving],
             definition.control_timestep, definition.step_limit)
         self._needs_reset = last
         step_type = np.where(starting, FIRST, np.where(last, LAST, MID)).astype(np.int8)
         return BatchedTimeStep(step_type, reward, np.where(terminal, 0.0, 1.0),
-                               definition.observe(self.state))
+                               self._observation())
 
 
 def flatten_observation(observation) -> np.ndarray:

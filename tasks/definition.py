@@ -1,7 +1,8 @@
 """What a task is, once, over arrays with a batch dimension.
 
 A `TaskDefinition` holds the functions of one task: its start distribution, its observation,
-and its `outcome` (reward, termination and up-time). The dm_env environment (`tasks.base`)
+and its `outcome` (reward, termination and up-time), and the values of its domain's physical
+parameters (`tasks.parameters`) that its plants have. The dm_env environment (`tasks.base`)
 calls them with a batch of one; the batched stepper (`tasks.batched`) with a batch of B; and
 the domain's `transition`, which compiled loops call, steps the analytic plant and then
 calls the same `outcome` (through `arrive`, which compiled loops also call after a MuJoCo
@@ -10,6 +11,7 @@ States are arrays of shape `(..., d)` in the order of `state_names`.
 """
 
 import dataclasses
+import functools
 import math
 from typing import Callable
 
@@ -55,9 +57,10 @@ class TaskDefinition:
     state_names: tuple
     """Names of the state variables, in the order of the last axis of a state array;
     they are also the observation keys."""
-    controls: tuple
-    """Force, torque or thrust of each discrete action, ascending: action i applies
-    `controls[i]`."""
+    controls_of: Callable
+    """`controls_of(p)`: the force, torque or thrust of each discrete action, ascending, at
+    the parameter values `p` `(P, ...)` (a tuple, one value or array per action): action i
+    applies `controls_of(p)[i]`; `controls` at the definition's own values."""
     control_timestep: float
     """Seconds (or, for Mountain-Car, steps) per agent step."""
     step_limit: float
@@ -68,22 +71,28 @@ class TaskDefinition:
     observe: Callable[[np.ndarray], np.ndarray]
     """Maps states `(..., d)` to observations `(..., d)` (e.g. wraps angles)."""
     outcome: Callable
-    """`outcome(*state_columns, *params) -> (reward, terminal, up)` on entering a state,
-    element-wise and numba-jitable: the task's reward, termination and up-time, once."""
+    """`outcome(*state_columns, *params, p) -> (reward, terminal, up)` on entering a state,
+    element-wise and numba-jitable: the task's reward, termination and up-time, once; `p`
+    the physical parameters' values (`tasks.parameters`: a vector, or columns)."""
     transition: Callable
-    """`transition(state, control, next_state, observation, dt, semi_implicit, slips, params)`:
-    one analytic-plant step of one state `(d,)` for compiled loops, with the Euler scheme
-    and the equations (`tasks.plants.EQUATIONS`) bound as flags. It writes the next state
-    and calls `arrive`."""
+    """`transition(state, control, next_state, observation, dt, semi_implicit, slips,
+    arguments)`: one analytic-plant step of one state `(d,)` for compiled loops, with the
+    Euler scheme and the equations (`tasks.plants.EQUATIONS`) bound as flags and
+    `arguments = (params, p)` (`loop_arguments`). It writes the next state and calls
+    `arrive`."""
     arrive: Callable
-    """`arrive(state, observation, params)`: on entering one state `(d,)` for compiled loops,
-    writes its observation (as `observe`) and returns its `outcome`; what follows a step of
-    any plant."""
+    """`arrive(state, observation, arguments)`: on entering one state `(d,)` for compiled
+    loops, writes its observation (as `observe`) and returns its `outcome`; what follows a
+    step of any plant."""
     bounds: tuple
     """`(low, high)`, one value per state variable: every observation of an episode lies
     within them, the terminal one included (`inf` where a variable is unbounded)."""
     defaults: RunDefaults
     """The settings of a run of this task unless told otherwise."""
+    physical: tuple
+    """The values of the domain's physical parameters (`Domain.parameters`, in its order)
+    that the definition's plants have: the paper's unless the task's `params` option says
+    otherwise."""
     angles: tuple = ()
     """The state variables that are angles (compared modulo 2 pi)."""
     params: tuple = ()
@@ -95,13 +104,36 @@ class TaskDefinition:
     def name(self) -> str:
         return f"{self.domain}.{self.task}"
 
+    @functools.cached_property
+    def controls(self) -> tuple:
+        """Force, torque or thrust of each discrete action at the definition's parameter
+        values, ascending: action i applies `controls[i]`."""
+        return tuple(self.controls_at(self.physical).tolist())
+
+    def controls_at(self, physical) -> np.ndarray:
+        """`(..., A)`: each action's control at the parameter values `physical` `(..., P)`
+        (one row per environment or agent)."""
+        physical = np.asarray(physical, dtype=np.float64)
+        return np.stack([np.broadcast_to(control, physical.shape[:-1]) for control in
+                         self.controls_of(np.moveaxis(physical, -1, 0))], axis=-1)
+
     @property
     def num_actions(self) -> int:
         return len(self.controls)
 
-    def outcomes(self, state: np.ndarray) -> tuple:
-        """`(reward float64, terminal bool, up bool)` arrays on entering states `(..., d)`."""
-        reward, terminal, up = self.outcome(*np.moveaxis(state, -1, 0), *self.params)
+    def loop_arguments(self) -> tuple:
+        """What `transition` and `arrive` take as `arguments` in compiled loops: `(params,
+        p)`, the task's options `(K,)` and the physical parameters' values `(P,)`, float64."""
+        return (np.asarray(self.params, dtype=np.float64),
+                np.asarray(self.physical, dtype=np.float64))
+
+    def outcomes(self, state: np.ndarray, physical=None) -> tuple:
+        """`(reward float64, terminal bool, up bool)` arrays on entering states `(..., d)`,
+        at the definition's parameter values or at `physical`, one row `(..., P)` per
+        state."""
+        physical = self.physical if physical is None else physical
+        p = np.moveaxis(np.asarray(physical, dtype=np.float64), -1, 0)
+        reward, terminal, up = self.outcome(*np.moveaxis(state, -1, 0), *self.params, p)
         shape = np.shape(state)[:-1]
         return (np.broadcast_to(reward, shape).astype(np.float64),
                 np.broadcast_to(terminal, shape).astype(bool), np.broadcast_to(up, shape).astype(bool))

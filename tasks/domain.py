@@ -4,7 +4,8 @@ Each domain module (`tasks/<domain>.py`) ends with one `DOMAIN = Domain(...)`, a
 registry (`tasks.DOMAINS`) lists the modules. Every other room looks a domain up here and
 names none: the runners take the plants and the run defaults, the viewer the drawing and
 the value image's axes, the plant comparison the tolerances, the Gymnasium registration the
-observation bounds (those are per task, in `TaskDefinition`).
+observation bounds (those are per task, in `TaskDefinition`), the documentation the physical
+parameters.
 """
 
 import dataclasses
@@ -12,6 +13,7 @@ from typing import Callable, Mapping, Optional
 
 import numpy as np
 
+from lwrl.tasks.parameters import Parameters
 from lwrl.tasks.plants import DomainPlants
 
 
@@ -86,3 +88,9 @@ class Domain:
     def model(self) -> Optional[str]:
         """The name of the domain's MJCF file in `models/` (None: no MuJoCo plant)."""
         return self.plants.model
+
+    @property
+    def parameters(self) -> Parameters:
+        """The domain's physical parameters (`tasks.parameters`): each one's name, symbol,
+        unit, the paper's value and the accepted range, in the order of a parameter vector."""
+        return self.plants.parameters

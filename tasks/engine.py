@@ -75,10 +75,12 @@ def _model(name: str) -> mujoco.MjModel:
     return mujoco.MjModel.from_xml_string(models.read(name))
 
 
-def engine_plant(model_name: str, actuator: str, substeps: int) -> EnginePlant:
-    """The compiled-code view of the model `models/<model_name>.xml` driven through the
-    actuator named `actuator`, `substeps` MuJoCo steps per agent step."""
-    model = _model(model_name)
+def engine_plant(model, actuator: str, substeps: int) -> EnginePlant:
+    """The compiled-code view of a model driven through the actuator named `actuator`,
+    `substeps` MuJoCo steps per agent step: `model` the name of `models/<model>.xml`, or a
+    compiled `mujoco.MjModel` that outlives the plant (`DomainPlants.mujoco_model`, which
+    keeps the model of each set of parameter values)."""
+    model = _model(model) if isinstance(model, str) else model
     data = mujoco.MjData(model)
     warnings = data.warning.number.__array_interface__["data"][0] - data._address
     return EnginePlant(engine(), model._address, int(substeps), model.actuator(actuator).id,

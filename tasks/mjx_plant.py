@@ -1,6 +1,7 @@
 """The `mjx` plant: B copies of an MJCF model stepped by MJX, MuJoCo's XLA port.
 
-MJX steps the same model (`lwrl.models.read`) with the same Euler step as the C engine, in
+MJX steps the same model (`DomainPlants.mujoco_model`, at the batch's physical parameter
+values) with the same Euler step as the C engine, in
 float64, as one compiled vector function over the whole batch (the states vmapped, the
 substeps in a loop) where the C engine steps the states one by one. It agrees with the C
 engine (`MujocoPlant`) to round-off, not bit for bit (XLA orders the arithmetic its own way):
@@ -9,16 +10,18 @@ result stays bit-identical. It steps batches only (`tasks.batched`, `lwrl train`
 environment (`tasks.load`) runs on the C engine (`tasks.plants.BATCHED_ONLY`).
 
 JAX is an optional extra (`pip install 'lwrl[mjx]'`), imported when a plant is first made.
+The plant steps one model: every state of a batch at the same parameter values (a batch
+spanning several steps on the C engine, which takes a model per state).
 """
 
 import contextlib
+import copy
 import functools
 import io
 
 import mujoco
 import numpy as np
 
-from lwrl import models
 from lwrl.tasks.plants import apply_limit
 
 MOTIONLESS_FLAGS = mujoco.mjtEnableBit.mjENBL_ENERGY
@@ -39,21 +42,22 @@ def _jax_and_mjx():
     return jax, mjx
 
 
-def motion_model(name: str) -> mujoco.MjModel:
-    """The MJCF model `name` as MJX steps it: `MOTIONLESS_FLAGS` cleared."""
-    model = mujoco.MjModel.from_xml_string(models.read(name))
+def motion_model(model: mujoco.MjModel) -> mujoco.MjModel:
+    """A copy of the compiled MJCF model as MJX steps it: `MOTIONLESS_FLAGS` cleared."""
+    model = copy.copy(model)
     model.opt.enableflags &= ~int(MOTIONLESS_FLAGS)
     return model
 
 
 @functools.cache
-def compiled_step(name: str, actuator: str, substeps: int):
-    """The jitted batch step of model `name`: `(state (B, d), control (B,)) -> state (B, d)`
-    in the task's order `(q0, q0_dot, q1, ...)`, `substeps` MJX steps with `control` on
+def compiled_step(model: mujoco.MjModel, actuator: str, substeps: int):
+    """The jitted batch step of a compiled model (one that is kept, as
+    `DomainPlants.mujoco_model`'s are): `(state (B, d), control (B,)) -> state (B, d)` in
+    the task's order `(q0, q0_dot, q1, ...)`, `substeps` MJX steps with `control` on
     `actuator`. Made once per process and model; JAX compiles it once per batch size.
     Call it under `jax.enable_x64(True)`."""
     jax, mjx = _jax_and_mjx()
-    model = motion_model(name)
+    model = motion_model(model)
     actuator_id = model.actuator(actuator).id
     with jax.enable_x64(True):
         device_model = mjx.put_model(model)
@@ -71,27 +75,32 @@ def compiled_step(name: str, actuator: str, substeps: int):
 
 
 class MjxPlant:
-    """B copies of the MJCF model `model` (its name in `models/`) stepped by MJX.
+    """B copies of a compiled MJCF model (`DomainPlants.mujoco_model`) stepped by MJX.
 
     The interface of `MujocoPlant`: one agent step is `substeps` MJX steps with the control
     on `actuator` held, then `limit`. `step` takes up to `batch_size` states (a batched
     environment steps only those whose episode goes on) and pads them to `batch_size`, so
-    that JAX compiles one step per batch size, not one per number of running episodes.
+    that JAX compiles one step per batch size, not one per number of running episodes. It
+    takes no parameter values per state (`takes_rows`): the batch shares its model.
     """
 
-    def __init__(self, model: str, actuator: str, batch_size: int, substeps: int = 1,
+    takes_rows = False
+
+    def __init__(self, model: mujoco.MjModel, actuator: str, batch_size: int, substeps: int = 1,
                  limit=None):
         self._jax = _jax_and_mjx()[0]
         self.batch_size = batch_size
         self.substeps = int(substeps)
-        mj_model = motion_model(model)
-        self.timestep = float(mj_model.opt.timestep) * self.substeps
+        self.timestep = float(model.opt.timestep) * self.substeps
         self._limit = limit
         self._step = compiled_step(model, actuator, self.substeps)
-        self._state = np.zeros((batch_size, mj_model.nq + mj_model.nv))
+        self._state = np.zeros((batch_size, model.nq + model.nv))
         self._control = np.zeros(batch_size)
 
-    def step(self, state: np.ndarray, control: np.ndarray) -> np.ndarray:
+    def step(self, state: np.ndarray, control: np.ndarray, physical=None) -> np.ndarray:
+        if physical is not None:
+            raise ValueError("the mjx plant steps one model, every state at the same parameter "
+                             "values; step parameter values per state on the mujoco plant")
         count = len(state)
         if count > self.batch_size:
             raise ValueError(f"{count} states for a plant of batch size {self.batch_size}")

@@ -12,6 +12,11 @@ Task `cost_to_go`:
   terminal state); `velocity` v in [-0.07, 0.07]. The altitude is sin(3x).
 - **Dynamics** (one step): v' = clip(v + 0.001 a - 0.0025 cos(3x), -0.07, 0.07);
   x' = max(x + v', -1.2), and v' = 0 when the left wall clipped x'.
+- **Parameters** (`PARAMETERS`; the task option `params={name: value}`, the others at the
+  paper's values): `thrust` k (position/step^2) 0.001, in [0.0001, 0.01], the velocity
+  change per step and unit of thrust a (v' = v + k a - g cos(3x)); `gravity` g
+  (position/step^2) 0.0025, in [0, 0.01], the slope's pull. There is no MuJoCo model to set
+  them in.
 - **Reward**: -1 every step, 0 on the step that reaches the goal (cost to go).
 - **Start**: x ~ U[-1.2, 0.5], v ~ U[-0.07, 0.07] (random, unlike Gymnasium's
   MountainCar-v0).
@@ -31,16 +36,24 @@ from numba.extending import register_jitable
 
 from lwrl.tasks.definition import RunDefaults, TaskDefinition, step_limit
 from lwrl.tasks.domain import Box, Domain, Drawing, Line
+from lwrl.tasks.parameters import Parameter, Parameters
 from lwrl.tasks.physics import AnalyticPhysics
 from lwrl.tasks.plants import DomainPlants
 
 STATE_NAMES = ("position", "velocity")
 THRUSTS = (-1.0, 0.0, 1.0)
 """Thrust a of each action: reverse, none, forward."""
-THRUST_GAIN = 0.001
-"""Velocity change per step per unit of thrust."""
-GRAVITY = 0.0025
-"""The paper's g: velocity change per step from the slope, times cos(3x)."""
+PARAMETERS = Parameters(
+    Parameter("thrust", "k", "position/step^2", 0.001, 0.0001, 0.01,
+              "velocity change per step and unit of thrust"),
+    Parameter("gravity", "g", "position/step^2", 0.0025, 0.0, 0.01,
+              "velocity change per step from the slope, times cos(3x)"),
+)
+"""Mountain-Car's physical constants (section 4.1) as parameters."""
+P = PARAMETERS.index
+"""Where each parameter sits in a parameter vector `p`: `p[P.gravity]`."""
+NOMINAL = PARAMETERS.nominal
+"""The paper's values: `NOMINAL.gravity` is 0.0025."""
 MIN_POSITION = -1.2
 """The left wall."""
 GOAL_POSITION = 0.5
@@ -54,10 +67,12 @@ TIMESTEP = 1.0
 
 
 @register_jitable
-def step(position, velocity, thrust):
-    """One step of the paper's Mountain-Car equations (section 4.1); element-wise."""
+def step(position, velocity, thrust, p):
+    """One step of the paper's Mountain-Car equations (section 4.1) at the parameter values
+    `p` (`PARAMETERS`); element-wise."""
     velocity_next = np.minimum(np.maximum(
-        velocity + THRUST_GAIN * thrust - GRAVITY * np.cos(3.0 * position), -MAX_SPEED), MAX_SPEED)
+        velocity + p[P.thrust] * thrust - p[P.gravity] * np.cos(3.0 * position), -MAX_SPEED),
+        MAX_SPEED)
     unclipped = position + velocity_next
     position_next = np.maximum(unclipped, MIN_POSITION)
     velocity_next = velocity_next * (unclipped >= MIN_POSITION)  # the wall stops the car
@@ -77,25 +92,31 @@ def reward(position):
 
 
 @register_jitable
-def outcome(position, velocity):
-    """(reward, terminal, up) on entering a state: the goal is terminal; no up-time."""
+def outcome(position, velocity, p):
+    """(reward, terminal, up) on entering a state: the goal is terminal; no up-time
+    (whatever the parameters `p`)."""
     return reward(position), reached_goal(position), False
 
 
+def controls(p):
+    """Thrust a of each action, whatever the parameters `p` (the gain is `thrust`'s)."""
+    return THRUSTS
+
+
 @register_jitable
-def arrive(state, observation, params):
+def arrive(state, observation, arguments):
     """The observation of entering one state `(2,)` (the state itself), written into
-    `observation`, and the state's `outcome`."""
+    `observation`, and the state's `outcome`; `arguments` = ((), p)."""
     observation[:] = state
-    return outcome(state[0], state[1])
+    return outcome(state[0], state[1], arguments[1])
 
 
 @register_jitable
-def transition(state, control, next_state, observation, dt, semi_implicit, slips, params):
-    """One step of one state `(2,)` for compiled loops (`dt`, `semi_implicit`, `slips` and
-    `params` are unused: the paper's equation is its own integrator)."""
-    next_state[0], next_state[1] = step(state[0], state[1], control)
-    return arrive(next_state, observation, params)
+def transition(state, control, next_state, observation, dt, semi_implicit, slips, arguments):
+    """One step of one state `(2,)` for compiled loops; `arguments` = ((), p) (`dt`,
+    `semi_implicit` and `slips` are unused: the paper's equation is its own integrator)."""
+    next_state[0], next_state[1] = step(state[0], state[1], control, arguments[1])
+    return arrive(next_state, observation, arguments)
 
 
 def initial_states(rng: np.random.Generator, count: int) -> np.ndarray:
@@ -111,14 +132,16 @@ PAPER_AGENT = RunDefaults(n=8, low=(MIN_POSITION, -MAX_SPEED), high=(GOAL_POSITI
 """The paper's best agent (Fig. 3) and SPEC.md's epsilon."""
 
 
-def cost_to_go(time_limit: float = STEP_LIMIT) -> TaskDefinition:
-    """The paper's Mountain-Car task; `time_limit` caps an episode's steps."""
+def cost_to_go(time_limit: float = STEP_LIMIT, params=None) -> TaskDefinition:
+    """The paper's Mountain-Car task; `time_limit` caps an episode's steps, `params` the
+    physical parameters' values `{name: value}` (`PARAMETERS`)."""
     return TaskDefinition(
-        domain="mountain_car", task="cost_to_go", state_names=STATE_NAMES, controls=THRUSTS,
+        domain="mountain_car", task="cost_to_go", state_names=STATE_NAMES, controls_of=controls,
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
         initial_states=initial_states,
         observe=lambda state: state, outcome=outcome, transition=transition, arrive=arrive,
         bounds=BOUNDS, defaults=PAPER_AGENT, has_uptime=False,
+        physical=tuple(PARAMETERS.values(params).tolist()),
     )
 
 
@@ -170,6 +193,6 @@ def _drawing() -> Drawing:
 
 DOMAIN = Domain(
     name="mountain_car", tasks={"cost_to_go": cost_to_go},
-    plants=DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=Physics, euler=False,
-                        analytic_options=()),
+    plants=DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=Physics,
+                        parameters=PARAMETERS, euler=False, analytic_options=()),
     value_axes=("position", "velocity"), drawing=_drawing())

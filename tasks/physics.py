@@ -7,6 +7,7 @@ modules add one-line accessors named after the quantities (`pole_angle()`, ...).
 
 import numpy as np
 from dm_control import mujoco as dm_mujoco
+from dm_control.mujoco import wrapper
 from dm_control.rl import control
 
 from lwrl.tasks.definition import check_finite_state
@@ -26,6 +27,11 @@ class AnalyticPhysics(control.Physics):
         for _ in range(n_sub_steps):
             self._state = self._plant.step(self._state, self._control)
             self._time += self._plant.timestep
+
+    @property
+    def physical(self) -> np.ndarray:
+        """The plant's physical parameter values `(P,)` (`tasks.parameters`)."""
+        return self._plant.physical
 
     def time(self):
         return self._time
@@ -70,6 +76,14 @@ class MujocoPhysics(dm_mujoco.Physics):
     """MuJoCo steps per agent step (`DomainPlants.substeps`)."""
     limit = None
     """The domain's state limit after each agent step (`DomainPlants.limit`), or None."""
+    physical = None
+    """The physical parameter values `(P,)` the model was set to (`DomainPlants.physics`)."""
+
+    @classmethod
+    def from_mujoco_model(cls, model):
+        """The Physics of a compiled `mujoco.MjModel` (e.g. an MJCF model set to other
+        parameter values, `DomainPlants.mujoco_model`), which it keeps and may change."""
+        return cls.from_model(wrapper.MjModel(model))
 
     def step(self, nstep=1):
         """`nstep` agent steps: `substeps` MuJoCo steps each, then the domain's limit."""

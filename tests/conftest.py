@@ -1,5 +1,7 @@
-"""Shared fixtures: every (domain, task, plant) of the suite's dm_env environments."""
+"""Shared fixtures: every (domain, task, plant) of the suite's dm_env environments, and
+physical parameter values away from the paper's."""
 
+import numpy as np
 import pytest
 
 from lwrl import tasks
@@ -19,3 +21,14 @@ def set_state(env, state):
     env.reset()
     with env.physics.reset_context():
         env.physics.set_state_vector(state)
+
+
+def off_nominal(domain: str, rng: np.random.Generator, count=None) -> np.ndarray:
+    """Physical parameter values of `domain` away from the paper's: each nominal value times
+    2^u, u ~ U[-1, 1] drawn for each, within the accepted range; `(count, P)` rows, or one
+    vector `(P,)` where `count` is None."""
+    parameters = tasks.domain(domain).parameters
+    nominal = np.asarray(parameters.nominal)
+    values = nominal * 2.0 ** rng.uniform(-1, 1, size=nominal.shape if count is None
+                                          else (count, len(nominal)))
+    return np.clip(values, [p.low for p in parameters.items], [p.high for p in parameters.items])

@@ -26,6 +26,8 @@ from conftest import set_state
 
 RNG_STATES = 50
 """Random states per check against MuJoCo and Gymnasium."""
+BOOK = np.asarray(acrobot.NOMINAL)
+"""The book's parameter values as a vector."""
 
 
 def _model() -> mujoco.MjModel:
@@ -45,9 +47,9 @@ def test_book_constants():
     """m1 = m2 = 1 kg, l1 = l2 = 1 m, lc1 = lc2 = 0.5 m, I1 = I2 = 1 kg m^2, g = 9.8 m/s^2,
     tau in {-1, 0, +1} N m, four Euler steps of 0.05 s per action, |theta1_dot| <= 4 pi,
     |theta2_dot| <= 9 pi (Sutton and Barto 1998, section 11.3)."""
-    assert (acrobot.LINK_MASS_1, acrobot.LINK_MASS_2, acrobot.LINK_LENGTH_1,
-            acrobot.LINK_LENGTH_2, acrobot.LINK_COM_1, acrobot.LINK_COM_2,
-            acrobot.LINK_INERTIA_1, acrobot.LINK_INERTIA_2, acrobot.GRAVITY) == (
+    assert (acrobot.NOMINAL.link_mass_1, acrobot.NOMINAL.link_mass_2, acrobot.NOMINAL.link_length_1,
+            acrobot.NOMINAL.link_length_2, acrobot.NOMINAL.link_com_1, acrobot.NOMINAL.link_com_2,
+            acrobot.NOMINAL.link_inertia_1, acrobot.NOMINAL.link_inertia_2, acrobot.NOMINAL.gravity) == (
         1.0, 1.0, 1.0, 1.0, 0.5, 0.5, 1.0, 1.0, 9.8)
     assert acrobot.TORQUES == (-1.0, 0.0, 1.0)
     assert (acrobot.SUBSTEPS, acrobot.SUBSTEP, acrobot.TIMESTEP) == (4, 0.05, 0.2)
@@ -64,17 +66,17 @@ def test_model_is_the_books_arm():
     gear 1 over [-1, 1] N m."""
     model = _model()
     assert model.opt.timestep == acrobot.SUBSTEP
-    np.testing.assert_array_equal(model.opt.gravity, [0.0, 0.0, -acrobot.GRAVITY])
+    np.testing.assert_array_equal(model.opt.gravity, [0.0, 0.0, -acrobot.NOMINAL.gravity])
     assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_EULER
     assert model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_EULERDAMP
     assert model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT
     assert model.opt.enableflags & mujoco.mjtEnableBit.mjENBL_ENERGY
     upper, lower = model.body("upper_link"), model.body("lower_link")
-    assert upper.mass[0] == acrobot.LINK_MASS_1 and lower.mass[0] == acrobot.LINK_MASS_2
-    np.testing.assert_array_equal(upper.ipos, [0.0, 0.0, -acrobot.LINK_COM_1])
-    np.testing.assert_array_equal(lower.ipos, [0.0, 0.0, -acrobot.LINK_COM_2])
-    np.testing.assert_array_equal(lower.pos, [0.0, 0.0, -acrobot.LINK_LENGTH_1])
-    assert upper.inertia[1] == acrobot.LINK_INERTIA_1 and lower.inertia[1] == acrobot.LINK_INERTIA_2
+    assert upper.mass[0] == acrobot.NOMINAL.link_mass_1 and lower.mass[0] == acrobot.NOMINAL.link_mass_2
+    np.testing.assert_array_equal(upper.ipos, [0.0, 0.0, -acrobot.NOMINAL.link_com_1])
+    np.testing.assert_array_equal(lower.ipos, [0.0, 0.0, -acrobot.NOMINAL.link_com_2])
+    np.testing.assert_array_equal(lower.pos, [0.0, 0.0, -acrobot.NOMINAL.link_length_1])
+    assert upper.inertia[1] == acrobot.NOMINAL.link_inertia_1 and lower.inertia[1] == acrobot.NOMINAL.link_inertia_2
     np.testing.assert_array_equal(upper.iquat, [1, 0, 0, 0])
     np.testing.assert_array_equal(lower.iquat, [1, 0, 0, 0])
     for joint in ("shoulder", "elbow"):
@@ -109,7 +111,7 @@ def test_model_is_the_books_arm():
 ])
 def test_accelerations_by_hand(state, torque, expected):
     """The book's theta1_dd and theta2_dd at states worked out by hand (in the cases)."""
-    assert acrobot.accelerations(*state, torque) == pytest.approx(expected, rel=1e-12, abs=1e-12)
+    assert acrobot.accelerations(*state, torque, BOOK) == pytest.approx(expected, rel=1e-12, abs=1e-12)
 
 
 @pytest.mark.parametrize("elbow, expected", [
@@ -118,7 +120,7 @@ def test_accelerations_by_hand(state, torque, expected):
     (np.pi, (2.5, 0.75, 1.25)),
 ])
 def test_mass_matrix_by_hand(elbow, expected):
-    assert acrobot.mass_matrix(elbow) == pytest.approx(expected, rel=1e-15, abs=1e-15)
+    assert acrobot.mass_matrix(elbow, BOOK) == pytest.approx(expected, rel=1e-15, abs=1e-15)
 
 
 def test_mass_matrix_is_mujocos():
@@ -132,7 +134,7 @@ def test_mass_matrix_is_mujocos():
         mujoco.mj_forward(model, data)
         full = np.zeros((2, 2))
         mujoco.mj_fullM(model, data, full)
-        d1, d2, d22 = acrobot.mass_matrix(state[2])
+        d1, d2, d22 = acrobot.mass_matrix(state[2], BOOK)
         np.testing.assert_allclose(full, [[d1, d2], [d2, d22]], rtol=0, atol=1e-12)
 
 
@@ -147,7 +149,7 @@ def test_accelerations_are_mujocos():
         data.qpos[:], data.qvel[:] = state[0::2], state[1::2]
         data.ctrl[model.actuator("torque").id] = torque
         mujoco.mj_forward(model, data)
-        np.testing.assert_allclose(data.qacc, acrobot.accelerations(*state, torque), rtol=0,
+        np.testing.assert_allclose(data.qacc, acrobot.accelerations(*state, torque, BOOK), rtol=0,
                                    atol=1e-10)
 
 
@@ -161,7 +163,7 @@ def test_accelerations_are_gymnasiums_book_dynamics():
     for state, torque in zip(states, torques):
         gym_state = np.array([state[0], state[2], state[1], state[3], torque])
         derivatives = env._dsdt(gym_state)
-        np.testing.assert_allclose(derivatives[2:4], acrobot.accelerations(*state, torque),
+        np.testing.assert_allclose(derivatives[2:4], acrobot.accelerations(*state, torque, BOOK),
                                    rtol=1e-12, atol=1e-12)
 
 
@@ -173,19 +175,19 @@ def test_step_is_four_euler_steps_then_the_limit(semi_implicit):
     for state, torque in zip(states, torques):
         expected = tuple(state)
         for _ in range(4):
-            th1dd, th2dd = acrobot.accelerations(*expected, torque)
+            th1dd, th2dd = acrobot.accelerations(*expected, torque, BOOK)
             v1, v2 = expected[1] + 0.05 * th1dd, expected[3] + 0.05 * th2dd
             expected = (expected[0] + 0.05 * (v1 if semi_implicit else expected[1]), v1,
                         expected[2] + 0.05 * (v2 if semi_implicit else expected[3]), v2)
         expected = (expected[0], np.clip(expected[1], -4 * np.pi, 4 * np.pi),
                     expected[2], np.clip(expected[3], -9 * np.pi, 9 * np.pi))
-        np.testing.assert_allclose(acrobot.step(*state, torque, 0.2, semi_implicit, False),
+        np.testing.assert_allclose(acrobot.step(*state, torque, 0.2, semi_implicit, False, BOOK),
                                    expected, rtol=1e-13, atol=1e-13)
     # element-wise over arrays, and `slips` changes nothing (the domain has no such reading)
-    batch = acrobot.step(*states.T, torques, 0.2, semi_implicit, False)
-    np.testing.assert_array_equal(batch, acrobot.step(*states.T, torques, 0.2, semi_implicit, True))
+    batch = acrobot.step(*states.T, torques, 0.2, semi_implicit, False, BOOK)
+    np.testing.assert_array_equal(batch, acrobot.step(*states.T, torques, 0.2, semi_implicit, True, BOOK))
     for column, state, torque in zip(np.array(batch).T, states, torques):
-        np.testing.assert_array_equal(column, acrobot.step(*state, torque, 0.2, semi_implicit, False))
+        np.testing.assert_array_equal(column, acrobot.step(*state, torque, 0.2, semi_implicit, False, BOOK))
 
 
 # --- the velocity limit on both plants ------------------------------------------------------
@@ -202,7 +204,7 @@ def test_velocity_limit_applies_on_both_plants():
     times, which the limit does not touch), and agree between the plants to round-off."""
     raw = np.array(LIMIT_START)
     for _ in range(4):
-        raw = np.array(acrobot.euler_step(*raw, 1.0, 0.05, True))
+        raw = np.array(acrobot.euler_step(*raw, 1.0, 0.05, True, BOOK))
     assert raw[1] > 4 * np.pi and raw[3] < -9 * np.pi and raw[0] > 2 * np.pi
     model = _model()
     data = mujoco.MjData(model)

@@ -132,8 +132,12 @@ def domain_mentions(path: pathlib.Path) -> list:
     return found
 
 
-@pytest.mark.parametrize("path", [p for p in package_files()
-                                  if not str(p.relative_to(ROOT)).startswith(("tasks/", *NAMING_DOMAINS_ALLOWED))],
+def files_outside(*prefixes) -> list:
+    """The package's files but those under `prefixes` (e.g. `tasks/`)."""
+    return [path for path in package_files() if not str(path.relative_to(ROOT)).startswith(prefixes)]
+
+
+@pytest.mark.parametrize("path", files_outside("tasks/", *NAMING_DOMAINS_ALLOWED),
                          ids=lambda p: str(p.relative_to(ROOT)))
 def test_no_room_but_tasks_names_a_domain(path):
     """Everything about a domain lives in `tasks/<domain>.py` and `models/<domain>.xml`;
@@ -152,6 +156,33 @@ def test_the_check_finds_a_domain_named_in_code(tmp_path):
                       '    return domain == "mountain_car" or cartpole.FAIL_ANGLE or tasks.pendulum\n'
                       'NAME = "cartpole.balance"\n')
     assert sorted(line for line, _ in domain_mentions(sample)) == [2, 2, 3, 6, 6, 6, 7]
+
+
+def parameter_mentions(path: pathlib.Path) -> list:
+    """`(line, name)` of every string in code (not prose) equal to a physical parameter's
+    name (`Domain.parameters`)."""
+    names = {parameter.name for domain in tasks.DOMAINS.values() for parameter in domain.parameters.items}
+    tree = ast.parse(path.read_text())
+    prose = docstring_nodes(tree)
+    return [(node.lineno, node.value) for node in ast.walk(tree)
+            if isinstance(node, ast.Constant) and isinstance(node.value, str)
+            and id(node) not in prose and node.value in names]
+
+
+@pytest.mark.parametrize("path", files_outside("tasks/"), ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_room_but_tasks_names_a_parameter(path):
+    """A domain's physical parameters are named in its module alone (`PARAMETERS`); other
+    rooms read `Domain.parameters`, so adding a parameter touches no other room."""
+    assert parameter_mentions(path) == []
+
+
+def test_the_check_finds_a_parameter_named_in_code(tmp_path):
+    sample = tmp_path / "sample.py"
+    sample.write_text('"""Prose may say pole_mass."""\n'
+                      'PARAMS = {"pole_mass": 0.2}\n'
+                      'def f(name):\n'
+                      '    return name == "link_com_2"\n')
+    assert parameter_mentions(sample) == [(2, "pole_mass"), (4, "link_com_2")]
 
 
 @pytest.mark.parametrize("name", list(tasks.DOMAINS))

@@ -39,6 +39,19 @@ def test_batched_equals_single_environments(task_plant):
     assert ends >= len(seeds), "the test should cover episode ends and auto-resets"
 
 
+def test_a_time_steps_observation_is_its_own(task_plant):
+    """The observations a batch returns share no memory with its state: the next steps
+    leave them as they were (as dm_env's suite requires of its environments)."""
+    domain, task, plant = task_plant
+    env = BatchedEnv(domain, task, plant, seeds=[0, 1])
+    steps = [env.reset()] + [env.step([1, 0]) for _ in range(3)]
+    kept = [step.observation.copy() for step in steps]
+    env.step([0, 1])
+    for step, observation in zip(steps, kept):
+        np.testing.assert_array_equal(step.observation, observation)
+        assert not np.shares_memory(step.observation, env.state)
+
+
 def test_batched_reset_marks_first_and_steps_after_last_reset():
     """After LAST, the next step starts a new episode (FIRST) and ignores its action."""
     env = BatchedEnv("cartpole", "balance", "analytic", seeds=[0, 1])

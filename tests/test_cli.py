@@ -19,6 +19,18 @@ def test_tasks_lists_every_task_and_plant(capsys):
     assert out.count("plants: mujoco, analytic, mjx (batched only)") == 3
 
 
+def test_tasks_prints_every_domains_parameters(capsys):
+    """`lwrl tasks --parameters`: a table per domain, a row per parameter."""
+    from lwrl import tasks
+
+    assert cli.main(["tasks", "--parameters"]) == 0
+    out = capsys.readouterr().out
+    for name, domain in tasks.DOMAINS.items():
+        assert f"`{name}`" in out
+        for parameter in domain.parameters.items:
+            assert f"| `{parameter.name}` | {parameter.symbol} | {parameter.unit} |" in out
+
+
 @pytest.mark.parametrize("argv", [
     ["rollout", "cartpole.balance", "--plant", "mujoco", "--steps", "60", "--seed", "1"],
     ["rollout", "pendulum.swingup", "--plant", "analytic", "--integrator", "explicit", "--steps", "20"],

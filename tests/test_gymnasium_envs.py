@@ -398,7 +398,8 @@ def test_bad_ids(id_, error):
     ("lwrl/cartpole-balance-mujoco-v0", {"integrator": "explicit"},
      "unknown option 'integrator' for cartpole.balance on the mujoco plant; allowed: time_limit, track_limit"),
     ("lwrl/mountain_car-cost_to_go-analytic-v0", {"track_limit": 1.0},
-     "unknown option 'track_limit' .*allowed: time_limit$"),
+     "unknown option 'track_limit' .*allowed: time_limit, params, observation_noise, "
+     "action_delay, action_noise$"),
     ("lwrl/pendulum-swingup-analytic-v0", {"seed": 3}, "seed the environment with reset\\(seed=...\\)"),
     ("lwrl/pendulum-swingup-analytic-v0", {"integrator": "rk4"}, "unknown integrator 'rk4'"),
     ("lwrl/pendulum-swingup-analytic-v0", {"time_limit": -1}, "time_limit must be a positive number"),

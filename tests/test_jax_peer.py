@@ -36,18 +36,21 @@ def test_the_peer_steps_the_tasks_plants():
     rng = np.random.default_rng(1)
     for state in rng.uniform((-1.2, -0.07), (0.5, 0.07), size=(100, 2)):
         for thrust in mountain_car.THRUSTS:
-            expected = np.array(mountain_car.step(*state, thrust))
+            expected = np.array(mountain_car.step(*state, thrust, np.asarray(mountain_car.NOMINAL)))
             ours = np.asarray(jax_peer.mountain_car_step(state, thrust))
             np.testing.assert_allclose(ours, expected, rtol=1e-14, atol=1e-17)
             reward, terminal = jax_peer.mountain_car_outcome(ours)
-            assert (float(reward), bool(terminal)) == tuple(mountain_car.outcome(*expected)[:2])
+            assert (float(reward), bool(terminal)) == tuple(
+                mountain_car.outcome(*expected, np.asarray(mountain_car.NOMINAL))[:2])
     for state in rng.uniform((-2.5, -2.0, -0.25, -3.0), (2.5, 2.0, 0.25, 3.0), size=(100, 4)):
         for force in cartpole.FORCES:
-            expected = np.array(cartpole.step(*state, force, cartpole.TIMESTEP, True, False))
+            expected = np.array(cartpole.step(*state, force, cartpole.TIMESTEP, True, False,
+                                              np.asarray(cartpole.NOMINAL)))
             ours = np.asarray(jax_peer.cartpole_step(state, force))
             np.testing.assert_allclose(ours, expected, rtol=1e-13, atol=1e-15)
             reward, terminal = jax_peer.cartpole_outcome(ours)
-            expected_outcome = cartpole.outcome(*expected, cartpole.TRACK_LIMIT)
+            expected_outcome = cartpole.outcome(*expected, cartpole.TRACK_LIMIT,
+                                                np.asarray(cartpole.NOMINAL))
             assert (float(reward), bool(terminal)) == (float(expected_outcome[0]),
                                                         bool(expected_outcome[1]))
 

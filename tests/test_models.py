@@ -31,8 +31,8 @@ def _pendulum_without_damping(timestep: float) -> mujoco.MjModel:
 
 def _energy(angle, angular_velocity):
     """E = 1/2 m l^2 theta_dot^2 + m g l cos(theta), theta = 0 upright (section 4.2)."""
-    return (0.5 * pendulum.MASS * pendulum.LENGTH ** 2 * angular_velocity ** 2
-            + pendulum.MASS * pendulum.GRAVITY * pendulum.LENGTH * np.cos(angle))
+    return (0.5 * pendulum.NOMINAL.mass * pendulum.NOMINAL.length ** 2 * angular_velocity ** 2
+            + pendulum.NOMINAL.mass * pendulum.NOMINAL.gravity * pendulum.NOMINAL.length * np.cos(angle))
 
 
 # --- files and names -----------------------------------------------------------------------
@@ -81,35 +81,35 @@ def test_options_are_the_papers_euler_step(name):
     assert model.opt.timestep * substeps == module.TIMESTEP
     assert module.TIMESTEP == {"acrobot": 0.2}.get(name, 0.02)
     assert substeps == {"acrobot": 4}.get(name, 1)
-    np.testing.assert_array_equal(model.opt.gravity, [0.0, 0.0, -module.GRAVITY])
+    np.testing.assert_array_equal(model.opt.gravity, [0.0, 0.0, -module.NOMINAL.gravity])
     assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_EULER
     assert model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_EULERDAMP
 
 
 @pytest.mark.parametrize("name, kind, element, field, expected", [
     # Section 4.2: m = 1 kg, mu = 0.01 N m s/rad, tau in {-5, +5} N m.
-    ("pendulum", "body", "pendulum", "mass", pendulum.MASS),
-    ("pendulum", "joint", "hinge", "damping", pendulum.FRICTION),
+    ("pendulum", "body", "pendulum", "mass", pendulum.NOMINAL.mass),
+    ("pendulum", "joint", "hinge", "damping", pendulum.NOMINAL.friction),
     ("pendulum", "joint", "hinge", "frictionloss", 0.0),
     ("pendulum", "actuator", "torque", "ctrlrange", (min(pendulum.TORQUES), max(pendulum.TORQUES))),
     ("pendulum", "actuator", "torque", "ctrllimited", 1),
     # Section 4.3: mc = 1 kg, m = 0.1 kg, mu_p = 2e-6 N m s/rad, F in {-10, +10} N; the cart's
     # only friction is the Coulomb mu_c = 0.0005 N of the `cart_friction` actuator (no
     # viscous damping, no MuJoCo frictionloss, which would also resist at rest).
-    ("cartpole", "body", "cart", "mass", cartpole.CART_MASS),
-    ("cartpole", "body", "pole", "mass", cartpole.POLE_MASS),
-    ("cartpole", "joint", "hinge", "damping", cartpole.POLE_FRICTION),
+    ("cartpole", "body", "cart", "mass", cartpole.NOMINAL.cart_mass),
+    ("cartpole", "body", "pole", "mass", cartpole.NOMINAL.pole_mass),
+    ("cartpole", "joint", "hinge", "damping", cartpole.NOMINAL.pole_friction),
     ("cartpole", "joint", "hinge", "frictionloss", 0.0),
     ("cartpole", "joint", "slider", "damping", 0.0),
     ("cartpole", "joint", "slider", "frictionloss", 0.0),
     ("cartpole", "actuator", "force", "ctrlrange", (min(cartpole.FORCES), max(cartpole.FORCES))),
     ("cartpole", "actuator", "force", "ctrllimited", 1),
     ("cartpole", "actuator", "cart_friction", "forcerange",
-     (-cartpole.CART_FRICTION, cartpole.CART_FRICTION)),
+     (-cartpole.NOMINAL.cart_friction, cartpole.NOMINAL.cart_friction)),
     ("cartpole", "actuator", "cart_friction", "forcelimited", 1),
     # Sutton and Barto (1998), section 11.3: m1 = m2 = 1 kg, no friction, tau in [-1, 1] N m.
-    ("acrobot", "body", "upper_link", "mass", acrobot.LINK_MASS_1),
-    ("acrobot", "body", "lower_link", "mass", acrobot.LINK_MASS_2),
+    ("acrobot", "body", "upper_link", "mass", acrobot.NOMINAL.link_mass_1),
+    ("acrobot", "body", "lower_link", "mass", acrobot.NOMINAL.link_mass_2),
     ("acrobot", "joint", "shoulder", "damping", 0.0),
     ("acrobot", "joint", "elbow", "damping", 0.0),
     ("acrobot", "actuator", "torque", "ctrlrange", (min(acrobot.TORQUES), max(acrobot.TORQUES))),
@@ -125,10 +125,10 @@ def test_parameter_is_the_papers(name, kind, element, field, expected):
 def test_paper_constants():
     """The task modules' constants, which the models are checked against, are the paper's
     numbers (sections 4.2, 4.3; SPEC "Task 2", "Task 3")."""
-    assert (pendulum.MASS, pendulum.LENGTH, pendulum.GRAVITY, pendulum.FRICTION,
+    assert (pendulum.NOMINAL.mass, pendulum.NOMINAL.length, pendulum.NOMINAL.gravity, pendulum.NOMINAL.friction,
             pendulum.TORQUES, pendulum.TIMESTEP) == (1.0, 1.0, 9.81, 0.01, (-5.0, 5.0), 0.02)
-    assert (cartpole.CART_MASS, cartpole.POLE_MASS, cartpole.HALF_LENGTH, cartpole.GRAVITY,
-            cartpole.CART_FRICTION, cartpole.POLE_FRICTION, cartpole.FORCES, cartpole.TIMESTEP) == (
+    assert (cartpole.NOMINAL.cart_mass, cartpole.NOMINAL.pole_mass, cartpole.NOMINAL.half_length, cartpole.NOMINAL.gravity,
+            cartpole.NOMINAL.cart_friction, cartpole.NOMINAL.pole_friction, cartpole.FORCES, cartpole.TIMESTEP) == (
         1.0, 0.1, 0.5, 9.81, 0.0005, 0.000002, (-10.0, 10.0), 0.02)
 
 
@@ -136,14 +136,14 @@ def test_paper_constants():
 
 @pytest.mark.parametrize("name, body, joint, expected", [
     # The paper's pendulum is a point mass on a massless rod: I = m l^2.
-    ("pendulum", "pendulum", "hinge", pendulum.MASS * pendulum.LENGTH ** 2),
+    ("pendulum", "pendulum", "hinge", pendulum.NOMINAL.mass * pendulum.NOMINAL.length ** 2),
     # A uniform rod of length 2l about its end: m (2l)^2 / 3 = (4/3) m l^2, the 4/3 of the
     # paper's cart-pole equation (section 4.3; Barto, Sutton and Anderson 1983).
-    ("cartpole", "pole", "hinge", 4.0 / 3.0 * cartpole.POLE_MASS * cartpole.HALF_LENGTH ** 2),
+    ("cartpole", "pole", "hinge", 4.0 / 3.0 * cartpole.NOMINAL.pole_mass * cartpole.NOMINAL.half_length ** 2),
     # The book's links: I + m lc^2 = 1 + 0.25 about each joint (the elbow's is m2 lc2^2 + I2,
     # the lower right entry of the book's mass matrix).
-    ("acrobot", "upper_link", "shoulder", acrobot.LINK_INERTIA_1 + acrobot.LINK_MASS_1 * acrobot.LINK_COM_1 ** 2),
-    ("acrobot", "lower_link", "elbow", acrobot.LINK_INERTIA_2 + acrobot.LINK_MASS_2 * acrobot.LINK_COM_2 ** 2),
+    ("acrobot", "upper_link", "shoulder", acrobot.NOMINAL.link_inertia_1 + acrobot.NOMINAL.link_mass_1 * acrobot.NOMINAL.link_com_1 ** 2),
+    ("acrobot", "lower_link", "elbow", acrobot.NOMINAL.link_inertia_2 + acrobot.NOMINAL.link_mass_2 * acrobot.NOMINAL.link_com_2 ** 2),
 ])
 def test_inertia_about_the_hinge(name, body, joint, expected):
     """The compiled body's inertia about its hinge axis (its inertia tensor about the centre
@@ -166,8 +166,25 @@ def test_inertia_about_the_hinge(name, body, joint, expected):
 
 def test_pole_mass_length_is_a_product():
     """m l in the cart-pole equation is the product 0.1 kg * 0.5 m = 0.05 kg m (section 4.3);
-    Gymnasium's functional cart-pole once used the sum m + l here."""
-    assert cartpole.POLE_MASS_LENGTH == cartpole.POLE_MASS * cartpole.HALF_LENGTH == 0.05
+    Gymnasium's functional cart-pole once used the sum m + l here. At a spinning pole
+    (theta = 0.3 rad, theta_dot = 2 rad/s, the cart at rest, F = 10 N) the accelerations are
+    the equations' with the product, computed here from the paper's values, and not those
+    with the sum."""
+    mc, m, l, g, mu_p = (cartpole.NOMINAL.cart_mass, cartpole.NOMINAL.pole_mass,
+                         cartpole.NOMINAL.half_length, cartpole.NOMINAL.gravity,
+                         cartpole.NOMINAL.pole_friction)
+    theta, theta_dot, force = 0.3, 2.0, 10.0
+
+    def paper(mass_length):
+        theta_dd = (g * math.sin(theta) + math.cos(theta) * (
+            -force - mass_length * theta_dot ** 2 * math.sin(theta)) / (mc + m)
+            - mu_p * theta_dot / mass_length) / (l * (4 / 3 - m * math.cos(theta) ** 2 / (mc + m)))
+        x_dd = (force + mass_length * (theta_dot ** 2 * math.sin(theta) - theta_dd * math.cos(theta))) / (mc + m)
+        return x_dd, theta_dd
+
+    ours = cartpole.accelerations(0.0, theta, theta_dot, force, False, np.asarray(cartpole.NOMINAL))
+    assert ours == pytest.approx(paper(m * l), rel=1e-12)
+    assert ours != pytest.approx(paper(m + l), rel=1e-3)
 
 
 # --- closed forms: period and energy of the pendulum --------------------------------------
@@ -193,7 +210,7 @@ def _analytic_swing(start):
     angles = [start]
     for _ in range(PERIOD_STEPS):
         angle, angular_velocity = pendulum.step(angle, angular_velocity, 0.0, PERIOD_TIMESTEP, True,
-                                                False)
+                                                False, np.asarray(pendulum.NOMINAL))
         angles.append(angle)
     return np.array(angles)
 
@@ -211,7 +228,7 @@ def test_small_angle_period(swing):
     finite-amplitude correction theta0^2 / 16 = 1.6e-4, so the check is 0.1 % (tighter than
     1 %: g = 10 instead of 9.81 changes the period by 0.95 %).
 
-    The analytic plant keeps its hinge friction mu = 0.01 (a module constant): the damped
+    The analytic plant keeps its hinge friction mu = 0.01 (the paper's value): the damped
     frequency omega_d = sqrt(omega0^2 - (mu / 2 m l^2)^2) = sqrt(9.81 - 0.005^2) differs from
     omega0 = sqrt(9.81) by 0.005^2 / (2 * 9.81) = 1.3e-6 relative, which is negligible.
     """
@@ -221,7 +238,7 @@ def test_small_angle_period(swing):
     crossings = PERIOD_TIMESTEP * (upward - offset[upward] / (offset[upward + 1] - offset[upward]))
     periods = np.diff(crossings)
     assert len(periods) == 4
-    closed_form = 2.0 * math.pi * math.sqrt(pendulum.LENGTH / pendulum.GRAVITY)
+    closed_form = 2.0 * math.pi * math.sqrt(pendulum.NOMINAL.length / pendulum.NOMINAL.gravity)
     assert periods == pytest.approx(np.full(4, closed_form), rel=1e-3)
 
 
@@ -263,7 +280,7 @@ def test_mujoco_energy_without_damping_is_bounded(start, bound):
     half = ENERGY_STEPS // 2
     assert error[half:].max() <= 1.01 * error[:half + 1].max()
     hinge_height = model.body("pendulum").pos[2]
-    potential_offset = pendulum.MASS * pendulum.GRAVITY * hinge_height
+    potential_offset = pendulum.NOMINAL.mass * pendulum.NOMINAL.gravity * hinge_height
     np.testing.assert_allclose(np.array(mujoco_energies) - potential_offset, energies,
                                rtol=0, atol=1e-9)
 
@@ -287,7 +304,8 @@ def test_explicit_euler_adds_energy(start, gain):
         angle, angular_velocity = start, 0.0
         for _ in range(ENERGY_STEPS):
             angle, angular_velocity = pendulum.step(
-                angle, angular_velocity, 0.0, pendulum.TIMESTEP, semi_implicit, False)
+                angle, angular_velocity, 0.0, pendulum.TIMESTEP, semi_implicit, False,
+                np.asarray(pendulum.NOMINAL))
         final_energy[semi_implicit] = _energy(angle, angular_velocity)
     initial_energy = _energy(start, 0.0)
     assert final_energy[False] - initial_energy > gain

@@ -33,7 +33,8 @@ def _gymnasium_steps(env, positions, velocities, action):
 
 
 def _ours(positions, velocities, action):
-    return mountain_car.step(positions, velocities, mountain_car.THRUSTS[action])
+    return mountain_car.step(positions, velocities, mountain_car.THRUSTS[action],
+                             np.asarray(mountain_car.NOMINAL))
 
 
 @pytest.mark.parametrize("action", [0, 1, 2])
@@ -123,7 +124,8 @@ def test_step_matches_hand_computed_table(position, velocity, thrust, next_posit
     paper's equations (section 4.1; SPEC "Task 1"), to 1e-12: interior steps, the left wall
     (v' reset to 0), the velocity clip at +-0.07, reaching the goal (x' > 0.5: reward 0,
     terminal) and landing exactly at or just below 0.5 (reward -1, not terminal)."""
-    position_next, velocity_next = mountain_car.step(position, velocity, thrust)
+    position_next, velocity_next = mountain_car.step(position, velocity, thrust,
+                                                     np.asarray(mountain_car.NOMINAL))
     assert position_next == pytest.approx(next_position, rel=0, abs=1e-12)
     assert velocity_next == pytest.approx(next_velocity, rel=0, abs=1e-12)
     assert mountain_car.reward(position_next) == reward

@@ -9,7 +9,7 @@ import pytest
 from dm_env import specs
 
 from lwrl import tasks
-from conftest import set_state
+from conftest import off_nominal, set_state
 
 STATE_NAMES = {
     "mountain_car": ("position", "velocity"),
@@ -314,9 +314,12 @@ def test_physics_accessors_name_the_quantities():
 @pytest.mark.parametrize("domain, task", tasks.ALL_TASKS)
 @pytest.mark.parametrize("integrator", ["semi_implicit", "explicit"])
 @pytest.mark.parametrize("equations", ["paper", "kfnnet"])
-def test_transition_is_the_plant_step_and_the_task(domain, task, integrator, equations):
+@pytest.mark.parametrize("physics", ["nominal", "off_nominal"])
+def test_transition_is_the_plant_step_and_the_task(domain, task, integrator, equations, physics):
     """The compiled loops' `transition` (run here compiled by numba) gives the analytic
-    plant's next state, the task's observation, reward, termination and up-time, exactly."""
+    plant's next state, the task's observation, reward, termination and up-time, exactly:
+    at the paper's parameter values, and at values of each state's own (`off_nominal`),
+    with each action's control at those values."""
     definition = tasks.definition(domain, task)
     plant = tasks.domain(domain).plants.batch("analytic", 200, **(
         {"integrator": integrator, "equations": equations} if domain != "mountain_car" else {}))
@@ -325,18 +328,21 @@ def test_transition_is_the_plant_step_and_the_task(domain, task, integrator, equ
     ranges = {"mountain_car": [1.0, 0.08], "pendulum": [4.0, 8.0], "cartpole": [2.6, 3.0, 0.25, 3.0],
               "acrobot": [7.0, 14.0, 7.0, 30.0]}  # the acrobot's speeds: past their limits
     states = rng.uniform(-1, 1, size=(200, len(definition.state_names))) * ranges[domain]
-    controls = rng.choice(definition.controls, size=200)
-    expected = plant.step(states, controls)
+    rows = (np.tile(definition.physical, (200, 1)) if physics == "nominal"
+            else off_nominal(domain, rng, 200))
+    controls = definition.controls_at(rows)[np.arange(200),
+                                            rng.integers(definition.num_actions, size=200)]
+    expected = plant.step(states, controls, None if physics == "nominal" else rows)
     semi_implicit = integrator == "semi_implicit"
-    params = np.array(definition.params)
-    for state, control, next_expected in zip(states, controls, expected):
+    params = np.array(definition.params, dtype=np.float64)
+    outcomes = definition.outcomes(expected, rows)
+    for i, (state, control, next_expected) in enumerate(zip(states, controls, expected)):
         next_state, observation = np.empty_like(state), np.empty_like(state)
         reward, terminal, up = transition(state, control, next_state, observation,
                                           plant.timestep, semi_implicit,
-                                          equations == "kfnnet", params)
+                                          equations == "kfnnet", (params, rows[i]))
         np.testing.assert_array_equal(next_state, next_expected)
         np.testing.assert_array_equal(observation, definition.observe(next_expected[None])[0])
-        assert reward == definition.reward(next_expected[None])[0]
-        assert terminal == definition.terminal(next_expected[None])[0]
+        assert (reward, terminal) == (outcomes[0][i], outcomes[1][i])
         if definition.has_uptime:
-            assert up * plant.timestep == definition.uptime_increment(next_expected[None])[0]
+            assert up == outcomes[2][i]
