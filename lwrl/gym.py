@@ -50,7 +50,7 @@ except ImportError as error:  # pragma: no cover - only without gymnasium
 import numpy as np
 
 from lwrl import tasks
-from lwrl.tasks.definition import check_finite_state
+from lwrl.tasks.task_definition import check_finite_state
 
 NAMESPACE = "lwrl"
 VERSION = 0

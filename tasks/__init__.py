@@ -7,12 +7,13 @@
     ts = env.reset()
     ts = env.step(1)            # a discrete action index
 
-Each domain is one module, `tasks/<domain>.py`, ending with its `DOMAIN` (`tasks.domain`),
-and one line of `DOMAIN_MODULES` below. `DOMAINS[name]` is a domain's `Domain`;
-`ALL_TASKS` lists `(domain, task)` pairs; `PLANTS[domain]` the plants of a domain, the
-default first, and `ENVIRONMENT_PLANTS[domain]` those of a single environment.
-`definition(...)` gives a task's array functions and `tasks.batched` steps many copies of a
-task at once.
+Each domain is one module, `tasks/<domain>.py`, ending with its `DOMAIN` (a
+`tasks.domain_contract.Domain`), and one line of `DOMAIN_MODULES` below. `DOMAINS[name]` is
+a domain's `Domain`; `ALL_TASKS` lists `(domain, task)` pairs; `PLANTS[domain]` the plants
+of a domain, the default first, and `ENVIRONMENT_PLANTS[domain]` those of a single
+environment. `definition(...)` gives a task's array functions (a
+`tasks.task_definition.TaskDefinition`) and `tasks.batched` steps many copies of a task at
+once.
 """
 
 import importlib
@@ -29,8 +30,8 @@ if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
 from dm_control.rl import control  # noqa: E402
 
 from lwrl.tasks.base import SuiteTask  # noqa: E402
-from lwrl.tasks.definition import TaskDefinition  # noqa: E402
-from lwrl.tasks.domain import Domain  # noqa: E402
+from lwrl.tasks.task_definition import TaskDefinition  # noqa: E402
+from lwrl.tasks.domain_contract import Domain  # noqa: E402
 
 DOMAIN_MODULES = ("mountain_car", "pendulum", "cartpole", "acrobot")
 """The registry: the modules of `tasks/` that each define one domain, in the suite's order."""

@@ -15,7 +15,7 @@ import dm_env
 import numpy as np
 
 from lwrl import tasks
-from lwrl.tasks.definition import (advance_episode, check_actions, check_finite_state,
+from lwrl.tasks.task_definition import (advance_episode, check_actions, check_finite_state,
                                    random_starts)
 
 FIRST, MID, LAST = (int(t) for t in (dm_env.StepType.FIRST, dm_env.StepType.MID, dm_env.StepType.LAST))

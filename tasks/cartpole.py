@@ -38,8 +38,8 @@ import math
 import numpy as np
 from numba.extending import register_jitable
 
-from lwrl.tasks.definition import RunDefaults, TaskDefinition, step_limit
-from lwrl.tasks.domain import Domain, PlantComparison
+from lwrl.tasks.task_definition import RunDefaults, TaskDefinition, step_limit
+from lwrl.tasks.domain_contract import Domain, PlantComparison
 from lwrl.tasks.integrators import euler_pair
 from lwrl.tasks.physics import physics_classes
 from lwrl.tasks.plants import DomainPlants

@@ -6,7 +6,7 @@ plane) with their rgba colours and logged once, static, in its body's frame unde
 state of an episode, computed from the recorded states: `qpos` is the state's positions (the
 state vector interleaves qpos and qvel joint by joint, for both plants), and the poses are
 MuJoCo's forward kinematics of it. A domain without an MJCF model brings its own `Drawing`
-(`tasks.domain`): boxes and lines, fixed or on moving bodies, and the bodies' poses.
+(`tasks.domain_contract`): boxes and lines, fixed or on moving bodies, and the bodies' poses.
 
 `body_poses` evaluates MuJoCo's kinematics (`mj_kinematics`: body offsets, then each joint's
 slide or rotation about its anchor) over all the states at once in NumPy; it is checked
@@ -19,7 +19,7 @@ import numpy as np
 import rerun as rr
 
 from lwrl import models
-from lwrl.tasks.domain import Box, Line
+from lwrl.tasks.domain_contract import Box, Line
 from lwrl.viz import names
 from lwrl.viz.columns import episode_indexes, log_static, send
 
