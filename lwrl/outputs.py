@@ -184,12 +184,13 @@ class Claim:
     the process ends however it ends, so a claim whose process is gone is free to be taken
     over; `release()` removes the file."""
 
-    def __init__(self, path: pathlib.Path, descriptor: int):
-        self.path, self._descriptor = path, descriptor
+    def __init__(self, path: pathlib.Path, descriptor: int, made=()):
+        self.path, self._descriptor, self._made = path, descriptor, made
 
     def release(self) -> None:
         """Give the claim up (removing the claim file while it is still locked, so that no
-        other process locks a file that is no longer at `path`)."""
+        other process locks a file that is no longer at `path`), and the directories made
+        for it that are still empty."""
         if self._descriptor is None:
             return
         with contextlib.suppress(FileNotFoundError):
@@ -197,6 +198,9 @@ class Claim:
         os.close(self._descriptor)
         self._descriptor = None
         _HELD.discard(self)
+        for directory in self._made:  # the deepest first
+            with contextlib.suppress(OSError):
+                directory.rmdir()
 
 
 _HELD = set()
@@ -207,6 +211,8 @@ def claim(path) -> Claim | None:
     """Claim the claim file `path` for this process, taking over one whose process is gone;
     None while another process (or another claim of this one) holds it."""
     path = pathlib.Path(path)
+    made = [directory for directory in [path.parent, *path.parent.parents]
+            if not directory.exists()]
     path.parent.mkdir(parents=True, exist_ok=True)
     while True:
         descriptor = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
@@ -223,7 +229,7 @@ def claim(path) -> Claim | None:
         os.close(descriptor)
     os.ftruncate(descriptor, 0)
     os.write(descriptor, f"{socket.gethostname()} {os.getpid()}\n".encode())
-    held = Claim(path, descriptor)
+    held = Claim(path, descriptor, made)
     _HELD.add(held)
     return held
 

@@ -59,6 +59,16 @@ def test_a_claim_held_by_a_live_process_is_refused_and_taken_over_once_it_is_gon
     assert not claim.path.exists() and not output.exists()
 
 
+def test_a_refused_command_leaves_nothing_behind(tmp_path, capsys):
+    """The directories made for a claim go with it when the command is refused."""
+    (tmp_path / "agents.npz").write_text("an earlier run's")
+    status, _, err = run_cli(["train", "mountain_car.cost_to_go", "--out",
+                              str(tmp_path / "a" / "b" / "run"), "--save",
+                              str(tmp_path / "agents.npz")], capsys)
+    assert status == 2 and len(err) == 1 and "agents.npz exists" in err[0]
+    assert [path.name for path in tmp_path.iterdir()] == ["agents.npz"]
+
+
 def test_one_process_holds_a_claim_once(tmp_path):
     claim = outputs.claim(tmp_path / "a.claim")
     assert claim is not None and outputs.claim(tmp_path / "a.claim") is None
