@@ -18,7 +18,6 @@ once.
 
 import importlib
 import inspect
-import math
 import os
 
 if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
@@ -97,9 +96,6 @@ def resolve(domain_name: str, task: str, plant=None, **options):
         allowed = ", ".join(["plant", "seed"] + task_option_names + plant_options)
         raise ValueError(f"unknown option {unknown[0]!r} for {domain_name}.{task} on the {plant} "
                          f"plant; allowed: {allowed}")
-    if "time_limit" in options and not (isinstance(options["time_limit"], (int, float))
-                                        and 0 < options["time_limit"] <= math.inf):
-        raise ValueError(f"time_limit must be a positive number; got {options['time_limit']!r}")
     definition = domain(domain_name).tasks[task](
         **{k: v for k, v in options.items() if k in task_option_names})
     return definition, plant, {k: v for k, v in options.items() if k in plant_options}
