@@ -1,5 +1,9 @@
 """Shared fixtures: every (domain, task, plant) of the suite's dm_env environments; a command
-run in this process."""
+run in this process; an OpenGL backend that renders headless."""
+
+import os
+import subprocess
+import sys
 
 import pytest
 
@@ -31,3 +35,22 @@ def run_cli(argv, capsys):
         status = exit_.code
     captured = capsys.readouterr()
     return status, captured.out, captured.err.strip().splitlines()
+
+
+OPENGL_PROBE = ("from dm_control import mujoco\n"
+                "physics = mujoco.Physics.from_xml_string('<mujoco><worldbody><light pos=\"0 0 1\"/>"
+                "<geom size=\"0.1\"/></worldbody></mujoco>')\n"
+                "assert physics.render(16, 16).std() > 0\n")
+
+
+@pytest.fixture(scope="session")
+def opengl():
+    """`MUJOCO_GL` of a backend that renders headless here (EGL, else OSMesa), for child
+    processes; skips the test where there is none."""
+    for backend in ("egl", "osmesa"):
+        probe = subprocess.run([sys.executable, "-c", OPENGL_PROBE], capture_output=True,
+                               env={**os.environ, "MUJOCO_GL": backend}, timeout=120)
+        if probe.returncode == 0:
+            return backend
+    pytest.skip("no headless OpenGL here: apt-get install libegl1 libegl-mesa0 "
+                "libgl1-mesa-dri (EGL) or libosmesa6 (OSMesa)")
