@@ -84,7 +84,8 @@ class Outputs:
 
     def __init__(self, command: str):
         self.command = command
-        self.written, self.failed = [], []
+        self.written: list[str] = []
+        self.failed: list[str] = []
 
     def write(self, what: str, write) -> bool:
         """Call `write()` for the output `what` (e.g. `--save agents.npz`), which returns

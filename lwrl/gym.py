@@ -65,6 +65,7 @@ except ImportError as error:  # pragma: no cover - only without gymnasium
                       "the rest of the suite does not") from error
 import os
 import sys
+from typing import Any
 
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
@@ -231,9 +232,13 @@ class SuiteEnv(gymnasium.Env):
         return (self._observation(time_step.observation), float(time_step.reward), terminated,
                 truncated, self._info())
 
+    def _frame(self) -> np.ndarray:
+        assert self._painter is not None, "a render mode draws frames"
+        return self._painter(self.dm_env.physics.state_vector())
+
     def _show(self) -> None:
         if self._window is not None:
-            self._window.show(self._painter(self.dm_env.physics.state_vector()))
+            self._window.show(self._frame())
 
     def render(self):
         """The current state as a `(240, 320, 3)` uint8 frame (`render_mode="rgb_array"`);
@@ -242,7 +247,7 @@ class SuiteEnv(gymnasium.Env):
             return None
         if not self._started:
             raise RuntimeError("call reset() before render()")
-        return self._painter(self.dm_env.physics.state_vector())
+        return self._frame()
 
     def close(self):
         for part in (self._window, self._painter):
@@ -298,7 +303,8 @@ class _Window:
         except ImportError:
             raise ValueError("render_mode='human' shows frames with pygame: pip install pygame") from None
         self._pygame, self._title, self._fps = pygame, title, fps
-        self._screen = self._clock = None
+        self._screen: Any = None
+        self._clock: Any = None
 
     def show(self, frame: np.ndarray) -> None:
         pygame = self._pygame
@@ -349,7 +355,7 @@ class SuiteVectorEnv(VectorEnv):
         self.single_observation_space = spaces.Box(low, high, dtype=np.float64)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.metadata = {**self.metadata, "render_fps": 1.0 / self.definition.control_timestep}
-        self._batched = None
+        self._batched: BatchedEnv | None = None
         self._plants = np.full(self.num_envs, self.plant, dtype=object)
 
     def _seeds(self, seed) -> list:
@@ -372,7 +378,7 @@ class SuiteVectorEnv(VectorEnv):
             self._batched = BatchedEnv(self.domain, self.task_name, self.plant,
                                        seeds=self._seeds(seed), **self.options)
         time_step = self._batched.reset()
-        return np.array(time_step.observation, dtype=np.float64), self._infos()
+        return np.array(time_step.observation, dtype=np.float64), self._infos(self._batched)
 
     def step(self, actions):
         if self._batched is None:
@@ -382,15 +388,15 @@ class SuiteVectorEnv(VectorEnv):
         terminated = last & (time_step.discount == 0.0)
         return (np.array(time_step.observation, dtype=np.float64),
                 np.asarray(time_step.reward, dtype=np.float64), terminated, last & ~terminated,
-                self._infos())
+                self._infos(self._batched))
 
-    def _infos(self) -> dict:
+    def _infos(self, batched: BatchedEnv) -> dict:
         """`SuiteEnv`'s info of every copy, batched as `VectorEnv._add_info` batches them."""
         every = np.ones(self.num_envs, dtype=bool)
-        uptime = (np.array(self._batched.uptime, dtype=np.float64) if self.definition.has_uptime
+        uptime = (np.array(batched.uptime, dtype=np.float64) if self.definition.has_uptime
                   else np.full(self.num_envs, None, dtype=object))
         return {"uptime_s": uptime, "_uptime_s": every.copy(),
-                "steps": np.array(self._batched.steps, dtype=np.int64), "_steps": every.copy(),
+                "steps": np.array(batched.steps, dtype=np.int64), "_steps": every.copy(),
                 "plant": self._plants.copy(), "_plant": every.copy()}
 
     def close_extras(self, **kwargs):

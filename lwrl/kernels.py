@@ -45,9 +45,8 @@ import numba.core.caching
 import numba.extending
 import numpy as np
 
-_PACKAGE = pathlib.Path(__file__).resolve().parent
 _LOCK = threading.Lock()
-_DIGESTS = {}
+_DIGESTS: dict[tuple, str] = {}
 
 
 def cache_root() -> pathlib.Path:
@@ -66,7 +65,8 @@ def _source_files(modules) -> list:
     for room in lwrl.SUBPACKAGES:
         spec = importlib.util.find_spec(f"lwrl.{room}")
         if spec is not None:
-            roots += [pathlib.Path(path) for path in (spec.submodule_search_locations or [spec.origin])]
+            roots += [pathlib.Path(path) for path in (spec.submodule_search_locations
+                                                      or [spec.origin or ""]) if path]
     files = {path.resolve() for root in roots
              for path in ([root] if root.suffix == ".py" else root.rglob("*.py"))}
     files |= {pathlib.Path(inspect.getfile(sys.modules[name])).resolve() for name in modules}

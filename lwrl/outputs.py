@@ -185,7 +185,8 @@ class Claim:
     over; `release()` removes the file."""
 
     def __init__(self, path: pathlib.Path, descriptor: int, made=()):
-        self.path, self._descriptor, self._made = path, descriptor, made
+        self.path, self._made = path, made
+        self._descriptor: int | None = descriptor
 
     def release(self) -> None:
         """Give the claim up (removing the claim file while it is still locked, so that no
@@ -203,7 +204,7 @@ class Claim:
                 directory.rmdir()
 
 
-_HELD = set()
+_HELD: set[Claim] = set()
 """The claims this process holds (`release_claims` gives them up, as does its exit)."""
 
 

@@ -54,7 +54,7 @@ def domain(name: str) -> Domain:
     return DOMAINS[name]
 
 
-def split_name(name: str) -> tuple:
+def split_name(name: str) -> tuple[str, str]:
     """`(domain, task)` of `DOMAIN.TASK`, or a ValueError naming the suite's tasks."""
     domain_name, dot, task = name.partition(".")
     if not dot or not task:

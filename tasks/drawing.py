@@ -180,15 +180,16 @@ class Painter:
 
     def __init__(self, model_xml: str | None, drawing: Drawing | None, height: int = 240,
                  width: int = 320):
-        if model_xml is None and drawing is None:
-            raise ValueError("a domain without an MJCF model needs a Drawing to be pictured")
-        self.height, self.width, self.drawing = height, width, drawing
+        self.height, self.width = height, width
         self._physics = None
         if model_xml is not None:
             from dm_control import mujoco as dm_mujoco
 
             self._physics = dm_mujoco.Physics.from_xml_string(model_xml)
             return
+        if drawing is None:
+            raise ValueError("a domain without an MJCF model needs a Drawing to be pictured")
+        self.drawing = drawing
         fixed = fixed_shapes(drawing)
         points = np.concatenate([shape.points if isinstance(shape, Line) else shape[0]
                                  for shape in fixed])

@@ -157,7 +157,7 @@ def advance_episode(steps, uptime, up, terminal, dt, step_limit):
 def positive_number(name: str, value, what: str = "number") -> float:
     """`value` as a float if it is a real number above 0 (`inf` included), else a one-line
     error: `NAME must be a positive WHAT; got VALUE` (a bool, a string, NaN are refused)."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not value > 0:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not float(value) > 0:
         raise ValueError(f"{name} must be a positive {what}; got {value!r}")
     return float(value)
 
