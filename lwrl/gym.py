@@ -63,6 +63,7 @@ try:
 except ImportError as error:  # pragma: no cover - only without gymnasium
     raise ImportError("lwrl.gym needs gymnasium (pip install 'lwrl[gymnasium]'); "
                       "the rest of the suite does not") from error
+import importlib.util
 import os
 import sys
 from typing import Any
@@ -271,11 +272,8 @@ def render_modes(domain: str) -> list:
     model needs OpenGL and there is none; `human` too where a display and pygame are."""
     if tasks.domain(domain).model is not None and not _opengl():
         return []
-    try:
-        import pygame  # noqa: F401
-    except ImportError:
-        return ["rgb_array"]
-    return list(RENDER_MODES) if _display() else ["rgb_array"]
+    window = _display() and importlib.util.find_spec("pygame") is not None
+    return list(RENDER_MODES) if window else ["rgb_array"]
 
 
 def painter(domain: str, render_mode) -> Painter | None:

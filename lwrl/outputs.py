@@ -24,6 +24,7 @@ import errno
 import fcntl
 import os
 import pathlib
+import secrets
 import shutil
 import socket
 import tempfile
@@ -40,9 +41,13 @@ def atomic_path(path):
     the block ends without an error, removed otherwise."""
     path = pathlib.Path(path)
     _parent(path).mkdir(parents=True, exist_ok=True)
-    descriptor, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial",
-                                             dir=_parent(path))
-    os.close(descriptor)
+    while True:  # the mode a plain open gives (the umask's), not mkstemp's private 0600
+        temporary = str(_parent(path) / f".{path.name}.{secrets.token_hex(6)}.partial")
+        try:
+            os.close(os.open(temporary, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
+            break
+        except FileExistsError:
+            continue
     try:
         yield temporary
         os.replace(temporary, path)
@@ -77,17 +82,33 @@ def _holds_working_directory(path: pathlib.Path) -> bool:
     return pathlib.Path.cwd().resolve().is_relative_to(path.resolve())
 
 
+def _new_directory(parent: pathlib.Path, prefix: str) -> pathlib.Path:
+    """A new directory `parent/PREFIX.<random>.partial` with the mode a plain `mkdir` gives
+    (the umask's, not `mkdtemp`'s private 0700: it becomes the output), as `atomic_path`'s
+    files have the mode of a plain open."""
+    while True:
+        candidate = parent / f"{prefix}.{secrets.token_hex(6)}.partial"
+        try:
+            candidate.mkdir()
+            return candidate
+        except FileExistsError:
+            continue
+
+
 def _staging_directory(path: pathlib.Path) -> tuple[pathlib.Path, bool]:
     """A new, empty directory to write `path`'s files into, and whether it lies beside
-    `path` (so that it can take `path`'s place whole) or, where that cannot be, inside it."""
+    `path` (so that it can take `path`'s place whole, with `path`'s mode) or, where that
+    cannot be, inside it."""
     parent = _parent(path)
     if not _holds_working_directory(path):
         with contextlib.suppress(OSError):
             parent.mkdir(parents=True, exist_ok=True)
-            return pathlib.Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".partial",
-                                                 dir=parent)), True
+            staging = _new_directory(parent, f".{path.name}")
+            if path.is_dir():
+                shutil.copymode(path, staging)
+            return staging, True
     path.mkdir(parents=True, exist_ok=True)
-    return pathlib.Path(tempfile.mkdtemp(prefix=".", suffix=".partial", dir=path)), False
+    return _new_directory(path, ""), False
 
 
 def _place_entries(staging: pathlib.Path, path: pathlib.Path) -> None:
@@ -110,10 +131,13 @@ def atomic_directory(path):
     where `path` is absent or empty, exchanged with it where it holds files (Linux's
     `renameat2(RENAME_EXCHANGE)`), so that a reader sees the old files or the new ones,
     never some of each. What the old directory holds that the new one does not (a
-    recording, a user's own files) is then moved into the new one, and the rest removed. Where `path`
-    holds the working directory, its parent cannot be written, or the system cannot exchange
-    two directories, the entries are renamed into `path` one by one, each whole."""
+    recording, a user's own files) is then moved into the new one, and the rest removed.
+    Where `path` holds the working directory, its parent cannot be written, or the system
+    cannot exchange two directories, the entries are renamed into `path` one by one, each
+    whole. A `path` that is a symbolic link is followed: the directory it names is replaced."""
     path = pathlib.Path(path)
+    if path.is_symlink():
+        path = path.resolve()
     staging, beside = _staging_directory(path)
     try:
         yield staging

@@ -208,3 +208,32 @@ def test_the_working_directory_is_written_into_not_replaced(tmp_path, monkeypatc
         (staging / "figures").mkdir()
     assert os.stat(".").st_ino == inode and (tmp_path / "config.json").read_text() == "new"
     assert sorted(os.listdir(tmp_path)) == ["config.json", "figures"]
+
+
+def test_a_link_to_a_run_directory_stays_a_link(tmp_path):
+    real, link = tmp_path / "real", tmp_path / "link"
+    write_generations(real, 1)
+    link.symlink_to(real)
+    with outputs.atomic_directory(link) as staging:
+        (staging / "config.json").write_text("new")
+        (staging / "episodes.csv").write_text("new")
+    assert link.is_symlink() and (real / "config.json").read_text() == "new"
+    assert sorted(os.listdir(tmp_path)) == ["link", "real"]
+
+
+def test_outputs_keep_the_mode_a_plain_mkdir_or_open_gives(tmp_path):
+    """Not the private 0700 and 0600 of temporary directories and files: the umask's for a
+    new directory and a file, the old one's for a directory replaced."""
+    umask = os.umask(0o022)
+    try:
+        write_generations(tmp_path / "new", 1)
+        (tmp_path / "old").mkdir(mode=0o750)
+        (tmp_path / "old" / "notes.txt").write_text("kept")
+        write_generations(tmp_path / "old", 1)
+        with outputs.atomic_write(tmp_path / "table.csv") as file:
+            file.write("a,b\n")
+    finally:
+        os.umask(umask)
+    assert (tmp_path / "new").stat().st_mode & 0o777 == 0o755
+    assert (tmp_path / "old").stat().st_mode & 0o777 == 0o750
+    assert (tmp_path / "table.csv").stat().st_mode & 0o777 == 0o644
