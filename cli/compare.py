@@ -56,9 +56,14 @@ def compare_plants(args) -> int:
     bar, update = output.progress_bar(total, "closed loop")
     with bar, outputs.atomic_directory(args.out) as staging:  # the report appears whole
         result = compare.compare(args.task, seeds=args.seeds, episodes=args.episodes,
-                                 out_dir=str(staging), rrd_path=args.rrd, quick=args.quick,
-                                 progress=update, judge=paper.judge(args.task))
+                                 out_dir=str(staging), quick=args.quick, progress=update,
+                                 judge=paper.judge(args.task))
     result.report_path = os.path.join(args.out, os.path.basename(result.report_path))
+    if args.rrd:  # once the report is in place, so that a recording that fails loses nothing else
+        recording = time.perf_counter()
+        with outputs.atomic_path(args.rrd) as temporary:
+            compare.record(args.task, result.closed_loop.replay, temporary)
+        result.rrd_path, result.timings["recording"] = args.rrd, time.perf_counter() - recording
     parts = ", ".join(f"{part} {output.duration(seconds)}" for part, seconds in result.timings.items())
     output.done(started, [result.report_path, f"the tables and figures under {args.out}"]
                 + ([f"the recording {args.rrd}"] if args.rrd else []), detail=parts)

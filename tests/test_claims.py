@@ -237,3 +237,25 @@ def test_outputs_keep_the_mode_a_plain_mkdir_or_open_gives(tmp_path):
     assert (tmp_path / "new").stat().st_mode & 0o777 == 0o755
     assert (tmp_path / "old").stat().st_mode & 0o777 == 0o750
     assert (tmp_path / "table.csv").stat().st_mode & 0o777 == 0o644
+
+
+def test_a_recording_that_fails_loses_no_report(tmp_path, capsys, monkeypatch):
+    """`lwrl compare --rrd` writes the recording once the report is in place."""
+    import types
+
+    from lwrl.studies.compare import comparison
+
+    def compared(task, out_dir, **options):  # the comparison's report, without its work
+        (pathlib.Path(out_dir) / "report.md").write_text("the report")
+        return types.SimpleNamespace(report_path=str(pathlib.Path(out_dir) / "report.md"),
+                                     timings={}, closed_loop=types.SimpleNamespace(replay=None))
+
+    def broken(*args):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(comparison, "compare", compared)
+    monkeypatch.setattr(comparison, "record", broken)
+    status, _, err = run_cli(["compare", "pendulum.swingup", "--quick", "--seeds", "2", "--out",
+                              str(tmp_path / "cmp"), "--rrd", str(tmp_path / "plants.rrd")], capsys)
+    assert status == 1 and "No space left on device" in err[-1]
+    assert (tmp_path / "cmp" / "report.md").exists() and not (tmp_path / "plants.rrd").exists()
