@@ -33,7 +33,7 @@ from dm_env import specs
 
 from lwrl import agent as learners
 from lwrl.agent.features import check_box
-from lwrl.agent.learner import Agents, TaskInfo
+from lwrl.agent.learner_contract import Agents, TaskInfo
 from lwrl.runners.config import LearnerChoice, ProtocolSettings, compose
 from lwrl.runners.run import EpisodeResults, run_batched
 from lwrl.settings import check_choices, fill
@@ -345,7 +345,7 @@ def prepare(config: ExternalConfig) -> tuple[ExternalConfig, Agents, SteppedEnvs
     checked against them, and its untrained agents."""
     envs = [load(config.env, seed, config.actions) for seed in config.seeds]
     low, high = observation_box(config, envs[0])
-    config = dataclasses.replace(config, low=low, high=high)
+    config = dataclasses.replace(config, agent=dataclasses.replace(config.agent, low=low, high=high))
     info = config.task_info(envs[0])
     learner = learners.learner(config.learner)
     reason = learner.fits(info)

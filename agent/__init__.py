@@ -1,6 +1,6 @@
 """lwrl's learners, over arrays: one module per learner, each ending with its `LEARNER`.
 
-`agent.learner` is the contract every learner fills (`Learner`, `Agents`); `LEARNER_MODULES`
+`agent.learner_contract` is the contract every learner fills (`Learner`, `Agents`); `LEARNER_MODULES`
 below is the registry, as `tasks.DOMAIN_MODULES` is the suite's. `LEARNERS[name]` is a
 learner's `Learner`, `learner(name)` the same with a one-line error naming the learners.
 Shared pieces: `features`, `nrbf` and `cmac` (feature maps), `linear` (what linear learners

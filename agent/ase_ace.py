@@ -39,7 +39,7 @@ import math
 import numpy as np
 from numba.extending import register_jitable
 
-from lwrl.agent.learner import Agents, Learner, LearnerSettings
+from lwrl.agent.learner_contract import Agents, Learner, LearnerSettings
 from lwrl.agent.linear import per_agent
 from lwrl.agent.streams import seed_streams, uniform
 from lwrl.settings import check_positive, check_unit_interval, setting

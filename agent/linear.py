@@ -7,7 +7,8 @@ learn linear action values over the same features: the paper's NRBF network
 - `FeatureSettings`: the settings of the feature map, shared by both learners' settings;
 - `FeatureSpec` and `features_into`: a feature map as compiled code sees it, and its
   features of one state;
-- `TraceSettings`: the trace rule and step sizes of the Sarsa(lambda) family;
+- `TraceSettings`: the trace rule and step sizes of the Sarsa(lambda) family, and
+  `LinearSettings` both those and the features;
 - `action_value`: Q(s, a) of one action, in a fixed order of additions; `choose` and
   `advance`: the part of a per-agent step that both learners share (the features of the new
   observation, its action values, the epsilon-greedy action, and the bookkeeping after);
@@ -23,7 +24,7 @@ import numpy as np
 from numba.extending import register_jitable
 
 from lwrl.agent.cmac import CMAC, cmac_features_into
-from lwrl.agent.learner import Agents, ControllerForm, LearnerSettings
+from lwrl.agent.learner_contract import Agents, ControllerForm, LearnerSettings
 from lwrl.agent.nrbf import DEFAULT_R2, NRBF, clamp_margin, nrbf_features_into
 from lwrl.agent.policy import epsilon_greedy
 from lwrl.agent.streams import seed_streams
@@ -123,12 +124,18 @@ class TraceSettings(LearnerSettings):
     gamma: float | None = setting(task_default=True)
     """Discount rate in [0, 1] (1 in all the paper's tasks)."""
 
-    def check_steps(self) -> None:
-        """A one-line ValueError for the first step size out of its range."""
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class LinearSettings(FeatureSettings, TraceSettings):
+    """A linear learner of the Sarsa(lambda) family: its trace rule and step sizes, then its
+    features."""
+
+    def check(self, task) -> None:
         check_positive("alpha", self.alpha)
         check_unit_interval("lambda", self.lam)
         check_unit_interval("epsilon", self.epsilon)
         check_unit_interval("gamma", self.gamma)
+        self.check_features(task)
 
     def label(self) -> str:
         return f"{self.features}-{self.trace}-a{self.alpha:g}-l{self.lam:g}"
@@ -309,8 +316,8 @@ def nrbf_on_grid(features: NRBF, axes, weights) -> np.ndarray:
 class LinearAgents(Agents):
     """Agents whose `arrays.weights` `(B, A, N)` weigh the features of `features`."""
 
-    features: object
-    """The feature map (`NRBF` or `CMAC`)."""
+    features: NRBF | CMAC
+    """The feature map."""
 
     def _weights(self, weights):
         return self.arrays.weights if weights is None else np.asarray(weights)

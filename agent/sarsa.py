@@ -28,9 +28,9 @@ import dataclasses
 import numpy as np
 from numba.extending import register_jitable
 
-from lwrl.agent.learner import Learner
-from lwrl.agent.linear import (FeatureSettings, LinearAgents, TraceSettings, action_value, advance,
-                               choose, linear_arrays, linear_memory)
+from lwrl.agent.learner_contract import Learner
+from lwrl.agent.linear import (LinearAgents, LinearSettings, action_value, advance, choose,
+                               linear_arrays, linear_memory)
 from lwrl.agent.traces import TRACES, update_
 
 Arrays = collections.namedtuple(
@@ -45,12 +45,8 @@ none); `alpha`, `gamma`, `lam`, `epsilon` and `trace` (an index of `TRACES`) are
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
-class SarsaSettings(FeatureSettings, TraceSettings):
+class SarsaSettings(LinearSettings):
     """Gradient-descent Sarsa(lambda): its trace rule and step sizes, then its features."""
-
-    def check(self, task) -> None:
-        self.check_steps()
-        self.check_features(task)
 
 
 @register_jitable

@@ -28,9 +28,9 @@ import dataclasses
 import numpy as np
 from numba.extending import register_jitable
 
-from lwrl.agent.learner import Learner
-from lwrl.agent.linear import (FeatureSettings, LinearAgents, TraceSettings, action_value, advance,
-                               choose, linear_arrays, linear_memory)
+from lwrl.agent.learner_contract import Learner
+from lwrl.agent.linear import (LinearAgents, LinearSettings, action_value, advance, choose,
+                               linear_arrays, linear_memory)
 from lwrl.agent.traces import FLUSH_THRESHOLD
 from lwrl.settings import setting
 
@@ -44,7 +44,7 @@ Arrays = collections.namedtuple(
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
-class TrueOnlineSettings(FeatureSettings, TraceSettings):
+class TrueOnlineSettings(LinearSettings):
     """True online Sarsa(lambda): its trace (dutch), step sizes and features (None: the
     task's default)."""
 
@@ -52,10 +52,6 @@ class TrueOnlineSettings(FeatureSettings, TraceSettings):
     """Trace rule: `dutch`, its only one."""
     alpha: float = setting(DEFAULT_ALPHA, per_agent=True)
     """Learning rate alpha > 0 (its own: the paper's alpha suits its traces, not dutch ones)."""
-
-    def check(self, task) -> None:
-        self.check_steps()
-        self.check_features(task)
 
     def label(self) -> str:
         return f"true_online-{super().label()}"

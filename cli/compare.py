@@ -1,6 +1,7 @@
 """`lwrl compare`: the analytic and MuJoCo plants of a task, open loop, closed loop and in
 transfer, held to the paper's item for the task where it has one."""
 
+import os
 import time
 
 from lwrl import agent as learners
@@ -45,6 +46,7 @@ def compare_plants(args) -> int:
         "lwrl.studies.paper.items")
     started = time.perf_counter()
     compare.check_task(args.task)
+    output.claim_outputs(args, "out", "rrd")
     outputs.check_directory(args.out, "--out", args.force, names=("report.md",))
     if args.rrd:
         outputs.check_file(args.rrd, "--rrd", args.force)
@@ -59,11 +61,17 @@ def compare_plants(args) -> int:
     print(f"comparing the plants of {args.task} with seeds 0..{args.seeds - 1}"
           f"{' (quick)' if args.quick else ''}")
     bar, update = output.progress_bar(total, "closed loop")
-    with bar:
+    with bar, outputs.atomic_directory(args.out) as staging:  # the report appears whole
         result = compare.compare(args.task, seeds=args.seeds, episodes=args.episodes,
-                                 out_dir=args.out, rrd_path=args.rrd, quick=args.quick,
-                                 progress=update, judge=paper.judge(args.task),
+                                 out_dir=str(staging), quick=args.quick, progress=update,
+                                 judge=paper.judge(args.task),
                                  learner=args.learner)
+    result.report_path = os.path.join(args.out, os.path.basename(result.report_path))
+    if args.rrd:  # once the report is in place, so that a recording that fails loses nothing else
+        recording = time.perf_counter()
+        with outputs.atomic_path(args.rrd) as temporary:
+            compare.record(args.task, result.closed_loop.replay, temporary)
+        result.rrd_path, result.timings["recording"] = args.rrd, time.perf_counter() - recording
     parts = ", ".join(f"{part} {output.duration(seconds)}" for part, seconds in result.timings.items())
     output.done(started, [result.report_path, f"the tables and figures under {args.out}"]
                 + ([f"the recording {args.rrd}"] if args.rrd else []), detail=parts)

@@ -23,6 +23,7 @@ def add_parser(commands) -> None:
 
 def export_agent(args) -> int:
     """Write a saved agent as C99 source and header; report its flash size and speed."""
+    output.claim_outputs(args, "c")
     outputs.check_directory(args.c, "--c", args.force, names=(export_c.SOURCE, export_c.HEADER))
     started = time.perf_counter()
     written = export_c.export_c(args.path, args.c, agent_index=args.agent, dtype=args.real)

@@ -22,6 +22,7 @@ function the command runs. Bad input ends with one line on standard error and ex
 
 import sys
 
+from lwrl import outputs
 from lwrl.cli import compare, evaluate, export, reproduce, rollout, tasks, train, view
 from lwrl.cli import output
 from lwrl.cli.output import Parser
@@ -60,6 +61,8 @@ def main(argv=None) -> int:
         except KeyboardInterrupt:
             print(f"lwrl {args.command}: interrupted", file=sys.stderr)
             return 130
+        finally:
+            outputs.release_claims()  # the command's outputs are in place, or will not be
 
 
 if __name__ == "__main__":

@@ -84,7 +84,8 @@ class Outputs:
 
     def __init__(self, command: str):
         self.command = command
-        self.written, self.failed = [], []
+        self.written: list[str] = []
+        self.failed: list[str] = []
 
     def write(self, what: str, write) -> bool:
         """Call `write()` for the output `what` (e.g. `--save agents.npz`), which returns
@@ -158,14 +159,22 @@ RUN_FILES = ("config.json", "episodes.csv")
 
 
 def write_run(out: str, config, results) -> list:
-    """`--out DIR`: the run's config.json and episodes.csv, each whole or not at all;
-    returns their paths."""
-    os.makedirs(out, exist_ok=True)
-    paths = [os.path.join(out, name) for name in RUN_FILES]
-    with outputs.atomic_write(paths[0]) as file:
-        file.write(config.to_json() + "\n")
-    summary.write_csv(paths[1], results, config.seeds)
-    return paths
+    """`--out DIR`: the run's config.json and episodes.csv, put in place together
+    (`outputs.atomic_directory`); returns their paths."""
+    with outputs.atomic_directory(out) as staging:
+        with outputs.atomic_write(staging / RUN_FILES[0]) as file:
+            file.write(config.to_json() + "\n")
+        summary.write_csv(staging / RUN_FILES[1], results, config.seeds)
+    return [os.path.join(out, name) for name in RUN_FILES]
+
+
+def claim_outputs(args, *flags) -> None:
+    """Claim the outputs that the options `flags` (e.g. `out`, `save`) of `args` name for
+    this command (`outputs.claim_output`), before anything else is checked or done: a second
+    command aimed at one of them stops at once, naming this one. `main` releases them."""
+    for flag in flags:
+        if getattr(args, flag, None):
+            outputs.claim_output(getattr(args, flag), f"--{flag}")
 
 
 def study_modules(command: str, *names) -> list:

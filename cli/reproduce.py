@@ -93,6 +93,7 @@ def reproduce_items(args) -> int:
     study, = output.study_modules("reproduce", "lwrl.studies.paper.reproduce")
     started = time.perf_counter()
     readings = {name: reading_value(name, text) for name, text in args.readings}
+    output.claim_outputs(args, "out")
     outputs.check_directory(args.out, "--out")  # a reproduction resumes in its directory
     path = study.reproduce(args.item, args.out, plant=args.plant, quick=args.quick,
                            integrator=args.integrator, backend=args.backend,

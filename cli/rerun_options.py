@@ -8,7 +8,7 @@ episode numbers (from 1). `--log-agents` is a comma list of agent indices (defau
 
 import numpy as np
 
-from lwrl.agent.learner import NoValues
+from lwrl.agent.learner_contract import NoValues
 
 
 DEFAULT_EPISODES = "every:20"

@@ -66,6 +66,7 @@ def add_parser(commands) -> None:
 
 def check_outputs(args) -> None:
     """Every output asked for can be written, before any work: one line and status 2 if not."""
+    output.claim_outputs(args, "out", "save", "rrd")
     if args.out:
         outputs.check_directory(args.out, "--out", args.force, names=output.RUN_FILES)
     for flag in ("save", "rrd"):

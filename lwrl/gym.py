@@ -33,7 +33,23 @@ entry points). Every `(domain, task, plant)` of the suite's dm_env environments
 - **info**: `uptime_s` (the episode's up-time so far, in seconds; `None` for Mountain-Car,
   which has none: the dm_env's NaN would make `check_env`'s determinism check fail, since
   NaN != NaN), `steps` (steps of the episode) and `plant`.
-- **Rendering**: none (`render_mode=None` only): the suite runs without an OpenGL display.
+- **Rendering** (`tasks.drawing.Painter`): `render_mode="rgb_array"` makes `render()` return
+  the state as a `(240, 320, 3)` uint8 frame: MuJoCo's picture from the model's first
+  camera for the domains with an MJCF model, on either plant (OpenGL: a display, or
+  `MUJOCO_GL=egl` set before importing lwrl, headless), and for Mountain-Car the hill and
+  the car that the Rerun viewer draws (the domain's `Drawing`), painted without OpenGL.
+  `render_mode="human"` shows each state in a window as it is reached (pygame, where a
+  display exists). `metadata["render_modes"]` of an environment lists the modes this
+  process can draw it in (what Gymnasium's `check_env` tries). `metadata["render_fps"]` is one frame per control step: 50 for the
+  pendulum and the cart-pole, 5 for the acrobot, and 1 for Mountain-Car, whose step is its
+  unit of time (`RecordVideo(env, folder, fps=30)` plays it faster).
+- **Vector environments**: `gymnasium.make_vec(id, num_envs=B)` gives `SuiteVectorEnv`
+  (each id's `vector_entry_point`), B copies stepped together as arrays by
+  `tasks.batched.BatchedEnv`, with Gymnasium's default autoreset (`AutoresetMode.NEXT_STEP`:
+  the step after an episode's end resets that copy, ignores its action and returns its
+  first observation with reward 0), `reset(seed=s)` seeding copy i with s + i as Gymnasium's
+  `SyncVectorEnv` does, and the infos of `SyncVectorEnv` over `SuiteEnv` (its transitions
+  are the single environments', to the bit: tested). It does not render.
 - **make() kwargs**: the task's and plant's options (`time_limit`, `track_limit`,
   `integrator`, `equations`, and `params={name: value}`, the physical parameters of
   `Domain.parameters`) and the sensor and actuator options (`observation_noise`,
@@ -50,14 +66,28 @@ try:
 except ImportError as error:  # pragma: no cover - only without gymnasium
     raise ImportError("lwrl.gym needs gymnasium (pip install 'lwrl[gymnasium]'); "
                       "the rest of the suite does not") from error
-import numpy as np
+import importlib.util
+import os
+import sys
+from typing import Any
 
-from lwrl import tasks
-from lwrl.tasks.definition import check_finite_state
+import numpy as np
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from lwrl import models, tasks
+from lwrl.tasks.batched import BatchedEnv
+from lwrl.tasks.drawing import Painter
+from lwrl.tasks.task_definition import check_finite_state
 
 NAMESPACE = "lwrl"
 VERSION = 0
 ENTRY_POINT = "lwrl.gym:SuiteEnv"
+VECTOR_ENTRY_POINT = "lwrl.gym:SuiteVectorEnv"
+RENDER_MODES = ("human", "rgb_array")
+NO_OPENGL = ("disable", "disabled", "off", "false", "0")
+"""`MUJOCO_GL` values under which MuJoCo draws nothing (lwrl.tasks sets `disable` where
+there is no display and the variable is unset)."""
 
 
 def env_id(domain: str, task: str, plant: str) -> str:
@@ -95,11 +125,11 @@ class SuiteEnv(gymnasium.Env):
     for none).
     """
 
-    metadata = {"render_modes": []}
+    metadata = {"render_modes": list(RENDER_MODES), "render_fps": None}
 
     def __init__(self, domain: str, task: str, plant=None, render_mode=None, **options):
-        if render_mode is not None:
-            raise ValueError(f"the lwrl environments do not render; render_mode must be None, "
+        if render_mode not in (None, *RENDER_MODES):
+            raise ValueError(f"render_mode must be None, {' or '.join(map(repr, RENDER_MODES))}; "
                              f"got {render_mode!r}")
         _, plant, _ = tasks.resolve(domain, task, plant)  # checks the names
         allowed = _options(domain, task, plant)
@@ -115,7 +145,12 @@ class SuiteEnv(gymnasium.Env):
         self.definition = definition
         self.step_limit = definition.step_limit
         self.observation_names = tuple(definition.state_names)
-        self.render_mode = None
+        self.render_mode = render_mode
+        self.metadata = {**self.metadata, "render_modes": render_modes(domain),
+                         "render_fps": 1.0 / definition.control_timestep}
+        self._painter = painter(domain, render_mode)
+        self._window = _Window(f"lwrl {domain}.{task} ({plant})", self.metadata["render_fps"]) \
+            if render_mode == "human" else None
         self.action_space = spaces.Discrete(definition.num_actions)
         low, high = observation_bounds(definition)
         noisy = self.suite_task.disturbances.sigma_observation[0] > 0
@@ -170,6 +205,7 @@ class SuiteEnv(gymnasium.Env):
             observation = self._start_in(options["state"])
         self._episode_over = False
         self._started = True
+        self._show()
         return observation, self._info()
 
     def _start_in(self, state) -> np.ndarray:
@@ -201,14 +237,176 @@ class SuiteEnv(gymnasium.Env):
         terminated = bool(time_step.last() and time_step.discount == 0.0)
         truncated = bool(time_step.last() and not terminated)
         self._episode_over = terminated or truncated
+        self._show()
         return (self._observation(time_step.observation), float(time_step.reward), terminated,
                 truncated, self._info())
 
+    def _frame(self) -> np.ndarray:
+        assert self._painter is not None, "a render mode draws frames"
+        return self._painter(self.dm_env.physics.state_vector())
+
+    def _show(self) -> None:
+        if self._window is not None:
+            self._window.show(self._frame())
+
     def render(self):
-        return None
+        """The current state as a `(240, 320, 3)` uint8 frame (`render_mode="rgb_array"`);
+        None otherwise (`"human"` shows every state as it is reached)."""
+        if self.render_mode != "rgb_array":
+            return None
+        if not self._started:
+            raise RuntimeError("call reset() before render()")
+        return self._frame()
 
     def close(self):
+        for part in (self._window, self._painter):
+            if part is not None:
+                part.close()
+        self._window = self._painter = None
         self.dm_env.close()
+
+
+def _opengl() -> bool:
+    return os.environ.get("MUJOCO_GL", "").lower() not in NO_OPENGL
+
+
+def _display() -> bool:
+    return not sys.platform.startswith("linux") or bool(os.environ.get("DISPLAY")
+                                                        or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def render_modes(domain: str) -> list:
+    """The render modes this process can draw `domain` in: `rgb_array` unless the domain's
+    model needs OpenGL and there is none; `human` too where a display and pygame are."""
+    if tasks.domain(domain).model is not None and not _opengl():
+        return []
+    window = _display() and importlib.util.find_spec("pygame") is not None
+    return list(RENDER_MODES) if window else ["rgb_array"]
+
+
+def painter(domain: str, render_mode) -> Painter | None:
+    """The frames of `render_mode` for `domain` (None: no rendering), or a one-line error
+    where this process cannot draw them."""
+    if render_mode is None:
+        return None
+    model = tasks.domain(domain).model
+    if model is not None and not _opengl():
+        raise ValueError(f"render_mode={render_mode!r} draws {domain}'s MuJoCo model with OpenGL, "
+                         "which this process has not: set MUJOCO_GL=egl (headless; Debian's "
+                         "libegl1 libegl-mesa0) before importing lwrl, or run where a display is")
+    return Painter(None if model is None else models.read(model), tasks.domain(domain).drawing)
+
+
+class _Window:
+    """`render_mode="human"`: frames shown in a window at `fps` (pygame, a display)."""
+
+    def __init__(self, title: str, fps: float):
+        if not _display():
+            raise ValueError("render_mode='human' needs a display (DISPLAY or WAYLAND_DISPLAY is "
+                             "not set); use render_mode='rgb_array' to get the frames")
+        try:
+            import pygame
+        except ImportError:
+            raise ValueError("render_mode='human' shows frames with pygame: pip install pygame") from None
+        self._pygame, self._title, self._fps = pygame, title, fps
+        self._screen: Any = None
+        self._clock: Any = None
+
+    def show(self, frame: np.ndarray) -> None:
+        pygame = self._pygame
+        if self._screen is None:
+            pygame.init()
+            pygame.display.set_caption(self._title)
+            self._screen = pygame.display.set_mode(frame.shape[1::-1])
+            self._clock = pygame.time.Clock()
+        self._screen.blit(pygame.surfarray.make_surface(frame.swapaxes(0, 1)), (0, 0))
+        pygame.event.pump()
+        pygame.display.flip()
+        self._clock.tick(self._fps)
+
+    def close(self) -> None:
+        if self._screen is not None:
+            self._pygame.display.quit()
+            self._pygame.quit()
+            self._screen = None
+
+
+class SuiteVectorEnv(VectorEnv):
+    """`num_envs` copies of one task on one plant, stepped together (see the module):
+    `gymnasium.make_vec(id, num_envs=B)`. Takes `SuiteEnv`'s arguments and `num_envs`;
+    `autoreset_mode` can only be Gymnasium's default, `NEXT_STEP`, which `BatchedEnv`
+    implements."""
+
+    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+
+    def __init__(self, domain: str, task: str, plant=None, num_envs: int = 1,
+                 autoreset_mode=AutoresetMode.NEXT_STEP, render_mode=None, **options):
+        if render_mode is not None:
+            raise ValueError(f"the vector environment does not render (render_mode must be None, "
+                             f"got {render_mode!r}); gymnasium.make gives one environment that does")
+        if AutoresetMode(autoreset_mode) != AutoresetMode.NEXT_STEP:
+            raise ValueError(f"autoreset_mode must be {AutoresetMode.NEXT_STEP} (Gymnasium's "
+                             f"default); got {autoreset_mode!r}")
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ValueError(f"num_envs must be a positive integer; got {num_envs!r}")
+        single = SuiteEnv(domain, task, plant, **options)  # checks the names and options
+        self.domain, self.task_name, self.plant = single.domain, single.task_name, single.plant
+        self.options, self.definition = single.options, single.definition
+        single.close()
+        self.num_envs = int(num_envs)
+        self.render_mode = None
+        self.single_action_space = spaces.Discrete(self.definition.num_actions)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        low, high = observation_bounds(self.definition)
+        self.single_observation_space = spaces.Box(low, high, dtype=np.float64)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.metadata = {**self.metadata, "render_fps": 1.0 / self.definition.control_timestep}
+        self._batched: BatchedEnv | None = None
+        self._plants = np.full(self.num_envs, self.plant, dtype=object)
+
+    def _seeds(self, seed) -> list:
+        """Each copy's seed, as `SyncVectorEnv` seeds its environments."""
+        if seed is None:
+            return [None] * self.num_envs
+        if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            return [int(seed) + i for i in range(self.num_envs)]
+        seeds = list(seed)
+        if len(seeds) != self.num_envs:
+            raise ValueError(f"seed must be an integer or {self.num_envs} seeds, one per "
+                             f"environment; got {seed!r}")
+        return seeds
+
+    def reset(self, *, seed=None, options=None):
+        if options:
+            raise ValueError(f"the vector environment takes no reset options; got {options!r}")
+        super().reset(seed=seed if isinstance(seed, (int, np.integer)) else None)
+        if seed is not None or self._batched is None:  # new streams for the starts
+            self._batched = BatchedEnv(self.domain, self.task_name, self.plant,
+                                       seeds=self._seeds(seed), **self.options)
+        time_step = self._batched.reset()
+        return np.array(time_step.observation, dtype=np.float64), self._infos(self._batched)
+
+    def step(self, actions):
+        if self._batched is None:
+            raise RuntimeError("call reset() before step()")
+        time_step = self._batched.step(actions)  # checks the actions
+        last = time_step.last()
+        terminated = last & (time_step.discount == 0.0)
+        return (np.array(time_step.observation, dtype=np.float64),
+                np.asarray(time_step.reward, dtype=np.float64), terminated, last & ~terminated,
+                self._infos(self._batched))
+
+    def _infos(self, batched: BatchedEnv) -> dict:
+        """`SuiteEnv`'s info of every copy, batched as `VectorEnv._add_info` batches them."""
+        every = np.ones(self.num_envs, dtype=bool)
+        uptime = (np.array(batched.uptime, dtype=np.float64) if self.definition.has_uptime
+                  else np.full(self.num_envs, None, dtype=object))
+        return {"uptime_s": uptime, "_uptime_s": every.copy(),
+                "steps": np.array(batched.steps, dtype=np.int64), "_steps": every.copy(),
+                "plant": self._plants.copy(), "_plant": every.copy()}
+
+    def close_extras(self, **kwargs):
+        self._batched = None
 
 
 def register_envs() -> tuple:
@@ -217,6 +415,7 @@ def register_envs() -> tuple:
     for id_, (domain, task, plant) in ENVIRONMENTS.items():
         if id_ not in gymnasium.envs.registry:
             gymnasium.register(id=id_, entry_point=ENTRY_POINT,
+                               vector_entry_point=VECTOR_ENTRY_POINT,
                                kwargs={"domain": domain, "task": task, "plant": plant})
     return ENV_IDS
 

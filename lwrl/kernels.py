@@ -17,6 +17,15 @@ where they are called, so that the bindings reach the functions the template cal
 
 The cache is `$LWRL_CACHE_DIR`, else `$XDG_CACHE_HOME/lwrl/kernels`, else
 `~/.cache/lwrl/kernels`; where it cannot be written, kernels are compiled in memory.
+
+A cache heals: a kernel whose cached files cannot be read (cut short by a full disk, filled
+with garbage, unreadable) is compiled again and its files replaced, with one line on
+standard error saying so; one whose files cannot be written then says so and runs compiled
+in memory. Each file is written under a temporary name and renamed over the
+old one (the generated module here; numba's index `.nbi` and data `.nbc` files in
+`__pycache__` by numba's own `IndexDataCacheFile._open_for_write`), so a process killed while
+writing leaves the old file or the new one, never part of one. The generated module is
+compiled from its text, not through a `.pyc`.
 """
 
 import hashlib
@@ -29,14 +38,15 @@ import sys
 import tempfile
 import textwrap
 import threading
+import types
 
 import numba
+import numba.core.caching
 import numba.extending
 import numpy as np
 
-_PACKAGE = pathlib.Path(__file__).resolve().parent
 _LOCK = threading.Lock()
-_DIGESTS = {}
+_DIGESTS: dict[tuple, str] = {}
 
 
 def cache_root() -> pathlib.Path:
@@ -55,7 +65,8 @@ def _source_files(modules) -> list:
     for room in lwrl.SUBPACKAGES:
         spec = importlib.util.find_spec(f"lwrl.{room}")
         if spec is not None:
-            roots += [pathlib.Path(path) for path in (spec.submodule_search_locations or [spec.origin])]
+            roots += [pathlib.Path(path) for path in (spec.submodule_search_locations
+                                                      or [spec.origin or ""]) if path]
     files = {path.resolve() for root in roots
              for path in ([root] if root.suffix == ".py" else root.rglob("*.py"))}
     files |= {pathlib.Path(inspect.getfile(sys.modules[name])).resolve() for name in modules}
@@ -94,22 +105,74 @@ def kernel_source(template, bindings: dict, helpers: dict | None = None) -> str:
     return "\n".join(lines) + "\n\n\n@numba.njit(nogil=True, cache=True)\n" + source
 
 
-def _write(path: pathlib.Path, text: str) -> None:
-    """Write `text` to `path` whole (a temporary file, then a rename), unless it is there."""
-    if path.exists() and path.read_text() == text:
-        return
+def _write(path: pathlib.Path, text: str) -> bool:
+    """Write `text` to `path` whole (a temporary file, then a rename), unless it is there;
+    True if a file at `path` held something else or could not be read."""
+    try:
+        if path.read_text() == text:
+            return False
+        damaged = True
+    except FileNotFoundError:
+        damaged = False
+    except (OSError, UnicodeDecodeError):
+        damaged = True
     path.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.NamedTemporaryFile("w", dir=path.parent, suffix=".tmp", delete=False) as file:
         file.write(text)
     os.replace(file.name, path)
+    return damaged
+
+
+class _Report:
+    """The one line on standard error a kernel's cache may say (later ones are dropped)."""
+
+    def __init__(self, name: str):
+        self.name, self.said = name, False
+
+    def __call__(self, what: str) -> None:
+        if not self.said:
+            self.said = True
+            print(f"lwrl: the cached kernel {self.name} {what}", file=sys.stderr, flush=True)
+
+
+class _HealingCache(numba.core.caching.FunctionCache):
+    """numba's cache of a kernel's dispatcher, which compiles again what it cannot read."""
+
+    def __init__(self, py_func, report: _Report):
+        super().__init__(py_func)
+        self._report = report
+
+    def load_overload(self, sig, target_context):
+        try:
+            return super().load_overload(sig, target_context)
+        except Exception as error:  # cut short, garbage, unreadable: any of pickle's errors
+            self._report(f"could not be read ({type(error).__name__}: "
+                         f"{' '.join(str(error).split())}); compiling it again")
+            try:  # so that the new compilation writes a fresh index, then its data
+                os.unlink(self._cache_file._index_path)
+            except FileNotFoundError:
+                pass
+            except OSError as unremovable:
+                self._report(f"could not be replaced ({unremovable})")
+            return None
+
+    def save_overload(self, sig, data):
+        try:
+            super().save_overload(sig, data)
+        except Exception as error:  # a full disk, an unwritable index: run it from memory
+            self._report(f"could not be cached ({type(error).__name__}: "
+                         f"{' '.join(str(error).split())}); it runs compiled in memory")
 
 
 def _load(name: str, template, bindings: dict, helpers: dict):
     """The kernel's numba dispatcher: from its module in the cache, or compiled in memory."""
     modules = {template.__module__} | {function.__module__ for function in bindings.values()}
     path = cache_root() / sources_digest(modules) / f"{name}.py"
+    text = kernel_source(template, bindings, helpers)
+    report = _Report(name)
     try:
-        _write(path, kernel_source(template, bindings, helpers))
+        if _write(path, text):
+            report(f"module {path} could not be read; written again")
     except OSError:  # no writable cache here: compile in memory
         namespace = {**vars(sys.modules[template.__module__]), **bindings}
         for helper_name, helper in helpers.items():
@@ -117,11 +180,13 @@ def _load(name: str, template, bindings: dict, helpers: dict):
                 type(helper)(helper.__code__, namespace, helper.__name__))
         function = type(template)(template.__code__, namespace, template.__name__)
         return numba.njit(nogil=True)(function)
-    spec = importlib.util.spec_from_file_location(f"lwrl_kernels_{name}", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # numba's cache finds a kernel's module by its name
-    spec.loader.exec_module(module)
-    return getattr(module, template.__name__)
+    module = types.ModuleType(f"lwrl_kernels_{name}")
+    module.__file__ = str(path)
+    sys.modules[module.__name__] = module  # numba's cache finds a kernel's module by its name
+    exec(compile(text, str(path), "exec"), module.__dict__)
+    dispatcher = getattr(module, template.__name__)
+    dispatcher._cache = _HealingCache(dispatcher.py_func, report)
+    return dispatcher
 
 
 class Kernel:

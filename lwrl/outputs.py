@@ -6,16 +6,29 @@
 - `check_file(path, what)` and `check_directory(path, what)`: a one-line ValueError before
   any work when an output cannot be written there (a missing or read-only parent, a
   directory where a file is meant, or the reverse), or would replace a file without `force`.
+- `atomic_directory(path)`: a directory's files written into a new directory beside
+  it and put in place in one step, so that a reader never sees one run's files beside
+  another's.
+- `claim(path)` / `claim_output(path, what)`: an output claimed by this process for as long
+  as it works on it (a lock on a claim file naming the host and process); a second process
+  aimed at it is refused, and a claim whose process is gone is taken over.
 - `available_memory()` and `check_memory(needed, what)`: refuse a batch that would not fit.
 
 Every room may use it; it imports no other part of lwrl.
 """
 
+import atexit
 import contextlib
+import ctypes
 import errno
+import fcntl
 import os
 import pathlib
+import secrets
+import shutil
+import socket
 import tempfile
+import time
 
 
 def _parent(path: pathlib.Path) -> pathlib.Path:
@@ -27,9 +40,14 @@ def atomic_path(path):
     """A temporary path beside `path` to write to (by any library); renamed to `path` when
     the block ends without an error, removed otherwise."""
     path = pathlib.Path(path)
-    descriptor, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial",
-                                             dir=_parent(path))
-    os.close(descriptor)
+    _parent(path).mkdir(parents=True, exist_ok=True)
+    while True:  # the mode a plain open gives (the umask's), not mkstemp's private 0600
+        temporary = str(_parent(path) / f".{path.name}.{secrets.token_hex(6)}.partial")
+        try:
+            os.close(os.open(temporary, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
+            break
+        except FileExistsError:
+            continue
     try:
         yield temporary
         os.replace(temporary, path)
@@ -43,6 +61,99 @@ def atomic_write(path, mode: str = "w", **options):
     """An open file for `path`, written under a temporary name (`atomic_path`)."""
     with atomic_path(path) as temporary, open(temporary, mode, **options) as file:
         yield file
+
+
+def _exchange(first: pathlib.Path, second: pathlib.Path) -> bool:
+    """Swap two existing paths in one step (Linux's `renameat2(RENAME_EXCHANGE)`); False
+    where the system or the file system cannot."""
+    renameat2 = getattr(ctypes.CDLL(None, use_errno=True), "renameat2", None)
+    if renameat2 is None:
+        return False
+    at_fdcwd, rename_exchange = -100, 2  # <fcntl.h>, <linux/fs.h>
+    if renameat2(at_fdcwd, os.fsencode(first), at_fdcwd, os.fsencode(second), rename_exchange) == 0:
+        return True
+    code = ctypes.get_errno()
+    if code in (errno.EINVAL, errno.ENOSYS, errno.EOPNOTSUPP):
+        return False
+    raise OSError(code, os.strerror(code), str(second))
+
+
+def _holds_working_directory(path: pathlib.Path) -> bool:
+    return pathlib.Path.cwd().resolve().is_relative_to(path.resolve())
+
+
+def _new_directory(parent: pathlib.Path, prefix: str) -> pathlib.Path:
+    """A new directory `parent/PREFIX.<random>.partial` with the mode a plain `mkdir` gives
+    (the umask's, not `mkdtemp`'s private 0700: it becomes the output), as `atomic_path`'s
+    files have the mode of a plain open."""
+    while True:
+        candidate = parent / f"{prefix}.{secrets.token_hex(6)}.partial"
+        try:
+            candidate.mkdir()
+            return candidate
+        except FileExistsError:
+            continue
+
+
+def _staging_directory(path: pathlib.Path) -> tuple[pathlib.Path, bool]:
+    """A new, empty directory to write `path`'s files into, and whether it lies beside
+    `path` (so that it can take `path`'s place whole, with `path`'s mode) or, where that
+    cannot be, inside it."""
+    parent = _parent(path)
+    if not _holds_working_directory(path):
+        with contextlib.suppress(OSError):
+            parent.mkdir(parents=True, exist_ok=True)
+            staging = _new_directory(parent, f".{path.name}")
+            if path.is_dir():
+                shutil.copymode(path, staging)
+            return staging, True
+    path.mkdir(parents=True, exist_ok=True)
+    return _new_directory(path, ""), False
+
+
+def _place_entries(staging: pathlib.Path, path: pathlib.Path) -> None:
+    """Rename each entry of `staging` into `path`, each whole (a directory replaces the one
+    of its name, which is moved into `staging` to be removed with it)."""
+    path.mkdir(parents=True, exist_ok=True)
+    for entry in sorted(staging.iterdir()):
+        target = path / entry.name
+        if target.is_dir() and not target.is_symlink():
+            os.rename(target, staging / f".replaced.{entry.name}")
+        os.replace(entry, target)
+
+
+@contextlib.contextmanager
+def atomic_directory(path):
+    """A new directory to write the output directory `path`'s files into; put in place when
+    the block ends without an error, removed otherwise.
+
+    The new directory is made beside `path` and takes its place in one step: renamed to it
+    where `path` is absent or empty, exchanged with it where it holds files (Linux's
+    `renameat2(RENAME_EXCHANGE)`), so that a reader sees the old files or the new ones,
+    never some of each. What the old directory holds that the new one does not (a
+    recording, a user's own files) is then moved into the new one, and the rest removed.
+    Where `path` holds the working directory, its parent cannot be written, or the system
+    cannot exchange two directories, the entries are renamed into `path` one by one, each
+    whole. A `path` that is a symbolic link is followed: the directory it names is replaced."""
+    path = pathlib.Path(path)
+    if path.is_symlink():
+        path = path.resolve()
+    staging, beside = _staging_directory(path)
+    try:
+        yield staging
+        if not beside:
+            _place_entries(staging, path)
+        elif not path.exists() or (path.is_dir() and not any(path.iterdir())):
+            os.replace(staging, path)
+        elif _exchange(staging, path):
+            written = {entry.name for entry in path.iterdir()}
+            for entry in list(staging.iterdir()):  # the old directory, now at `staging`
+                if entry.name not in written:
+                    os.rename(entry, path / entry.name)
+        else:
+            _place_entries(staging, path)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
 
 
 def _writable_directory(directory: pathlib.Path, what: str) -> None:
@@ -89,6 +200,101 @@ def check_directory(path, what: str, force: bool = False, names=()) -> pathlib.P
         raise ValueError(f"{what}: {path} already holds {', '.join(present)}; use --force to "
                          "replace them, or another directory")
     return path
+
+
+class Claim:
+    """This process's claim on an output: an exclusive lock (`flock`) on the claim file at
+    `path`, which names the host and process that hold it. The kernel drops the lock when
+    the process ends however it ends, so a claim whose process is gone is free to be taken
+    over; `release()` removes the file."""
+
+    def __init__(self, path: pathlib.Path, descriptor: int, made=()):
+        self.path, self._made = path, made
+        self._descriptor: int | None = descriptor
+
+    def release(self) -> None:
+        """Give the claim up (removing the claim file while it is still locked, so that no
+        other process locks a file that is no longer at `path`), and the directories made
+        for it that are still empty."""
+        if self._descriptor is None:
+            return
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(self.path)
+        os.close(self._descriptor)
+        self._descriptor = None
+        _HELD.discard(self)
+        for directory in self._made:  # the deepest first
+            with contextlib.suppress(OSError):
+                directory.rmdir()
+
+
+_HELD: set[Claim] = set()
+"""The claims this process holds (`release_claims` gives them up, as does its exit)."""
+
+
+def claim(path) -> Claim | None:
+    """Claim the claim file `path` for this process, taking over one whose process is gone;
+    None while another process (or another claim of this one) holds it."""
+    path = pathlib.Path(path)
+    made = [directory for directory in [path.parent, *path.parent.parents]
+            if not directory.exists()]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    while True:
+        descriptor = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            os.close(descriptor)
+            return None
+        try:  # the file locked may have been released, and removed, since it was opened
+            if os.path.samestat(os.fstat(descriptor), os.stat(path)):
+                break
+        except FileNotFoundError:
+            pass
+        os.close(descriptor)
+    os.ftruncate(descriptor, 0)
+    os.write(descriptor, f"{socket.gethostname()} {os.getpid()}\n".encode())
+    held = Claim(path, descriptor, made)
+    _HELD.add(held)
+    return held
+
+
+def holder(path) -> str:
+    """Who holds the claim file `path`: `process PID on HOST`."""
+    for _ in range(20):  # a claim is written just after it is locked
+        with contextlib.suppress(OSError, ValueError):
+            host, pid = pathlib.Path(path).read_text().split()[:2]
+            return f"process {int(pid)} on {host}"
+        time.sleep(0.01)
+    return "another process"
+
+
+def claim_path(path) -> pathlib.Path:
+    """The claim file of the output `path` (a file or a directory): `.NAME.claim` beside it."""
+    path = pathlib.Path(path).resolve()
+    return path.parent / f".{path.name}.claim"
+
+
+def claim_output(path, what: str) -> Claim:
+    """Claim the output `path` (named `what`, e.g. `--out`) for this process until it is
+    released (`release_claims`, or the process's end); a one-line ValueError naming the
+    process that holds it otherwise."""
+    where = claim_path(path)
+    _writable_directory(where.parent, what)
+    held = claim(where)
+    if held is None:
+        raise ValueError(f"{what}: {path} is being written by {holder(where)}; wait for it to "
+                         "finish or choose another")
+    return held
+
+
+def release_claims() -> None:
+    """Give up every claim this process holds."""
+    for held in list(_HELD):
+        held.release()
+
+
+atexit.register(release_claims)
 
 
 def available_memory() -> int | None:

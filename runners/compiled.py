@@ -2,7 +2,7 @@
 calls the task's own `transition` (the analytic plant) or MuJoCo's own `mj_step` and the
 task's `arrive` (`tasks.engine`), and the learner's own step (`Learner.step`), in parallel
 over agents.
-Its bookkeeping is the stepped loop's (`tasks.definition.advance_episode`,
+Its bookkeeping is the stepped loop's (`tasks.task_definition.advance_episode`,
 `runners.episodes.finish_episode`, `runners.recording`), and its numbers too (tested)."""
 
 import functools
@@ -11,13 +11,13 @@ import numpy as np
 from numba.extending import register_jitable
 
 from lwrl import kernels, tasks
-from lwrl.agent.learner import Agents
+from lwrl.agent.learner_contract import Agents
 from lwrl.agent.threads import run_in_chunks
 from lwrl.runners.episodes import EpisodeResults, episode_starts, finish_episode
 from lwrl.runners.recording import (make_tape, record_end, record_state, record_transition,
                                     recordings)
 from lwrl.settings import check_count
-from lwrl.tasks.definition import advance_episode
+from lwrl.tasks.task_definition import advance_episode
 from lwrl.tasks.engine import close_workspace, engine_plant, open_workspace, step_state
 from lwrl.tasks.integrators import check_integrator
 from lwrl.tasks.plants import check_equations

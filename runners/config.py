@@ -21,7 +21,7 @@ import hashlib
 import json
 
 from lwrl import agent, tasks
-from lwrl.agent.learner import LearnerSettings, TaskInfo
+from lwrl.agent.learner_contract import LearnerSettings, TaskInfo
 from lwrl.settings import (LATE, SCALARS, WHEN_SET, base_type, check_choices, check_count,
                            default_of, fill, setting)
 from lwrl.tasks.integrators import INTEGRATORS

@@ -21,7 +21,7 @@ import math
 
 from lwrl import agent as learners
 from lwrl import tasks
-from lwrl.agent.learner import Agents
+from lwrl.agent.learner_contract import Agents
 from lwrl.runners.compiled import compiles, run_compiled
 from lwrl.runners.episodes import EpisodeResults
 from lwrl.runners.stepped import run_batched, run_dm_env

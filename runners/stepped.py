@@ -5,7 +5,7 @@ same bookkeeping (`runners.episodes.finish_episode`, `runners.recording`) and nu
 
 import numpy as np
 
-from lwrl.agent.learner import Agents
+from lwrl.agent.learner_contract import Agents
 from lwrl.runners.episodes import EpisodeResults, finish_episode
 from lwrl.runners.recording import (make_tape, record_end, record_state, record_transition,
                                     recordings)

@@ -3,16 +3,15 @@
 - A finished run is `<key>.csv.gz`, written whole or not at all (`lwrl.outputs`).
 - A file there that cannot be read (truncated, empty, not gzip, not the run's table) is
   reported by name, moved aside to `<key>.csv.gz.damaged`, and its run computed again.
-- A batch of runs being computed is claimed by a file `<batch>.claim` holding the host and
-  process that computes it, so that two processes sweeping into one directory share the
-  work: each computes the batches it could claim and waits for the others' runs. A claim
-  whose process is gone (on this host) is stale and is taken over.
+- A batch of runs being computed is claimed (`lwrl.outputs.claim`) by a file `<batch>.claim`
+  naming the host and process that computes it, so that two processes sweeping into one
+  directory share the work: each computes the batches it could claim and waits for the
+  others' runs. A claim whose process is gone is taken over.
 """
 
 import hashlib
 import os
 import pathlib
-import socket
 
 import pandas as pd
 
@@ -25,8 +24,7 @@ class RunStore:
     def __init__(self, out_dir):
         self.directory = pathlib.Path(out_dir) / "runs"
         self.directory.mkdir(parents=True, exist_ok=True)
-        self._host = socket.gethostname()
-        self._claims = set()
+        self._claims = {}
 
     def path(self, config) -> pathlib.Path:
         return self.directory / f"{config.key}.csv.gz"
@@ -71,50 +69,20 @@ class RunStore:
         digest = hashlib.sha1("\n".join(sorted(config.key for config in batch)).encode())
         return self.directory / f"batch-{digest.hexdigest()[:12]}.claim"
 
-    def _stale(self, path: pathlib.Path) -> bool:
-        """True for a claim by a process of this host that is gone (or an unreadable claim)."""
-        try:
-            host, pid = path.read_text().split()
-            pid = int(pid)
-        except (OSError, ValueError):
-            return True
-        if host != self._host:
-            return False  # another machine's: it cannot be checked from here
-        try:
-            os.kill(pid, 0)
-        except ProcessLookupError:
-            return True
-        except PermissionError:
-            return False
-        return False
-
     def claim(self, batch) -> bool:
-        """Claim `batch` for this process: True if it is ours to compute now."""
-        path = self._claim_path(batch)
-        for _ in range(2):
-            try:
-                descriptor = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
-            except FileExistsError:
-                if not self._stale(path):
-                    return False
-                try:  # take over a stale claim: whoever removes it first may claim it
-                    path.unlink()
-                except FileNotFoundError:
-                    pass
-                continue
-            with os.fdopen(descriptor, "w") as file:
-                file.write(f"{self._host} {os.getpid()}\n")
-            self._claims.add(path)
-            return True
-        return False
+        """Claim `batch` for this process (`lwrl.outputs.claim`): True if it is ours to compute
+        now, False while another process computes it."""
+        held = outputs.claim(self._claim_path(batch))
+        if held is not None:
+            self._claims[held.path] = held
+        return held is not None
 
     def release(self, batch) -> None:
-        path = self._claim_path(batch)
-        if path in self._claims:
-            self._claims.discard(path)
-            path.unlink(missing_ok=True)
+        held = self._claims.pop(self._claim_path(batch), None)
+        if held is not None:
+            held.release()
 
     def release_all(self) -> None:
-        for path in list(self._claims):
-            self._claims.discard(path)
-            path.unlink(missing_ok=True)
+        for held in self._claims.values():
+            held.release()
+        self._claims.clear()

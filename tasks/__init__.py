@@ -9,19 +9,19 @@
     ts = env.reset()
     ts = env.step(1)            # a discrete action index
 
-Each domain is one module, `tasks/<domain>.py`, ending with its `DOMAIN` (`tasks.domain`),
-and one line of `DOMAIN_MODULES` below. `DOMAINS[name]` is a domain's `Domain`;
-`ALL_TASKS` lists `(domain, task)` pairs; `PLANTS[domain]` the plants of a domain, the
-default first, and `ENVIRONMENT_PLANTS[domain]` those of a single environment.
-`definition(...)` gives a task's array functions and `tasks.batched` steps many copies of a
-task at once. Every task takes its domain's physical parameters as the option `params`
+Each domain is one module, `tasks/<domain>.py`, ending with its `DOMAIN` (a
+`tasks.domain_contract.Domain`), and one line of `DOMAIN_MODULES` below. `DOMAINS[name]` is
+a domain's `Domain`; `ALL_TASKS` lists `(domain, task)` pairs; `PLANTS[domain]` the plants
+of a domain, the default first, and `ENVIRONMENT_PLANTS[domain]` those of a single
+environment. `definition(...)` gives a task's array functions (a
+`tasks.task_definition.TaskDefinition`) and `tasks.batched` steps many copies of a task at
+once. Every task takes its domain's physical parameters as the option `params`
 (`Domain.parameters`, `tasks.parameters`); an environment also takes the sensor and
 actuator options of `tasks.disturbances`.
 """
 
 import importlib
 import inspect
-import math
 import os
 
 if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
@@ -34,8 +34,8 @@ from dm_control.rl import control  # noqa: E402
 
 from lwrl.tasks import disturbances  # noqa: E402
 from lwrl.tasks.base import SuiteTask  # noqa: E402
-from lwrl.tasks.definition import TaskDefinition  # noqa: E402
-from lwrl.tasks.domain import Domain  # noqa: E402
+from lwrl.tasks.task_definition import TaskDefinition  # noqa: E402
+from lwrl.tasks.domain_contract import Domain  # noqa: E402
 
 DOMAIN_MODULES = ("mountain_car", "pendulum", "cartpole", "acrobot")
 """The registry: the modules of `tasks/` that each define one domain, in the suite's order."""
@@ -59,7 +59,7 @@ def domain(name: str) -> Domain:
     return DOMAINS[name]
 
 
-def split_name(name: str) -> tuple:
+def split_name(name: str) -> tuple[str, str]:
     """`(domain, task)` of `DOMAIN.TASK`, or a ValueError naming the suite's tasks."""
     domain_name, dot, task = name.partition(".")
     if not dot or not task:
@@ -114,9 +114,6 @@ def _resolve(domain_name: str, task: str, plant, environment_options: tuple, opt
                             + list(environment_options))
         raise ValueError(f"unknown option {unknown[0]!r} for {domain_name}.{task} on the {plant} "
                          f"plant; allowed: {allowed}")
-    if "time_limit" in options and not (isinstance(options["time_limit"], (int, float))
-                                        and 0 < options["time_limit"] <= math.inf):
-        raise ValueError(f"time_limit must be a positive number; got {options['time_limit']!r}")
     definition = domain(domain_name).tasks[task](
         **{k: v for k, v in options.items() if k in task_option_names})
     return (definition, plant, {k: v for k, v in options.items() if k in plant_options},

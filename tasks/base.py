@@ -6,8 +6,8 @@ import numpy as np
 from dm_control.rl import control
 from dm_env import specs
 
-from lwrl.tasks.definition import TaskDefinition, check_actions, random_starts
 from lwrl.tasks.disturbances import Disturbances
+from lwrl.tasks.task_definition import TaskDefinition, check_actions, random_starts
 
 
 class SuiteTask(control.Task):

@@ -17,7 +17,7 @@ import dm_env
 import numpy as np
 
 from lwrl import tasks
-from lwrl.tasks.definition import (advance_episode, check_actions, check_finite_state,
+from lwrl.tasks.task_definition import (advance_episode, check_actions, check_finite_state,
                                    random_starts)
 from lwrl.tasks.disturbances import Disturbances
 
@@ -59,6 +59,9 @@ class BatchedEnv:
 
     def __init__(self, domain: str, task: str, plant=None, seeds: Sequence[int] = (0,),
                  params=None, **options):
+        if isinstance(seeds, (str, bytes)) or not hasattr(seeds, "__iter__"):
+            raise ValueError(f"seeds must be a sequence of non-negative integers, one per "
+                             f"environment; got {seeds!r}")
         seeds = list(seeds)
         if not seeds:
             raise ValueError("seeds must name at least one environment")
@@ -107,7 +110,11 @@ class BatchedEnv:
 
     def set_state(self, state: np.ndarray) -> None:
         """Overwrite the plants' states `(B, d)` (episodes go on from there)."""
-        self.state[:] = check_finite_state(state, self.definition.state_names)
+        state = check_finite_state(state, self.definition.state_names)
+        if state.shape != self.state.shape:
+            raise ValueError(f"state must have shape {self.state.shape}, one row per environment; "
+                             f"got shape {state.shape}")
+        self.state[:] = state
 
     def reset(self) -> BatchedTimeStep:
         """Start a new episode in every environment."""

@@ -49,8 +49,8 @@ import mujoco
 import numpy as np
 from numba.extending import register_jitable
 
-from lwrl.tasks.definition import RunDefaults, TaskDefinition, step_limit
-from lwrl.tasks.domain import Domain, PlantComparison
+from lwrl.tasks.task_definition import RunDefaults, TaskDefinition, positive_number, step_limit
+from lwrl.tasks.domain_contract import Domain, PlantComparison
 from lwrl.tasks.integrators import euler_pair
 from lwrl.tasks.parameters import Parameter, Parameters
 from lwrl.tasks.physics import physics_classes
@@ -197,9 +197,8 @@ PAPER_AGENT = RunDefaults(
 def balance(time_limit: float = TIME_LIMIT, track_limit=TRACK_LIMIT, params=None) -> TaskDefinition:
     """The paper's balancing task; `time_limit` in seconds, `track_limit` in metres or None,
     `params` the physical parameters' values `{name: value}` (`PARAMETERS`)."""
-    limit = math.inf if track_limit is None else float(track_limit)
-    if not limit > 0:
-        raise ValueError(f"track_limit must be a positive number of metres or None; got {track_limit!r}")
+    limit = (math.inf if track_limit is None
+             else positive_number("track_limit", track_limit, "number of metres or None"))
     return TaskDefinition(
         domain="cartpole", task="balance", state_names=STATE_NAMES, controls_of=controls,
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),

@@ -34,9 +34,9 @@ Task `cost_to_go`:
 import numpy as np
 from numba.extending import register_jitable
 
-from lwrl.tasks.definition import RunDefaults, TaskDefinition, step_limit
-from lwrl.tasks.domain import Box, Domain, Drawing, Line
+from lwrl.tasks.domain_contract import Box, Domain, Drawing, Line
 from lwrl.tasks.parameters import Parameter, Parameters
+from lwrl.tasks.task_definition import RunDefaults, TaskDefinition, step_limit
 from lwrl.tasks.physics import AnalyticPhysics
 from lwrl.tasks.plants import DomainPlants
 

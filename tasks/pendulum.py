@@ -38,8 +38,8 @@ Task `swingup`:
 import numpy as np
 from numba.extending import register_jitable
 
-from lwrl.tasks.definition import RunDefaults, TaskDefinition, step_limit, wrap_angle
-from lwrl.tasks.domain import Domain, PlantComparison
+from lwrl.tasks.task_definition import RunDefaults, TaskDefinition, step_limit, wrap_angle
+from lwrl.tasks.domain_contract import Domain, PlantComparison
 from lwrl.tasks.integrators import euler
 from lwrl.tasks.parameters import Parameter, Parameters
 from lwrl.tasks.physics import physics_classes

@@ -10,7 +10,7 @@ from dm_control import mujoco as dm_mujoco
 from dm_control.mujoco import wrapper
 from dm_control.rl import control
 
-from lwrl.tasks.definition import check_finite_state
+from lwrl.tasks.task_definition import check_finite_state
 from lwrl.tasks.plants import AnalyticPlant
 
 

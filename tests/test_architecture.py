@@ -246,7 +246,7 @@ def learner_mentions(path: pathlib.Path, words=None) -> list:
                          ids=lambda p: str(p.relative_to(ROOT)))
 def test_no_room_but_agent_names_a_learner_or_a_feature_map(path):
     """Everything about a learner lives in `agent/<learner>.py` (and what it alone needs);
-    other rooms go through the learner contract (`agent.learner`) and the registry
+    other rooms go through the learner contract (`agent.learner_contract`) and the registry
     (`agent.LEARNERS`), so adding a learner touches no other room."""
     assert learner_mentions(path) == []
 

@@ -223,3 +223,86 @@ def test_every_check_looks_at_a_real_file():
     """The damaged files above are damaged: the undamaged one loads."""
     assert zipfile.is_zipfile(__file__) is False
     assert agent_io.FORMAT == "lwrl-agent/2"
+
+
+# Values that enter a task from Python: the options of `tasks.load` (and so of
+# `gymnasium.make` and `lwrl reproduce --set`), the batched stepper's seeds and states.
+
+from lwrl import tasks  # noqa: E402
+from lwrl.tasks.batched import BatchedEnv  # noqa: E402
+
+TIMESTEPS = {(domain, task): tasks.definition(domain, task).control_timestep
+             for domain, task in tasks.ALL_TASKS}
+not_positive_numbers = st.one_of(
+    st.floats(max_value=0.0), st.just(math.nan), st.booleans(), st.text(max_size=4),
+    st.integers(max_value=0), st.lists(st.floats(min_value=1, max_value=9), max_size=2), st.none())
+
+
+@QUICK
+@given(task=st.sampled_from(sorted(TIMESTEPS)), steps=st.floats(min_value=1e-3, max_value=1e5),
+       data=st.data())
+def test_a_time_limit_that_is_not_a_whole_number_of_steps_names_the_step(task, steps, data):
+    """`tasks.load("mountain_car", "cost_to_go", time_limit=2.5)` and the like: refused,
+    naming the control step; a whole number of steps is taken, in seconds or steps."""
+    timestep = TIMESTEPS[task]
+    if abs(steps - round(steps)) > 1e-6:
+        with pytest.raises(ValueError, match=rf"^time_limit must be a whole number of control "
+                                             rf"steps of {timestep:g}; got "):
+            tasks.load(*task, time_limit=steps * timestep)
+    whole = data.draw(st.integers(min_value=1, max_value=10 ** 5), label="whole")
+    assert tasks.definition(*task, time_limit=whole * timestep).step_limit == whole
+
+
+@QUICK
+@given(task=st.sampled_from(sorted(TIMESTEPS)), value=not_positive_numbers)
+def test_a_time_limit_that_is_not_a_positive_number_is_refused(task, value):
+    with pytest.raises(ValueError, match=r"^time_limit must be a positive number; got "):
+        tasks.load(*task, time_limit=value)
+
+
+@QUICK
+@given(value=not_positive_numbers.filter(lambda value: value is not None))
+def test_a_track_limit_that_is_not_a_positive_number_is_refused(value):
+    with pytest.raises(ValueError, match=r"^track_limit must be a positive number of metres or "
+                                         r"None; got "):
+        tasks.load("cartpole", "balance", track_limit=value)
+
+
+@QUICK
+@given(seeds=st.one_of(
+    st.lists(st.one_of(st.integers(max_value=-1), st.floats(), st.text(max_size=3)), min_size=1,
+             max_size=3).map(lambda bad: [0] + bad),
+    st.integers(), st.floats(), st.text(max_size=3), st.just([])))
+def test_batched_seeds_that_are_not_non_negative_integers_are_refused(seeds):
+    with pytest.raises(ValueError, match=r"^seeds? must "):
+        BatchedEnv("pendulum", "swingup", "analytic", seeds=seeds)
+
+
+@QUICK
+@given(shape=st.lists(st.integers(min_value=0, max_value=4), min_size=0, max_size=3),
+       fill=st.one_of(st.just(0.0), st.just(math.nan), st.just(math.inf)))
+def test_a_batched_state_of_another_shape_or_not_finite_is_refused(shape, fill):
+    env = BatchedEnv("cartpole", "balance", "analytic", seeds=[0, 1])
+    env.reset()
+    state = np.full(shape, fill)
+    if tuple(shape) == (2, 4) and fill == 0.0:
+        env.set_state(state)
+        return
+    with pytest.raises(ValueError, match=r"^state must (have|be finite)"):
+        env.set_state(state)
+
+
+def test_the_time_limit_of_the_issue_names_what_is_allowed():
+    with pytest.raises(ValueError) as refused:
+        tasks.load("mountain_car", "cost_to_go", time_limit=2.5)
+    assert str(refused.value) == ("time_limit must be a whole number of control steps of 1; "
+                                  "got 2.5 (2.5 steps)")
+    gymnasium = pytest.importorskip("gymnasium")
+    import lwrl.gym  # noqa: F401
+
+    with pytest.raises(ValueError, match="time_limit must be a whole number of control steps of 0.02"):
+        gymnasium.make("lwrl/pendulum-swingup-analytic-v0", time_limit=0.03)
+    status, lines = run(["reproduce", "fig3", "--quick", "--out", os.path.join(WORK, "repro"),
+                         "--set", "time_limit=2.5"])
+    assert status == 2 and lines == ["lwrl reproduce: error: time_limit must be a whole number of "
+                                     "control steps of 1; got 2.5 (2.5 steps)"]

@@ -52,32 +52,11 @@ print("rendered")
 """
 
 
-def _backend() -> str | None:
-    """An OpenGL backend that renders headless here (EGL, else OSMesa), or None."""
-    for backend in ("egl", "osmesa"):
-        probe = subprocess.run([sys.executable, "-c", RENDER.format(domain=MUJOCO_TASKS[0][0],
-                                                                    task=MUJOCO_TASKS[0][1])],
-                               env={**os.environ, "MUJOCO_GL": backend}, capture_output=True,
-                               text=True, timeout=120)
-        if probe.returncode == 0:
-            return backend
-    return None
-
-
-@pytest.fixture(scope="module")
-def backend():
-    found = _backend()
-    if found is None:
-        pytest.skip("no headless OpenGL here: apt-get install libegl1 libegl-mesa0 "
-                    "libgl1-mesa-dri (EGL) or libosmesa6 (OSMesa)")
-    return found
-
-
 @pytest.mark.parametrize("domain, task", MUJOCO_TASKS)
-def test_physics_renders_pixels_headless(backend, domain, task):
+def test_physics_renders_pixels_headless(opengl, domain, task):
     """`env.physics.render(height, width, camera_id)` gives a picture from every camera."""
     result = subprocess.run([sys.executable, "-c", RENDER.format(domain=domain, task=task)],
-                            env={**os.environ, "MUJOCO_GL": backend}, capture_output=True,
+                            env={**os.environ, "MUJOCO_GL": opengl}, capture_output=True,
                             text=True, timeout=120)
     assert result.returncode == 0 and "rendered" in result.stdout, result.stderr[-2000:]
 

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from lwrl import tasks
 from lwrl.tasks import disturbances
 from lwrl.tasks.batched import BatchedEnv
-from lwrl.tasks.definition import wrap_angle
+from lwrl.tasks.task_definition import wrap_angle
 from lwrl.tasks.disturbances import applied_control, noisy_observation, stream_key
 from lwrl.tasks.pendulum import transition as pendulum_transition
 

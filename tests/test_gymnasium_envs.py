@@ -16,7 +16,7 @@ gymnasium = pytest.importorskip("gymnasium")
 from gymnasium.utils.env_checker import check_env  # noqa: E402
 
 from lwrl import tasks  # noqa: E402
-from lwrl.gym import ENV_IDS, SuiteEnv, env_id, register_envs  # noqa: E402
+from lwrl.gym import ENV_IDS, SuiteEnv, env_id, register_envs, render_modes  # noqa: E402
 
 # Any warning (Gymnasium's checkers warn rather than raise) fails these tests, unless a test
 # expects it.
@@ -134,7 +134,7 @@ def test_make(domain, task, plant):
     assert env.observation_space.shape == (len(definition.state_names),)
     assert raw.observation_names == definition.state_names
     assert not any(isinstance(w, gymnasium.wrappers.TimeLimit) for w in _wrappers(env))
-    assert env.render_mode is None and env.metadata["render_modes"] == []
+    assert env.render_mode is None and env.metadata["render_modes"] == render_modes(domain)
     observation, info = env.reset(seed=0)
     assert observation.dtype == np.float64 and observation in env.observation_space
     assert info == {"uptime_s": None if domain in ("mountain_car", "acrobot") else 0.0, "steps": 0,
@@ -414,10 +414,11 @@ def test_bad_make_options(id_, options, message):
         gymnasium.make(id_, **options)
 
 
-def test_no_rendering():
-    with pytest.warns(UserWarning, match="not in the possible render_modes"):
-        with pytest.raises(ValueError, match="render_mode must be None"):
-            gymnasium.make("lwrl/cartpole-balance-mujoco-v0", render_mode="rgb_array")
+def test_no_rendering_without_a_render_mode():
+    """Frames are drawn only when asked for (`tests/test_gymnasium_render.py`)."""
+    env = gymnasium.make("lwrl/cartpole-balance-mujoco-v0")
+    env.reset(seed=0)
+    assert env.render() is None and env.unwrapped._painter is None
 
 
 @pytest.mark.parametrize("action", [2, -1, 0.5, "1", None])

@@ -13,7 +13,7 @@ from lwrl import kernels
 RUN = """
 import json
 import numpy as np
-from lwrl.agent.learner import batch_step
+from lwrl.agent.learner_contract import batch_step
 from lwrl.agent.sarsa import LEARNER
 from lwrl.runners.compiled import compiled_loop
 from lwrl.runners.config import RunConfig

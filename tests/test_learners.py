@@ -1,4 +1,4 @@
-"""The learner contract (`agent.learner`), checked for every learner of the registry on every
+"""The learner contract (`agent.learner_contract`), checked for every learner of the registry on every
 task of the suite it fits: a new learner is one module and a registry line, and these tests
 hold it to the contract without an edit here."""
 
@@ -11,7 +11,7 @@ import pytest
 from lwrl import agent as learners
 from lwrl import tasks
 from lwrl.agent import io as agent_io
-from lwrl.agent.learner import NoValues
+from lwrl.agent.learner_contract import NoValues
 from lwrl.runners.config import RunConfig, task_info
 from lwrl.runners.run import make_agent, memory_needed, run, run_batched, run_compiled, run_dm_env
 from lwrl.settings import base_type

@@ -12,18 +12,9 @@ import pytest
 
 from lwrl import outputs
 from lwrl.agent import io as agent_io
-from lwrl.cli import main as cli
 from lwrl.cli import output
 
-
-def run_cli(argv, capsys):
-    """`(status, stdout, stderr lines)` of the command, in this process."""
-    try:
-        status = cli.main(argv)
-    except SystemExit as exit_:
-        status = exit_.code
-    captured = capsys.readouterr()
-    return status, captured.out, captured.err.strip().splitlines()
+from conftest import run_cli
 
 
 def test_a_file_appears_whole_or_not_at_all(tmp_path):

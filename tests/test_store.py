@@ -45,25 +45,28 @@ def test_damaged_run_files_are_named_set_aside_and_recomputed(tmp_path, clean, c
     pd.testing.assert_frame_equal(results, clean)
 
 
-def sleeper():
-    """A live process of this host, to own a claim."""
-    return subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+def sleeper(claim=None):
+    """A live process of this host, holding the claim file `claim` if given."""
+    hold = f"from lwrl import outputs; outputs.claim({str(claim)!r}); " if claim else ""
+    process = subprocess.Popen([sys.executable, "-c", f"{hold}print(flush=True); "
+                                "import time; time.sleep(60)"], stdout=subprocess.PIPE)
+    process.stdout.readline()
+    return process
 
 
 def test_a_batch_claimed_by_a_live_process_is_left_to_it(tmp_path, clean):
     """Another process has claimed the batch: this sweep computes nothing of it and waits
     until its runs are there."""
-    configs, other = grid(), sleeper()
+    configs, store = grid(), RunStore(tmp_path)
+    claim = store._claim_path(configs)
+    other = sleeper(claim)
     try:
-        store = RunStore(tmp_path)
-        claim = store._claim_path(configs)
-        claim.write_text(f"{os.uname().nodename} {other.pid}\n")
-
         def the_other_process_finishes():
             time.sleep(1.0)
             for config, table in zip(configs, sweep.run_batch(configs)):
                 store.write(config, table)
-            claim.unlink()
+            other.kill()  # the other process ends, its claim file left behind
+            other.wait()
 
         thread = threading.Thread(target=the_other_process_finishes)
         thread.start()
@@ -77,11 +80,11 @@ def test_a_batch_claimed_by_a_live_process_is_left_to_it(tmp_path, clean):
 
 
 def test_a_stale_claim_is_taken_over(tmp_path, clean):
-    other = sleeper()
-    other.kill()
-    other.wait()  # its pid is gone
     store = RunStore(tmp_path)
-    store._claim_path(grid()).write_text(f"{os.uname().nodename} {other.pid}\n")
+    other = sleeper(store._claim_path(grid()))
+    other.kill()
+    other.wait()  # gone, its claim file left behind
+    assert store._claim_path(grid()).read_text() == f"{os.uname().nodename} {other.pid}\n"
     results, computed = sweep.run_sweep(grid(), tmp_path, wait_seconds=0.2)
     assert computed == 3 and not list(store.directory.glob("*.claim"))
     pd.testing.assert_frame_equal(results, clean)

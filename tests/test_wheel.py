@@ -30,7 +30,8 @@ def installed(tmp_path_factory):
     source.mkdir()
     for name in SOURCES:
         copy = shutil.copytree if (ROOT / name).is_dir() else shutil.copy2
-        copy(ROOT / name, source / name, **({"ignore": shutil.ignore_patterns("__pycache__")}
+        copy(ROOT / name, source / name, **({"ignore": shutil.ignore_patterns("__pycache__"),
+                                             "symlinks": True}  # lwrl/<room> stay links
                                             if (ROOT / name).is_dir() else {}))
     build = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--quiet",
                             "--wheel-dir", str(work / "dist"), str(source)],
@@ -58,6 +59,8 @@ def test_the_wheel_holds_lwrl_only(installed):
     names = zipfile.ZipFile(wheel).namelist()
     assert {name.split("/")[0] for name in names} == {"lwrl", wheel.name.split("-py")[0] + ".dist-info"}
     assert "lwrl/models/cartpole.xml" in names and "lwrl/export/templates/lwrl_policy.c.in" in names
+    assert "lwrl/py.typed" in names  # type checkers read the installed package's annotations
+    assert len(names) == len(set(names))  # each room once, though lwrl/<room> links to it
 
 
 def test_site_packages_gains_lwrl_only(installed):

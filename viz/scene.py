@@ -6,7 +6,7 @@ plane) with their rgba colours and logged once, static, in its body's frame unde
 state of an episode, computed from the recorded states: `qpos` is the state's positions (the
 state vector interleaves qpos and qvel joint by joint, for both plants), and the poses are
 MuJoCo's forward kinematics of it. A domain without an MJCF model brings its own `Drawing`
-(`tasks.domain`): boxes and lines, fixed or on moving bodies, and the bodies' poses.
+(`tasks.domain_contract`): boxes and lines, fixed or on moving bodies, and the bodies' poses.
 
 `body_poses` evaluates MuJoCo's kinematics (`mj_kinematics`: body offsets, then each joint's
 slide or rotation about its anchor) over all the states at once in NumPy; it is checked
@@ -19,7 +19,8 @@ import numpy as np
 import rerun as rr
 
 from lwrl import models
-from lwrl.tasks.domain import Box, Line
+from lwrl.tasks.domain_contract import Line
+from lwrl.tasks.drawing import boxes_of, qpos_of, quat_mul, quat_rotate
 from lwrl.viz import names
 from lwrl.viz.columns import episode_indexes, log_static, send
 
@@ -60,38 +61,10 @@ def _xyzw(quat_wxyz) -> np.ndarray:
     return quat_wxyz[..., [1, 2, 3, 0]]
 
 
-def quat_mul(a, b) -> np.ndarray:
-    """Hamilton products of (w, x, y, z) quaternions, broadcast over leading axes."""
-    aw, ax, ay, az = np.moveaxis(np.asarray(a, dtype=np.float64), -1, 0)
-    bw, bx, by, bz = np.moveaxis(np.asarray(b, dtype=np.float64), -1, 0)
-    return np.stack([aw * bw - ax * bx - ay * by - az * bz,
-                     aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx,
-                     aw * bz + ax * by - ay * bx + az * bw], axis=-1)
-
-
-def quat_rotate(q, v) -> np.ndarray:
-    """Rotate vectors `v` by unit (w, x, y, z) quaternions `q`, broadcast over leading axes."""
-    q = np.asarray(q, dtype=np.float64)
-    v = np.asarray(v, dtype=np.float64)
-    w, u = q[..., :1], q[..., 1:]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
-
-
 def _axis_angle(axis, angle) -> np.ndarray:
     """(w, x, y, z) quaternions of rotations by `angle` (T,) about the unit `axis` (3,)."""
     half = 0.5 * np.asarray(angle, dtype=np.float64)
     return np.concatenate([np.cos(half)[:, None], np.sin(half)[:, None] * np.asarray(axis)], axis=1)
-
-
-def qpos_of(model: mujoco.MjModel, states) -> np.ndarray:
-    """`(T, nq)` joint positions of `(T, 2 nq)` states that interleave qpos and qvel per joint."""
-    states = np.asarray(states, dtype=np.float64)
-    if states.ndim != 2 or states.shape[1] != 2 * model.nq or model.nq != model.nv:
-        raise ValueError(f"states must have shape (T, {2 * model.nq}) (qpos and qvel of each "
-                         f"one-dof joint, interleaved); got {states.shape}")
-    return states[:, 0::2]
 
 
 def body_poses_mujoco(model: mujoco.MjModel, qpos) -> tuple[np.ndarray, np.ndarray]:
@@ -263,7 +236,7 @@ def shape_archetype(shape):
     """A `Line` as LineStrips3D, a `Box` or a tuple of boxes as solid Boxes3D."""
     if isinstance(shape, Line):
         return rr.LineStrips3D([shape.points], radii=shape.radius, colors=shape.color)
-    boxes = (shape,) if isinstance(shape, Box) else tuple(shape)
+    boxes = boxes_of(shape)
     return rr.Boxes3D(half_sizes=[box.half_size for box in boxes], centers=[box.center for box in boxes],
                       colors=[box.color for box in boxes], fill_mode=rr.components.FillMode.Solid)
 

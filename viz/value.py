@@ -114,7 +114,7 @@ def values_on_grid(grid: ValueGrid, agents, weights) -> tuple:
     """`(values (h, w), preferences (h, w, A))` of one agent's `weights` (its learner's
     `arrays.weights[b]`) over the grid: the learner's state values and the action values
     (or preferences) it acts greedily on, through the learner contract
-    (`Agents.state_values_on_grid`, `action_values_on_grid`). `agent.learner.NoValues`
+    (`Agents.state_values_on_grid`, `action_values_on_grid`). `agent.learner_contract.NoValues`
     where the learner has none."""
     axes = grid.axes_values()
     return (grid.image(agents.state_values_on_grid(axes, weights)),

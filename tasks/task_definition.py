@@ -13,6 +13,7 @@ States are arrays of shape `(..., d)` in the order of `state_names`.
 import dataclasses
 import functools
 import math
+import numbers
 from typing import Callable
 
 import numpy as np
@@ -185,9 +186,26 @@ def advance_episode(steps, uptime, up, terminal, dt, step_limit):
     return steps, uptime + dt * up, terminal | (steps >= step_limit)
 
 
-def step_limit(time_limit: float, timestep: float) -> float:
-    """Steps in `time_limit` (an int), or `inf` for an unlimited episode."""
-    return math.inf if math.isinf(time_limit) else round(time_limit / timestep)
+def positive_number(name: str, value, what: str = "number") -> float:
+    """`value` as a float if it is a real number above 0 (`inf` included), else a one-line
+    error: `NAME must be a positive WHAT; got VALUE` (a bool, a string, NaN are refused)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not float(value) > 0:
+        raise ValueError(f"{name} must be a positive {what}; got {value!r}")
+    return float(value)
+
+
+def step_limit(time_limit, timestep: float) -> float:
+    """Steps in `time_limit` (an int), or `inf` for an unlimited episode; a one-line error
+    unless `time_limit` is a positive whole number of control steps `timestep` (within
+    round-off: 0.06 s is 3 steps of 0.02 s)."""
+    time_limit = positive_number("time_limit", time_limit)
+    if math.isinf(time_limit):
+        return math.inf
+    steps = time_limit / timestep
+    if not math.isclose(steps, round(steps), rel_tol=1e-9) or round(steps) < 1:
+        raise ValueError(f"time_limit must be a whole number of control steps of {timestep:g}; "
+                         f"got {time_limit!r} ({steps:g} steps)")
+    return round(steps)
 
 
 def check_finite_state(state: np.ndarray, names: tuple) -> np.ndarray:

@@ -34,7 +34,7 @@ greedy controller as C where it has one, and what `agent.io` saves.
 
 import collections
 import dataclasses
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -107,7 +107,7 @@ class Agents:
     `arrays` and implement `step`; the others have defaults a learner may override."""
 
     learner: Learner
-    arrays: tuple
+    arrays: Any
     """A namedtuple of arrays with a leading axis B, with at least `q`, `delta`, `diverged`
     and `weights` (see the module's docstring)."""
     settings: tuple
