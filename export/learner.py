@@ -151,7 +151,7 @@ def check_fits(settings: LearnerSettings, dtype: str, ram) -> dict:
         grid = " x ".join([str(settings.features.n)] * settings.features.dim)
         raise ValueError(f"the {grid} grid's learner needs {parts['total']} bytes of RAM in "
                          f"{dtype} ({describe_ram(parts)}), more than the {ram} allowed; "
-                         f"use a coarser grid (--n) or float")
+                         f"use a coarser grid (--n){' or float' if dtype == 'double' else ''}")
     return parts
 
 
@@ -216,13 +216,26 @@ def _fields(settings: LearnerSettings, dtype: str, parts: dict) -> dict:
         gamma=lit(settings.gamma), gamma_lambda=lit(settings.gamma * settings.lam), flush=lit(flush),
         epsilon=_literal(settings.epsilon, "double"), initial_weights=initial_weights,
         initial_value=initial_value, zero=lit(0.0), one=lit(1.0),
-        golden_gamma=f"0x{stream['golden_gamma']:016X}", mix_1=f"0x{stream['mix_1']:016X}",
-        mix_2=f"0x{stream['mix_2']:016X}", shift_0=stream["shifts"][0],
-        shift_1=stream["shifts"][1], shift_2=stream["shifts"][2], shift_3=stream["shifts"][3],
-        to_unit=_literal(stream["to_unit"], "double"),
+        splitmix=splitmix_c(),
         trace_rule=("decayed > phi[i] ? decayed : phi[i]" if settings.trace == "replacing"
                     else "decayed + phi[i]"),
     )
+
+
+def splitmix_c() -> str:
+    """SplitMix64 in C as `agent/streams.py` draws (its constants from `reference.STREAM`):
+    `static double draw(uint64_t *state)`, for the learner and the device programs."""
+    stream = reference.STREAM
+    shifts = stream["shifts"]
+    return (
+        "/* SplitMix64 (Steele, Lea and Flood 2014), as lwrl's agent/streams.py: advance the\n"
+        " * state, hash it, keep 53 bits: a draw in [0, 1). */\n"
+        "static double draw(uint64_t *state)\n{\n    uint64_t z;\n"
+        f"    *state += UINT64_C(0x{stream['golden_gamma']:016X});\n    z = *state;\n"
+        f"    z = (z ^ (z >> {shifts[0]})) * UINT64_C(0x{stream['mix_1']:016X});\n"
+        f"    z = (z ^ (z >> {shifts[1]})) * UINT64_C(0x{stream['mix_2']:016X});\n"
+        f"    z = z ^ (z >> {shifts[2]});\n"
+        f"    return (double)(z >> {shifts[3]}) * {_literal(stream['to_unit'], 'double')};\n}}")
 
 
 def write_learner(settings: LearnerSettings, out_dir, dtype: str = "float", ram=None) -> dict:
