@@ -57,17 +57,19 @@ def run_device(args) -> int:
 
 def measure_costs(args) -> int:
     started = time.perf_counter()
-    print(f"per task: RAM computed; learner object for the Cortex-M4 (-O2, {args.real}); "
+    print(f"per task: RAM computed; code: the learner object for the Cortex-M4 (-O2, {args.real}); "
+          f"flash: the whole bench firmware with libm and start-up; "
           f"instructions per call, host x86-64 (callgrind) and emulated M4 (QEMU plugin); "
           f"time an estimate at {args.mhz:g} MHz and one instruction per cycle")
-    print(f"{'task':<26} {'grid':>9} {'RAM B':>6} {'code B':>6} {'stack B':>7} "
+    print(f"{'task':<26} {'grid':>9} {'RAM B':>6} {'code B':>6} {'flash B':>7} {'stack B':>7} "
           f"{'learn x86':>9} {'learn M4':>8} {'decide x86':>10} {'decide M4':>9} {'learn us':>8}")
     for task in args.tasks:
         result = device.costs(task, args.real)
         features = result["settings"].features
         grid = f"{features.n}^{features.dim}x{result['settings'].num_actions}"
         print(f"{task:<26} {grid:>9} "
-              f"{result['ram']['total']:>6} {result['object']['text']:>6} {result['stack']:>7} "
+              f"{result['ram']['total']:>6} {result['object']['text']:>6} "
+              f"{result['firmware']['text'] + result['firmware']['data']:>7} {result['stack']:>7} "
               f"{result['host_learn']:>9.0f} {result['m4_learn']:>8.0f} {result['host_decide']:>10.0f} "
               f"{result['m4_decide']:>9.0f} {device.estimate_us(result['m4_learn'], args.mhz):>8.1f}")
     output.done(started)

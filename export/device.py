@@ -241,7 +241,9 @@ def callgrind_instructions(executable) -> int:
 def costs(task: str, dtype: str = "float", **settings_overrides) -> dict:
     """What the task's learner costs (its default grid and settings): `ram` (computed),
     `object` (the learner object for the M4 at -O2: `text` code and constants, `data`,
-    `bss`), `stack` (bytes of lwrl_learn's deepest frame chain in the learner, -fstack-usage),
+    `bss`), `firmware` (the whole learning bench for the M4: the learner with libm's expf,
+    the start-up and the semihosting output), `stack` (an upper bound of lwrl_learn's stack
+    within the learner, -fstack-usage),
     and instructions per `learn` step and per `decide` (greedy decision) on the `host`
     (callgrind) and on the emulated `m4` (the QEMU plugin)."""
     settings = learner.settings_for_task(task, **settings_overrides)
@@ -262,7 +264,10 @@ def costs(task: str, dtype: str = "float", **settings_overrides) -> dict:
                 defines = [f"-DSTEPS_FROM_BUILD={calls}", f"-DDECISIONS_FROM_BUILD={decisions}"]
                 name = f"{kind}{calls}"
                 counts["host"].append(callgrind_instructions(build_host(build, name, defines=defines)))
-                text, instructions = qemu(build_m4(build, f"{name}.elf", defines=defines), plugin)
+                elf = build_m4(build, f"{name}.elf", defines=defines)
+                text, instructions = qemu(elf, plugin)
+                if kind == "learn":
+                    result["firmware"] = size_of(elf)
                 if "diverged 0" not in text:
                     raise ValueError(f"the {task} bench diverged: its count would not be a learning step's")
                 counts["m4"].append(instructions)
