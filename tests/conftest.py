@@ -1,4 +1,5 @@
-"""Shared fixtures: every (domain, task, plant) of the suite's dm_env environments."""
+"""Shared fixtures: every (domain, task, plant) of the suite's dm_env environments; and the
+check that a call is refused in one line."""
 
 import pytest
 
@@ -19,3 +20,13 @@ def set_state(env, state):
     env.reset()
     with env.physics.reset_context():
         env.physics.set_state_vector(state)
+
+
+def one_line_error(call, *fragments):
+    """`call()` raises a one-line ValueError holding each of `fragments`."""
+    with pytest.raises(ValueError) as error:
+        call()
+    message = str(error.value)
+    assert "\n" not in message
+    for fragment in fragments:
+        assert fragment in message, message

@@ -22,6 +22,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from conftest import one_line_error
 from scipy import stats
 
 from lwrl.agent import io as agent_io
@@ -236,15 +237,6 @@ def test_declared_ram_is_the_objects_static_data(tmp_path):
             sections = section_sizes(obj)
             static = sum(v for k, v in sections.items() if k.startswith((".bss", ".data")))
             assert written["ram"]["total"] <= static <= written["ram"]["total"] + 64, (task, dtype, static)
-
-
-def one_line_error(call, *fragments):
-    with pytest.raises(ValueError) as error:
-        call()
-    message = str(error.value)
-    assert "\n" not in message
-    for fragment in fragments:
-        assert fragment in message, message
 
 
 def test_bad_inputs_are_refused_in_one_line(tmp_path):
