@@ -43,7 +43,7 @@ import numpy as np
 
 from lwrl import tasks
 from lwrl.export import learner
-from lwrl.export.c import _literal, section_sizes, template
+from lwrl.export.c import _literal, find_compiler, template
 
 CROSS = {"arm-none-eabi-gcc": "gcc-arm-none-eabi", "arm-none-eabi-size": "binutils-arm-none-eabi",
          "qemu-system-arm": "qemu-system-arm"}
@@ -112,7 +112,9 @@ def _compile(command, cwd):
                          + " ".join(result.stderr.strip().splitlines()[:2]))
 
 
-def _write_sources(build, settings, dtype, program: str, **fields) -> None:
+def write_program(build, settings, dtype, program: str, **fields) -> None:
+    """Write into `build` the learner for `settings` in `dtype`, the fixed device files and
+    `program.c` from `templates/device/<program>.in` with `fields` (and SplitMix64)."""
     learner.write_learner(settings, build, dtype)
     for name in DEVICE_FILES:
         with open(os.path.join(build, name), "w") as file:
@@ -123,10 +125,7 @@ def _write_sources(build, settings, dtype, program: str, **fields) -> None:
 
 def build_host(build, output="host", compiler=None, defines=()) -> str:
     """The program in `build` for this machine; the executable's path."""
-    compiler = compiler or shutil.which(os.environ.get("CC", "cc")) or shutil.which("gcc")
-    if not compiler:
-        raise ValueError("no C compiler for the host build (cc or gcc)")
-    _compile([compiler, *COMMON_FLAGS, *defines, *SOURCES, "io_host.c", "-o", output, "-lm"], build)
+    _compile([find_compiler(compiler), *COMMON_FLAGS, *defines, *SOURCES, "io_host.c", "-o", output, "-lm"], build)
     return os.path.join(build, output)
 
 
@@ -165,8 +164,7 @@ def parse_run(text: str, dtype: str) -> dict:
     words = [int(w, 16) for w in re.findall(r"^w ([0-9a-f]{16})$", text, re.M)]
     kind = np.uint32 if dtype == "float" else np.uint64
     weights = np.array(words, dtype=np.uint64).astype(kind).view(learner.DTYPES[dtype])
-    return {"steps": steps, "diverged": "diverged 1" in text, "weights": weights,
-            "bits": np.array(words, dtype=np.uint64)}
+    return {"steps": steps, "diverged": "diverged 1" in text, "weights": weights}
 
 
 def ulps(a: np.ndarray, b: np.ndarray) -> int:
@@ -190,7 +188,7 @@ def run_device(task: str, episodes: int = 40, seed: int = 0, dtype: str = "float
     with tempfile.TemporaryDirectory() as scratch:
         build = build or scratch
         os.makedirs(build, exist_ok=True)
-        _write_sources(build, settings, dtype, "run.c", episodes=episodes, seed=seed)
+        write_program(build, settings, dtype, "run.c", episodes=episodes, seed=seed)
         with open(os.path.join(build, "lwrl_plant.h"), "w") as file:
             file.write(plant_header(task))
         host = subprocess.run([build_host(build)], capture_output=True, text=True, check=True).stdout
@@ -208,7 +206,7 @@ def run_device(task: str, episodes: int = 40, seed: int = 0, dtype: str = "float
 
 def build_plugin(build) -> str:
     """The instruction-counting QEMU plugin, built with the host compiler into `build`."""
-    compiler = shutil.which(os.environ.get("CC", "cc")) or shutil.which("gcc")
+    compiler = find_compiler()
     source = os.path.join(build, "insn_count.c")
     if not os.path.exists(source):
         with open(source, "w") as file:
@@ -251,7 +249,7 @@ def costs(task: str, dtype: str = "float", **settings_overrides) -> dict:
     result = {"task": task, "dtype": dtype, "settings": settings,
               "ram": learner.ram_bytes(settings, dtype)}
     with tempfile.TemporaryDirectory() as build:
-        _write_sources(build, settings, dtype, "bench.c", steps="STEPS_FROM_BUILD", table=TABLE,
+        write_program(build, settings, dtype, "bench.c", steps="STEPS_FROM_BUILD", table=TABLE,
                        decisions="DECISIONS_FROM_BUILD")
         _compile(["arm-none-eabi-gcc", *M4_FLAGS, *COMMON_FLAGS, "-fstack-usage", "-c",
                   "lwrl_learner.c", "-o", "lwrl_learner.o"], build)
@@ -302,38 +300,14 @@ def libm_agreement(count: int = 20000) -> dict:
     on `exp`, `expf` and `cos` over the arguments the learner and plant meet (exponents in
     [-60, 0), angles 3x for x in [-1.2, 0.5]): a count per function of `count` draws."""
     check_tools()
-    program = f"""
-#include <math.h>
-#include <stdint.h>
-#include <string.h>
-#include "device_io.h"
-{learner.splitmix_c()}
-int lwrl_device_main(void)
-{{
-    uint64_t stream = 1;
-    long i;
-    for (i = 0; i < {count}; i++) {{
-        double x = -60.0 * draw(&stream), angle = 3.0 * (-1.2 + 1.7 * draw(&stream));
-        double e = exp(x), c = cos(angle);
-        float f = expf((float)x);
-        uint64_t be, bc;
-        uint32_t bf;
-        memcpy(&be, &e, 8); memcpy(&bc, &c, 8); memcpy(&bf, &f, 4);
-        lwrl_print_hex(be); lwrl_print(" "); lwrl_print_hex(bf); lwrl_print(" ");
-        lwrl_print_hex(bc); lwrl_print("\\n");
-    }}
-    return 0;
-}}
-"""
     with tempfile.TemporaryDirectory() as build:
         for name in DEVICE_FILES:
             with open(os.path.join(build, name), "w") as file:
                 file.write(device_file(name))
         with open(os.path.join(build, "program.c"), "w") as file:
-            file.write(program)
+            file.write(template("device/libm.c").substitute(count=count, splitmix=learner.splitmix_c()))
         sources = ["program.c", "io_common.c"]
-        compiler = shutil.which(os.environ.get("CC", "cc")) or shutil.which("gcc")
-        _compile([compiler, *COMMON_FLAGS, *sources, "io_host.c", "-o", "host", "-lm"], build)
+        _compile([find_compiler(), *COMMON_FLAGS, *sources, "io_host.c", "-o", "host", "-lm"], build)
         _compile(["arm-none-eabi-gcc", *M4_FLAGS, *COMMON_FLAGS, *sources, "io_semihosting.c",
                   *M4_LINK, "-o", "device.elf", "-lm"], build)
         host = subprocess.run([os.path.join(build, "host")], capture_output=True, text=True,

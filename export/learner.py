@@ -173,7 +173,6 @@ def _fields(settings: LearnerSettings, dtype: str, parts: dict) -> dict:
     numpy_type = DTYPES[dtype]
     lit = lambda value: _literal(numpy_type(value), dtype)  # noqa: E731
     margin = reference.clamp_margin(features.n, features.r2)
-    stream = reference.STREAM
     if settings.initial_weights is None:
         initial_weights, initial_value = "", lit(0.0)
         initial_text, initial_flash = "zero", ""

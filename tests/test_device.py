@@ -71,7 +71,7 @@ def python_run(settings, episodes):
 @needs_host_compiler
 def test_host_build_in_double_is_the_python_learner_on_the_python_plant(tmp_path):
     settings = learner.settings_for_task(MOUNTAIN_CAR, seed=3)
-    device._write_sources(tmp_path, settings, "double", "run.c", episodes=20, seed=3)
+    device.write_program(tmp_path, settings, "double", "run.c", episodes=20, seed=3)
     (tmp_path / "lwrl_plant.h").write_text(device.plant_header(MOUNTAIN_CAR))
     text = subprocess.run([device.build_host(tmp_path)], capture_output=True, text=True,
                           check=True).stdout
