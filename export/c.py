@@ -60,8 +60,10 @@ _VALUES_PER_LINE = 6
 
 
 def template(name: str) -> string.Template:
-    """The template `templates/<name>.in` (e.g. `lwrl_policy.c`)."""
-    return string.Template(resources.files(__package__).joinpath("templates", f"{name}.in").read_text())
+    """The template of the exported file `name` (`lwrl_policy.c`, `lwrl_policy.h`, or a
+    path below `templates/` such as `learner/lwrl_learner.c`)."""
+    return string.Template(resources.files(__package__).joinpath(
+        "templates", *f"{name}.in".split("/")).read_text())
 
 
 def _literal(value, dtype: str) -> str:
