@@ -37,10 +37,8 @@ def add_parser(commands) -> None:
 def run_device(args) -> int:
     started = time.perf_counter()
     result = device.run_device(args.task, args.episodes, args.seed, args.real)
-    settings = result["settings"]
-    print(f"{args.task}: {settings.trace} traces, alpha {settings.alpha:g}, lambda {settings.lam:g}, "
-          f"epsilon {settings.epsilon:g}, {settings.features.n}^{settings.features.dim} grid, "
-          f"{args.real}, seed {args.seed}; host build and emulated Cortex-M4 ({device.BOARD})")
+    print(f"{args.task}: {result['summary']}, {args.real}, seed {args.seed}; host build and "
+          f"emulated Cortex-M4 ({device.BOARD})")
     print("episode   host  device")
     for k, (host, emulated) in enumerate(zip(result["host"]["steps"], result["device"]["steps"]), 1):
         print(f"{k:>7} {host:>6} {emulated:>7}{'' if host == emulated else '   differ'}")
@@ -61,16 +59,16 @@ def measure_costs(args) -> int:
           f"flash: the whole bench firmware with libm and start-up; "
           f"instructions per call, host x86-64 (callgrind) and emulated M4 (QEMU plugin); "
           f"time an estimate at {args.mhz:g} MHz and one instruction per cycle")
-    print(f"{'task':<26} {'grid':>9} {'RAM B':>6} {'code B':>6} {'flash B':>7} {'stack B':>7} "
-          f"{'learn x86':>9} {'learn M4':>8} {'decide x86':>10} {'decide M4':>9} {'learn us':>8}")
+    print(f"{'task':<26} {'RAM B':>6} {'code B':>6} {'flash B':>7} {'stack B':>7} "
+          f"{'learn x86':>9} {'learn M4':>8} {'decide x86':>10} {'decide M4':>9} {'learn us':>8}"
+          f"  learner")
     for task in args.tasks:
         result = device.costs(task, args.real)
-        features = result["settings"].features
-        grid = f"{features.n}^{features.dim}x{result['settings'].num_actions}"
-        print(f"{task:<26} {grid:>9} "
+        print(f"{task:<26} "
               f"{result['ram']['total']:>6} {result['object']['text']:>6} "
               f"{result['firmware']['text'] + result['firmware']['data']:>7} {result['stack']:>7} "
               f"{result['host_learn']:>9.0f} {result['m4_learn']:>8.0f} {result['host_decide']:>10.0f} "
-              f"{result['m4_decide']:>9.0f} {device.estimate_us(result['m4_learn'], args.mhz):>8.1f}")
+              f"{result['m4_decide']:>9.0f} {device.estimate_us(result['m4_learn'], args.mhz):>8.1f}"
+              f"  {result['summary']}")
     output.done(started)
     return 0

@@ -1,8 +1,8 @@
 """Learning on an emulated microcontroller: the C learner on a Cortex-M4 under QEMU.
 
-`run_device(task)` writes a device program (the C learner of `export.learner` for the
-task's grid and best settings, the task's plant in C, and a loop over episodes that prints
-each one's steps), builds it twice from the same sources:
+`run_device(task)` writes a device program (the C learner of `export.learner`, a new agent
+for the task with its settings, the task's plant in C, `Domain.c_plant`, and a loop over
+episodes that prints each one's steps), builds it twice from the same sources:
 
 - for the host, with the system C compiler and its C library (`io_host.c`: stdout);
 - for a bare-metal Cortex-M4 with Debian's `gcc-arm-none-eabi` and newlib's libm
@@ -12,9 +12,10 @@ each one's steps), builds it twice from the same sources:
 
 runs the host build, and the device build under `qemu-system-arm -M mps2-an386` with
 semihosting, and compares their steps per episode and final weights. Both builds draw the
-episodes' starts from a SplitMix64 stream of their own (the agent's seed + 2^63) computed
-in 64-bit integers, so the same code gives the same starts on both; the plant runs in
-double on both (software double on the M4, which has no double FPU).
+episodes' starts from a SplitMix64 stream of their own (`agent.streams.SPLITMIX64`, its
+state at the agent's seed + 2^63) computed in 64-bit integers, so the same code gives the
+same starts on both; the plant runs in double on both (software double on the M4, which
+has no double FPU).
 
 The builds differ in one thing the code does not control: the C library's `exp` (`expf`)
 and `cos`. glibc's and newlib's differ in the last bit for some arguments (`libm_agreement`
@@ -31,8 +32,8 @@ built here). Each count is the difference of two runs of 200 and 1200 calls divi
 in. Instructions are not cycles: a time at a clock rate is an estimate (`estimate_us`).
 """
 
-import importlib
 import os
+import string
 import re
 import shutil
 import subprocess
@@ -42,8 +43,9 @@ from importlib import resources
 import numpy as np
 
 from lwrl import tasks
+from lwrl.agent.streams import SPLITMIX64
 from lwrl.export import learner
-from lwrl.export.c import _literal, find_compiler, template
+from lwrl.export.c import DTYPES, _literal, find_compiler, template
 
 CROSS = {"arm-none-eabi-gcc": "gcc-arm-none-eabi", "arm-none-eabi-size": "binutils-arm-none-eabi",
          "qemu-system-arm": "qemu-system-arm"}
@@ -86,23 +88,29 @@ def check_tools(needed=tuple(CROSS)) -> None:
                          + " ".join(sorted({m.split('package ')[1].rstrip(')') for m in missing})))
 
 
-def plant_header(task: str) -> str:
-    """`lwrl_plant.h` for `task`: the template `templates/plants/<domain>.h.in` filled with
-    the domain module's constants (its upper-case numbers), the controls and step limit."""
-    domain, _ = tasks.split_name(task)
-    available = sorted(p.name.removesuffix(".h.in") for p in
-                       resources.files(__package__).joinpath("templates", "plants").iterdir()
-                       if p.name.endswith(".h.in"))
-    if domain not in available:
-        raise ValueError(f"no C plant for {domain}; the device programs have plants for: "
-                         f"{', '.join(available)}")
-    definition = tasks.definition(*tasks.split_name(task))
-    module = importlib.import_module(definition.transition.__module__)
-    constants = {name: _literal(value, "double") for name, value in vars(module).items()
-                 if name.isupper() and isinstance(value, float)}
-    return template(f"plants/{domain}.h").substitute(
-        constants, controls=", ".join(_literal(float(c), "double") for c in definition.controls),
-        step_limit=int(definition.step_limit))
+def plant_header(task: str, **options) -> str:
+    """`lwrl_plant.h` for `task` (DOMAIN.TASK) with its `options` (`params`, ...): the
+    domain's plant in C (`Domain.c_plant`) with the task's parameter values and the
+    domain's constants, its controls and step limit, in the template
+    `templates/device/plant.h.in`; a one-line error for a domain without one."""
+    domain_name, task_name = tasks.split_name(task)
+    domain = tasks.domain(domain_name)
+    plant = domain.c_plant
+    if plant is None:
+        having = [name for name, other in tasks.DOMAINS.items() if other.c_plant is not None]
+        raise ValueError(f"{domain_name} has no plant in C; the device programs run the domains "
+                         f"that have one: {', '.join(having)}")
+    definition = tasks.definition(domain_name, task_name, **options)
+    parameters = dict(zip((p.name for p in domain.parameters.items), definition.physical))
+    values = {name: _literal(float(value), "double")
+              for name, value in {**plant.constants, **parameters}.items()}
+    return template("device/plant.h").substitute(
+        domain=domain_name, task=task, dim=len(definition.state_names),
+        parameter_text=", ".join(f"{name} {value:g}" for name, value in parameters.items()),
+        step_limit=int(definition.step_limit),
+        controls=", ".join(_literal(float(c), "double") for c in definition.controls),
+        start=string.Template(plant.start).substitute(values),
+        step=string.Template(plant.step).substitute(values))
 
 
 def _compile(command, cwd):
@@ -112,15 +120,23 @@ def _compile(command, cwd):
                          + " ".join(result.stderr.strip().splitlines()[:2]))
 
 
-def write_program(build, settings, dtype, program: str, **fields) -> None:
-    """Write into `build` the learner for `settings` in `dtype`, the fixed device files and
-    `program.c` from `templates/device/<program>.in` with `fields` (and SplitMix64)."""
-    learner.write_learner(settings, build, dtype)
+def write_program(build, source, dtype, program: str, **fields) -> dict:
+    """Write into `build` the C learner of `source` (`export.learner.LearnerSource`) in
+    `dtype`, the fixed device files and `program.c` from `templates/device/<program>.in`
+    with `fields` (and SplitMix64); what `write_learner` returns."""
+    written = learner.write_learner(source, build, dtype)
+    write_fixed_files(build)
+    with open(os.path.join(build, "program.c"), "w") as file:
+        file.write(template(f"device/{program}").substitute(
+            fields, splitmix=learner.splitmix_c(SPLITMIX64)))
+    return written
+
+
+def write_fixed_files(build) -> None:
+    """The device files every program uses (`DEVICE_FILES`), into `build`."""
     for name in DEVICE_FILES:
         with open(os.path.join(build, name), "w") as file:
             file.write(device_file(name))
-    with open(os.path.join(build, "program.c"), "w") as file:
-        file.write(template(f"device/{program}").substitute(fields, splitmix=learner.splitmix_c()))
 
 
 def build_host(build, output="host", compiler=None, defines=()) -> str:
@@ -163,7 +179,7 @@ def parse_run(text: str, dtype: str) -> dict:
     steps = [int(s) for s in re.findall(r"^episode \d+ steps (\d+)$", text, re.M)]
     words = [int(w, 16) for w in re.findall(r"^w ([0-9a-f]{16})$", text, re.M)]
     kind = np.uint32 if dtype == "float" else np.uint64
-    weights = np.array(words, dtype=np.uint64).astype(kind).view(learner.DTYPES[dtype])
+    weights = np.array(words, dtype=np.uint64).astype(kind).view(DTYPES[dtype])
     return {"steps": steps, "diverged": "diverged 1" in text, "weights": weights}
 
 
@@ -177,29 +193,33 @@ def ulps(a: np.ndarray, b: np.ndarray) -> int:
 
 
 def run_device(task: str, episodes: int = 40, seed: int = 0, dtype: str = "float", build=None,
-               **settings_overrides) -> dict:
-    """The task's learner learns on the emulated Cortex-M4 and in the host build of the same
-    code for `episodes` episodes. Returns `host` and `device` (steps per episode, weights),
-    `equal_steps`, `weight_ulps` (largest difference of the final weights in units in the
-    last place), `sizes` (the firmware's text, data and bss) and `instructions` (the
-    emulated run's, from start to exit)."""
-    settings = learner.settings_for_task(task, seed=seed, **settings_overrides)
+               **settings) -> dict:
+    """A new agent for the task (`export.learner.from_task` with `seed` and `settings`)
+    learns on the emulated Cortex-M4 and in the host build of the same code for `episodes`
+    episodes. Returns `summary` (the learner's), `ram` (its computed RAM), `host` and
+    `device` (steps per episode, weights), `equal_steps`, `weight_ulps` (largest
+    difference of the final weights in units in the last place), `sizes` (the firmware's
+    text, data and bss) and `instructions` (the emulated run's, from start to exit)."""
+    source = learner.from_task(task, seed=seed, **settings)
+    plant = plant_header(task)
     check_tools()
     with tempfile.TemporaryDirectory() as scratch:
         build = build or scratch
         os.makedirs(build, exist_ok=True)
-        write_program(build, settings, dtype, "run.c", episodes=episodes, seed=seed)
+        written = write_program(build, source, dtype, "run.c", episodes=episodes, seed=seed)
         with open(os.path.join(build, "lwrl_plant.h"), "w") as file:
-            file.write(plant_header(task))
-        host = subprocess.run([build_host(build)], capture_output=True, text=True, check=True).stdout
+            file.write(plant)
+        host_text = subprocess.run([build_host(build)], capture_output=True, text=True,
+                                   check=True).stdout
         elf = build_m4(build)
-        device, instructions = qemu(elf, plugin=build_plugin(build))
+        device_text, instructions = qemu(elf, plugin=build_plugin(build))
         sizes = size_of(elf)
-    host, device = parse_run(host, dtype), parse_run(device, dtype)
+    host, device = parse_run(host_text, dtype), parse_run(device_text, dtype)
     if len(device["steps"]) != episodes:
         raise ValueError(f"the emulated run printed {len(device['steps'])} of {episodes} episodes")
-    return {"task": task, "dtype": dtype, "seed": seed, "episodes": episodes, "settings": settings,
-            "host": host, "device": device, "equal_steps": host["steps"] == device["steps"],
+    return {"task": task, "dtype": dtype, "seed": seed, "episodes": episodes,
+            "summary": written["summary"], "ram": written["ram"], "host": host, "device": device,
+            "equal_steps": host["steps"] == device["steps"],
             "weight_ulps": ulps(host["weights"], device["weights"]), "sizes": sizes,
             "instructions": instructions}
 
@@ -236,21 +256,22 @@ def callgrind_instructions(executable) -> int:
             return int(re.search(r"^(?:summary|totals): (\d+)", file.read(), re.M).group(1))
 
 
-def costs(task: str, dtype: str = "float", **settings_overrides) -> dict:
-    """What the task's learner costs (its default grid and settings): `ram` (computed),
+def costs(task: str, dtype: str = "float", **settings) -> dict:
+    """What a new agent for the task costs (`export.learner.from_task` with `settings`, its
+    defaults for the others): `summary` (the learner's), `ram` (computed),
     `object` (the learner object for the M4 at -O2: `text` code and constants, `data`,
     `bss`), `firmware` (the whole learning bench for the M4: the learner with libm's expf,
     the start-up and the semihosting output), `stack` (an upper bound of lwrl_learn's stack
     within the learner, -fstack-usage),
     and instructions per `learn` step and per `decide` (greedy decision) on the `host`
     (callgrind) and on the emulated `m4` (the QEMU plugin)."""
-    settings = learner.settings_for_task(task, **settings_overrides)
+    source = learner.from_task(task, **settings)
     check_tools()
-    result = {"task": task, "dtype": dtype, "settings": settings,
-              "ram": learner.ram_bytes(settings, dtype)}
+    result = {"task": task, "dtype": dtype}
     with tempfile.TemporaryDirectory() as build:
-        write_program(build, settings, dtype, "bench.c", steps="STEPS_FROM_BUILD", table=TABLE,
-                       decisions="DECISIONS_FROM_BUILD")
+        written = write_program(build, source, dtype, "bench.c", steps="STEPS_FROM_BUILD",
+                                table=TABLE, decisions="DECISIONS_FROM_BUILD")
+        result.update(summary=written["summary"], ram=written["ram"])
         _compile(["arm-none-eabi-gcc", *M4_FLAGS, *COMMON_FLAGS, "-fstack-usage", "-c",
                   "lwrl_learner.c", "-o", "lwrl_learner.o"], build)
         result["object"] = size_of(os.path.join(build, "lwrl_learner.o"))
@@ -277,15 +298,16 @@ def costs(task: str, dtype: str = "float", **settings_overrides) -> dict:
 
 def stack_bytes(su_path) -> int:
     """Bytes of stack a learning step can take at most: the frames (-fstack-usage) of
-    lwrl_learn and of every learner function it may have below it, added up (an upper
-    bound: they are not all on the stack at once; libm's exp comes on top)."""
+    lwrl_learn and of every function of the learner object outside its interface (those
+    it may have below it), added up (an upper bound: they are not all on the stack at
+    once; libm's exp comes on top)."""
     frames = {}
     with open(su_path) as file:
         for line in file:
             where, size = line.split("\t")[:2]
             frames[where.rsplit(":", 1)[-1]] = int(size)
-    return sum(frames.get(name, 0) for name in
-               ("lwrl_learn", "evaluate", "features_into", "action_value", "update", "choose", "draw"))
+    return sum(size for name, size in frames.items()
+               if name == "lwrl_learn" or name not in learner.INTERFACE)
 
 
 def estimate_us(instructions: float, megahertz: float, cycles_per_instruction: float = 1.0) -> float:
@@ -301,19 +323,18 @@ def libm_agreement(count: int = 20000) -> dict:
     [-60, 0), angles 3x for x in [-1.2, 0.5]): a count per function of `count` draws."""
     check_tools()
     with tempfile.TemporaryDirectory() as build:
-        for name in DEVICE_FILES:
-            with open(os.path.join(build, name), "w") as file:
-                file.write(device_file(name))
+        write_fixed_files(build)
         with open(os.path.join(build, "program.c"), "w") as file:
-            file.write(template("device/libm.c").substitute(count=count, splitmix=learner.splitmix_c()))
+            file.write(template("device/libm.c").substitute(
+                count=count, splitmix=learner.splitmix_c(SPLITMIX64)))
         sources = ["program.c", "io_common.c"]
         _compile([find_compiler(), *COMMON_FLAGS, *sources, "io_host.c", "-o", "host", "-lm"], build)
         _compile(["arm-none-eabi-gcc", *M4_FLAGS, *COMMON_FLAGS, *sources, "io_semihosting.c",
                   *M4_LINK, "-o", "device.elf", "-lm"], build)
-        host = subprocess.run([os.path.join(build, "host")], capture_output=True, text=True,
-                              check=True).stdout.split()
-        device, _ = qemu(os.path.join(build, "device.elf"))
-        device = device.split()
-    host, device = np.array(host).reshape(-1, 3), np.array(device).reshape(-1, 3)
-    differ = (host != device).sum(axis=0)
+        host_text = subprocess.run([os.path.join(build, "host")], capture_output=True,
+                                   text=True, check=True).stdout
+        device_text, _ = qemu(os.path.join(build, "device.elf"))
+    host = np.array(host_text.split()).reshape(-1, 3)
+    device = np.array(device_text.split()).reshape(-1, 3)
+    differ = np.sum(host != device, axis=0)
     return {"count": count, "exp": int(differ[0]), "expf": int(differ[1]), "cos": int(differ[2])}

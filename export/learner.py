@@ -1,29 +1,31 @@
-"""The learner on the device: NRBF Sarsa(lambda) itself as dependency-free C99.
+"""The learner on the device: an agent's learner itself as dependency-free C99.
 
 Främling (2008) argues that the methods "remain computationally feasible to implement even
 as embedded software" and could let "embedded systems ... adapt to their environment":
-adapting means learning on the device. `write_learner` writes the learner for a task's grid
-and settings (`settings_for_task`), or resumed from a saved agent (`settings_from_agent`, a
-file of `lwrl train --save`), as two files in `out_dir`:
+adapting means learning on the device. `write_learner` writes one agent whose learner has
+a C form (`Agents.learner_form`: the template it fills, its values and the parts of its
+RAM; today NRBF Sarsa(lambda) with replacing or accumulating traces) as two files in
+`out_dir`:
 
-- `lwrl_learner.h`: the interface (six functions; `lwrl_reset`, then per episode
-  `lwrl_begin` and one `lwrl_learn(observation, reward, terminal)` per control step, each
-  returning the next action) and the settings as macros and comments;
-- `lwrl_learner.c`: static arrays only (no heap), `<math.h>`'s `exp` (`expf` in float) and
-  `fabs` and nothing else. Its arithmetic is `agent/`'s operation for operation (the
-  template says which), so a double build takes the Python learner's actions at every step
-  and ends with its weights, given the same `exp` (`tests/test_learner_c.py`).
+- `lwrl_learner.h`: the interface, six functions: `lwrl_reset(seed)` once, then per
+  episode `lwrl_begin(observation)` and one `lwrl_learn(observation, reward, terminal)` per
+  control step, each returning the next action; `lwrl_greedy`, `lwrl_weights` and
+  `lwrl_diverged`. The macros `LWRL_STATE_DIM`, `LWRL_NUM_ACTIONS`, `LWRL_NUM_WEIGHTS`,
+  `LWRL_SEED`, `LWRL_LOW` and `LWRL_HIGH` are there for the firmware around it;
+- `lwrl_learner.c`: static arrays only (no heap), `<math.h>` and `<stdint.h>`. Its
+  arithmetic is the Python learner's operation for operation, so that a double build takes
+  the Python learner's actions at every step and ends with its weights, given the same
+  `exp` (`tests/test_learner_c.py`).
 
-`lwrl_real` is `float` (single-precision FPUs; the default) or `double`. In float the
-traces' flush threshold 1e-100 is below float's range; float's smallest normal number,
-1.2e-38, takes its place (it keeps the traces out of subnormal arithmetic, the threshold's
-purpose). The random draws are lwrl's SplitMix64 in both: 53-bit doubles, compared in double.
+The agent is a new one for a task (`from_task`: the run configuration's learner and
+settings, the task's defaults for those not given, untrained, its stream at its seed),
+or one of a file of `lwrl train --save` (`from_file`), which goes on from its weights and
+its stream's state; non-zero weights are kept in flash, as the values `lwrl_reset`
+restores. `lwrl_real` is `float` (single-precision FPUs; the default) or `double`; the
+random draws are lwrl's (`agent/streams.py`), 53-bit doubles in both.
 
-The RAM the learner takes is computed (`ram_bytes`: weights and traces `A N`, the features
-of the last two observations `2 N`, the per-variable factors `d n` and Q `A` values, and
-20 bytes of stream, slot, action and divergence flag) and `write_learner(ram=...)` refuses
-a grid that does not fit, in one line. A resumed learner also keeps the saved weights in
-flash, as the values `lwrl_reset` restores.
+The RAM the learner takes is computed from its form (`ram_bytes`) and `write_learner(ram=
+...)` refuses a learner that does not fit, in one line.
 """
 
 import dataclasses
@@ -32,237 +34,163 @@ import os
 
 import numpy as np
 
-from lwrl import outputs, tasks
-from lwrl.export import reference
-from lwrl.export.c import DTYPES, _check_index, _comment, _literal, _task_description, \
-    _weights_block, template
+from lwrl import tasks
+from lwrl.agent import io as agent_io
+from lwrl.agent.learner_contract import Agents, LearnerForm
+from lwrl.export.c import (DTYPES, _check_dtype, _check_index, _comment, _literal, _rendered,
+                           _task_description, _weights_block, template, write_files)
+from lwrl.runners.config import RunConfig
+from lwrl.runners.run import make_agent
 
 SOURCE = "lwrl_learner.c"
-"""The written file names (fixed, as the controller's are); templates `templates/learner/`."""
+"""The written file names (fixed, as the controller's are)."""
 HEADER = "lwrl_learner.h"
-STATE_BYTES = 8 + 3 * 4
-"""The stream's 64-bit state and three ints (slot, action, divergence flag)."""
-FLOAT_FLUSH = float(np.finfo(np.float32).tiny)
-"""Float's smallest normal number: the float build's flush threshold."""
+INTERFACE = ("lwrl_reset", "lwrl_begin", "lwrl_learn", "lwrl_greedy", "lwrl_weights",
+             "lwrl_diverged")
+"""The functions every C learner has (its form's template declares them in the header)."""
 
 
 @dataclasses.dataclass(frozen=True)
-class LearnerSettings:
-    """What the generated learner is: its features, actions, hyper-parameters, the random
-    stream's state, and where it came from."""
+class LearnerSource:
+    """An agent to write as the C learner, and what the files say of it."""
 
-    features: reference.NRBF
-    num_actions: int
-    trace: str
-    alpha: float
-    lam: float
-    epsilon: float
-    gamma: float
-    seed: int
-    """The stream's initial 64-bit state (`LWRL_SEED`): lwrl's agent seeded with s starts at s."""
-    task: str = "unknown"
-    state_names: tuple = ()
-    controls: tuple | None = None
-    initial_weights: np.ndarray | None = None
-    """`(A, N)` action-major weights to start from, or None for zeros."""
-    origin: str = "new: zero weights"
+    agents: Agents
+    index: int
+    """Which agent of `agents`."""
+    task: str
+    state_names: tuple
+    controls: tuple | None
+    """Each action's control, or None where the task is unknown."""
+    origin: str
+    """Where the agent came from, for the header."""
+    stream: str
+    """What the stream's state `LWRL_SEED` is, for the header."""
 
-    def __post_init__(self):
-        if self.trace not in reference.TRACES:
-            raise ValueError(f"the C learner has {' and '.join(reference.TRACES)} traces; "
-                             f"got {self.trace!r}")
-        for name, value, low, high in (("alpha", self.alpha, 0.0, np.inf),
-                                       ("lambda", self.lam, 0.0, 1.0),
-                                       ("epsilon", self.epsilon, 0.0, 1.0),
-                                       ("gamma", self.gamma, 0.0, 1.0)):
-            if not (isinstance(value, (int, float)) and low <= value <= high
-                    and not (name == "alpha" and value == 0)):
-                raise ValueError(f"{name} must be in {'(' if name == 'alpha' else '['}{low}, "
-                                 f"{high}]; got {value!r}")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2 ** 64:
-            raise ValueError(f"seed must be an integer in [0, 2^64); got {self.seed!r}")
-        if not self.state_names:
-            object.__setattr__(self, "state_names",
-                               tuple(f"state[{j}]" for j in range(self.features.dim)))
+    @property
+    def form(self) -> LearnerForm:
+        """The agent's `LearnerForm` (a one-line ValueError where its learner has none)."""
+        return self.agents.learner_form(self.index)
 
 
-def settings_for_task(task: str, *, n=None, r2=None, trace=None, alpha=None, lam=None,
-                      epsilon=None, gamma=None, seed: int = 0) -> LearnerSettings:
-    """A new learner for `task` (DOMAIN.TASK): the task's grid, ranges and best settings
-    (`TaskDefinition.defaults`, the paper's), each overridable; zero weights."""
-    if task not in tasks.TASK_NAMES:
-        raise ValueError(f"unknown task {task!r}; available: {', '.join(tasks.TASK_NAMES)}")
-    definition = tasks.definition(*tasks.split_name(task))
-    defaults = definition.defaults
-    pick = lambda value, default: default if value is None else value  # noqa: E731
-    features = reference.NRBF(defaults.low, defaults.high, pick(n, defaults.n),
-                              pick(r2, reference.DEFAULT_R2))
-    return LearnerSettings(
-        features=features, num_actions=definition.num_actions, trace=pick(trace, defaults.trace),
-        alpha=float(pick(alpha, defaults.alpha)), lam=float(pick(lam, defaults.lam)),
-        epsilon=float(pick(epsilon, defaults.epsilon)), gamma=float(pick(gamma, defaults.gamma)),
-        seed=seed, task=task, state_names=tuple(definition.state_names),
-        controls=tuple(definition.controls))
+def from_task(task: str, seed: int = 0, **settings) -> LearnerSource:
+    """A new agent for `task` (DOMAIN.TASK) seeded with `seed`: `settings` are those of a
+    `RunConfig` (`learner` and the learner's settings), the task's defaults for the rest."""
+    config = RunConfig(task=task, agents=1, seed=seed, **settings)
+    definition = tasks.definition(config.domain, config.task_name, **config.task_options)
+    return LearnerSource(make_agent(config), 0, task, tuple(definition.state_names),
+                         definition.controls, origin=f"new {config.learner} agent, untrained",
+                         stream=f"lwrl's seed {seed}")
 
 
-def settings_from_agent(path, agent_index: int = 0) -> LearnerSettings:
-    """Agent `agent_index` of a saved batch (`lwrl train --save`), resumed: its features,
-    hyper-parameters, weights and random stream's state, so that the C learner goes on as
-    the Python agent would."""
-    agent, metadata = reference.load_agents(path)
-    if not isinstance(agent.features, reference.NRBF):
-        raise ValueError(f"{path}: only NRBF agents can learn in C; this file holds "
-                         f"{type(agent.features).__name__} features")
-    b = _check_index(agent_index, agent.batch_size)
-    weights = np.array(agent.memory.weights[b])
-    if agent.diverged[b] or not np.all(np.isfinite(weights)):
+def from_file(path, agent_index: int = 0) -> LearnerSource:
+    """Agent `agent_index` of a saved batch (`lwrl train --save`), resumed: it goes on from
+    its weights and its random stream's state, as the Python agent would."""
+    agents, metadata = agent_io.load(path)
+    b = _check_index(agent_index, agents.batch_size)
+    if agents.diverged[b]:
         raise ValueError(f"{path}: agent {b} diverged (non-finite weights); there is nothing to resume")
-    task, names, controls, _ = _task_description(metadata, agent.features.dim,
-                                                 agent.num_actions, path)
-    hyper = agent.hyper
+    task, names, controls, _ = _task_description(metadata, agents.dim, agents.num_actions, path)
     with open(path, "rb") as file:
         sha256 = hashlib.sha256(file.read()).hexdigest()
-    return LearnerSettings(
-        features=agent.features, num_actions=agent.num_actions,
-        trace=reference.TRACE_NAMES[int(hyper.trace[b])],
-        alpha=float(hyper.alpha[b]), lam=float(hyper.lam[b]), epsilon=float(hyper.epsilon[b]),
-        gamma=float(hyper.gamma[b]), seed=int(agent.memory.streams[b]), task=task,
-        state_names=tuple(names), controls=controls, initial_weights=weights,
-        origin=f"resumed from agent {b} of {os.path.abspath(os.fspath(path))} (SHA-256 {sha256})")
+    return LearnerSource(agents, b, task, tuple(names), controls,
+                         origin=f"resumed from agent {b} of {os.path.abspath(os.fspath(path))} "
+                                f"(SHA-256 {sha256})",
+                         stream=f"agent {b}'s stream as saved")
 
 
-def ram_bytes(settings: LearnerSettings, dtype: str = "float") -> dict:
-    """Bytes of RAM per part of the learner in `dtype`, and their `total`."""
+def ram_bytes(form: LearnerForm, dtype: str = "float") -> dict:
+    """Bytes of RAM per part of the learner in `dtype` (`LearnerForm.ram`), and their `total`."""
     size = np.dtype(DTYPES[_check_dtype(dtype)]).itemsize
-    features, actions = settings.features, settings.num_actions
-    parts = {"weights": actions * features.num_features * size,
-             "traces": actions * features.num_features * size,
-             "features": 2 * features.num_features * size,
-             "scratch": (features.dim * features.n + actions) * size,
-             "state": STATE_BYTES}
+    parts = {name: reals * size + other for name, (reals, other) in form.ram.items()}
     parts["total"] = sum(parts.values())
     return parts
 
 
-def check_fits(settings: LearnerSettings, dtype: str, ram) -> dict:
+def describe_ram(parts: dict) -> str:
+    """The RAM parts as one phrase: `weights 768, traces 768, ...`."""
+    return ", ".join(f"{name} {value}" for name, value in parts.items() if name != "total")
+
+
+def check_fits(form: LearnerForm, dtype: str, ram) -> dict:
     """`ram_bytes`, or a one-line ValueError if they exceed `ram` bytes (None: no limit)."""
-    parts = ram_bytes(settings, dtype)
+    parts = ram_bytes(form, dtype)
     if ram is not None and parts["total"] > ram:
-        grid = " x ".join([str(settings.features.n)] * settings.features.dim)
-        raise ValueError(f"the {grid} grid's learner needs {parts['total']} bytes of RAM in "
-                         f"{dtype} ({describe_ram(parts)}), more than the {ram} allowed; "
-                         f"use a coarser grid (--n){' or float' if dtype == 'double' else ''}")
+        raise ValueError(f"{form.name} needs {parts['total']} bytes of RAM in {dtype} "
+                         f"({describe_ram(parts)}), more than the {ram} allowed; use "
+                         f"{form.smaller}{' or float' if dtype == 'double' else ''}")
     return parts
 
 
-def describe_ram(parts: dict) -> str:
-    """The RAM parts as one phrase."""
-    return ", ".join(f"{name} {parts[name]}" for name in ("weights", "traces", "features",
-                                                          "scratch", "state"))
-
-
-def _check_dtype(dtype: str) -> str:
-    if dtype not in DTYPES:
-        raise ValueError(f"dtype must be one of {', '.join(DTYPES)}; got {dtype!r}")
-    return dtype
-
-
-def _fields(settings: LearnerSettings, dtype: str, parts: dict) -> dict:
-    """The templates' fields."""
-    features = settings.features
-    numpy_type = DTYPES[dtype]
-    lit = lambda value: _literal(numpy_type(value), dtype)  # noqa: E731
-    margin = reference.clamp_margin(features.n, features.r2)
-    if settings.initial_weights is None:
-        initial_weights, initial_value = "", lit(0.0)
-        initial_text, initial_flash = "zero", ""
-    else:
-        rounded = settings.initial_weights.astype(numpy_type)
-        if not np.all(np.isfinite(rounded)):
-            raise ValueError(f"the saved weights are beyond the range of {dtype} (largest |w| "
-                             f"{np.abs(settings.initial_weights).max():.3g}); use double")
-        initial_weights = ("static const lwrl_real INITIAL[ACTIONS][NEURONS] = {\n"
-                           + _weights_block(rounded, dtype) + "};\n")
-        initial_value, initial_text = "INITIAL[a][i]", "the saved agent's"
-        initial_flash = f", and the {rounded.nbytes} bytes of saved weights lwrl_reset restores"
-    names = settings.state_names
-    width = max(len(name) for name in names)
-    flush = reference.FLUSH_THRESHOLD if dtype == "double" else FLOAT_FLUSH
-    settings_line = (f"{settings.trace} traces, alpha {settings.alpha:g}, lambda {settings.lam:g}, "
-                     f"epsilon {settings.epsilon:g}, gamma {settings.gamma:g}, r^2 {features.r2:g}, "
-                     f"{dtype}")
-    return dict(
-        task=_comment(settings.task), settings=_comment(settings_line),
-        grid=" x ".join([str(features.n)] * features.dim), neurons=features.num_features,
-        num_actions=settings.num_actions, dim=features.dim, n=features.n, real=dtype,
-        range_lines="\n".join(f" *   state[{j}] {_comment(name):<{width}}  [{lo:g}, {hi:g}]"
-                              for j, (name, lo, hi) in enumerate(zip(names, features.low, features.high))),
-        origin=_comment(settings.origin), ram_bytes=parts["total"],
-        ram_lines=_comment(describe_ram(parts)), initial_flash=initial_flash,
-        action_line=("" if settings.controls is None else "; action i applies control "
-                     + ", ".join(f"{i}: {c:g}" for i, c in enumerate(settings.controls))),
-        seed=settings.seed, seed_text=("the saved agent's stream" if settings.initial_weights is not None
-                                       else f"lwrl's seed {settings.seed}"),
-        low=", ".join(lit(v) for v in features.low), high=", ".join(lit(v) for v in features.high),
-        initial_text=initial_text, flush_text=f"{flush:g}",
-        trace_text=("replacing (eq. 6), e = max(gamma lambda e, phibar) for the taken action; "
-                    "the other actions' traces only decay" if settings.trace == "replacing" else
-                    "accumulating (eq. 2), e = gamma lambda e + phibar for the taken action; "
-                    "the other actions' traces decay"),
-        exp="expf" if dtype == "float" else "exp", fabs="fabsf" if dtype == "float" else "fabs",
-        centroids=", ".join(lit((k + 0.5) / features.n) for k in range(features.n)),
-        r2=lit(features.r2), s_min=lit(-margin), s_max=lit(1.0 + margin), alpha=lit(settings.alpha),
-        gamma=lit(settings.gamma), gamma_lambda=lit(settings.gamma * settings.lam), flush=lit(flush),
-        epsilon=_literal(settings.epsilon, "double"), initial_weights=initial_weights,
-        initial_value=initial_value, zero=lit(0.0), one=lit(1.0),
-        splitmix=splitmix_c(),
-        trace_rule=("decayed > phi[i] ? decayed : phi[i]" if settings.trace == "replacing"
-                    else "decayed + phi[i]"),
-    )
-
-
-def splitmix_c() -> str:
-    """SplitMix64 in C as `agent/streams.py` draws (its constants from `reference.STREAM`):
-    `static double draw(uint64_t *state)`, for the learner and the device programs."""
-    stream = reference.STREAM
-    shifts = stream["shifts"]
+def splitmix_c(stream) -> str:
+    """`static double draw(uint64_t *state)`: a SplitMix64 stream (`agent.streams.SplitMix64`)
+    in C, drawing what `agent.streams.uniform` draws; for the learner and the device
+    programs."""
+    shifts = stream.shifts
     return (
         "/* SplitMix64 (Steele, Lea and Flood 2014), as lwrl's agent/streams.py: advance the\n"
         " * state, hash it, keep 53 bits: a draw in [0, 1). */\n"
         "static double draw(uint64_t *state)\n{\n    uint64_t z;\n"
-        f"    *state += UINT64_C(0x{stream['golden_gamma']:016X});\n    z = *state;\n"
-        f"    z = (z ^ (z >> {shifts[0]})) * UINT64_C(0x{stream['mix_1']:016X});\n"
-        f"    z = (z ^ (z >> {shifts[1]})) * UINT64_C(0x{stream['mix_2']:016X});\n"
+        f"    *state += UINT64_C(0x{stream.increment:016X});\n    z = *state;\n"
+        f"    z = (z ^ (z >> {shifts[0]})) * UINT64_C(0x{stream.multipliers[0]:016X});\n"
+        f"    z = (z ^ (z >> {shifts[1]})) * UINT64_C(0x{stream.multipliers[1]:016X});\n"
         f"    z = z ^ (z >> {shifts[2]});\n"
-        f"    return (double)(z >> {shifts[3]}) * {_literal(stream['to_unit'], 'double')};\n}}")
+        f"    return (double)(z >> {shifts[3]}) * {_literal(stream.unit, 'double')};\n}}")
 
 
-def write_learner(settings: LearnerSettings, out_dir, dtype: str = "float", ram=None) -> dict:
-    """Write `lwrl_learner.c` and `lwrl_learner.h` for `settings` in `dtype` into `out_dir`
-    (created if needed; the files replaced). Refuses, in one line, a learner whose RAM
-    exceeds `ram` bytes (None: no limit), ranges or constants that do not fit `dtype`.
-    Returns `source`, `header` (paths), `dtype`, `task`, `neurons`, `actions` and `ram`
-    (`ram_bytes`)."""
-    _check_dtype(dtype)
-    parts = check_fits(settings, dtype, ram)
-    features = settings.features
+def _fields(source: LearnerSource, form: LearnerForm, dtype: str, parts: dict) -> dict:
+    """The templates' fields: the form's values, and those every learner has."""
     numpy_type = DTYPES[dtype]
+    values = form.values(numpy_type)
+    weights = np.asarray(values.pop("weights"))
     with np.errstate(over="ignore", invalid="ignore"):
-        low, high = np.array(features.low, numpy_type), np.array(features.high, numpy_type)
-        constants = np.array([features.r2, 1.0 + reference.clamp_margin(features.n, features.r2),
-                              settings.alpha], numpy_type)
-        fits = (np.all(np.isfinite(high - low)) and np.all(high - low > 0)
-                and np.all(np.isfinite(constants)) and constants[0] >= np.finfo(numpy_type).tiny)
-    if not fits:
-        raise ValueError(f"the ranges, r^2 = {features.r2!r} or alpha = {settings.alpha!r} do not fit {dtype}")
-    fields = _fields(settings, dtype, parts)
-    source_path, header_path = os.path.join(out_dir, SOURCE), os.path.join(out_dir, HEADER)
-    try:
-        os.makedirs(out_dir, exist_ok=True)
-        for path, name in ((header_path, HEADER), (source_path, SOURCE)):
-            with outputs.atomic_write(path, encoding="utf-8") as file:
-                file.write(template(f"learner/{name}").substitute(fields))
-    except OSError as error:
-        raise ValueError(f"{out_dir}: cannot write the C files ({error.strerror or error})") from None
-    return {"source": source_path, "header": header_path, "dtype": dtype, "task": settings.task,
-            "neurons": features.num_features, "actions": settings.num_actions, "ram": parts}
+        rounded = weights.astype(numpy_type)
+    if not np.all(np.isfinite(rounded)):
+        raise ValueError(f"the agent's weights are beyond the range of {dtype} (largest |w| "
+                         f"{np.abs(weights).max():.3g}); use double")
+    reason = form.check(numpy_type)
+    if reason is not None:
+        raise ValueError(reason)
+    if np.any(weights != 0):  # kept in flash, restored by lwrl_reset
+        initial = dict(initial_weights=(f"static const lwrl_real INITIAL[{len(weights)}]"
+                                        f"[{weights[0].size}] = {{\n"
+                                        + _weights_block(rounded, dtype) + "};\n"),
+                       initial_value="INITIAL[a][i]", initial_text="the saved agent's",
+                       initial_flash=f", and the {rounded.nbytes} bytes of saved weights "
+                                     f"lwrl_reset restores")
+    else:
+        initial = dict(initial_weights="", initial_value=_literal(0.0, dtype),
+                       initial_text="zero", initial_flash="")
+    names = source.state_names
+    width = max(len(name) for name in names)
+    low, high = form.ranges
+    return dict(
+        {name: _rendered(value, dtype) for name, value in values.items()}, **initial,
+        task=_comment(source.task), summary=_comment(form.summary), origin=_comment(source.origin),
+        stream_text=_comment(source.stream), real=dtype, dim=len(names),
+        num_actions=source.agents.num_actions, num_weights=weights.size,
+        range_lines="\n".join(f" *   state[{j}] {_comment(name):<{width}}  [{lo:g}, {hi:g}]"
+                              for j, (name, lo, hi) in enumerate(zip(names, low, high))),
+        low=_rendered(np.asarray(low, dtype=np.float64), dtype),
+        high=_rendered(np.asarray(high, dtype=np.float64), dtype),
+        ram_bytes=parts["total"], ram_lines=_comment(describe_ram(parts)),
+        action_line=("" if source.controls is None else "; action i applies control "
+                     + ", ".join(f"{i}: {c:g}" for i, c in enumerate(source.controls))),
+        exp="expf" if dtype == "float" else "exp", fabs="fabsf" if dtype == "float" else "fabs",
+        zero=_literal(0.0, dtype), one=_literal(1.0, dtype), splitmix=splitmix_c(form.stream))
+
+
+def write_learner(source: LearnerSource, out_dir, dtype: str = "float", ram=None) -> dict:
+    """Write `lwrl_learner.c` and `lwrl_learner.h` for `source`'s agent in `dtype` into
+    `out_dir` (created if needed; the files replaced). Refuses, in one line, a learner with
+    no C form, one whose RAM exceeds `ram` bytes (None: no limit), and weights or constants
+    that do not fit `dtype`. Returns `source`, `header` (paths), `dtype`, `task`,
+    `summary`, `seed` (`LWRL_SEED`), `weights` (their count) and `ram` (`ram_bytes`)."""
+    _check_dtype(dtype)
+    form = source.form
+    parts = check_fits(form, dtype, ram)
+    fields = _fields(source, form, dtype, parts)
+    paths = write_files(out_dir, {HEADER: template(f"{form.template}.h").substitute(fields),
+                                  SOURCE: template(f"{form.template}.c").substitute(fields)})
+    return {"source": paths[SOURCE], "header": paths[HEADER], "dtype": dtype, "task": source.task,
+            "summary": form.summary, "seed": int(fields["seed"]), "weights": fields["num_weights"],
+            "ram": parts}

@@ -26,10 +26,11 @@ import pytest
 
 from lwrl import tasks
 from lwrl.tasks import mountain_car
-from lwrl.agent.sarsa import BatchedSarsa
 from lwrl.agent.streams import uniform
 from lwrl.export import device, learner
 from lwrl.cli.main import main
+from lwrl.runners.config import RunConfig
+from lwrl.runners.run import make_agent
 
 MOUNTAIN_CAR = "mountain_car.cost_to_go"
 needs_host_compiler = pytest.mark.skipif(
@@ -40,17 +41,17 @@ needs_valgrind = pytest.mark.skipif(
     not shutil.which("valgrind"), reason="missing valgrind (Debian package valgrind)")
 
 
-def python_run(settings, episodes):
-    """lwrl's Python learner on the Python plant (the task's `transition`) from the device
-    program's starts: the SplitMix64 stream at the agent's seed + 2^63, two draws per start."""
-    definition = tasks.definition(*tasks.split_name(settings.task))
+def python_run(task, seed, episodes, **options):
+    """lwrl's Python learner on the Python plant (the task's `transition`, with its
+    `options`) from the device program's starts: the SplitMix64 stream at the agent's seed
+    + 2^63, two draws per start."""
+    definition = tasks.definition(*tasks.split_name(task), **options)
     low = np.array([mountain_car.MIN_POSITION, -mountain_car.MAX_SPEED])  # SPEC.md Task 1's starts
     high = np.array([mountain_car.GOAL_POSITION, mountain_car.MAX_SPEED])
-    agent = BatchedSarsa(settings.features, settings.num_actions, alpha=settings.alpha,
-                         lam=settings.lam, epsilon=settings.epsilon, trace=settings.trace,
-                         gamma=settings.gamma, seeds=[settings.seed])
-    starts = np.array([settings.seed + 2 ** 63], dtype=np.uint64)
+    agent = make_agent(RunConfig(task=task, agents=1, seed=seed))
+    starts = np.array([seed + 2 ** 63], dtype=np.uint64)
     controls = np.asarray(definition.controls, dtype=np.float64)
+    arguments = definition.loop_arguments()
     steps = []
     for _ in range(episodes):
         with np.errstate(over="ignore"):  # SplitMix64 wraps modulo 2^64
@@ -60,32 +61,39 @@ def python_run(settings, episodes):
         while not terminal and n < definition.step_limit:
             next_state, observation = np.empty(2), np.empty(2)
             reward, terminal, _ = definition.transition(state, controls[action], next_state,
-                                                        observation, 1.0, True, False, np.empty(0))
+                                                        observation, 1.0, True, False, arguments)
             n += 1
             state = next_state
             action = agent.step([False], [reward], [0.0 if terminal else 1.0], observation[None])[0]
         steps.append(n)
-    return steps, agent.memory.weights[0]
+    return steps, agent.arrays.weights[0]
 
 
 @needs_host_compiler
-def test_host_build_in_double_is_the_python_learner_on_the_python_plant(tmp_path):
-    settings = learner.settings_for_task(MOUNTAIN_CAR, seed=3)
-    device.write_program(tmp_path, settings, "double", "run.c", episodes=20, seed=3)
-    (tmp_path / "lwrl_plant.h").write_text(device.plant_header(MOUNTAIN_CAR))
+@pytest.mark.parametrize("options", [{}, {"params": {"thrust": 0.0015, "gravity": 0.003}}],
+                         ids=["paper", "other_parameters"])
+def test_host_build_in_double_is_the_python_learner_on_the_python_plant(tmp_path, options):
+    device.write_program(tmp_path, learner.from_task(MOUNTAIN_CAR, seed=3), "double", "run.c",
+                         episodes=20, seed=3)
+    (tmp_path / "lwrl_plant.h").write_text(device.plant_header(MOUNTAIN_CAR, **options))
     text = subprocess.run([device.build_host(tmp_path)], capture_output=True, text=True,
                           check=True).stdout
     c_run = device.parse_run(text, "double")
-    python_steps, python_weights = python_run(settings, 20)
+    python_steps, python_weights = python_run(MOUNTAIN_CAR, 3, 20, **options)
     assert c_run["steps"] == python_steps
     np.testing.assert_array_equal(c_run["weights"].reshape(python_weights.shape), python_weights)
 
 
-def test_the_plant_header_takes_the_domains_constants():
+def test_the_plant_header_is_the_domains_c_plant_at_the_tasks_parameters():
     header = device.plant_header(MOUNTAIN_CAR)
-    assert "0.0025 * cos(3.0 * state[0])" in header and "#define PLANT_STEP_LIMIT 10000" in header
-    assert "THRUSTS[] = {-1.0, 0.0, 1.0}" in header
-    with pytest.raises(ValueError, match="no C plant for pendulum; the device programs have plants for: mountain_car"):
+    assert "0.001 * control - 0.0025 * cos(3.0 * state[0])" in header
+    assert "#define PLANT_STEP_LIMIT 10000" in header and "#define PLANT_DIM 2" in header
+    assert "CONTROLS[] = {-1.0, 0.0, 1.0}" in header and "$" not in header
+    assert "parameter values of mountain_car.cost_to_go: thrust 0.001, gravity 0.0025" in header
+    other = device.plant_header(MOUNTAIN_CAR, params={"gravity": 0.003})
+    assert "0.001 * control - 0.003 * cos(3.0 * state[0])" in other and "gravity 0.003" in other
+    with pytest.raises(ValueError, match="^pendulum has no plant in C; the device programs run "
+                                         "the domains that have one: mountain_car$"):
         device.plant_header("pendulum.swingup")
 
 
@@ -102,7 +110,7 @@ def test_the_emulated_cortex_m4_learns_as_the_host_build(tmp_path):
     assert not emulated["diverged"]
     scale = np.abs(host["weights"]).max()
     assert np.abs(emulated["weights"] - host["weights"]).max() <= 1e-4 * scale
-    assert result["sizes"]["bss"] >= learner.ram_bytes(result["settings"], "float")["total"]
+    assert result["sizes"]["bss"] >= result["ram"]["total"] == 2144
     assert result["instructions"] > 0
 
 

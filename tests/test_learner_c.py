@@ -1,7 +1,9 @@
-"""The learner in C (lwrl.export.learner) learns as lwrl's Python learner does.
+"""The learner in C (lwrl.export.learner, the form of agent/sarsa_c.py) learns as lwrl's
+Python learner does.
 
 The C learner is compiled as a shared library and driven through ctypes beside lwrl's
-`BatchedSarsa`, on the same episodes of the analytic plant (`tasks.batched.BatchedEnv`):
+`BatchedSarsa` (made from the same run configuration), on the same episodes of the analytic
+plant (`tasks.batched.BatchedEnv`):
 
 - in double, it takes the Python learner's action at every step and ends every episode with
   the Python learner's weights, bit for bit: both call the same libm `exp` in this process
@@ -12,23 +14,24 @@ The C learner is compiled as a shared library and driven through ctypes beside l
   learner's over the same seeds;
 - a saved agent resumed in C goes on as the Python agent goes on;
 - the RAM it declares is the RAM its object file takes, and a grid that does not fit a
-  stated RAM is refused in one line.
+  stated RAM is refused in one line, as are the learners, features and traces with no C form.
 """
 
 import ctypes
-import dataclasses
 import shutil
 import subprocess
 
 import numpy as np
 import pytest
-from conftest import one_line_error
+from conftest import one_line_error, run_cli
 from scipy import stats
 
 from lwrl.agent import io as agent_io
 from lwrl.agent.sarsa import BatchedSarsa
 from lwrl.export import learner
 from lwrl.export.c import section_sizes
+from lwrl.runners.config import RunConfig
+from lwrl.runners.run import make_agent
 from lwrl.tasks.batched import BatchedEnv
 
 COMPILER = next((shutil.which(c) for c in ("cc", "gcc", "clang") if shutil.which(c)), None)
@@ -39,11 +42,11 @@ STRICT = ["-std=c99", "-pedantic", "-Wall", "-Wextra", "-Wconversion", "-Wdouble
 
 
 class CLearner:
-    """One C learner: `write_learner`'s files compiled as a shared library in `directory`
-    (each directory its own library, so its own static state)."""
+    """One C learner: `write_learner`'s files for `source` compiled as a shared library in
+    `directory` (each directory its own library, so its own static state)."""
 
-    def __init__(self, settings, dtype, directory):
-        written = learner.write_learner(settings, directory, dtype)
+    def __init__(self, source, dtype, directory):
+        written = learner.write_learner(source, directory, dtype)
         library = directory / "liblearner.so"
         result = subprocess.run([COMPILER, *STRICT, "-O2", "-shared", "-fPIC", written["source"],
                                  "-o", str(library), "-lm"], capture_output=True, text=True)
@@ -55,10 +58,12 @@ class CLearner:
         self.lib.lwrl_learn.argtypes = [ctypes.POINTER(self.real), self.real, ctypes.c_int]
         self.lib.lwrl_greedy.argtypes = [ctypes.POINTER(self.real)]
         self.lib.lwrl_weights.restype = ctypes.POINTER(self.real)
-        self.shape = (settings.num_actions, settings.features.num_features)
-        self.observation = (self.real * settings.features.dim)()
+        self.shape = source.agents.arrays.weights.shape[1:]
+        assert written["weights"] == np.prod(self.shape)
+        self.observation = (self.real * source.agents.dim)()
         self._observation = np.ctypeslib.as_array(self.observation)
-        self.lib.lwrl_reset(settings.seed)
+        self.seed = written["seed"]
+        self.lib.lwrl_reset(self.seed)
 
     def step(self, first, reward, discount, observation) -> int:
         """The C learner's call for one dm_env-style time step: its next action."""
@@ -81,14 +86,15 @@ class CLearner:
         return bool(self.lib.lwrl_diverged())
 
 
-def python_agent(settings, seeds):
-    """lwrl's learner with the settings of the C learner, one agent per seed."""
-    return BatchedSarsa(settings.features, settings.num_actions, alpha=settings.alpha,
-                        lam=settings.lam, epsilon=settings.epsilon, trace=settings.trace,
-                        gamma=settings.gamma, seeds=seeds)
+def python_agents(task, seeds, **settings):
+    """lwrl's learner for `task` with `settings`, one agent per seed (consecutive), as
+    `from_task` makes the C learner's."""
+    agents = make_agent(RunConfig(task=task, agents=len(seeds), seed=seeds[0], **settings))
+    assert isinstance(agents, BatchedSarsa)
+    return agents
 
 
-def lockstep(settings, c_learner, agent, env, episodes):
+def lockstep(c_learner, agent, env, episodes):
     """Both learners on one environment (`BatchedEnv` of one), the Python learner's actions
     driving it; every step the C learner's action must be the same, and at every episode's
     end its weights. Returns the steps run."""
@@ -100,7 +106,7 @@ def lockstep(settings, c_learner, agent, env, episodes):
         steps += 1
         if ts.last()[0]:
             done += 1
-            np.testing.assert_array_equal(c_learner.weights, agent.memory.weights[0],
+            np.testing.assert_array_equal(c_learner.weights, agent.arrays.weights[0],
                                           err_msg=f"weights part after episode {done}")
         else:
             assert c_action == actions[0], (f"actions part at step {steps} (episode {done + 1}): "
@@ -118,45 +124,45 @@ def lockstep(settings, c_learner, agent, env, episodes):
     ("cartpole.balance", 25, {"epsilon": 0.05, "seed": 2}),
 ], ids=["mountain_car", "mountain_car_accumulating_epsilon", "pendulum", "cartpole"])
 def test_double_learner_is_the_python_learner_bit_for_bit(tmp_path, task, episodes, overrides):
-    settings = learner.settings_for_task(task, **overrides)
+    overrides = dict(overrides)
+    seed = overrides.pop("seed", 0)
     domain, name = task.split(".")
-    env = BatchedEnv(domain, name, "analytic", seeds=[settings.seed])
-    steps = lockstep(settings, CLearner(settings, "double", tmp_path), python_agent(settings, [settings.seed]),
-                     env, episodes)
-    print(f"\n{task} {overrides}: {episodes} episodes, {steps} steps, the same actions and weights")
+    env = BatchedEnv(domain, name, "analytic", seeds=[seed])
+    steps = lockstep(CLearner(learner.from_task(task, seed=seed, **overrides), "double", tmp_path),
+                     python_agents(task, [seed], **overrides), env, episodes)
+    print(f"\n{task} {overrides}, seed {seed}: {episodes} episodes, {steps} steps, the same actions and weights")
 
 
 @needs_compiler
 def test_resumed_learner_goes_on_as_the_saved_agent_would(tmp_path):
     """A saved Mountain-Car agent after 5 episodes, resumed in C and in Python from the file:
     the same actions and weights over 5 more (its random stream goes on too: epsilon 0.2)."""
-    settings = learner.settings_for_task("mountain_car.cost_to_go", epsilon=0.2, seed=4)
-    agent = python_agent(settings, [settings.seed])
-    env = BatchedEnv("mountain_car", "cost_to_go", "analytic", seeds=[settings.seed])
-    lockstep(settings, CLearner(settings, "double", tmp_path / "first"), agent, env, 5)
-    agent_io.save(tmp_path / "agent.npz", agent, {"config": {"task": "mountain_car.cost_to_go"}})
-    resumed_settings = learner.settings_from_agent(tmp_path / "agent.npz")
-    assert resumed_settings.seed == int(agent.memory.streams[0]) != settings.seed
+    task = "mountain_car.cost_to_go"
+    agent = python_agents(task, [4], epsilon=0.2)
+    env = BatchedEnv("mountain_car", "cost_to_go", "analytic", seeds=[4])
+    lockstep(CLearner(learner.from_task(task, seed=4, epsilon=0.2), "double", tmp_path / "first"),
+             agent, env, 5)
+    agent_io.save(tmp_path / "agent.npz", agent, {"config": {"task": task}})
     resumed, _ = agent_io.load(tmp_path / "agent.npz")
-    c_learner = CLearner(resumed_settings, "double", tmp_path / "resumed")
-    np.testing.assert_array_equal(c_learner.weights, resumed.memory.weights[0])
-    lockstep(resumed_settings, c_learner, resumed,
-             BatchedEnv("mountain_car", "cost_to_go", "analytic", seeds=[11]), 5)
+    c_learner = CLearner(learner.from_file(tmp_path / "agent.npz"), "double", tmp_path / "resumed")
+    assert c_learner.seed == int(agent.arrays.streams[0]) != 4
+    np.testing.assert_array_equal(c_learner.weights, resumed.arrays.weights[0])
+    lockstep(c_learner, resumed, BatchedEnv("mountain_car", "cost_to_go", "analytic", seeds=[11]), 5)
     header = (tmp_path / "resumed" / "lwrl_learner.h").read_text()
     assert "resumed from agent 0 of" in header and "Task: mountain_car.cost_to_go" in header
 
 
-def learning_curves(settings, seeds, episodes, tmp_path, measure):
+def learning_curves(task, seeds, episodes, tmp_path, measure):
     """Per seed and episode, `measure(env, b)` at each episode's end for the C float learner
     and for the Python learner, each on its own `BatchedEnv` of those seeds; for each, the
     values `(seeds, episodes)` and the final weights `(seeds, A, N)`."""
-    domain, name = settings.task.split(".")
+    domain, name = task.split(".")
     curves = {}
-    c_learners = [CLearner(dataclasses.replace(settings, seed=seed), "float", tmp_path / f"c{seed}")
+    c_learners = [CLearner(learner.from_task(task, seed=seed), "float", tmp_path / f"c{seed}")
                   for seed in seeds]
     for kind in ("c", "python"):
         env = BatchedEnv(domain, name, "analytic", seeds=seeds)
-        agent = python_agent(settings, seeds)
+        agent = python_agents(task, seeds)
         values = np.full((len(seeds), episodes), np.nan)
         done = np.zeros(len(seeds), dtype=int)
         ts = env.reset()
@@ -172,7 +178,7 @@ def learning_curves(settings, seeds, episodes, tmp_path, measure):
                 done[b] += 1
             ts = env.step(actions)
         weights = (np.array([c.weights for c in c_learners]) if kind == "c"
-                   else np.array(agent.memory.weights))
+                   else np.array(agent.arrays.weights))
         curves[kind] = values, weights
     return curves["c"], curves["python"]
 
@@ -193,10 +199,9 @@ def test_float_learner_learns_within_the_python_learners_intervals(tmp_path, tas
                                                                    block, measure):
     """Agents of seeds 0, 1, ..., per block of episodes: the C float learner's mean lies in
     the 95 % t interval of the Python learner's mean over the same seeds."""
-    settings = learner.settings_for_task(task)
     seeds = list(range(agents))
     (c_values, c_weights), (python_values, python_weights) = learning_curves(
-        settings, seeds, episodes, tmp_path, measure)
+        task, seeds, episodes, tmp_path, measure)
     c_blocks = c_values.reshape(len(seeds), -1, block).mean(axis=2)
     python_blocks = python_values.reshape(len(seeds), -1, block).mean(axis=2)
     low, high = t_interval(python_blocks)
@@ -213,12 +218,11 @@ def test_float_learner_learns_within_the_python_learners_intervals(tmp_path, tas
 
 @needs_compiler
 def test_greedy_is_the_argmax_of_the_learned_weights(tmp_path):
-    settings = learner.settings_for_task("mountain_car.cost_to_go", seed=1)
-    agent = python_agent(settings, [1])
-    c_learner = CLearner(settings, "double", tmp_path)
-    lockstep(settings, c_learner, agent, BatchedEnv("mountain_car", "cost_to_go", "analytic", seeds=[1]), 3)
+    agent = python_agents("mountain_car.cost_to_go", [1])
+    c_learner = CLearner(learner.from_task("mountain_car.cost_to_go", seed=1), "double", tmp_path)
+    lockstep(c_learner, agent, BatchedEnv("mountain_car", "cost_to_go", "analytic", seeds=[1]), 3)
     states = np.random.default_rng(0).uniform((-1.2, -0.07), (0.5, 0.07), size=(300, 2))
-    q = agent.q_values(states)[0]
+    q = agent.action_values(states)[0]
     greedy = np.array([c_learner.greedy(state) for state in states])
     np.testing.assert_array_equal(greedy, q.argmax(axis=1))
 
@@ -229,8 +233,7 @@ def test_declared_ram_is_the_objects_static_data(tmp_path):
     compiler's alignment padding."""
     for task in ("mountain_car.cost_to_go", "cartpole.balance"):
         for dtype in ("float", "double"):
-            settings = learner.settings_for_task(task)
-            written = learner.write_learner(settings, tmp_path / task / dtype, dtype)
+            written = learner.write_learner(learner.from_task(task), tmp_path / task / dtype, dtype)
             assert written["ram"]["total"] == sum(v for k, v in written["ram"].items() if k != "total")
             obj = tmp_path / task / dtype / "learner.o"
             subprocess.run([COMPILER, *STRICT, "-O2", "-c", written["source"], "-o", str(obj)], check=True)
@@ -240,17 +243,42 @@ def test_declared_ram_is_the_objects_static_data(tmp_path):
 
 
 def test_bad_inputs_are_refused_in_one_line(tmp_path):
-    settings = learner.settings_for_task("cartpole.balance")
-    one_line_error(lambda: learner.write_learner(settings, tmp_path, "float", ram=16384),
+    source = learner.from_task("cartpole.balance")
+    one_line_error(lambda: learner.write_learner(source, tmp_path, "float", ram=16384),
                    "6 x 6 x 6 x 6 grid's learner needs 31228 bytes", "more than the 16384 allowed")
-    learner.write_learner(settings, tmp_path / "fits", "float", ram=31228)
-    one_line_error(lambda: learner.write_learner(settings, tmp_path, "half"), "dtype must be one of")
-    one_line_error(lambda: learner.settings_for_task("nowhere.task"), "unknown task")
-    one_line_error(lambda: learner.settings_for_task("mountain_car.cost_to_go", trace="replacing_reset"),
-                   "replacing and accumulating")
-    one_line_error(lambda: learner.settings_for_task("mountain_car.cost_to_go", alpha=0.0), "alpha")
-    one_line_error(lambda: learner.settings_for_task("mountain_car.cost_to_go", lam=1.5), "lambda")
-    one_line_error(lambda: learner.settings_for_task("mountain_car.cost_to_go", seed=-1), "seed")
-    one_line_error(lambda: learner.settings_from_agent(tmp_path / "missing.npz"), "no such agent file")
+    learner.write_learner(source, tmp_path / "fits", "float", ram=31228)
+    one_line_error(lambda: learner.write_learner(source, tmp_path, "half"), "dtype must be one of")
+    one_line_error(lambda: learner.from_task("nowhere.task"), "unknown task")
+    for settings, fragments in (
+            ({"trace": "replacing_reset"}, ("replacing and accumulating traces", "replacing_reset")),
+            ({"features": "cmac"}, ("only NRBF agents can learn in C", "CMAC")),
+            ({"learner": "true_online_sarsa"}, ("true_online_sarsa agents cannot learn in C",))):
+        refused = learner.from_task("mountain_car.cost_to_go", **settings)
+        one_line_error(lambda: learner.write_learner(refused, tmp_path / "refused"), *fragments)
+    assert not (tmp_path / "refused").exists()
+    one_line_error(lambda: learner.from_task("mountain_car.cost_to_go", alpha=0.0), "alpha")
+    one_line_error(lambda: learner.from_task("mountain_car.cost_to_go", lam=1.5), "lambda")
+    one_line_error(lambda: learner.from_task("mountain_car.cost_to_go", seed=-1), "seed")
+    one_line_error(lambda: learner.write_learner(learner.from_task("mountain_car.cost_to_go", alpha=1e39),
+                                                 tmp_path / "big"), "alpha = 1e+39 do not fit float32")
+    one_line_error(lambda: learner.from_file(tmp_path / "missing.npz"), "no such agent file")
     (tmp_path / "file").write_text("")
-    one_line_error(lambda: learner.write_learner(settings, tmp_path / "file", "float"), "cannot write")
+    one_line_error(lambda: learner.write_learner(source, tmp_path / "file", "float"), "cannot write")
+
+
+def test_the_cli_takes_lwrl_trains_flags_for_a_task_and_none_for_a_saved_agent(tmp_path, capsys):
+    status, out, _ = run_cli(["learner", "mountain_car.cost_to_go", "--c", str(tmp_path / "new"),
+                              "--trace", "accumulating", "--lambda", "0.5", "--seed", "3"], capsys)
+    assert status == 0 and "accumulating traces, alpha 3.9, lambda 0.5" in out
+    assert "#define LWRL_SEED UINT64_C(3)" in (tmp_path / "new" / "lwrl_learner.h").read_text()
+    agent_io.save(tmp_path / "agents.npz", python_agents("mountain_car.cost_to_go", [0, 1]))
+    status, _, err = run_cli(["learner", str(tmp_path / "agents.npz"), "--c", str(tmp_path / "saved"),
+                              "--lambda", "0.5", "--seed", "1"], capsys)
+    assert status == 2 and err == ["lwrl learner: error: --lambda, --seed: a resumed agent keeps its "
+                                   "own learner, settings and stream; these apply to a task"]
+    status, out, _ = run_cli(["learner", str(tmp_path / "agents.npz"), "--agent", "1", "--c",
+                              str(tmp_path / "saved")], capsys)
+    assert status == 0 and "resumed from agent 1 of" in out
+    status, _, err = run_cli(["learner", "cartpole.balance", "--learner", "ase_ace", "--c",
+                              str(tmp_path / "other")], capsys)
+    assert status == 2 and err == ["lwrl learner: error: ase_ace agents cannot learn in C"]
