@@ -29,6 +29,15 @@ def set_state(env, state):
         env.physics.set_state_vector(state)
 
 
+def one_step(domain, task, state, action, **options):
+    """The analytic plant's state after `action` from `state`."""
+    env = tasks.load(domain, task, plant="analytic", **options)
+    env.reset()
+    set_state(env, state)
+    env.step(action)
+    return env.physics.state_vector()
+
+
 def off_nominal(domain: str, rng: np.random.Generator, count=None) -> np.ndarray:
     """Physical parameter values of `domain` away from the paper's: each nominal value times
     2^u, u ~ U[-1, 1] drawn for each, within the accepted range; `(count, P)` rows, or one

@@ -281,6 +281,14 @@ def test_start_is_at_rest_hanging_down_and_steps_cost_one(plant):
         assert math.isnan(env.task.uptime)
 
 
+def test_spaces_are_the_books():
+    """State (theta_1, theta_1_dot, theta_2, theta_2_dot); elbow torques -1, 0, +1 N m."""
+    definition = tasks.definition("acrobot", "swingup")
+    assert definition.state_names == ("shoulder_angle", "shoulder_angular_velocity",
+                                      "elbow_angle", "elbow_angular_velocity")
+    assert definition.controls == (-1.0, 0.0, 1.0)
+
+
 def test_time_limit_truncates():
     """Default 2000 s = 10 000 steps of 0.2 s; `time_limit=1.0` truncates (discount 1) after
     5 steps, on both plants."""

@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 import rerun as rr
 
+from lwrl import tasks
 from lwrl.cli import main as cli
 from lwrl.studies.compare import open_loop
 from lwrl.studies.compare.comparison import replay
@@ -26,7 +27,8 @@ from lwrl.viz import names
 
 SEEDS = range(5)
 STEPS = 50
-TASKS = ("pendulum.swingup", "cartpole.balance", "acrobot.swingup")
+TASKS = tuple(name for name in tasks.TASK_NAMES if "mujoco" in tasks.PLANTS[tasks.split_name(name)[0]])
+"""The tasks with a MuJoCo plant: those `lwrl compare` compares."""
 
 
 @pytest.fixture(scope="module", params=TASKS)

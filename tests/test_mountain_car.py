@@ -10,6 +10,7 @@ import pytest
 
 from lwrl import tasks
 from lwrl.tasks import mountain_car
+from conftest import set_state
 
 
 @pytest.fixture(scope="module")
@@ -151,3 +152,33 @@ def test_dm_env_step_reward_and_discount(state, next_position, step_type, reward
     assert time_step.reward == reward
     assert time_step.discount == discount
     assert time_step.observation["position"] == pytest.approx(next_position, rel=0, abs=1e-12)
+
+
+def test_the_task_is_the_papers():
+    """State (x, v), thrusts -1, 0, +1, a 10 000-step safety cap (SPEC.md: the protocol has
+    none), starts x ~ U[-1.2, 0.5], v ~ U[-0.07, 0.07], other for another seed."""
+    definition = tasks.definition("mountain_car", "cost_to_go")
+    assert definition.state_names == ("position", "velocity")
+    assert definition.controls == (-1.0, 0.0, 1.0) and definition.step_limit == 10_000
+    env = tasks.load("mountain_car", "cost_to_go", seed=3)
+    starts = np.array([list(env.reset().observation.values()) for _ in range(200)])
+    other = list(tasks.load("mountain_car", "cost_to_go", seed=4).reset().observation.values())
+    low, high = np.array([-1.2, -0.07]), np.array([0.5, 0.07])
+    assert np.all(starts >= low) and np.all(starts <= high)
+    assert np.all(np.abs(starts.std(axis=0) / (high - low) - 1 / np.sqrt(12)) < 0.05)
+    assert len(np.unique(starts[:, 0])) == len(starts) and not np.array_equal(other, starts[0])
+
+
+def test_physics_accessors_name_the_quantities():
+    env = tasks.load("mountain_car", "cost_to_go")
+    set_state(env, [-0.5, 0.01])
+    assert (env.physics.position(), env.physics.velocity(), env.physics.altitude()) == pytest.approx(
+        (-0.5, 0.01, np.sin(-1.5)))
+
+
+def test_terminal_on_the_last_allowed_step_has_discount_zero():
+    """A goal reached on the step the time limit allows is terminal, not a truncation."""
+    env = tasks.load("mountain_car", "cost_to_go", time_limit=1)
+    set_state(env, [0.49, 0.06])
+    ts = env.step(2)
+    assert ts.last() and ts.reward == 0.0 and ts.discount == 0.0

@@ -28,8 +28,8 @@ from lwrl.runners.run import EpisodeResults, make_agent
 from lwrl.viz import names, scene, value
 from lwrl.viz import rerun as viz
 
-MAX_STEPS = {"mountain_car": 150, "pendulum": 120, "cartpole": 120, "acrobot": 120}
-"""Rollouts are cut there (random actions end cart-pole episodes sooner)."""
+MAX_STEPS = 150
+"""Rollouts are cut there (random actions end some tasks' episodes sooner)."""
 
 
 def rollout(domain, task, plant, seed=0, agent=0, episode=0, steps=None) -> EpisodeRecording:
@@ -41,7 +41,7 @@ def rollout(domain, task, plant, seed=0, agent=0, episode=0, steps=None) -> Epis
     ts = env.reset()
     states, observations = [env.physics.state_vector()], [np.array(list(ts.observation.values()))]
     actions, rewards, uptime = [], [], []
-    for _ in range(steps or MAX_STEPS[domain]):
+    for _ in range(steps or MAX_STEPS):
         action = int(rng.integers(definition.num_actions))
         ts = env.step(action)
         actions.append(action)
