@@ -64,7 +64,7 @@ def compare_plants(args) -> int:
     with bar, outputs.atomic_directory(args.out) as staging:  # the report appears whole
         result = compare.compare(args.task, seeds=args.seeds, episodes=args.episodes,
                                  out_dir=str(staging), quick=args.quick, progress=update,
-                                 judge=paper.judge(args.task),
+                                 judge=paper.judge(args.task, args.learner),
                                  learner=args.learner)
     result.report_path = os.path.join(args.out, os.path.basename(result.report_path))
     if args.rrd:  # once the report is in place, so that a recording that fails loses nothing else

@@ -152,3 +152,14 @@ def test_bad_task_is_one_line_and_status_2(task, message, tmp_path):
                             env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
     assert result.returncode == 2
     assert result.stderr.count("\n") == 1 and message in result.stderr, result.stderr
+
+
+def test_the_papers_claims_judge_its_own_agent_only():
+    """`lwrl compare --learner OTHER` reports the other learner's runs without holding them
+    to the paper's claims about its own agent (Table 1's choice of trace needs its columns)."""
+    from lwrl import agent
+    from lwrl.studies.paper import items
+
+    assert items.judge("cartpole.balance") is not None
+    for learner in set(agent.LEARNER_NAMES) - {agent.DEFAULT_LEARNER}:
+        assert items.judge("cartpole.balance", learner) is None

@@ -18,6 +18,7 @@ How the items judge (the report says it again beside each):
   a confirmation run judges the chosen cells on fresh agents (`studies.paper.judging`).
 """
 
+from lwrl import agent
 from lwrl.studies.paper.items import fig2, fig3, fig5, table1, traces
 from lwrl.studies.paper.judging import Item
 
@@ -41,10 +42,11 @@ JUDGED_TASKS = {"pendulum.swingup": "fig5", "cartpole.balance": "table1"}
 """The item each task's learning runs are held to where the plants are compared."""
 
 
-def judge(task: str):
+def judge(task: str, learner: str = agent.DEFAULT_LEARNER):
     """`judge(table, figure_dir) -> (item name, Section)`: the paper's item for `task`'s
-    learning runs (Fig. 5, Table 1), for `lwrl compare`; None for a task no item judges."""
-    if task not in JUDGED_TASKS:
+    learning runs (Fig. 5, Table 1), for `lwrl compare`; None for a task no item judges, and
+    for a learner other than the paper's (its claims are about its own agent)."""
+    if task not in JUDGED_TASKS or learner != agent.DEFAULT_LEARNER:
         return None
     name = JUDGED_TASKS[task]
     return lambda table, figure_dir: (name, ITEMS[name].analyse(table, figure_dir))
