@@ -89,7 +89,10 @@ in one process on the loaded machine: cart-pole 1 agent 14.5k against 28.5k ns o
 agent-step, Mountain-Car 300 agents 2.2k against 2.8k; the other sizes within the noise.
 On the cart-pole XLA materialises the broadcast factor of the first contraction and makes
 the trace reset a pass of its own (the optimised HLO): the 300-agent batch stays memory
-bound.
+bound. Also tried, no difference beyond the noise (kept: neither): the scan unrolled 2 or 4
+steps (Mountain-Car 1 agent 5.6k / 4.6k / 5.1k ns, cart-pole 1 agent 15.6k / 15.7k /
+21.8k), and XLA's own emitters in place of its YNNPACK fusions
+(`--xla_cpu_experimental_ynn_fusion_type=`).
 
 Run from the repository root (needs the `jax` extra, `pip install -e .[jax]`; CPU only):
 
