@@ -67,7 +67,8 @@ find no free core, and the CPU-time ratio is the fairer one.
 Where the peer's time goes (XLA's optimised HLO, `jax.jit(...).lower(...).compile()
 .as_text()`): XLA runs the scan on about one core (its CPU time per agent-step is about its
 wall time on an idle machine), where lwrl spreads a batch over the cores; each scanned step
-runs some 40 kernels, a fixed cost of a few microseconds that one agent pays alone; and the
+runs some 40 kernels (41 at 30 cart-pole agents), a fixed cost of a few microseconds that
+one agent pays alone; and the
 vmapped design updates every agent's weights and traces at every step, streaming them all
 through memory (41 KB per cart-pole agent, 12 MB for 300), where lwrl runs each agent's
 episodes one after another with its arrays in cache.
@@ -85,11 +86,14 @@ machine loaded, load average 9 on 2 cores; 1 / 30 / 300 agents):
 
 Against the design before this one (phi formed for every state, Q(s, .) recomputed at
 every step for the TD error, the resets under a `lax.cond` on any episode's end), measured
-in one process on the loaded machine: cart-pole 1 agent 14.5k against 28.5k ns of CPU per
-agent-step, Mountain-Car 300 agents 2.2k against 2.8k; the other sizes within the noise.
-On the cart-pole XLA materialises the broadcast factor of the first contraction and makes
-the trace reset a pass of its own (the optimised HLO): the 300-agent batch stays memory
-bound. Also tried, no difference beyond the noise (kept: neither): the scan unrolled 2 or 4
+in one process on the loaded machine with the middle-axis contraction: cart-pole 1 agent
+14.5k against 28.5k ns of CPU per agent-step, Mountain-Car 30 and 300 agents 1.5k and 2.2k
+against 1.6k and 2.8k; cart-pole 30 and 300 agents 34.5k and 31.1k against 30.8k and 30.7k,
+within the noise. With the middle-axis sums XLA wrote the broadcast factor of the first
+contraction out as a full-size array; with the kept `@` it does not, and a step's full-size
+passes are the weights' update, the traces' update with their reset (each forming the
+features again) and a copy of the traces around the `lax.cond` (the optimised HLO at 30
+cart-pole agents). Also tried, no difference beyond the noise (kept: neither): the scan unrolled 2 or 4
 steps (Mountain-Car 1 agent 5.6k / 4.6k / 5.1k ns, cart-pole 1 agent 15.6k / 15.7k /
 21.8k), and XLA's own emitters in place of its YNNPACK fusions
 (`--xla_cpu_experimental_ynn_fusion_type=`).
