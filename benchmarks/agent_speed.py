@@ -12,6 +12,12 @@ agent of each task (`TaskDefinition.defaults`), one run of this script measures:
 3. **lwrl, 300 agents**: the same with 300 seeds of that agent, on the default thread pool
    (`agent.threads.workers()` threads).
 
+Beside each of lwrl's rates it prints the arithmetic model's bound for that task and size
+(`benchmarks.arithmetic_bound`: the exponentials, multiply-adds and bytes of one agent-step
+of the task's paper agent, from its feature sizes, at this machine's rates, measured by
+micro-benchmarks in the same run; one core for one agent, `agent.threads.workers()` cores
+for the batch) and lwrl's fraction of it.
+
 An agent-step is one plant transition. The lwrl runs are bounded by episodes: after a
 compiling warm-up (not timed), each measurement starts with few episodes and grows their
 number, from zero weights each time, until one run lasts about `--seconds`; that run is
@@ -35,6 +41,7 @@ from typing import Callable
 import numba
 import numpy as np
 
+from benchmarks import arithmetic_bound
 from lwrl import tasks
 from lwrl.agent.threads import workers
 from lwrl.runners.config import RunConfig, task_defaults
@@ -247,25 +254,50 @@ def parse_args(argv=None) -> argparse.Namespace:
     return args
 
 
+def bound_cell(measurement: Measurement, bound: float) -> str:
+    """The model's bound (agent-steps/s) and the measurement's fraction of it."""
+    return f"{bound:,.0f} ({100 * measurement.rate / bound:.0f} %)"
+
+
+def model_line(task: str, counts, rates, seconds: float) -> str:
+    """One task's model: its agent's sizes, counts per agent-step, the rates measured at
+    those sizes and one core's bound."""
+    return (f"- {task}: d {counts.dim}, n {counts.n}, N {counts.features}, A {counts.actions}: "
+            f"{counts.exponentials} exponentials, {counts.multiply_adds:,} multiply-adds, "
+            f"{counts.bytes:,} bytes per agent-step; measured {rates.exp / 1e6:,.0f} M exp/s, "
+            f"{rates.mac / 1e9:.2f} G multiply-adds/s, {rates.memory / 1e9:.1f} GB/s; bound "
+            f"{1e9 * seconds:,.0f} ns per agent-step on one core")
+
+
 def main(argv=None) -> None:
     args = parse_args(argv)
     script_start = time.perf_counter()
     for task in PLANTS:
         run_lwrl(task, 1, 1)  # compiles the task's loop
     compile_seconds = time.perf_counter() - script_start
-    rows, runs = [], []
+    cores = workers()
+    rows, runs, models = [], [], []
     for task in PLANTS:
+        counts = arithmetic_bound.task_counts(task)
+        rates = arithmetic_bound.measure_rates(counts)
+        seconds = arithmetic_bound.bound_seconds(counts, rates)
+        models.append(model_line(task, counts, rates, seconds))
         plain = measure_plain(task, args.seconds)
         single = measure_lwrl(task, 1, args.seconds)
         batch = measure_lwrl(task, BATCH, args.seconds)
-        rows.append(f"| {task} | {cell(plain)} | {cell(single, plain)} | {cell(batch, plain)} |")
+        rows.append(f"| {task} | {cell(plain)} | {cell(single, plain)} | "
+                    f"{bound_cell(single, 1 / seconds)} | {cell(batch, plain)} | "
+                    f"{bound_cell(batch, min(cores, BATCH) / seconds)} |")
         runs += [run_line(task, name, m) for name, m in
                  (("plain loop", plain), ("lwrl 1 agent", single), (f"lwrl {BATCH} agents", batch))]
     print(f"| task | plain loop (agent-steps/s) | lwrl 1 agent (agent-steps/s, ratio to plain) "
-          f"| lwrl {BATCH} agents (agent-steps/s, ratio to plain) |")
-    print("|---|---:|---:|---:|")
+          f"| bound, 1 core (lwrl's fraction) | lwrl {BATCH} agents (agent-steps/s, ratio to "
+          f"plain) | bound, {plural(min(cores, BATCH), 'core')} (lwrl's fraction) |")
+    print("|---|---:|---:|---:|---:|---:|")
     print("\n".join(rows))
-    print("\n" + machine(f"{workers()} cores used (agent.threads.workers())", np, numba))
+    print("\nArithmetic model (benchmarks.arithmetic_bound), per task's paper agent:")
+    print("\n".join(models))
+    print("\n" + machine(f"{cores} cores used (agent.threads.workers())", np, numba))
     print("\nRuns measured:")
     print("\n".join(runs))
     print(f"\nTotal {time.perf_counter() - script_start:.1f} s, of which {compile_seconds:.1f} s "

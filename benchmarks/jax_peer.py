@@ -22,10 +22,30 @@ definitions, not its code:
   state), and auto-reset inside the scan: the step that ends an episode also starts the
   next one, so every scanned step of every agent is one real plant transition.
 
-The peer draws its random numbers from JAX's PRNG (each agent's key is split once per block
-of steps and the block's uniforms drawn at once), so its numbers differ from lwrl's; it must
-learn the same, which `learning_check` measures on the paper's Mountain-Car protocol
-(`tests/test_jax_peer.py` also checks its features and plant steps against lwrl's).
+Its design, for speed (`learner_step`, `make_block`):
+
+- the features are kept as their per-dimension factors `(d, n)`: Q is contracted factor by
+  factor (`action_values`, W viewed as `(A, N / n, n)` times the last factor, and so on),
+  and the full feature vector is formed only inside the fused trace-and-weight update;
+- the exploration noise is drawn once per block of steps: each agent's key is split once
+  per block and the block's uniforms drawn in one vectorised call;
+- the auto-reset after a terminal state is branch-free: a start state is drawn every step,
+  and the state observed next is the start where the step was terminal, else s' (Q at a
+  terminal state is never needed: its bootstrap is 0), so one set of features and one Q
+  serve both cases; only the rare steps where some agent's episode is truncated (it needs
+  both s' and a start) run a batch-level `lax.cond` (`restart`);
+- Q(s', a') under the updated weights is carried to the next step, where it is Q(s, a) of
+  the TD error: each step evaluates Q twice (before the update at s' for the choice and the
+  bootstrap, after it for the carried value and, after a terminal state, the next episode's
+  first action, chosen from the updated weights as lwrl's learner does).
+
+The peer draws its random numbers from JAX's PRNG, so its numbers differ from lwrl's; it
+must learn the same, which `learning_check` measures on the paper's Mountain-Car protocol.
+`tests/test_jax_peer.py` also checks its features and plant steps against lwrl's, and its
+learner step on a fixed trajectory with fixed actions: features, Q, TD errors and weights
+after every transition equal lwrl's learner's to round-off (measured: within 3e-15 of the
+largest weight on both tasks, the test allows 1e-12; the factor-by-factor Q adds in
+another order than lwrl's dot products).
 
 One run of this script measures, on Mountain-Car and Cart-Pole with the paper's agent of
 each task (`TaskDefinition.defaults`), for 1, 30 and 300 agents:
@@ -44,18 +64,39 @@ for the peer, the scanned steps of all agents. Ratios compare rates measured in 
 On a machine that other jobs keep busy the wall-time ratio understates lwrl, whose threads
 find no free core, and the CPU-time ratio is the fairer one.
 
-Where the peer's time goes (XLA's profile on this machine, `jax.profiler`): XLA runs the
-scan on about one core (its CPU time per agent-step is its wall time), where lwrl spreads a
-batch over the cores; each scanned step runs some 40 kernels, a fixed cost of a few
-microseconds that one agent pays alone; and the vmapped design updates every agent's
-weights and traces at every step, streaming them all through memory (41 KB per cart-pole
-agent, 12 MB for 300), where lwrl runs each agent's episodes one after another with its
-arrays in cache. On the cart-pole the 6^4 outer product of the features is XLA's largest
-kernel, about 3 ns per feature. Tried, in the whole loop: Q as `weights @ phi`, as a
-gathered row, and as products summed (kept: about 15 % faster on the cart-pole); the
-features as a chain of reshaped outer products, as one broadcast product (kept), with and
-without optimisation barriers (no difference beyond the noise); the resets under a
-`lax.cond` (kept: one agent skips them on most steps).
+Where the peer's time goes (XLA's optimised HLO, `jax.jit(...).lower(...).compile()
+.as_text()`): XLA runs the scan on about one core (its CPU time per agent-step is about its
+wall time on an idle machine), where lwrl spreads a batch over the cores; each scanned step
+runs some 40 kernels (41 at 30 cart-pole agents), a fixed cost of a few microseconds that
+one agent pays alone; and the
+vmapped design updates every agent's weights and traces at every step, streaming them all
+through memory (41 KB per cart-pole agent, 12 MB for 300), where lwrl runs each agent's
+episodes one after another with its arrays in cache.
+
+Tried (CPU ns per agent-step, the fastest of 5 blocks, every variant in one process, the
+machine loaded, load average 9 on 2 cores; 1 / 30 / 300 agents):
+
+| Q(s, .) as | cart-pole | Mountain-Car |
+|---|---:|---:|
+| `(A, N/n, n) @ g_j`, factor by factor (kept) | 14.1k / 21.9k / 21.6k | 3.9k / 1.05k / 1.73k |
+| `(A, n, N/n)` times g_j summed over the middle axis | 13.4k / 22.1k / 28.7k | 3.9k / 1.41k / 2.80k |
+| `(A, N/n, n)` times g_j summed over the last axis | 13.2k / 28.5k / 33.3k | 3.6k / 1.47k / 2.67k |
+| `weights @ phi`, phi formed | 16.3k / 21.7k / 28.2k | 3.6k / 0.95k / 1.69k |
+| `(weights * phi).sum(1)`, phi formed | 31.5k / 37.7k / 33.6k | 4.5k / 1.29k / 2.26k |
+
+Against the design before this one (phi formed for every state, Q(s, .) recomputed at
+every step for the TD error, the resets under a `lax.cond` on any episode's end), measured
+in one process on the loaded machine with the middle-axis contraction: cart-pole 1 agent
+14.5k against 28.5k ns of CPU per agent-step, Mountain-Car 30 and 300 agents 1.5k and 2.2k
+against 1.6k and 2.8k; cart-pole 30 and 300 agents 34.5k and 31.1k against 30.8k and 30.7k,
+within the noise. With the middle-axis sums XLA wrote the broadcast factor of the first
+contraction out as a full-size array; with the kept `@` it does not, and a step's full-size
+passes are the weights' update, the traces' update with their reset (each forming the
+features again) and a copy of the traces around the `lax.cond` (the optimised HLO at 30
+cart-pole agents). Also tried, no difference beyond the noise (kept: neither): the scan unrolled 2 or 4
+steps (Mountain-Car 1 agent 5.6k / 4.6k / 5.1k ns, cart-pole 1 agent 15.6k / 15.7k /
+21.8k), and XLA's own emitters in place of its YNNPACK fusions
+(`--xla_cpu_experimental_ynn_fusion_type=`).
 
 Run from the repository root (needs the `jax` extra, `pip install -e .[jax]`; CPU only):
 
@@ -72,6 +113,7 @@ import os
 import shutil
 import tempfile
 import time
+import typing
 from typing import Callable
 
 import jax
@@ -200,8 +242,10 @@ class Agent:
     num_actions: int
 
 
-def features(agent: Agent, state):
-    """NRBF features (eq. 8, 9) of one state, factorised and guarded as `agent/nrbf.py`."""
+def factors(agent: Agent, state):
+    """The NRBF features (eq. 8, 9) of one state as their per-dimension factors `(d, n)`,
+    `g_j / sum_k g_j[k]`, guarded as `agent/nrbf.py` (the features are their outer product,
+    `outer`)."""
     n = agent.n
     low, high = jnp.array(agent.low), jnp.array(agent.high)
     centroids = (jnp.arange(n) + 0.5) / n
@@ -210,15 +254,38 @@ def features(agent: Agent, state):
     distance = jnp.abs(s[:, None] - centroids[None, :])  # (d, n)
     nearest = distance.min(axis=1, keepdims=True)
     g = jnp.exp(-(distance - nearest) * (distance + nearest) / agent.r2)
-    g = g / g.sum(axis=1, keepdims=True)
-    # as nrbf_features_into: the last dimension's factors first, each earlier dimension's
-    # factor times the product of the later ones, over a (n,) * d array whose C order is
-    # the neurons' order
-    d = len(agent.low)
+    return g / g.sum(axis=1, keepdims=True)
+
+
+def outer(g):
+    """The feature vector `(n^d,)` of factors `(d, n)`, as `nrbf_features_into` forms it:
+    the last dimension's factors first, each earlier dimension's factor times the product of
+    the later ones, over a `(n,) * d` array whose C order is the neurons' order."""
+    d, n = g.shape
     phi = g[d - 1]
     for j in range(d - 2, -1, -1):
         phi = g[j].reshape((n,) + (1,) * (d - 1 - j)) * phi
     return phi.reshape(-1)
+
+
+def features(agent: Agent, state):
+    """NRBF features (eq. 8, 9) of one state `(n^d,)`, factorised and guarded as
+    `agent/nrbf.py`."""
+    return outer(factors(agent, state))
+
+
+def action_values(weights, g):
+    """Q(s, .) = w phibar(s) (eq. 9) for weights `(A, N)` and the factors `g` `(d, n)` of
+    phibar(s), contracted factor by factor without forming phibar: W viewed as
+    `(A, N / n, n)` times g_{d-1} (a matrix-vector product), the result `(A, N / n)` viewed
+    as `(A, N / n^2, n)` times g_{d-2}, and so on to `(A,)`: A N (1 + 1/n + ...)
+    multiply-adds."""
+    num_actions = weights.shape[0]
+    d, n = g.shape
+    q = weights
+    for j in range(d - 1, -1, -1):
+        q = q.reshape(num_actions, -1, n) @ g[j]
+    return q.reshape(num_actions)
 
 
 def epsilon_greedy(q, epsilon, uniforms):
@@ -234,61 +301,103 @@ def epsilon_greedy(q, epsilon, uniforms):
 
 
 UNIFORMS_PER_STEP = 6
-"""Uniforms an agent-step draws for its actions (3 for the next state's, 3 for the next
-episode's first), plus the task's dimension for the next episode's start."""
+"""Uniforms an agent-step draws for its actions (3 for the next state's or, at a terminal
+state, the next episode's first; 3 for the next episode's first after a truncation), plus
+the task's dimension for the next episode's start."""
 
 
-def action_values(weights, phi):
-    """Q(s, .) = w phibar(s) (eq. 9) for weights `(A, N)`, as products summed: on the
-    cart-pole's 1296 features XLA runs this about 15 % faster than `weights @ phi` (measured
-    here), as fast on Mountain-Car's 64."""
-    return (weights * phi[None, :]).sum(axis=1)
+class Carry(typing.NamedTuple):
+    """One agent between two plant transitions (each field gains a leading axis B under
+    `vmap`): its weights and traces `(A, N)`, the state and its features' factors `(d, n)`,
+    the action taken there and its value Q(s, a) under the current weights, the steps of the
+    episode so far and whether the agent diverged."""
+
+    weights: jax.Array
+    traces: jax.Array
+    state: jax.Array
+    g: jax.Array
+    action: jax.Array
+    q_taken: jax.Array
+    steps: jax.Array
+    diverged: jax.Array
 
 
-def agent_transition(task: PeerTask, agent: Agent, carry, hyper, uniforms):
-    """One plant transition of one agent and its update. Returns the new carry, whether the
-    episode ended (`last`) and its steps if it did (else 0); `agent_reset` starts the next."""
-    weights, traces, state, phi, action, steps, diverged = carry
-    alpha, gamma, lam, epsilon = hyper
-    controls = jnp.array(task.controls)
-    next_state = task.step(state, controls[action])
-    reward, terminal = task.outcome(next_state)
-    steps = steps + 1
-    last = terminal | (steps >= task.step_limit)
-    next_phi = features(agent, next_state)
-    next_q = action_values(weights, next_phi)
-    next_action = epsilon_greedy(next_q, epsilon, uniforms[0:3])
-    bootstrap = jnp.where(terminal, 0.0, gamma * next_q[next_action])
-    delta = reward - action_values(weights, phi)[action] + bootstrap
-    learn = ~diverged & jnp.isfinite(delta)
-    diverged = diverged | ~jnp.isfinite(delta)
+def update(agent: Agent, weights, traces, g, action, gamma_lambda, step):
+    """The trace rule (eq. 6 or 2, from `gamma_lambda` times the traces, `agent/traces.py`'s
+    flush below 1e-100) and `w <- w + step e` (eq. 1) for the features of factors `g` in the
+    taken action's row, in one elementwise pass that XLA fuses: the feature vector is formed
+    only here. Returns `(weights, traces)`."""
     taken = (jnp.arange(agent.num_actions) == action)[:, None]
-    decayed = gamma * lam * traces
-    gradient = jnp.where(taken, phi[None, :], 0.0)
+    decayed = gamma_lambda * traces
+    gradient = jnp.where(taken, outer(g)[None, :], 0.0)
     updated = decayed + gradient if agent.accumulating else jnp.maximum(decayed, gradient)
     updated = jnp.where(jnp.abs(updated) >= FLUSH_THRESHOLD, updated, 0.0)
-    # a diverged agent's weights stay as they are (its traces no longer matter); the traces
-    # of an episode that ends are reset here, in the same pass
-    weights = weights + jnp.where(learn, alpha * delta, 0.0) * updated
-    traces = jnp.where(last, 0.0, updated)
-    carry = (weights, traces, next_state, next_phi, next_action, steps, diverged)
-    return carry, last, jnp.where(last, steps, 0)
+    return weights + step * updated, updated
 
 
-def agent_reset(task: PeerTask, agent: Agent, carry, hyper, uniforms, last):
-    """Where `last`, the next episode: its start, features and first action (from the
-    updated weights), traces zero."""
-    weights, traces, state, phi, action, steps, diverged = carry
+def learner_step(agent: Agent, carry: Carry, hyper, next_state, reward, terminal, truncated,
+                 start, choose) -> tuple[Carry, dict]:
+    """One agent's Sarsa(lambda) update for the transition from `carry`'s (s, a) to
+    `next_state` (s'), branch-free: where s' is `terminal` the next episode begins at
+    `start` in the same pass. `choose(q)` is the policy (the benchmark: epsilon-greedy on
+    the step's uniforms). Returns the carry at the next observed state (s', or `start`
+    after a terminal; `restart` moves it to a start after a truncation, where the traces are
+    reset here) and what lwrl's learner exposes after the same transition (`diagnostics`)."""
+    alpha, gamma, lam, _ = hyper
+    observed = jnp.where(terminal, start, next_state)
+    g = factors(agent, observed)
+    q = action_values(carry.weights, g)  # Q(s', .) before the update
+    action = choose(q)
+    bootstrap = jnp.where(terminal, 0.0, gamma * q[action])
+    delta = reward - carry.q_taken + bootstrap
+    finite = jnp.isfinite(delta)
+    step = jnp.where(~carry.diverged & finite, alpha * delta, 0.0)
+    weights, traces = update(agent, carry.weights, carry.traces, carry.g, carry.action,
+                             gamma * lam, step)
+    q_after = action_values(weights, g)  # Q(observed, .) after the update
+    # after a terminal state the next episode's first action is chosen from the updated
+    # weights, as lwrl's learner does when it starts an episode
+    first_action = choose(q_after)
+    action = jnp.where(terminal, first_action, action)
+    carry = carry._replace(weights=weights,
+                           traces=jnp.where(terminal | truncated, 0.0, traces),
+                           state=observed, g=g, action=action, q_taken=q_after[action],
+                           diverged=carry.diverged | ~finite)
+    return carry, {"delta": delta, "q": jnp.where(terminal, q_after, q)}
+
+
+def restart(agent: Agent, carry: Carry, start, choose) -> tuple[Carry, jax.Array]:
+    """The next episode's start for one agent whose last episode was truncated: its
+    features, and its first action from the current weights. Returns the carry and Q there."""
+    g = factors(agent, start)
+    q = action_values(carry.weights, g)
+    action = choose(q)
+    return carry._replace(state=start, g=g, action=action, q_taken=q[action]), q
+
+
+def agent_transition(task: PeerTask, agent: Agent, carry: Carry, hyper, uniforms):
+    """One plant transition of one agent and its update (`learner_step`). Returns the new
+    carry, whether the episode was truncated (its restart is `make_block`'s) and the steps
+    of the episode if it ended (else 0)."""
+    epsilon = hyper[3]
+    controls = jnp.array(task.controls)
+    next_state = task.step(carry.state, controls[carry.action])
+    reward, terminal = task.outcome(next_state)
+    steps = carry.steps + 1
+    truncated = ~terminal & (steps >= task.step_limit)
+    last = terminal | truncated
     start = task.start(uniforms[UNIFORMS_PER_STEP:UNIFORMS_PER_STEP + task.dim])
-    start_phi = features(agent, start)
-    start_action = epsilon_greedy(action_values(weights, start_phi), hyper[3], uniforms[3:6])
-    return (weights,
-            traces,
-            jnp.where(last, start, state),
-            jnp.where(last, start_phi, phi),
-            jnp.where(last, start_action, action),
-            jnp.where(last, 0, steps),
-            diverged)
+    carry, _ = learner_step(agent, carry, hyper, next_state, reward, terminal, truncated,
+                            start, lambda q: epsilon_greedy(q, epsilon, uniforms[0:3]))
+    return carry._replace(steps=jnp.where(last, 0, steps)), truncated, jnp.where(last, steps, 0)
+
+
+def agent_restart(task: PeerTask, agent: Agent, carry: Carry, hyper, uniforms, truncated):
+    """Where `truncated`, the next episode's start (`restart`); elsewhere the carry as is."""
+    start = task.start(uniforms[UNIFORMS_PER_STEP:UNIFORMS_PER_STEP + task.dim])
+    restarted, _ = restart(agent, carry, start,
+                           lambda q: epsilon_greedy(q, hyper[3], uniforms[3:6]))
+    return jax.tree.map(lambda new, old: jnp.where(truncated, new, old), restarted, carry)
 
 
 def initial_carry(task: PeerTask, agent: Agent, keys):
@@ -300,19 +409,20 @@ def initial_carry(task: PeerTask, agent: Agent, keys):
     uniforms = jax.vmap(lambda key: jax.random.uniform(key, (UNIFORMS_PER_STEP + task.dim,)))(draw)
     shape = (batch, agent.num_actions, agent.n ** task.dim)
     states = jax.vmap(task.start)(uniforms[:, UNIFORMS_PER_STEP:])
-    phi = jax.vmap(lambda s: features(agent, s))(states)
+    g = jax.vmap(lambda s: factors(agent, s))(states)
     zeros = jnp.zeros(agent.num_actions)
     actions = jax.vmap(lambda u: epsilon_greedy(zeros, 0.0, u))(uniforms[:, 3:6])
-    carry = (jnp.zeros(shape), jnp.zeros(shape), states, phi, actions,
-             jnp.zeros(batch, dtype=jnp.int32), jnp.zeros(batch, dtype=bool))
+    carry = Carry(jnp.zeros(shape), jnp.zeros(shape), states, g, actions, jnp.zeros(batch),
+                  jnp.zeros(batch, dtype=jnp.int32), jnp.zeros(batch, dtype=bool))
     return carry, keys
 
 
 def make_block(task: PeerTask, agent: Agent, length: int = BLOCK):
     """`block(carry, keys, hyper) -> (carry, keys, episode_steps)`: `length` steps of every
-    agent, `episode_steps` `(length, B)` the steps of each episode finished (0 elsewhere)."""
+    agent, `episode_steps` `(length, B)` the steps of each episode finished (0 elsewhere).
+    Each agent's key is split once per block and the block's uniforms drawn in one call."""
     transition = jax.vmap(functools.partial(agent_transition, task, agent))
-    reset = jax.vmap(functools.partial(agent_reset, task, agent))
+    restart_truncated = jax.vmap(functools.partial(agent_restart, task, agent))
 
     def block(carry, keys, hyper):
         keys, draw = jax.vmap(lambda key: tuple(jax.random.split(key)))(keys)
@@ -320,10 +430,11 @@ def make_block(task: PeerTask, agent: Agent, length: int = BLOCK):
         uniforms = jax.vmap(lambda key: jax.random.uniform(key, (length, width)))(draw)
 
         def body(carry, uniforms_t):
-            carry, last, finished = transition(carry, hyper, uniforms_t)
-            # the resets only on steps where some episode ends (every step, or nearly, in a
-            # large batch; rarely for one agent)
-            carry = jax.lax.cond(last.any(), lambda c: reset(c, hyper, uniforms_t, last),
+            carry, truncated, finished = transition(carry, hyper, uniforms_t)
+            # a truncation is rare (at most one in `step_limit` steps of an agent): only on
+            # those steps does the batch compute a second start's features and values
+            carry = jax.lax.cond(truncated.any(),
+                                 lambda c: restart_truncated(c, hyper, uniforms_t, truncated),
                                  lambda c: c, carry)
             return carry, finished
 

@@ -10,6 +10,21 @@ def test_agent_speed_quick_prints_its_table(capsys):
     out = capsys.readouterr().out
     assert "| mountain_car.cost_to_go |" in out and "| cartpole.balance |" in out
     assert out.count("(x") == 4 and "Runs measured:" in out
+    assert out.count(" %) |") == 4 and out.count("bound ") == 2  # beside each lwrl rate
+
+
+def test_the_arithmetic_model_counts_from_the_feature_sizes():
+    """The model's counts per agent-step follow from d, n and A (Mountain-Car's 8 x 8 grid,
+    3 actions: 16 exponentials; the outer product's 8 + 64 multiply-adds and 10 passes of 64,
+    for Q(s', .), Q(s, a), the decay and the update; 5 A N + 5 N doubles) and are taken from
+    each task's paper agent."""
+    from benchmarks import arithmetic_bound
+
+    counts = arithmetic_bound.step_counts(dim=2, n=8, actions=3)
+    assert (counts.exponentials, counts.multiply_adds, counts.bytes) == (16, 8 + 64 + 10 * 64,
+                                                                         8 * (15 * 64 + 5 * 64))
+    assert arithmetic_bound.task_counts("mountain_car.cost_to_go") == counts
+    assert arithmetic_bound.task_counts("cartpole.balance") == arithmetic_bound.step_counts(4, 6, 2)
 
 
 def test_logging_overhead_is_never_negative():

@@ -9,9 +9,12 @@ pytest.importorskip("jax", reason="the JAX peer needs JAX (the jax extra); CI do
                                   "install it")
 
 import jax  # noqa: E402
+import jax.numpy as jnp  # noqa: E402
 
-from benchmarks import jax_peer  # noqa: E402
+from benchmarks import agent_speed, jax_peer  # noqa: E402
+from lwrl import tasks  # noqa: E402
 from lwrl.runners.config import RunConfig  # noqa: E402
+from lwrl.runners.run import make_agent  # noqa: E402
 from lwrl.tasks import cartpole, mountain_car  # noqa: E402
 
 
@@ -66,3 +69,99 @@ def test_the_peer_learns_mountain_car_as_lwrl_does():
     assert peer < 90 and ours < 90
     assert abs(peer - ours) < 15  # about 4.5 standard errors of the difference
     assert np.mean(steps["JAX peer"][:, 0]) > 200  # it did have to learn
+
+
+TRAJECTORY_STEPS, EPISODE_LIMIT = 400, 60
+"""The fixed trajectory: its transitions, and the step limit of its episodes (short, so that
+episodes end both at terminal states and by truncation)."""
+
+
+def lwrl_trajectory(task):
+    """lwrl's paper agent of `task` (one agent, seed 0) on the task's own plant
+    (`benchmarks.agent_speed.PLANTS`) for `TRAJECTORY_STEPS` transitions, episodes cut at
+    `EPISODE_LIMIT` steps; Mountain-Car's first episode starts near the goal so that it
+    ends at a terminal state. Returns the agent's first start and action, and per
+    transition: the next state, reward, terminal and truncated flags, the next episode's
+    start, the action lwrl took at the next observed state (s', or the start after a
+    terminal state) and after a truncation its first action at the start, and lwrl's
+    features, Q, TD error and weights after the transition."""
+    config = RunConfig(task=task, agents=1, plant="analytic")
+    definition = tasks.definition(config.domain, config.task_name)
+    agent = make_agent(config)
+    plant = agent_speed.PLANTS[task]
+    rng = np.random.default_rng(0)
+    starts = definition.initial_states(rng, TRAJECTORY_STEPS)
+    if task.startswith("mountain_car"):
+        starts[0] = (0.4, 0.03)
+    arrays = agent.arrays
+    one = np.ones(1)
+
+    def observe(first, reward, discount, state):
+        return int(agent.step(np.array([first]), reward * one, discount * one, state[None, :])[0])
+
+    episode, state = 0, starts[0]
+    first = dict(start=starts[0], action=observe(True, 0.0, 1.0, starts[0]))
+    steps, rows = 0, []
+    for _ in range(TRAJECTORY_STEPS):
+        taken = rows[-1]["restart_action"] if rows else first["action"]
+        next_state, reward, terminal = plant(state, definition.controls[taken])
+        next_state = np.array(next_state, dtype=np.float64)
+        steps += 1
+        truncated = not terminal and steps >= EPISODE_LIMIT
+        action = observe(False, reward, 0.0 if terminal else 1.0, next_state)
+        row = dict(next_state=next_state, reward=float(reward), terminal=bool(terminal),
+                   truncated=truncated, start=starts[episode + 1], action=action,
+                   delta=float(arrays.delta[0]))
+        state = next_state
+        if terminal or truncated:
+            episode, steps = episode + 1, 0
+            state = starts[episode]
+            row["restart_action"] = observe(True, 0.0, 1.0, state)
+            if terminal:
+                row["action"] = row["restart_action"]
+        row.setdefault("restart_action", row["action"])
+        row.update(phi=arrays.phi[0, arrays.slot[0]].copy(), q=arrays.q[0].copy(),
+                   weights=arrays.weights[0].copy())
+        rows.append(row)
+    return first, rows
+
+
+@pytest.mark.parametrize("task", list(jax_peer.TASKS))
+def test_the_peer_updates_as_lwrls_learner_step_by_step(task):
+    """On a fixed trajectory with fixed actions (lwrl's agent's own, on the task's plant,
+    episodes ending at terminal states and by truncation), the peer's learner step
+    (`learner_step`, and `restart` after a truncation: the code its benchmark scans) gives
+    after every transition lwrl's features of the next observed state, Q there, TD error and
+    weights, to round-off (the peer contracts Q factor by factor, lwrl sums features times
+    weights in another order)."""
+    agent, hyper, keys = jax_peer.peer_agents(task, 1)
+    hyper = tuple(h[0] for h in hyper)
+    first, rows = lwrl_trajectory(task)
+    assert any(r["terminal"] for r in rows) and any(r["truncated"] for r in rows)
+    carry, _ = jax_peer.initial_carry(jax_peer.TASKS[task], agent, keys)
+    carry = jax.tree.map(lambda x: x[0], carry)
+    carry, _ = jax_peer.restart(agent, carry, first["start"], lambda q: first["action"])
+
+    @jax.jit
+    def step(carry, next_state, reward, terminal, truncated, start, action, restart_action):
+        carry, seen = jax_peer.learner_step(agent, carry, hyper, next_state, reward, terminal,
+                                            truncated, start, lambda q: action)
+        restarted, q = jax_peer.restart(agent, carry, start, lambda q: restart_action)
+        return (jax.tree.map(lambda new, old: jnp.where(truncated, new, old), restarted, carry),
+                seen["delta"], jnp.where(truncated, q, seen["q"]))
+
+    scale = max(1.0, max(np.abs(r["weights"]).max() for r in rows))
+    for t, row in enumerate(rows):
+        carry, delta, q = step(carry, row["next_state"], row["reward"], row["terminal"],
+                               row["truncated"], row["start"], row["action"],
+                               row["restart_action"])
+        where = f"{task}, transition {t}"
+        np.testing.assert_allclose(np.asarray(jax_peer.outer(carry.g)), row["phi"], rtol=1e-12,
+                                   atol=1e-300, err_msg=where)
+        np.testing.assert_allclose(float(delta), row["delta"], rtol=0, atol=1e-12 * scale,
+                                   err_msg=where)
+        np.testing.assert_allclose(np.asarray(q), row["q"], rtol=0, atol=1e-12 * scale,
+                                   err_msg=where)
+        np.testing.assert_allclose(np.asarray(carry.weights), row["weights"], rtol=0,
+                                   atol=1e-12 * scale, err_msg=where)
+        assert int(carry.action) == row["restart_action"]
