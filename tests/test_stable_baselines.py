@@ -129,3 +129,50 @@ def test_bad_settings_are_one_line(learner, setting, value, expected):
     with pytest.raises(ValueError, match=expected) as error:
         RunConfig(task=TASK, learner=learner, **{setting: value})
     assert "\n" not in str(error.value)
+
+
+HARNESS = r"""
+#include <stdio.h>
+#include "lwrl_policy.h"
+int main(void)
+{
+    lwrl_real state[LWRL_STATE_DIM];
+    while (fread(state, sizeof(lwrl_real), LWRL_STATE_DIM, stdin) == LWRL_STATE_DIM)
+        printf("%d\n", lwrl_act(state));
+    return 0;
+}
+"""
+
+
+@pytest.mark.parametrize("learner", ["dqn", "ppo"])
+def test_the_exported_network_picks_torchs_greedy_action(learner, tmp_path):
+    """The C99 forward pass of the trained network (`export_c`, template `mlp_policy`) picks
+    the action torch's network picks, on 5000 states in and around the task's ranges."""
+    import shutil
+    import subprocess
+
+    from lwrl.agent import io as agent_io
+    from lwrl.export.c import export_c, find_compiler
+    compiler = find_compiler()
+    module, settings = (dqn, dqn.DqnSettings(timesteps=400, **DQN_SETTINGS)) if learner == "dqn" \
+        else (ppo, ppo.PpoSettings(timesteps=192, **PPO_SETTINGS))
+    agents = module.make([settings], task_info(TASK), [SEED])
+    lwrl_loop(agents, SEED, settings.timesteps)
+    path = tmp_path / "agent.npz"
+    agent_io.save(path, agents, {"config": {"task": TASK}})
+    written = export_c(path, tmp_path / "c")
+    # DQN: the online Q-network, all its weights; PPO: the actor, without the critic
+    assert written["weight_bytes"] == 4 * written["parameters"]
+    assert (written["parameters"] == agents.arrays.weights.shape[1]) == (learner == "dqn")
+    (tmp_path / "c" / "main.c").write_text(HARNESS)
+    subprocess.run([compiler, "-O2", "-std=c99", "-I", str(tmp_path / "c"), "main.c", "lwrl_policy.c",
+                    "-o", "act", "-lm"], cwd=tmp_path / "c", check=True)
+    low, high = np.array(task_info(TASK).low), np.array(task_info(TASK).high)
+    states = low + (high - low) * np.random.default_rng(0).uniform(-0.25, 1.25, (5000, len(low)))
+    states = states.astype(np.float32)
+    output = subprocess.run([str(tmp_path / "c" / "act")], input=states.tobytes(), capture_output=True,
+                            check=True).stdout.split()
+    values = agents.action_values(states.astype(np.float64))[0]
+    np.testing.assert_array_equal(np.array(output, dtype=int), values.argmax(axis=1))
+    assert len(set(values.argmax(axis=1))) > 1  # the test tells actions apart
+    shutil.rmtree(tmp_path / "c")
