@@ -315,6 +315,31 @@ class ModelAgents(Agents):
     of one agent (`_step_one`)."""
 
     Arrays = None
+    COUNTERS: tuple = ()
+    """The model's counters `saved` keeps (SB3's `num_timesteps`, ...)."""
+
+    def _model(self, settings, env, seed):
+        """The SB3 model of one agent, built as SB3 builds it with `seed`."""
+        raise NotImplementedError
+
+    @staticmethod
+    def _networks(model) -> list:
+        """The model's networks whose parameters are `arrays.weights`."""
+        raise NotImplementedError
+
+    def _fresh(self, b: int) -> dict:
+        """Agent b's place in lwrl's loop before its first step (`own[b]`)."""
+        raise NotImplementedError
+
+    def _step_one(self, b, first, reward, discount, observation, learn, greedy) -> int:
+        """One time step of agent b (`Agents.step`'s arguments for it); its action."""
+        raise NotImplementedError
+
+    def _buffer_saved(self, b: int, prefix: str) -> dict:
+        raise NotImplementedError
+
+    def _buffer_loaded(self, b: int, prefix: str, arrays: dict) -> None:
+        raise NotImplementedError
 
     def __init__(self, settings, task, seeds):
         self.torch, self.sb3 = torch_modules()
