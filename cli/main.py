@@ -23,11 +23,11 @@ function the command runs. Bad input ends with one line on standard error and ex
 import sys
 
 from lwrl import outputs
-from lwrl.cli import compare, evaluate, export, reproduce, rollout, tasks, train, view
+from lwrl.cli import bench, compare, evaluate, export, reproduce, rollout, tasks, train, view
 from lwrl.cli import output
 from lwrl.cli.output import Parser
 
-SUBCOMMANDS = (tasks, rollout, train, evaluate, reproduce, compare, export, view)
+SUBCOMMANDS = (tasks, rollout, train, evaluate, reproduce, bench, compare, export, view)
 
 
 def build_parser() -> Parser:
