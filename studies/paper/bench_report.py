@@ -142,6 +142,15 @@ def _figures(task, rows, results, points, measure, figure_dir) -> list:
             f"![Pareto figures](figures/{task}-pareto.png)", ""]
 
 
+def _baseline_speed(costs) -> str:
+    """The range of the baselines' CPU per learning step, as words."""
+    steps = [cost["cpu_s_per_learning_step"] for cost in costs.values() if cost.get("label") in RIVALS]
+    if not steps:
+        return "no baseline's cost was measured"
+    return (f"a DQN or PPO agent takes {min(steps) * 1e3:.2f} to {max(steps) * 1e3:.2f} ms of CPU per "
+            f"learning step here (the tables), so one agent's run of the protocol takes minutes to hours")
+
+
 JOINING = """## Adding a learner and getting its row
 
 A learner is one module of `agent/` ending with `LEARNER = Learner(...)` (the contract,
@@ -161,6 +170,7 @@ def write(cells, results, costs, out_dir: str, command: str, seconds: float,
           total_seconds: float, computed: int) -> str:
     """Write `README.md` and the figures to `out_dir`; return the report's path."""
     figure_dir = os.path.join(out_dir, "figures")
+    costs = {config.key: costs[config.key] for _, _, config in cells if config.key in costs}
     tasks = list(dict.fromkeys(task for task, _, _ in cells))
     agents = cells[0][2].agents
     sections, verdicts = [], {}
@@ -179,16 +189,16 @@ def write(cells, results, costs, out_dir: str, command: str, seconds: float,
         "## Protocol", "",
         f"- {agents} agents per learner and task (seeds 0 to {agents - 1}), the same seeds, "
         "episodes and starts for every learner, on the "
-        f"{cells[0][2].plant_name} plant. {agents} agents per cell is what the study affords: a DQN "
-        "or PPO agent steps about 500 times a second here (CPU per learning step below), on a "
-        "2-core machine shared with other work; the intervals are wide accordingly.",
+        f"{cells[0][2].plant_name} plant. {agents} agents per cell is what the study affords "
+        f"on this {os.cpu_count()}-core machine, shared with other work: {_baseline_speed(costs)}; "
+        "the intervals are wide accordingly.",
         "- The paper's agent (`paper`) is NRBF Sarsa(λ) with the task's settings (`lwrl train`'s "
         "defaults); its other trace, true online Sarsa(λ), the CMAC (Mountain-Car) and ASE/ACE "
         "(the cart-pole) stand beside it.",
         f"- DQN and PPO: Stable-Baselines3 2.9.2 on PyTorch 2.13.0 (CPU), with rl-baselines3-zoo's "
         f"tuned sets ({protocol.ZOO}; `studies/paper/bench_protocol.py` says which set per task "
         "and what does not carry over). No search beyond the zoo's sets: its budget here was nil "
-        "(each cell of a search costs as much as the whole study's baseline runs).",
+        "(a search's every cell would cost as much as the row it tunes).",
         "- Terminal states are kept apart from truncations (DQN: the replay buffer's "
         "`handle_timeout_termination`; PPO: the truncated state's value bootstraps).",
         "- Intervals: 95 % percentile bootstrap over agents; P(paper's agent better): the "
