@@ -12,7 +12,8 @@
 - Parameters in bytes: what the learner learns (`arrays.weights` of one agent, float64 for
   lwrl's learners, float32 for SB3's networks); the learner's own estimate of one agent's
   memory (`Learner.memory`: buffers, target network and optimiser moments included).
-- Peak resident memory of the process (`getrusage`; Python, NumPy and torch included).
+- Peak resident memory of the process (`getrusage`; Python, NumPy, torch and numba's
+  compiler, which loads lwrl's kernels, included: the process's, not the learner's alone).
 - For the paper's agent, DQN and PPO: the greedy controller exported as C99
   (`lwrl.export.c`), its code and data bytes at `-Os`, and instructions per decision counted
   by `valgrind --tool=callgrind` over 1000 decisions (`-O2`; counts do not depend on the
