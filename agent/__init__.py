@@ -4,12 +4,13 @@
 below is the registry, as `tasks.DOMAIN_MODULES` is the suite's. `LEARNERS[name]` is a
 learner's `Learner`, `learner(name)` the same with a one-line error naming the learners.
 Shared pieces: `features`, `nrbf` and `cmac` (feature maps), `linear` (what linear learners
-share), `traces`, `policy`, `streams` and `threads`; `io` saves and loads agents.
+share), `stable_baselines` (what the Stable-Baselines3 learners share), `traces`, `policy`,
+`streams` and `threads`; `io` saves and loads agents.
 """
 
 import importlib
 
-LEARNER_MODULES = ("sarsa", "true_online_sarsa", "ase_ace")
+LEARNER_MODULES = ("sarsa", "true_online_sarsa", "ase_ace", "dqn", "ppo")
 """The registry: the modules of `agent/` that each define one learner, the default first."""
 
 LEARNERS = {module.LEARNER.name: module.LEARNER for module in

@@ -81,11 +81,16 @@ def add_parser(commands) -> None:
     paper.add_argument("--quick", action="store_true", help="tiny grids: a smoke test in seconds")
     paper.add_argument("--out", metavar="DIR", default="reproduction",
                        help="output directory (default: reproduction)")
-    paper.add_argument("--workers", type=fields.positive_int,
-                       help="threads of the local backend (default: all cores)")
-    paper.add_argument("--backend", choices=("local", "ray"), default="local")
-    paper.add_argument("--address", help="Ray cluster address (default: start a local Ray instance)")
+    add_sweep_flags(paper)
     paper.set_defaults(run=reproduce_items)
+
+
+def add_sweep_flags(parser) -> None:
+    """The flags of a command that runs a sweep (`runners.sweep`): where its batches run."""
+    parser.add_argument("--workers", type=fields.positive_int,
+                        help="threads of the local backend (default: all cores)")
+    parser.add_argument("--backend", choices=("local", "ray"), default="local")
+    parser.add_argument("--address", help="Ray cluster address (default: start a local Ray instance)")
 
 
 def reproduce_items(args) -> int:

@@ -3,7 +3,9 @@
 Främling (2008) argues that the trained controller is cheap enough for embedded software.
 `export_c` writes one saved agent (a file of `lwrl train --save`, read by `agent.io.load`)
 whose learner has a C controller (`Agents.controller`: the template it fills and the values;
-today NRBF agents, below) as two files in `out_dir`:
+NRBF agents, below, and the Stable-Baselines3 learners' networks, template `mlp_policy`: a
+plain forward pass over `const` weights, `tanhf`/`tanh` where the actor uses tanh) as two
+files in `out_dir`:
 
 - `lwrl_policy.h`: the interface. `int lwrl_act(const lwrl_real *state)` returns the greedy
   action index; `void lwrl_q_values(const lwrl_real *state, lwrl_real *q)` writes Q(s, .).
@@ -215,6 +217,7 @@ def export_c(agent_path, out_dir, agent_index: int = 0, dtype: str = "float") ->
         weight_bytes=weight_bytes, flash_bytes=weight_bytes + constant_bytes,
         zero=_literal(0.0, dtype), one=_literal(1.0, dtype), half=_literal(0.5, dtype),
         exp="expf" if dtype == "float" else "exp", fabs="fabsf" if dtype == "float" else "fabs",
+        tanh="tanhf" if dtype == "float" else "tanh",
     )
     paths = write_files(out_dir, {HEADER: template(f"{form.template}.h").substitute(fields),
                                   SOURCE: template(f"{form.template}.c").substitute(fields)})

@@ -64,7 +64,7 @@ def test_rollout_reports_finished_cartpole_episodes(capsys):
     (["train", "cartpole.balance", "--epsilon", "2"], "epsilon must be a number in [0, 1]; got 2.0"),
     (["train", "cartpole.balance", "--trace", "eligible"],
      "must be one of replacing, accumulating, replacing_reset"),
-    (["train", "cartpole.balance", "--learner", "dqn"], "argument --learner: must be one of sarsa"),
+    (["train", "cartpole.balance", "--learner", "nobody"], "argument --learner: must be one of sarsa"),
     (["train", "cartpole.balance", "--alpha", "inf"], "argument --alpha: must be a finite number; got 'inf'"),
     (["reproduce", "fig8", "--quick", "--set", "r2=abc"], "--set r2 must be a finite number; got 'abc'"),
     (["train", "cartpole.balance", "--n", "1"], "must be an integer >= 2; got 1"),

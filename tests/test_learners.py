@@ -43,8 +43,8 @@ def test_the_registry_names_each_learner_once():
     for name, learner in learners.LEARNERS.items():
         assert learner.name == name and learner.title and learner.source
         assert dataclasses.is_dataclass(learner.settings)
-    with pytest.raises(ValueError, match="unknown learner 'dqn'; available: sarsa, "):
-        learners.learner("dqn")
+    with pytest.raises(ValueError, match="unknown learner 'no_such'; available: sarsa, "):
+        learners.learner("no_such")
 
 
 def test_settings_shared_by_name_mean_one_kind_of_value():

@@ -1,0 +1,71 @@
+"""`lwrl bench`: every learner of the registry under one protocol (`bench_protocol`), its
+costs (`bench_costs`) and the report (`bench_report`), for the light-weight claim of
+docs/FINDINGS.md.
+
+Layout of the output directory:
+
+    runs/<key>.csv.gz     one finished run (the sweep's store: resumable, claimed in batches)
+    results.csv.gz        every run's tidy table, with a `label` column naming the learner row
+    configs.jsonl         every run's full configuration
+    costs.json            the cost measurements per (task, learner) (kept: not measured again)
+    timings.json          the wall time of each call that finished
+    controllers/          the exported C controllers and their instruction counts
+    figures/              learning curves and Pareto figures per task
+    README.md             the report
+"""
+
+import json
+import os
+import time
+
+from lwrl import outputs
+from lwrl.runners import sweep
+from lwrl.studies.paper import bench_protocol as protocol
+
+CHEAP_FIRST = ("dqn", "ppo")
+"""Labels run last: the others take seconds; the partial results are whole tasks' rows."""
+
+
+def ordered(cells) -> list:
+    """The cells, lwrl's learners on every task before the baselines, task by task."""
+    return sorted(cells, key=lambda cell: (cell[1] in CHEAP_FIRST, cell[1] in CHEAP_FIRST
+                                           and list(protocol.TASKS).index(cell[0])))
+
+
+def bench(tasks, labels, out_dir: str, plant: str = "analytic", agents: int = 5,
+          quick: bool = False, backend: str = "local", workers=None, address=None,
+          command: str = "") -> str:
+    """Run (or resume) the benchmark's runs, measure the costs, write the report; return
+    the report's path."""
+    started = time.perf_counter()
+    tasks = protocol.check_tasks(tasks)
+    labels = protocol.check_learners(labels, tasks)
+    cells = ordered(protocol.configs(tasks, labels, plant, agents, quick))
+    os.makedirs(out_dir, exist_ok=True)
+    configs = [config for _, _, config in cells]
+    sweep.write_configs(configs, os.path.join(out_dir, "configs.jsonl"))
+    results, computed = sweep.run_sweep(configs, out_dir, backend=backend, workers=workers,
+                                        address=address, description="bench")
+    label_of = {config.key: label for _, label, config in cells}
+    results.insert(1, "label", results["run"].map(label_of))
+    with outputs.atomic_path(os.path.join(out_dir, "results.csv.gz")) as temporary:
+        results.to_csv(temporary, index=False, compression="gzip")
+    from lwrl.studies.paper import bench_costs, bench_report
+    costs = bench_costs.measure_all(cells, out_dir, quick=quick)
+    seconds = time.perf_counter() - started
+    return bench_report.write(cells, results, costs, out_dir, command=command, seconds=seconds,
+                              total_seconds=_timed(out_dir, seconds), computed=computed)
+
+
+def _timed(out_dir: str, seconds: float) -> float:
+    """The wall time of every call that got this far in `out_dir` (`timings.json`), this
+    one's `seconds` added; an interrupted call's time is lost with it."""
+    path = os.path.join(out_dir, "timings.json")
+    calls = []
+    if os.path.isfile(path):
+        with open(path) as file:
+            calls = json.load(file)
+    calls.append(seconds)
+    with outputs.atomic_write(path) as file:
+        json.dump(calls, file)
+    return sum(calls)

@@ -1,0 +1,178 @@
+"""The Stable-Baselines3 learners (`agent.dqn`, `agent.ppo`): stepped by lwrl's loop they
+compute what SB3's own `learn()` computes, to the bit, on the same environment and seed,
+terminal states and truncations included; their settings are checked in one line; their
+greedy Q-network exports as C99 that picks torch's action. Tiny budgets (seconds); skipped,
+naming the extra, where PyTorch and Stable-Baselines3 are not installed."""
+
+import numpy as np
+import pytest
+
+from lwrl.agent import stable_baselines
+
+if stable_baselines.missing_libraries():
+    pytest.skip("the baselines extra is not installed (pip install 'lwrl[baselines]')",
+                allow_module_level=True)
+
+import torch  # noqa: E402
+from stable_baselines3 import DQN, PPO  # noqa: E402
+
+from lwrl.agent import dqn, ppo  # noqa: E402
+from lwrl.gym import SuiteEnv  # noqa: E402
+from lwrl.runners.config import RunConfig, task_info  # noqa: E402
+
+TASK = "cartpole.balance"
+TIME_LIMIT = 0.6
+"""Seconds per episode: 30 steps, so the runs see both pole falls (terminal states) and
+truncations."""
+SEED = 3
+
+
+def environment():
+    return SuiteEnv("cartpole", "balance", plant="analytic", time_limit=TIME_LIMIT)
+
+
+def lwrl_loop(agents, seed: int, steps: int, calls: int = 10**9):
+    """Step one agent through the Gymnasium environment as lwrl's loops do (a terminal
+    state gets no action; a truncated episode's last observation gets one, given back at
+    the next episode's start) until it has learned for `steps` steps, or for `calls` time
+    steps. Returns the episodes' ends seen: (terminal, truncated) counts."""
+    env = environment()
+    observation, _ = env.reset(seed=seed)
+    first, reward, discount, truncated = True, 0.0, 1.0, False
+    ends = [0, 0]
+    for _ in range(calls):
+        if agents.models[0].num_timesteps >= steps:
+            break
+        action = agents.step([first], [reward], [discount], observation[None])[0]
+        if (not first and discount == 0.0) or truncated:
+            ends[0 if discount == 0.0 else 1] += 1
+            observation, _ = env.reset()
+            first, reward, discount, truncated = True, 0.0, 1.0, False
+            continue
+        observation, reward, terminated, truncated, _ = env.step(action)
+        first, discount = False, 0.0 if terminated else 1.0
+    return ends
+
+
+def parameters(module) -> np.ndarray:
+    return torch.nn.utils.parameters_to_vector(module.parameters()).detach().numpy()
+
+
+DQN_SETTINGS = dict(net_arch="16,16", learning_rate=1e-3, buffer_size=500, learning_starts=40,
+                    batch_size=16, train_freq=4, gradient_steps=2, target_update_interval=50,
+                    exploration_fraction=0.5, gamma=0.98)
+PPO_SETTINGS = dict(net_arch="16,16", learning_rate=1e-3, n_steps=64, batch_size=32, n_epochs=2,
+                    gamma=0.98, gae_lambda=0.9)
+
+
+def sb3_kwargs(settings) -> dict:
+    kwargs = {k: v for k, v in settings.items() if k != "net_arch"}
+    return dict(kwargs, policy_kwargs={"net_arch": [int(w) for w in settings["net_arch"].split(",")]},
+                seed=SEED, device="cpu")
+
+
+def test_dqn_in_lwrls_loop_is_sb3s_learn_to_the_bit():
+    steps = 400
+    agents = dqn.make([dqn.DqnSettings(timesteps=steps, **DQN_SETTINGS)], task_info(TASK), [SEED])
+    terminal, truncated = lwrl_loop(agents, SEED, steps)
+    assert terminal > 0 and truncated > 0  # both kinds of end were seen
+    model = DQN("MlpPolicy", environment(), replay_buffer_kwargs={"handle_timeout_termination": True},
+                **sb3_kwargs(DQN_SETTINGS))
+    model.learn(total_timesteps=steps)
+    mine = agents.models[0]
+    assert mine._n_updates == model._n_updates > 0
+    np.testing.assert_array_equal(parameters(mine.q_net), parameters(model.q_net))
+    np.testing.assert_array_equal(parameters(mine.q_net_target), parameters(model.q_net_target))
+    used = model.replay_buffer.pos
+    for name in ("observations", "actions", "rewards", "dones", "timeouts"):
+        np.testing.assert_array_equal(getattr(mine.replay_buffer, name)[:used],
+                                      getattr(model.replay_buffer, name)[:used], err_msg=name)
+    assert model.replay_buffer.timeouts[:used].sum() > 0
+
+
+def test_ppo_in_lwrls_loop_is_sb3s_learn_to_the_bit():
+    steps = 3 * PPO_SETTINGS["n_steps"]
+    agents = ppo.make([ppo.PpoSettings(timesteps=steps, **PPO_SETTINGS)], task_info(TASK), [SEED])
+    terminal, truncated = lwrl_loop(agents, SEED, steps)
+    assert terminal > 0 and truncated > 0
+    model = PPO("MlpPolicy", environment(), **sb3_kwargs(PPO_SETTINGS))
+    model.learn(total_timesteps=steps)
+    assert agents.models[0]._n_updates == model._n_updates > 0
+    np.testing.assert_array_equal(parameters(agents.models[0].policy), parameters(model.policy))
+
+
+def test_after_its_horizon_an_agent_acts_greedily_and_learns_no_more():
+    steps = 64
+    agents = ppo.make([ppo.PpoSettings(timesteps=steps, **PPO_SETTINGS)], task_info(TASK), [SEED])
+    lwrl_loop(agents, SEED, steps)
+    before = agents.arrays.weights.copy()
+    lwrl_loop(agents, SEED + 1, steps + 1, calls=3 * PPO_SETTINGS["n_steps"])
+    assert agents.models[0].num_timesteps == steps
+    np.testing.assert_array_equal(agents.arrays.weights, before)
+
+
+def test_models_leave_nothing_under_the_temporary_directory(tmp_path, monkeypatch):
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+    import tempfile
+    monkeypatch.setattr(tempfile, "tempdir", None)
+    agents = dqn.make([dqn.DqnSettings(timesteps=64, **DQN_SETTINGS)], task_info(TASK), [SEED])
+    lwrl_loop(agents, SEED, 64)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("learner, setting, value, expected", [
+    ("dqn", "net_arch", "64,x", "net_arch must be comma-separated positive integers"),
+    ("dqn", "exploration_final_eps", 1.5, "exploration_final_eps"),
+    ("ppo", "clip_range", 0.0, "clip_range"),
+])
+def test_bad_settings_are_one_line(learner, setting, value, expected):
+    with pytest.raises(ValueError, match=expected) as error:
+        RunConfig(task=TASK, learner=learner, **{setting: value})
+    assert "\n" not in str(error.value)
+
+
+HARNESS = r"""
+#include <stdio.h>
+#include "lwrl_policy.h"
+int main(void)
+{
+    lwrl_real state[LWRL_STATE_DIM];
+    while (fread(state, sizeof(lwrl_real), LWRL_STATE_DIM, stdin) == LWRL_STATE_DIM)
+        printf("%d\n", lwrl_act(state));
+    return 0;
+}
+"""
+
+
+@pytest.mark.parametrize("learner", ["dqn", "ppo"])
+def test_the_exported_network_picks_torchs_greedy_action(learner, tmp_path):
+    """The C99 forward pass of the trained network (`export_c`, template `mlp_policy`) picks
+    the action torch's network picks, on 5000 states in and around the task's ranges."""
+    import shutil
+    import subprocess
+
+    from lwrl.agent import io as agent_io
+    from lwrl.export.c import export_c, find_compiler
+    compiler = find_compiler()
+    module, settings = (dqn, dqn.DqnSettings(timesteps=400, **DQN_SETTINGS)) if learner == "dqn" \
+        else (ppo, ppo.PpoSettings(timesteps=192, **PPO_SETTINGS))
+    agents = module.make([settings], task_info(TASK), [SEED])
+    lwrl_loop(agents, SEED, settings.timesteps)
+    path = tmp_path / "agent.npz"
+    agent_io.save(path, agents, {"config": {"task": TASK}})
+    written = export_c(path, tmp_path / "c")
+    # DQN: the online Q-network, all its weights; PPO: the actor, without the critic
+    assert written["weight_bytes"] == 4 * written["parameters"]
+    assert (written["parameters"] == agents.arrays.weights.shape[1]) == (learner == "dqn")
+    (tmp_path / "c" / "main.c").write_text(HARNESS)
+    subprocess.run([compiler, "-O2", "-std=c99", "-I", str(tmp_path / "c"), "main.c", "lwrl_policy.c",
+                    "-o", "act", "-lm"], cwd=tmp_path / "c", check=True)
+    low, high = np.array(task_info(TASK).low), np.array(task_info(TASK).high)
+    states = low + (high - low) * np.random.default_rng(0).uniform(-0.25, 1.25, (5000, len(low)))
+    states = states.astype(np.float32)
+    output = subprocess.run([str(tmp_path / "c" / "act")], input=states.tobytes(), capture_output=True,
+                            check=True).stdout.split()
+    values = agents.action_values(states.astype(np.float64))[0]
+    np.testing.assert_array_equal(np.array(output, dtype=int), values.argmax(axis=1))
+    assert len(set(values.argmax(axis=1))) > 1  # the test tells actions apart
+    shutil.rmtree(tmp_path / "c")
