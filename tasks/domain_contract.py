@@ -83,6 +83,10 @@ class Domain:
     """The viewer's scene where the domain has no MJCF model (else drawn from the model)."""
     comparison: Optional[PlantComparison] = None
     """The plant comparison's settings, for domains with a MuJoCo plant."""
+    robustness_axes: tuple = ()
+    """The one or two physical parameters (names of `parameters`) whose grid the robustness
+    study spans (`lwrl robustness`): what a real plant most often has otherwise than
+    modelled, its load and its actuator's strength."""
 
     @property
     def model(self) -> Optional[str]:

@@ -195,4 +195,5 @@ DOMAIN = Domain(
     name="mountain_car", tasks={"cost_to_go": cost_to_go},
     plants=DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=Physics,
                         parameters=PARAMETERS, euler=False, analytic_options=()),
-    value_axes=("position", "velocity"), drawing=_drawing())
+    value_axes=("position", "velocity"), drawing=_drawing(),
+    robustness_axes=("gravity", "thrust"))
