@@ -12,6 +12,8 @@
                                                    the paper's figures and table, and a report
     lwrl compare DOMAIN.TASK [--seeds N] [--episodes K] [--out DIR] [--rrd PATH] [--quick]
                                                    the analytic and MuJoCo plants compared
+    lwrl robustness DOMAIN.TASK... [--agents N] [--episodes K] [--out DIR] [--quick]
+                                                   trained controllers away from the paper's plant
     lwrl export PATH --c OUT_DIR [--agent I]       a saved agent as a C99 controller
     lwrl view PATH [--web] [--screenshot PNG]      open a Rerun recording of lwrl train --rrd,
                                                    serve it to a browser, or render it
@@ -23,11 +25,11 @@ function the command runs. Bad input ends with one line on standard error and ex
 import sys
 
 from lwrl import outputs
-from lwrl.cli import compare, evaluate, export, reproduce, rollout, tasks, train, view
+from lwrl.cli import compare, evaluate, export, reproduce, robustness, rollout, tasks, train, view
 from lwrl.cli import output
 from lwrl.cli.output import Parser
 
-SUBCOMMANDS = (tasks, rollout, train, evaluate, reproduce, compare, export, view)
+SUBCOMMANDS = (tasks, rollout, train, evaluate, reproduce, compare, robustness, export, view)
 
 
 def build_parser() -> Parser:
