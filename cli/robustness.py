@@ -1,11 +1,13 @@
 """`lwrl robustness`: how far from the paper's plant the learned controllers still work."""
 
 import shlex
-import sys
 import time
 
 from lwrl import outputs, tasks
 from lwrl.cli import fields, output
+
+OUT = "robustness"
+"""The default output directory."""
 
 
 def add_parser(commands) -> None:
@@ -28,12 +30,28 @@ def add_parser(commands) -> None:
     study.add_argument("--evaluation-episodes", type=fields.positive_int,
                        help="greedy episodes per agent and cell (default: the plant "
                             "comparison's transfer episodes, else 10)")
-    study.add_argument("--out", metavar="DIR", default="robustness",
-                       help="output directory (default: robustness)")
+    study.add_argument("--out", metavar="DIR", default=OUT,
+                       help=f"output directory (default: {OUT})")
     study.add_argument("--workers", type=fields.positive_int,
                        help="threads (default: all cores)")
     study.add_argument("--quick", action="store_true", help="tiny grids: a smoke test in seconds")
     study.set_defaults(run=study_robustness)
+
+
+def command_line(args) -> str:
+    """The command that makes this study again, as the report names it: the tasks and every
+    option away from its default, the threads aside (they change no number)."""
+    words = ["lwrl", "robustness", *args.task]
+    if args.plant != "analytic":
+        words += ["--plant", args.plant]
+    for name in ("agents", "episodes", "evaluation_episodes"):
+        if getattr(args, name) is not None:
+            words += ["--" + name.replace("_", "-"), str(getattr(args, name))]
+    if args.quick:
+        words.append("--quick")
+    if args.out != OUT:
+        words += ["--out", args.out]
+    return shlex.join(words)
 
 
 def study_robustness(args) -> int:
@@ -42,9 +60,7 @@ def study_robustness(args) -> int:
     started = time.perf_counter()
     output.claim_outputs(args, "out")
     outputs.check_directory(args.out, "--out")  # a study resumes in its directory
-    command = shlex.join(["lwrl", *sys.argv[1:]]) if sys.argv[1:2] == ["robustness"] else \
-        shlex.join(["lwrl", "robustness", *args.task])
-    path = module.robustness(args.task, args.out, command, plant=args.plant, quick=args.quick,
+    path = module.robustness(args.task, args.out, command_line(args), plant=args.plant, quick=args.quick,
                              agents=args.agents, episodes=args.episodes,
                              evaluation_episodes=args.evaluation_episodes, workers=args.workers)
     output.done(started, [path, f"the figures in {args.out}/figures", f"the runs in {args.out}/runs"])
