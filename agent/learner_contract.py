@@ -29,12 +29,13 @@ What a batch of agents gives (`Agents`): `step` over the batch (the stepped loop
 `(B, ...)` the loops read for recordings: the action values or preferences at the latest
 observation, the latest TD error or NaN, the divergence flag, and what the learner has
 learned), action values and state values over states where the learner has them, its
-greedy controller as C where it has one, and what `agent.io` saves.
+greedy controller as C where it has one, itself as C that learns on a device where it can,
+and what `agent.io` saves.
 """
 
 import collections
 import dataclasses
-from typing import Any, Callable
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
@@ -190,6 +191,11 @@ class Agents:
         ValueError saying why there is none."""
         raise ValueError(f"{self.learner.name} agents have no C controller")
 
+    def learner_form(self, b: int) -> "LearnerForm":
+        """Agent b as C that goes on learning on a device (`export.learner`): a
+        `LearnerForm`, or a one-line ValueError saying why there is none."""
+        raise ValueError(f"{self.learner.name} agents cannot learn in C")
+
     def saved(self) -> tuple[dict, dict]:
         """`(document, arrays)`: what `agent.io.save` writes (JSON and NumPy arrays); the
         learner's `load` reads them back."""
@@ -216,6 +222,43 @@ class ControllerForm:
     check: Callable
     """`check(real)`: None, or one line saying why the values do not fit the NumPy type
     `real` (`np.float32`, `np.float64`)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class LearnerForm:
+    """A learner as C99 that learns on a device, as `export.learner` writes it: a template
+    pair below `export/templates` (`{template}.c.in`, `{template}.h.in`) and the values its
+    placeholders take, beside the ones every learner has (the task, where the agent came
+    from, the RAM, the floating-point type, the random stream's C code), and the parts of
+    its static RAM. The C interface is the export's: `lwrl_reset`, `lwrl_begin`,
+    `lwrl_learn`, `lwrl_greedy`, `lwrl_weights`, `lwrl_diverged`."""
+
+    template: str
+    """Name of the template pair, e.g. `learner/lwrl_learner`."""
+    values: Callable
+    """`values(real)`: `{placeholder: value}` for a build in the NumPy type `real`
+    (`np.float32`, `np.float64`; a constant may depend on it), written as
+    `ControllerForm.values` are: floats and 1-D arrays as literals of `real`, a str or int
+    as it is (so a constant that stays a double in every build comes as its C literal).
+    Always there: `weights`, the learned parameters the C learner starts from (a 2-D array),
+    and `seed`, the 64-bit state its random stream starts from."""
+    ram: Mapping
+    """`{part: (reals, other bytes)}`: each part of its static RAM, as a count of values of
+    the build's floating-point type and a count of other bytes (integers), in the order
+    they are reported."""
+    ranges: tuple
+    """`(low, high)` per state variable: the box it reads states in."""
+    stream: Any
+    """The random stream its C code draws from as lwrl does (`agent.streams.SPLITMIX64`)."""
+    check: Callable
+    """`check(real)`: None, or one line saying why its constants do not fit `real`."""
+    summary: str
+    """Its size and settings in one line, e.g. `8 x 8 grid x 3 actions, replacing traces,
+    alpha 3.9, ...`."""
+    name: str
+    """What it is in a refusal for lack of RAM: `the 6 x 6 x 6 x 6 grid's learner`."""
+    smaller: str
+    """How to make it smaller, in the same refusal: `a coarser grid (--n)`."""
 
 
 BLOCK = 1024

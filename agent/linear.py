@@ -313,6 +313,23 @@ def nrbf_on_grid(features: NRBF, axes, weights) -> np.ndarray:
     return np.einsum(",".join(terms) + "->" + grid + "a", *operands, optimize=True)
 
 
+def nrbf_check(features: NRBF, real, **constants) -> str | None:
+    """None, or one line saying why an NRBF's ranges, its r^2 and its clamp
+    (`clamp_margin`), or the other `constants` `{name: value}` of code that computes it in
+    the NumPy type `real` (`np.float32`), do not fit that type."""
+    low, high = np.array(features.low), np.array(features.high)
+    with np.errstate(over="ignore", invalid="ignore"):
+        span = high.astype(real) - low.astype(real)
+        r2, s_max = real(features.r2), real(1.0 + clamp_margin(features.n, features.r2))
+        others = np.array(list(constants.values()), dtype=np.float64).astype(real)
+    if not (np.all(np.isfinite(span)) and np.all(span > 0) and np.isfinite(s_max)
+            and np.isfinite(r2) and r2 >= np.finfo(real).tiny and np.all(np.isfinite(others))):
+        parts = ["the ranges", f"r^2 = {features.r2!r}",
+                 *(f"{name} = {value!r}" for name, value in constants.items())]
+        return f"{', '.join(parts[:-1])} or {parts[-1]} do not fit {np.dtype(real).name}"
+    return None
+
+
 class LinearAgents(Agents):
     """Agents whose `arrays.weights` `(B, A, N)` weigh the features of `features`."""
 
@@ -392,16 +409,6 @@ class LinearAgents(Agents):
                              f"{type(features).__name__} features")
         margin = clamp_margin(features.n, features.r2)
         low, high = np.array(features.low), np.array(features.high)
-
-        def check(real):
-            with np.errstate(over="ignore", invalid="ignore"):
-                span = high.astype(real) - low.astype(real)
-                r2, s_max = real(features.r2), real(1.0 + margin)
-            if not (np.all(np.isfinite(span)) and np.all(span > 0) and np.isfinite(s_max)
-                    and np.isfinite(r2) and r2 >= np.finfo(real).tiny):
-                return f"the ranges or r^2 = {features.r2!r} do not fit {np.dtype(real).name}"
-            return None
-
         return ControllerForm(
             template="lwrl_policy",
             values={"weights": self.arrays.weights[b], "low": low, "high": high,
@@ -410,4 +417,4 @@ class LinearAgents(Agents):
                     "grid": " x ".join([str(features.n)] * features.dim),
                     "r2_text": f"{features.r2:g}"},
             stored=("weights", "low", "high", "r2"), ranges=(features.low, features.high),
-            check=check)
+            check=lambda real: nrbf_check(features, real))

@@ -19,7 +19,9 @@ marks the agent diverged and freezes its weights.
 One learner over two feature maps (`agent.linear`: the paper's NRBF network, or the CMAC
 baseline's tile coding): the update rule is the same, and the paper's Fig. 2 compares the
 two feature maps under it. The per-agent step is numba-jitable (`agent_step`), so compiled
-loops that also step the plant call the very same code as `BatchedSarsa.step`.
+loops that also step the plant call the very same code as `BatchedSarsa.step`; an agent
+with NRBF features and replacing or accumulating traces is also C99 that goes on learning
+on a device, with the same arithmetic (`agent.sarsa_c`, `BatchedSarsa.learner_form`).
 """
 
 import collections
@@ -28,7 +30,8 @@ import dataclasses
 import numpy as np
 from numba.extending import register_jitable
 
-from lwrl.agent.learner_contract import Learner
+from lwrl.agent import sarsa_c
+from lwrl.agent.learner_contract import Learner, LearnerForm
 from lwrl.agent.linear import (LinearAgents, LinearSettings, action_value, advance, choose,
                                linear_arrays, linear_memory)
 from lwrl.agent.traces import TRACES, update_
@@ -104,6 +107,11 @@ class BatchedSarsa(LinearAgents):
     def saved(self) -> tuple[dict, dict]:
         document, arrays = super().saved()
         return {**document, "trace": [TRACES[t] for t in self.arrays.trace]}, arrays
+
+    def learner_form(self, b: int) -> LearnerForm:
+        """Agent b as the C learner (`agent.sarsa_c`): NRBF features, replacing or
+        accumulating traces."""
+        return sarsa_c.learner_form(self, b)
 
 
 def make(settings, task, seeds) -> BatchedSarsa:

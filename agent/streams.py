@@ -5,14 +5,24 @@ that advances by a constant and is hashed on output. An agent's draws depend onl
 seed, so its results are the same whether it runs alone or in any batch, in any order.
 """
 
+import collections
+
 import numpy as np
 from numba.extending import register_jitable
 
-_GOLDEN_GAMMA = np.uint64(0x9E3779B97F4A7C15)
-_MIX_1 = np.uint64(0xBF58476D1CE4E5B9)
-_MIX_2 = np.uint64(0x94D049BB133111EB)
-_SHIFTS = (np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(11))
-_TO_UNIT = 2.0 ** -53
+SplitMix64 = collections.namedtuple("SplitMix64", "increment multipliers shifts unit")
+"""A SplitMix64 stream's constants (see `SPLITMIX64`)."""
+SPLITMIX64 = SplitMix64(increment=0x9E3779B97F4A7C15,
+                        multipliers=(0xBF58476D1CE4E5B9, 0x94D049BB133111EB),
+                        shifts=(30, 27, 31, 11), unit=2.0 ** -53)
+"""The stream `uniform` draws from, in plain numbers, for code that draws lwrl's numbers
+elsewhere (the C learner, `export.learner`): the state's increment (the golden gamma), the
+hash's two multipliers, its three shifts and then the one that keeps 53 bits, and 2^-53,
+which makes those bits a float in [0, 1)."""
+_GOLDEN_GAMMA = np.uint64(SPLITMIX64.increment)
+_MIX_1, _MIX_2 = (np.uint64(m) for m in SPLITMIX64.multipliers)
+_SHIFTS = tuple(np.uint64(s) for s in SPLITMIX64.shifts)
+_TO_UNIT = SPLITMIX64.unit
 
 
 def seed_streams(seeds) -> np.ndarray:

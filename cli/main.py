@@ -15,6 +15,10 @@
     lwrl robustness DOMAIN.TASK... [--agents N] [--episodes K] [--out DIR] [--quick]
                                                    trained controllers away from the paper's plant
     lwrl export PATH --c OUT_DIR [--agent I]       a saved agent as a C99 controller
+    lwrl learner DOMAIN.TASK|PATH --c OUT_DIR [--real R] [--ram BYTES] ...
+                                                   the learner itself as C99
+    lwrl device run DOMAIN.TASK | costs DOMAIN.TASK...
+                                                   learn on an emulated Cortex-M4; the cost
     lwrl view PATH [--web] [--screenshot PNG]      open a Rerun recording of lwrl train --rrd,
                                                    serve it to a browser, or render it
 
@@ -25,11 +29,13 @@ function the command runs. Bad input ends with one line on standard error and ex
 import sys
 
 from lwrl import outputs
-from lwrl.cli import compare, evaluate, export, reproduce, robustness, rollout, tasks, train, view
+from lwrl.cli import (compare, device, evaluate, export, learner, reproduce, robustness, rollout,
+                      tasks, train, view)
 from lwrl.cli import output
 from lwrl.cli.output import Parser
 
-SUBCOMMANDS = (tasks, rollout, train, evaluate, reproduce, compare, robustness, export, view)
+SUBCOMMANDS = (tasks, rollout, train, evaluate, reproduce, compare, robustness, export, learner,
+               device, view)
 
 
 def build_parser() -> Parser:

@@ -60,8 +60,10 @@ _VALUES_PER_LINE = 6
 
 
 def template(name: str) -> string.Template:
-    """The template `templates/<name>.in` (e.g. `lwrl_policy.c`)."""
-    return string.Template(resources.files(__package__).joinpath("templates", f"{name}.in").read_text())
+    """The template of the exported file `name` (`lwrl_policy.c`, `lwrl_policy.h`, or a
+    path below `templates/` such as `learner/lwrl_learner.c`)."""
+    return string.Template(resources.files(__package__).joinpath(
+        "templates", *f"{name}.in".split("/")).read_text())
 
 
 def _literal(value, dtype: str) -> str:
@@ -80,6 +82,13 @@ def _literal(value, dtype: str) -> str:
 def _comment(text: str) -> str:
     """`text` made safe inside a C block comment."""
     return text.replace("*/", "* /").replace("\n", " ").replace("\r", " ")
+
+
+def _check_dtype(dtype: str) -> str:
+    """`dtype` if it is one of `DTYPES`' names, else a one-line error."""
+    if dtype not in DTYPES:
+        raise ValueError(f"dtype must be one of {', '.join(DTYPES)}; got {dtype!r}")
+    return dtype
 
 
 def _check_index(agent_index, batch: int) -> int:
@@ -148,8 +157,7 @@ def export_c(agent_path, out_dir, agent_index: int = 0, dtype: str = "float") ->
     ranges and r^2) and `flash_bytes` (their sum; the compiled code comes on top, see
     `measure`), and the controller's own values that are sizes (an NRBF's `grid`, `neurons`).
     """
-    if dtype not in DTYPES:
-        raise ValueError(f"dtype must be one of {', '.join(DTYPES)}; got {dtype!r}")
+    _check_dtype(dtype)
     agent, metadata = agent_io.load(agent_path)
     b = _check_index(agent_index, agent.batch_size)
     try:
@@ -208,23 +216,28 @@ def export_c(agent_path, out_dir, agent_index: int = 0, dtype: str = "float") ->
         zero=_literal(0.0, dtype), one=_literal(1.0, dtype), half=_literal(0.5, dtype),
         exp="expf" if dtype == "float" else "exp", fabs="fabsf" if dtype == "float" else "fabs",
     )
-    source_text = template(f"{form.template}.c").substitute(fields)
-    header_text = template(f"{form.template}.h").substitute(fields)
-    source_path, header_path = os.path.join(out_dir, SOURCE), os.path.join(out_dir, HEADER)
-    try:
-        os.makedirs(out_dir, exist_ok=True)
-        with outputs.atomic_write(header_path, encoding="utf-8") as file:
-            file.write(header_text)
-        with outputs.atomic_write(source_path, encoding="utf-8") as file:
-            file.write(source_text)
-    except OSError as error:
-        raise ValueError(f"{out_dir}: cannot write the C files ({error.strerror or error})") from None
+    paths = write_files(out_dir, {HEADER: template(f"{form.template}.h").substitute(fields),
+                                  SOURCE: template(f"{form.template}.c").substitute(fields)})
     sizes = {name: value for name, value in form.values.items()
              if isinstance(value, int) and not isinstance(value, bool)}
-    return {"source": source_path, "header": header_path, "task": task, "agent_index": b,
+    return {"source": paths[SOURCE], "header": paths[HEADER], "task": task, "agent_index": b,
             "dtype": dtype, "state_dim": dim, "actions": num_actions, **sizes,
             "weight_bytes": weight_bytes, "constant_bytes": constant_bytes,
             "flash_bytes": weight_bytes + constant_bytes}
+
+
+def write_files(out_dir, texts: dict) -> dict:
+    """Write `{file name: text}` into `out_dir` (created if needed), each file whole, in
+    order; `{file name: path}`, or a one-line error if they cannot be written."""
+    paths = {name: os.path.join(out_dir, name) for name in texts}
+    try:
+        os.makedirs(out_dir, exist_ok=True)
+        for name, text in texts.items():
+            with outputs.atomic_write(paths[name], encoding="utf-8") as file:
+                file.write(text)
+    except OSError as error:
+        raise ValueError(f"{out_dir}: cannot write the C files ({error.strerror or error})") from None
+    return paths
 
 
 def find_compiler(compiler=None) -> str:

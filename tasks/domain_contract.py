@@ -5,7 +5,7 @@ registry (`tasks.DOMAINS`) lists the modules. Every other room looks a domain up
 names none: the runners take the plants and the run defaults, the viewer the drawing and
 the value image's axes, the plant comparison the tolerances, the Gymnasium registration the
 observation bounds (those are per task, in `TaskDefinition`), the documentation the physical
-parameters.
+parameters, the device programs the plant in C.
 """
 
 import dataclasses
@@ -67,6 +67,25 @@ class PlantComparison:
 
 
 @dataclasses.dataclass(frozen=True)
+class CPlant:
+    """A domain's plant as C99 for the device programs (`export.device`), in double: the
+    bodies of two functions, `string.Template` texts whose `$name` placeholders are the
+    domain's physical parameters (`Domain.parameters`, filled with a task's values) and the
+    `constants` below. The state the plant keeps is what the learner observes."""
+
+    start: str
+    """The body of `static void plant_start(double *state, const double *unit)`: a start
+    state from one draw in [0, 1) per state variable, `unit`, as `initial_states` draws it
+    (numpy's `uniform` is `low + (high - low) u`)."""
+    step: str
+    """The body of `static double plant_step(double *state, double control, int *terminal)`:
+    one step of `state` in place under `control` (an action's, `TaskDefinition.controls`),
+    as the task's `transition` computes it; returns the reward and sets `*terminal`."""
+    constants: Mapping
+    """`{placeholder: number}`: the domain's other constants the texts use."""
+
+
+@dataclasses.dataclass(frozen=True)
 class Domain:
     """One domain of the suite: its tasks, its plants and what each room needs of it."""
 
@@ -83,6 +102,8 @@ class Domain:
     """The viewer's scene where the domain has no MJCF model (else drawn from the model)."""
     comparison: Optional[PlantComparison] = None
     """The plant comparison's settings, for domains with a MuJoCo plant."""
+    c_plant: Optional[CPlant] = None
+    """Its plant in C for the device programs, where it has one."""
     robustness_axes: tuple = ()
     """The one or two physical parameters (names of `parameters`) whose grid the robustness
     study spans (`lwrl robustness`): what a real plant most often has otherwise than

@@ -29,12 +29,14 @@ Task `cost_to_go`:
   30 agents x 40 episodes.
 - **Drawn** as the hill z = sin(3x), x in [-1.2, 0.5], in the x-z plane, with the goal flag,
   the left wall and the car moving along the hill.
+- **In C** (`C_PLANT`): the step and the start in double, for the programs that learn on an
+  emulated microcontroller (`lwrl device`).
 """
 
 import numpy as np
 from numba.extending import register_jitable
 
-from lwrl.tasks.domain_contract import Box, Domain, Drawing, Line
+from lwrl.tasks.domain_contract import Box, CPlant, Domain, Drawing, Line
 from lwrl.tasks.parameters import Parameter, Parameters
 from lwrl.tasks.task_definition import RunDefaults, TaskDefinition, step_limit
 from lwrl.tasks.physics import AnalyticPhysics
@@ -124,6 +126,26 @@ def initial_states(rng: np.random.Generator, count: int) -> np.ndarray:
     return rng.uniform((MIN_POSITION, -MAX_SPEED), (GOAL_POSITION, MAX_SPEED), size=(count, 2))
 
 
+C_PLANT = CPlant(
+    start="""\
+    state[0] = $min_position + ($goal_position - ($min_position)) * unit[0];
+    state[1] = -$max_speed + ($max_speed - (-$max_speed)) * unit[1];""",
+    step="""\
+    /* v' = clip(v + k a - g cos(3x), -vmax, vmax); x' = max(x + v', xmin), v' = 0 at the wall */
+    double velocity = state[1] + $thrust * control - $gravity * cos(3.0 * state[0]);
+    double unclipped;
+    velocity = velocity > -$max_speed ? velocity : -$max_speed;
+    velocity = velocity < $max_speed ? velocity : $max_speed;
+    unclipped = state[0] + velocity;
+    state[0] = unclipped > $min_position ? unclipped : $min_position;
+    state[1] = velocity * (double)(unclipped >= $min_position); /* the wall stops the car */
+    *terminal = state[0] > $goal_position; /* the goal; reward -1 per step, 0 into the goal */
+    return (double)*terminal - 1.0;""",
+    constants={"min_position": MIN_POSITION, "goal_position": GOAL_POSITION,
+               "max_speed": MAX_SPEED})
+"""`step`, `outcome` and `initial_states` in C, operation for operation, for the device
+programs."""
+
 BOUNDS = ((MIN_POSITION, -MAX_SPEED), (GOAL_POSITION + MAX_SPEED, MAX_SPEED))
 """Every observation of an episode: the goal step moves at most MAX_SPEED past the goal."""
 PAPER_AGENT = RunDefaults(n=8, low=(MIN_POSITION, -MAX_SPEED), high=(GOAL_POSITION, MAX_SPEED),
@@ -195,5 +217,5 @@ DOMAIN = Domain(
     name="mountain_car", tasks={"cost_to_go": cost_to_go},
     plants=DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=Physics,
                         parameters=PARAMETERS, euler=False, analytic_options=()),
-    value_axes=("position", "velocity"), drawing=_drawing(),
+    value_axes=("position", "velocity"), drawing=_drawing(), c_plant=C_PLANT,
     robustness_axes=("gravity", "thrust"))

@@ -1,6 +1,6 @@
 """Shared fixtures: every (domain, task, plant) of the suite's dm_env environments, physical
-parameter values away from the paper's, a command run in this process, and an OpenGL
-backend that renders headless."""
+parameter values away from the paper's, a command run in this process, an OpenGL
+backend that renders headless; and the check that a call is refused in one line."""
 
 import os
 import subprocess
@@ -76,3 +76,13 @@ def opengl():
             return backend
     pytest.skip("no headless OpenGL here: apt-get install libegl1 libegl-mesa0 "
                 "libgl1-mesa-dri (EGL) or libosmesa6 (OSMesa)")
+
+
+def one_line_error(call, *fragments):
+    """`call()` raises a one-line ValueError holding each of `fragments`."""
+    with pytest.raises(ValueError) as error:
+        call()
+    message = str(error.value)
+    assert "\n" not in message
+    for fragment in fragments:
+        assert fragment in message, message

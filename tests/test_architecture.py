@@ -108,28 +108,34 @@ def docstring_nodes(tree: ast.AST) -> set:
     return found
 
 
-def domain_mentions(path: pathlib.Path) -> list:
-    """`(line, what)` of every place the code names a domain of the suite: a string equal to
-    a domain or a task name (a comparison, a key, an argument), or a domain's module
-    imported or reached as an attribute. Docstrings and comments are prose, not code."""
-    domains = set(tasks.DOMAINS)
-    names = domains | set(tasks.TASK_NAMES)
+def mentions(path: pathlib.Path, words, dotted=()) -> list:
+    """`(line, what)` of every place the code of `path` names one of `words`: a string equal
+    to one (a comparison, a key, an argument) or, for `dotted`, beginning with one and a dot
+    (`cartpole.balance`), a name or an attribute spelled so, or an import of a module so
+    named. Docstrings and comments are prose, not code."""
+    words, dotted = set(words), set(dotted)
     tree = ast.parse(path.read_text())
     prose = docstring_nodes(tree)
     found = []
     for node in ast.walk(tree):
         if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in prose:
-            if node.value in names or node.value.split(".")[0] in domains and "." in node.value:
+            if node.value in words or "." in node.value and node.value.split(".")[0] in dotted:
                 found.append((node.lineno, repr(node.value)))
-        elif isinstance(node, ast.Attribute) and node.attr in domains:
+        elif isinstance(node, ast.Attribute) and node.attr in words:
             found.append((node.lineno, f".{node.attr}"))
-        elif isinstance(node, ast.Name) and node.id in domains:
+        elif isinstance(node, ast.Name) and node.id in words:
             found.append((node.lineno, node.id))
         elif isinstance(node, (ast.Import, ast.ImportFrom)):
             modules = [alias.name for alias in node.names] + [getattr(node, "module", None) or ""]
             modules += [f"{node.module}.{alias.name}" for alias in node.names if getattr(node, "module", None)]
-            found += [(node.lineno, f"import {m}") for m in modules if m.split(".")[-1] in domains]
+            found += [(node.lineno, f"import {m}") for m in modules if m.split(".")[-1] in words]
     return found
+
+
+def domain_mentions(path: pathlib.Path) -> list:
+    """Where the code names a domain of the suite: a domain or a task name, a task given as
+    DOMAIN.TASK, or a domain's module imported or reached as an attribute."""
+    return mentions(path, set(tasks.DOMAINS) | set(tasks.TASK_NAMES), dotted=tasks.DOMAINS)
 
 
 def files_outside(*prefixes) -> list:
@@ -219,30 +225,12 @@ def learner_names() -> tuple:
     return tuple(sorted(words))
 
 
-def learner_mentions(path: pathlib.Path, words=None) -> list:
-    """`(line, what)` of every place the code names a learner or a feature map: a string
-    equal to one of `learner_names()` (a comparison, a key, an argument), a name or an
-    attribute spelled so, or an import of such a module. Docstrings are prose."""
-    words = set(words or learner_names())
-    tree = ast.parse(path.read_text())
-    prose = docstring_nodes(tree)
-    found = []
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in prose:
-            if node.value in words:
-                found.append((node.lineno, repr(node.value)))
-        elif isinstance(node, ast.Attribute) and node.attr in words:
-            found.append((node.lineno, f".{node.attr}"))
-        elif isinstance(node, ast.Name) and node.id in words:
-            found.append((node.lineno, node.id))
-        elif isinstance(node, (ast.Import, ast.ImportFrom)):
-            modules = [alias.name for alias in node.names] + [getattr(node, "module", None) or ""]
-            found += [(node.lineno, f"import {m}") for m in modules if m.split(".")[-1] in words]
-    return found
+def learner_mentions(path: pathlib.Path) -> list:
+    """Where the code names a learner or a feature map (`learner_names`)."""
+    return mentions(path, learner_names())
 
 
-@pytest.mark.parametrize("path", [p for p in package_files()
-                                  if not str(p.relative_to(ROOT)).startswith(NAMING_LEARNERS_ALLOWED)],
+@pytest.mark.parametrize("path", files_outside(*NAMING_LEARNERS_ALLOWED),
                          ids=lambda p: str(p.relative_to(ROOT)))
 def test_no_room_but_agent_names_a_learner_or_a_feature_map(path):
     """Everything about a learner lives in `agent/<learner>.py` (and what it alone needs);
@@ -260,4 +248,4 @@ def test_the_check_finds_a_learner_named_in_code(tmp_path):
                       '    """cmac in a docstring is prose."""\n'
                       '    return config.features == "nrbf" or BatchedSarsa or config.cmac\n'
                       'LEARNER = "sarsa"\n')
-    assert sorted(line for line, _ in learner_mentions(sample)) == [2, 2, 5, 5, 5, 6]
+    assert sorted(line for line, _ in learner_mentions(sample)) == [2, 2, 2, 5, 5, 5, 6]

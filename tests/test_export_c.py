@@ -20,6 +20,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from conftest import one_line_error
 
 from lwrl.agent import io as agent_io
 from lwrl.agent.cmac import CMAC
@@ -228,15 +229,6 @@ def test_measure_reports_flash_and_time_per_decision(agent_files, tmp_path):
               f"code {sizes['code_bytes']} B .text at -Os, read-only data "
               f"{sizes['rodata_bytes']} B, {sizes['ns_per_decision']:.0f} ns per decision "
               f"({sizes['compiler']})")
-
-
-def one_line_error(call, *fragments):
-    with pytest.raises(ValueError) as error:
-        call()
-    message = str(error.value)
-    assert "\n" not in message
-    for fragment in fragments:
-        assert fragment in message, message
 
 
 def test_bad_inputs_are_refused_in_one_line(agent_files, tmp_path):

@@ -11,7 +11,7 @@ import pytest
 from lwrl import agent as learners
 from lwrl import tasks
 from lwrl.agent import io as agent_io
-from lwrl.agent.learner_contract import NoValues
+from lwrl.agent.learner_contract import LearnerForm, NoValues
 from lwrl.runners.config import RunConfig, task_info
 from lwrl.runners.run import make_agent, memory_needed, run, run_batched, run_compiled, run_dm_env
 from lwrl.settings import base_type
@@ -161,3 +161,28 @@ def test_a_learner_says_in_one_line_where_it_does_not_fit(learner, task):
     with pytest.raises(ValueError) as error:
         RunConfig(task=task, learner=learner)
     assert "\n" not in str(error.value) and task in str(error.value)
+
+
+@pytest.mark.parametrize("learner, task", PAIRS)
+def test_a_learner_learns_in_c_or_says_in_one_line_why_not(learner, task):
+    """`Agents.learner_form`: a form whose values start from the agent's weights and stream,
+    whose RAM parts are counts, and whose check passes in double; or one line."""
+    agent = make_agent(config_of(learner, task))
+    try:
+        form = agent.learner_form(1)
+    except ValueError as error:
+        assert "\n" not in str(error) and "in C" in str(error)
+        return
+    assert isinstance(form, LearnerForm)
+    values = form.values(np.float64)
+    np.testing.assert_array_equal(values["weights"], agent.arrays.weights[1])
+    assert values["seed"] == int(agent.arrays.streams[1])
+    assert all(isinstance(reals, int) and isinstance(other, int) for reals, other in form.ram.values())
+    assert len(form.ranges[0]) == len(form.ranges[1]) == agent.dim
+    assert form.check(np.float64) is None and form.summary and form.name and form.smaller
+
+
+def test_some_learner_learns_in_c():
+    assert any(isinstance(make_agent(RunConfig(task=task, learner=learner, agents=1)).learner_form(0),
+                          LearnerForm)
+               for learner, task in PAIRS if learner == learners.DEFAULT_LEARNER)

@@ -9,7 +9,7 @@ import pytest
 from dm_env import specs
 
 from lwrl import tasks
-from conftest import off_nominal, set_state
+from conftest import off_nominal
 
 
 

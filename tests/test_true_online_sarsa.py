@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 
 from lwrl.agent.nrbf import NRBF
-from lwrl.agent.sarsa import BatchedSarsa
 from lwrl.agent.true_online_sarsa import TrueOnlineAgents
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent, run, run_compiled

@@ -1,0 +1,74 @@
+"""`lwrl device`: the C learner learning on an emulated Cortex-M4 (QEMU), and its cost.
+
+    lwrl device run DOMAIN.TASK [--episodes K] [--seed S] [--real R]
+    lwrl device costs DOMAIN.TASK... [--real R] [--mhz F]
+
+`run` builds the task's learner with its plant in C for the host and for a bare-metal
+Cortex-M4, runs both (the M4 under qemu-system-arm, mps2-an386) and prints the steps per
+episode of each side by side; `costs` measures bytes and instructions per learning step and
+per decision (export/device.py). Needs gcc-arm-none-eabi, libnewlib-arm-none-eabi,
+qemu-system-arm and, for `costs`, valgrind.
+"""
+
+import time
+
+from lwrl.cli import fields, output
+from lwrl.export import device
+
+
+def add_parser(commands) -> None:
+    parser = commands.add_parser("device", help="learn on an emulated Cortex-M4; measure the cost",
+                                 description=__doc__.split("\n\n")[0])
+    actions = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
+    run = actions.add_parser("run", help="the learner learns a task on the emulated M4 and the host")
+    run.add_argument("task", metavar="DOMAIN.TASK")
+    run.add_argument("--episodes", type=fields.positive_int, default=40)
+    run.add_argument("--seed", type=fields.non_negative_int, default=0, help="the agent's seed")
+    run.add_argument("--real", choices=("float", "double"), default="float")
+    run.set_defaults(run=run_device)
+    costs = actions.add_parser("costs", help="bytes and instructions of the tasks' learners")
+    costs.add_argument("tasks", metavar="DOMAIN.TASK", nargs="+")
+    costs.add_argument("--real", choices=("float", "double"), default="float")
+    costs.add_argument("--mhz", type=fields.finite_number, default=168.0,
+                       help="clock of the time estimate (default 168, the STM32F405's)")
+    costs.set_defaults(run=measure_costs)
+
+
+def run_device(args) -> int:
+    started = time.perf_counter()
+    result = device.run_device(args.task, args.episodes, args.seed, args.real)
+    print(f"{args.task}: {result['summary']}, {args.real}, seed {args.seed}; host build and "
+          f"emulated Cortex-M4 ({device.BOARD})")
+    print("episode   host  device")
+    for k, (host, emulated) in enumerate(zip(result["host"]["steps"], result["device"]["steps"]), 1):
+        print(f"{k:>7} {host:>6} {emulated:>7}{'' if host == emulated else '   differ'}")
+    steps = sum(result["device"]["steps"])
+    print(f"steps per episode {'equal' if result['equal_steps'] else 'NOT equal'} on both; final "
+          f"weights within {result['weight_ulps']} units in the last place of each other")
+    sizes = result["sizes"]
+    print(f"firmware: {sizes['text'] + sizes['data']} bytes of flash, {sizes['data'] + sizes['bss']} "
+          f"of static RAM (arm-none-eabi-size); {result['instructions']} instructions emulated, "
+          f"{result['instructions'] / steps:.0f} per step with the plant's software-double cos")
+    output.done(started)
+    return 0 if result["equal_steps"] else 1
+
+
+def measure_costs(args) -> int:
+    started = time.perf_counter()
+    print(f"per task: RAM computed; code: the learner object for the Cortex-M4 (-O2, {args.real}); "
+          f"flash: the whole bench firmware with libm and start-up; "
+          f"instructions per call, host x86-64 (callgrind) and emulated M4 (QEMU plugin); "
+          f"time an estimate at {args.mhz:g} MHz and one instruction per cycle")
+    print(f"{'task':<26} {'RAM B':>6} {'code B':>6} {'flash B':>7} {'stack B':>7} "
+          f"{'learn x86':>9} {'learn M4':>8} {'decide x86':>10} {'decide M4':>9} {'learn us':>8}"
+          f"  learner")
+    for task in args.tasks:
+        result = device.costs(task, args.real)
+        print(f"{task:<26} "
+              f"{result['ram']['total']:>6} {result['object']['text']:>6} "
+              f"{result['firmware']['text'] + result['firmware']['data']:>7} {result['stack']:>7} "
+              f"{result['host_learn']:>9.0f} {result['m4_learn']:>8.0f} {result['host_decide']:>10.0f} "
+              f"{result['m4_decide']:>9.0f} {device.estimate_us(result['m4_learn'], args.mhz):>8.1f}"
+              f"  {result['summary']}")
+    output.done(started)
+    return 0
