@@ -101,7 +101,9 @@ def section(result, figure_path: str) -> str:
              f"{next(iter(result.trainings.values())).episodes} training episodes; "
              f"{len(result.cells)} cells, {result.evaluation_episodes} greedy episodes per "
              f"agent and cell; {result.runs} runs, {result.computed} computed by "
-             f"this command ({result.seconds:.0f} s).", "",
+             f"this command ({result.seconds:.0f} s); all of them took "
+             f"{result.timing['seconds'] / 60:.1f} minutes of wall time, in "
+             f"{result.timing['invocations']} invocation(s) of the command.", "",
              f"![{result.task}]({figure_path})", ""]
     lines += ["Over the parameter grid (each agent's mean over every cell of the grid; 95 % "
               "intervals over agents):", "",
@@ -159,9 +161,11 @@ def verdict(estimate) -> str:
 def document(results, command: str, seconds: float, figure_paths: dict) -> str:
     """The whole report: how it was made, then one section per task."""
     lines = ["# How robust are the learned controllers?", "",
-             "Written by `" + command + "`" + f" in {seconds / 60:.1f} minutes of wall time "
-             "(this invocation: runs an earlier one finished were read, not computed again; "
-             "the same command resumes an interrupted study).", "",
+             "Written by `" + command + "`. Its runs took "
+             f"{sum(r.timing['seconds'] for r in results) / 60:.1f} minutes of wall time "
+             "(summed over the tasks and over the invocations that computed them: the same "
+             "command resumes an interrupted study, reading what an earlier one finished); "
+             f"this invocation took {seconds / 60:.1f} minutes.", "",
              "Agents of every learner of the registry that fits the task, each with its "
              "default settings for the task, are trained on the paper's plant (*nominal*) and "
              "with the domain's robustness parameters drawn uniformly for every episode "
@@ -176,11 +180,11 @@ def document(results, command: str, seconds: float, figure_paths: dict) -> str:
              "task's own: up-time, or for a task without one the success rate (episodes that "
              "reach the goal before the time limit) and the steps to the goal; per agent the "
              "mean over its evaluation episodes, then the mean over agents with a 95 % "
-             "percentile bootstrap interval (`lwrl.analysis.statistics`). The budget: the "
-             "tasks' own protocols (agents, training episodes), every cell's agents run as one "
-             "batch of the compiled loop, the plant comparison's evaluation episodes (fewer "
-             "where the start is deterministic), sized so that the three paper tasks take "
-             "well under an hour on a 2-core machine shared with other jobs.", ""]
+             "percentile bootstrap interval (`lwrl.analysis.statistics`). The budget, which "
+             "each task's section states: the task's own protocol (agents, training episodes) "
+             "unless the command sets them, every cell's agents run as one batch of the "
+             "compiled loop, the plant comparison's evaluation episodes (fewer where the start "
+             "is deterministic) unless the command sets them.", ""]
     for result in results:
         lines.append(section(result, figure_paths[result.task]))
     return "\n".join(lines)

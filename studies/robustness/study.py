@@ -8,6 +8,7 @@ with the 95 % bootstrap interval over agents (`analysis.statistics`).
 """
 
 import dataclasses
+import json
 import os
 import time
 
@@ -15,6 +16,7 @@ import numpy as np
 import pandas as pd
 
 from lwrl import agent as learners
+from lwrl import outputs
 from lwrl import tasks
 from lwrl.agent import io as agent_io
 from lwrl.analysis.statistics import improvement_interval, mean_interval
@@ -65,8 +67,12 @@ class TaskResult:
     Python agent's), `per_cell` `{cell: {measure column: value}}`; empty where none ran."""
     evaluation_episodes: int = 0
     seconds: float = 0.0
+    """This invocation's wall time on the task."""
     computed: int = 0
     runs: int = 0
+    timing: dict = dataclasses.field(default_factory=dict)
+    """`seconds` and `invocations`: the wall time of every invocation that computed some of
+    the task's runs, summed (`add_time`)."""
 
     def estimate(self, learner, training, cell, measure):
         return mean_interval(self.per_agent[learner, training, cell, measure.column])
@@ -93,19 +99,43 @@ def per_episode(table: pd.DataFrame) -> pd.DataFrame:
                                  & ~table["diverged"].astype(bool)).astype(float))
 
 
+TIMINGS = "timings.json"
+"""Per task, the wall time that its runs took, kept beside the runs."""
+
+
+def add_time(out_dir: str, task: str, seconds: float) -> dict:
+    """Add `seconds` of an invocation that computed runs of `task` (none: 0) to the task's
+    entry of `out_dir/timings.json`, so that a study resumed in several invocations reports
+    the time all of them took; return the entry."""
+    path = os.path.join(out_dir, TIMINGS)
+    timings = json.load(open(path)) if os.path.exists(path) else {}
+    entry = timings.setdefault(task, {"seconds": 0.0, "invocations": 0})
+    if seconds:
+        entry["seconds"] += seconds
+        entry["invocations"] += 1
+        with outputs.atomic_write(path) as file:
+            json.dump(timings, file, indent=2)
+    return entry
+
+
 def study_task(task: str, out_dir: str, plant: str = "analytic", quick: bool = False,
                agents=None, episodes=None, evaluation_episodes=None, workers=None) -> TaskResult:
     """Train, evaluate and measure `task`; the runs in `out_dir/runs`."""
     started = time.perf_counter()
     trained = plan.trainings(task, plant, agents, episodes, quick)
-    _, computed = run_sweep(list(trained.values()), out_dir, workers=workers,
-                            description=f"{task}: training", keep_agents=True)
     count = evaluation_episodes or plan.evaluation_episodes(task, quick)
     cells = plan.cells(task, quick)
     evaluations = {(learner, training, cell): plan.evaluation(task, config, cell, count)
                    for (learner, training), config in trained.items() for cell in cells}
-    table, more = run_sweep(list(evaluations.values()), out_dir, workers=workers,
-                            description=f"{task}: evaluation")
+    try:
+        _, computed = run_sweep(list(trained.values()), out_dir, workers=workers,
+                                description=f"{task}: training", keep_agents=True)
+        table, more = run_sweep(list(evaluations.values()), out_dir, workers=workers,
+                                description=f"{task}: evaluation")
+    except KeyboardInterrupt:  # its finished runs are kept, and so is the time they took
+        add_time(out_dir, task, time.perf_counter() - started)
+        raise
+    timing = add_time(out_dir, task, time.perf_counter() - started if computed + more else 0.0)
     table = per_episode(table)
     per_agent = {}
     for (learner, training, cell), config in evaluations.items():
@@ -115,7 +145,7 @@ def study_task(task: str, out_dir: str, plant: str = "analytic", quick: bool = F
                 rows.groupby("agent")[measure.column].mean().to_numpy())
     result = TaskResult(task, plant, tuple(p.name for p in plan.axes(task)), cells, trained,
                         per_agent, evaluation_episodes=count, computed=computed + more,
-                        runs=len(trained) + len(evaluations))
+                        runs=len(trained) + len(evaluations), timing=timing)
     if (C_LEARNER, "nominal") in trained:
         result.controller = controlled(task, out_dir, trained[C_LEARNER, "nominal"], evaluations,
                                        table)
