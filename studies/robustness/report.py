@@ -158,6 +158,14 @@ def verdict(estimate) -> str:
     return "more robust" if side > 0 else "less robust" if side < 0 else "no difference shown"
 
 
+def studied(results, what: str) -> list:
+    """The values the cells of `results` take: `factors` (of the parameter grid), `noise`
+    or `delay`, sorted."""
+    found = {value for result in results for cell in result.cells
+             for value in (cell.factors if what == "factors" else (getattr(cell, what),))}
+    return sorted(found)
+
+
 def document(results, command: str, seconds: float, figure_paths: dict) -> str:
     """The whole report: how it was made, then one section per task."""
     lines = ["# How robust are the learned controllers?", "",
@@ -172,14 +180,17 @@ def document(results, command: str, seconds: float, figure_paths: dict) -> str:
              f"between x{plan.TRAINING_FACTORS[0]:g} and x{plan.TRAINING_FACTORS[1]:g} their "
              "paper values (*randomised*, domain randomisation). Then they run greedily, "
              "without learning, from starts of their own: over a grid of those parameters "
-             "(" + ", ".join(f"x{f:g}" for f in plan.FACTORS) + " each, clipped to the "
+             "(" + ", ".join(f"x{f:g}" for f in studied(results, "factors")) + " each, clipped to the "
              "accepted ranges), over Gaussian observation noise on every state variable ("
-             + ", ".join(f"{f:g}" for f in plan.NOISE_LEVELS if f) + " of each variable's "
+             + ", ".join(f"{f:g}" for f in studied(results, "noise") if f)
+             + " of each variable's "
              "normalisation span) and over actuation delays of " + ", ".join(
-                 str(d) for d in plan.DELAYS if d) + " control steps. The measure is the "
+                 str(d) for d in studied(results, "delay") if d) + " control steps. The "
+             "measure is the "
              "task's own: up-time, or for a task without one the success rate (episodes that "
-             "reach the goal before the time limit) and the steps to the goal; per agent the "
-             "mean over its evaluation episodes, then the mean over agents with a 95 % "
+             "reach the goal before the time limit) and the steps per episode (to the goal, or "
+             "the time limit where it is not reached); per agent the mean over its evaluation "
+             "episodes, then the mean over agents with a 95 % "
              "percentile bootstrap interval (`lwrl.analysis.statistics`). The budget, which "
              "each task's section states: the task's own protocol (agents, training episodes) "
              "unless the command sets them, every cell's agents run as one batch of the "

@@ -43,11 +43,11 @@ class Measure:
 def measures(task: str) -> list:
     """The task's own measures, the first the one mapped: up-time where the task has it,
     else the success rate (the episodes that reach the task's terminal state, not its time
-    limit) and the steps to it."""
+    limit) and the steps per episode (to the goal, or the time limit's)."""
     if tasks.definition(*tasks.split_name(task)).has_uptime:
         return [Measure("uptime_s", "up-time", "s", True, 1)]
     return [Measure("success", "success rate", "", True, 2),
-            Measure("steps", "steps to the goal", "", False, 0)]
+            Measure("steps", "steps per episode", "", False, 0)]
 
 
 @dataclasses.dataclass
