@@ -276,6 +276,21 @@ def test_lwrl_robustness_writes_its_report_and_resumes(tmp_path, capsys):
     assert f"in {cells} of {cells} cells" in report
     assert os.path.exists(out / "figures" / "mountain_car_cost_to_go.png")
     status, _, _ = run_cli(argv, capsys)
-    assert status == 0 and ", 0 computed by this command" in (out / "report.md").read_text()
+    again = (out / "report.md").read_text()
+    assert status == 0 and ", 0 computed by this command" in again
+    assert "in 1 invocation of the command" in again  # the first call's time, kept
     status, _, err = run_cli(["robustness", "mountain_car.climb", "--out", str(out)], capsys)
     assert status == 2 and len(err) == 1
+
+
+def test_the_wall_time_is_summed_over_the_invocations_that_computed_a_studys_runs(tmp_path):
+    """A resumed study adds its time; one that computed nothing adds none; a study of the
+    same task with other runs in the same directory starts its own record."""
+    from lwrl.studies.robustness.study import add_time
+
+    assert add_time(tmp_path, "pendulum.swingup", ["a", "b"], 5.0)["seconds"] == 5.0
+    assert add_time(tmp_path, "pendulum.swingup", ["b", "a"], 0.0)["invocations"] == 1
+    resumed = add_time(tmp_path, "pendulum.swingup", ["a", "b"], 3.0)
+    assert (resumed["seconds"], resumed["invocations"]) == (8.0, 2)
+    other = add_time(tmp_path, "pendulum.swingup", ["a", "c"], 2.0)
+    assert (other["seconds"], other["invocations"]) == (2.0, 1)

@@ -101,9 +101,7 @@ def section(result, figure_path: str) -> str:
              f"{next(iter(result.trainings.values())).episodes} training episodes; "
              f"{len(result.cells)} cells, {result.evaluation_episodes} greedy episodes per "
              f"agent and cell; {result.runs} runs, {result.computed} computed by "
-             f"this command ({result.seconds:.0f} s); all of them took "
-             f"{result.timing['seconds'] / 60:.1f} minutes of wall time, in "
-             f"{result.timing['invocations']} invocation(s) of the command.", "",
+             f"this command ({result.seconds:.0f} s); " + took(result.timing) + ".", "",
              f"![{result.task}]({figure_path})", ""]
     lines += ["Over the parameter grid (each agent's mean over every cell of the grid; 95 % "
               "intervals over agents):", "",
@@ -139,6 +137,15 @@ def section(result, figure_path: str) -> str:
     return "\n".join(lines) + "\n"
 
 
+def took(timing: dict) -> str:
+    """How long the task's runs took, from its `timings.json` entry."""
+    if not timing["invocations"]:
+        return "the time its runs took was not recorded (they were computed before its record)"
+    return (f"all of them took {timing['seconds'] / 60:.1f} minutes of wall time, in "
+            f"{timing['invocations']} invocation{'s' if timing['invocations'] > 1 else ''} of "
+            "the command")
+
+
 def mean_text(values, measure) -> str:
     return mean_interval(values).text(measure.digits, measure.unit)
 
@@ -170,8 +177,9 @@ def document(results, command: str, seconds: float, figure_paths: dict) -> str:
     """The whole report: how it was made, then one section per task."""
     lines = ["# How robust are the learned controllers?", "",
              "Written by `" + command + "`. Its runs took "
-             f"{sum(r.timing['seconds'] for r in results) / 60:.1f} minutes of wall time "
-             "(summed over the tasks and over the invocations that computed them: the same "
+             f"{sum(r.timing['seconds'] for r in results) / 60:.1f} minutes of wall time ("
+             + ("" if all(r.timing["invocations"] for r in results) else "where recorded; ")
+             + "summed over the tasks and over the invocations that computed them: the same "
              "command resumes an interrupted study, reading what an earlier one finished); "
              f"this invocation took {seconds / 60:.1f} minutes.", "",
              "Agents of every learner of the registry that fits the task, each with its "

@@ -8,6 +8,7 @@ with the 95 % bootstrap interval over agents (`analysis.statistics`).
 """
 
 import dataclasses
+import hashlib
 import json
 import os
 import time
@@ -72,7 +73,7 @@ class TaskResult:
     runs: int = 0
     timing: dict = dataclasses.field(default_factory=dict)
     """`seconds` and `invocations`: the wall time of every invocation that computed some of
-    the task's runs, summed (`add_time`)."""
+    the task's runs, summed (`add_time`); no invocation where none was recorded."""
 
     def estimate(self, learner, training, cell, measure):
         return mean_interval(self.per_agent[learner, training, cell, measure.column])
@@ -103,13 +104,17 @@ TIMINGS = "timings.json"
 """Per task, the wall time that its runs took, kept beside the runs."""
 
 
-def add_time(out_dir: str, task: str, seconds: float) -> dict:
-    """Add `seconds` of an invocation that computed runs of `task` (none: 0) to the task's
-    entry of `out_dir/timings.json`, so that a study resumed in several invocations reports
-    the time all of them took; return the entry."""
+def add_time(out_dir: str, task: str, keys, seconds: float) -> dict:
+    """Add `seconds` of an invocation that computed some of the runs `keys` of `task` (none:
+    0) to the task's entry of `out_dir/timings.json`, so that a study resumed in several
+    invocations reports the time all of them took; an entry of other runs (the same task
+    studied otherwise in the same directory) is replaced, not added to. Return the entry."""
     path = os.path.join(out_dir, TIMINGS)
     timings = json.load(open(path)) if os.path.exists(path) else {}
-    entry = timings.setdefault(task, {"seconds": 0.0, "invocations": 0})
+    runs = hashlib.sha256("\n".join(sorted(keys)).encode()).hexdigest()[:12]
+    if timings.get(task, {}).get("runs") != runs:
+        timings[task] = {"runs": runs, "seconds": 0.0, "invocations": 0}
+    entry = timings[task]
     if seconds:
         entry["seconds"] += seconds
         entry["invocations"] += 1
@@ -127,15 +132,16 @@ def study_task(task: str, out_dir: str, plant: str = "analytic", quick: bool = F
     cells = plan.cells(task, quick)
     evaluations = {(learner, training, cell): plan.evaluation(task, config, cell, count)
                    for (learner, training), config in trained.items() for cell in cells}
+    keys = [config.key for config in [*trained.values(), *evaluations.values()]]
     try:
         _, computed = run_sweep(list(trained.values()), out_dir, workers=workers,
                                 description=f"{task}: training", keep_agents=True)
         table, more = run_sweep(list(evaluations.values()), out_dir, workers=workers,
                                 description=f"{task}: evaluation")
     except KeyboardInterrupt:  # its finished runs are kept, and so is the time they took
-        add_time(out_dir, task, time.perf_counter() - started)
+        add_time(out_dir, task, keys, time.perf_counter() - started)
         raise
-    timing = add_time(out_dir, task, time.perf_counter() - started if computed + more else 0.0)
+    timing = add_time(out_dir, task, keys, time.perf_counter() - started if computed + more else 0.0)
     table = per_episode(table)
     per_agent = {}
     for (learner, training, cell), config in evaluations.items():
