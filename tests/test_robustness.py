@@ -9,6 +9,7 @@ same episodes and weights for the same seeds, whatever the options.
 
 import dataclasses
 import os
+import pathlib
 
 import numpy as np
 import pandas as pd
@@ -242,9 +243,14 @@ def test_the_c_controller_acts_as_the_python_agent(tmp_path):
 
 
 def test_each_domain_names_its_robustness_parameters():
+    """One or two of its parameters, as the README lists them."""
     for domain in tasks.DOMAINS.values():
         assert 1 <= len(domain.robustness_axes) <= 2
         assert set(domain.robustness_axes) <= set(domain.parameters.names)
+    listed = "; ".join(f"{name} " + " x ".join(f"`{axis}`" for axis in domain.robustness_axes)
+                       for name, domain in tasks.DOMAINS.items())
+    readme = (pathlib.Path(__file__).resolve().parents[1] / "README.md").read_text()
+    assert listed in " ".join(readme.split())
 
 
 def test_the_plan_covers_every_learner_and_cell():
