@@ -28,6 +28,11 @@ def _factors(result) -> list:
     return sorted({cell.factors[0] for cell in result.grid_cells()})
 
 
+def axis_label(measure) -> str:
+    """`label (unit)`, or the label of a measure without a unit."""
+    return measure.label + (f" ({measure.unit})" if measure.unit else "")
+
+
 def figure(result, figure_dir: str) -> list:
     """The task's map figure; returns the files written (`analysis.plots.save_figure`)."""
     import matplotlib.pyplot as plt
@@ -58,7 +63,7 @@ def figure(result, figure_dir: str) -> list:
                 ax.text(j, i, "—" if np.isnan(value) else f"{value:.{measure.digits}f}",
                         ha="center", va="center", fontsize=7, color="white")
             ax.set_title(f"{learner}, trained {training}", fontsize=9)
-            fig.colorbar(image, ax=ax, label=f"{measure.label}" + (f" ({measure.unit})" if measure.unit else ""))
+            fig.colorbar(image, ax=ax, label=axis_label(measure))
         for column, kind in ((2, "noise"), (3, "delay")):
             ax = axes[row, column]
             for training in plan.TRAININGS:
@@ -72,7 +77,7 @@ def figure(result, figure_dir: str) -> list:
                                 alpha=0.2)
             ax.set_xlabel("observation noise (fraction of each variable's span)" if kind == "noise"
                           else "actuation delay (control steps)")
-            ax.set_ylabel(measure.label)
+            ax.set_ylabel(axis_label(measure))
             ax.set_title(f"{learner}: {kind}", fontsize=9)
             ax.legend(fontsize=7)
     fig.suptitle(f"{result.task} on the {result.plant} plant: greedy {measure.label}, means over "
