@@ -285,8 +285,11 @@ def test_lwrl_robustness_writes_its_report_and_resumes(tmp_path, capsys):
     again = (out / "report.md").read_text()
     assert status == 0 and ", 0 computed by this command" in again
     assert "in 1 invocation of the command" in again  # the first call's time, kept
-    status, _, err = run_cli(["robustness", "mountain_car.climb", "--out", str(out)], capsys)
-    assert status == 2 and len(err) == 1
+    for bad in (["mountain_car.climb"], ["pendulum.swingup", "--agents", "1"],
+                ["pendulum.swingup", "--evaluation-episodes", "0"]):
+        status, _, err = run_cli(["robustness", *bad, "--out", str(tmp_path / "bad")], capsys)
+        assert status == 2 and len(err) == 1, (bad, err)
+    assert not (tmp_path / "bad").exists()
 
 
 def test_the_wall_time_is_summed_over_the_invocations_that_computed_a_studys_runs(tmp_path):

@@ -17,6 +17,8 @@ def robustness(task_names, out_dir: str, command: str, plant: str = "analytic",
     """Run the study of each task (resuming what an earlier call into `out_dir` finished),
     then write one map figure per task in `out_dir/figures` and `out_dir/report.md`, which
     names `command` and the wall time; return the report's path."""
+    if agents is not None and agents < 2:
+        raise ValueError(f"agents must be at least 2 (an interval needs two agents); got {agents}")
     started = time.perf_counter()
     results = [study_task(task, out_dir, plant, quick, agents, episodes, evaluation_episodes,
                           workers) for task in task_names]
