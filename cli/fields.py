@@ -2,8 +2,9 @@
 
 Each field becomes one flag: `--name-with-hyphens` unless its metadata names `flags`; its
 help is the field's docstring; its parser follows its type (a finite number, an integer, a
-comma-separated tuple of finite numbers, a word among the field's `choices`, or a switch
-for a bool). Unset flags stay out of the configuration, which then takes its defaults. So a
+comma-separated tuple of finite numbers, a word among the field's `choices`, a switch
+for a bool, or repeated `NAME=VALUE` pairs for a dict, `NAME=LOW:HIGH` where its values
+are ranges). Unset flags stay out of the configuration, which then takes its defaults. So a
 field added to a dataclass is on the command line without a second edit.
 
 A bad value is one line: `lwrl train: error: argument --alpha: must be a finite number;
@@ -18,6 +19,7 @@ import inspect
 import math
 import textwrap
 import types
+import typing
 
 from lwrl.settings import base_type
 
@@ -68,6 +70,35 @@ def numbers(text: str) -> tuple:
     return values
 
 
+def value_range(text: str) -> tuple:
+    """`LOW:HIGH`, two finite numbers, or an argparse error."""
+    low, colon, high = text.partition(":")
+    if not colon:
+        raise argparse.ArgumentTypeError(f"must be a range LOW:HIGH; got {text!r}")
+    return finite_number(low), finite_number(high)
+
+
+def pair(value):
+    """An argparse type for `NAME=VALUE`, the value read by `value`: `(name, value)`."""
+    def parse(text: str) -> tuple:
+        name, equals, rest = text.partition("=")
+        if not equals or not name:
+            raise argparse.ArgumentTypeError(f"must be NAME=VALUE; got {text!r}")
+        return name, value(rest)
+    return parse
+
+
+PAIR_VALUES = {float: (finite_number, "NAME=VALUE"), tuple: (value_range, "NAME=LOW:HIGH")}
+"""How the values of a `dict[str, V]` field are read, and its metavar, by V."""
+
+
+def pair_value(field: dataclasses.Field):
+    """`(parser, metavar)` of the values of a `dict[str, V]` field, or None for another."""
+    if typing.get_origin(field.type) is not dict:
+        return None
+    return PAIR_VALUES[typing.get_args(field.type)[1]]
+
+
 def word(allowed):
     """An argparse type for one of `allowed` (its error names them)."""
     def parse(text: str) -> str:
@@ -93,9 +124,12 @@ def field_docs(cls) -> dict:
 
 
 def parser_of(field: dataclasses.Field):
-    """The argparse type of a field's values, from its choices or its type."""
+    """The argparse type of a field's values, from its choices or its type (`NAME=VALUE`
+    pairs for a dict)."""
     if field.metadata.get("choices"):
         return word(field.metadata["choices"])
+    if pair_value(field):
+        return pair(pair_value(field)[0])
     return {float: finite_number, int: integer, tuple: numbers}.get(base_type(field.type), str)
 
 
@@ -116,7 +150,14 @@ def flags_of(field: dataclasses.Field) -> tuple:
 
 def _add_flag(group, field: dataclasses.Field, help_text: str, allowed=None) -> None:
     """The flag of one field: a switch for a bool, else a value read by its type."""
+    if field.metadata.get("describe"):
+        help_text = f"{help_text} Allowed: {field.metadata['describe']()}."
     help_text = help_text.replace("%", "%%")
+    if pair_value(field):  # repeatable: the pairs make one dict
+        group.add_argument(*flags_of(field), dest=field.name, type=parser_of(field),
+                           action="append", default=None, metavar=pair_value(field)[1],
+                           help=help_text)
+        return
     if base_type(field.type) is bool:
         group.add_argument(*flags_of(field), dest=field.name, action="store_true",
                            default=None, help=help_text)
@@ -159,9 +200,23 @@ def add_learner_fields(parser: argparse.ArgumentParser, learners, title: str) ->
 
 
 def given(args: argparse.Namespace, *classes) -> dict:
-    """`{field: value}` of the command-line fields of `classes` that were given."""
-    return {field.name: getattr(args, field.name) for _, field in cli_fields(*classes)
-            if getattr(args, field.name, None) is not None}
+    """`{field: value}` of the command-line fields of `classes` that were given (the
+    pairs of a dict field as one dict; a name given twice is an error)."""
+    values = {field.name: getattr(args, field.name) for _, field in cli_fields(*classes)
+              if getattr(args, field.name, None) is not None}
+    for _, field in cli_fields(*classes):
+        if pair_value(field) and field.name in values:
+            values[field.name] = pairs_dict(flags_of(field)[0], values[field.name])
+    return values
+
+
+def pairs_dict(flag: str, pairs) -> dict:
+    """`{name: value}` of `(name, value)` pairs; a one-line ValueError for a name twice."""
+    names = [name for name, _ in pairs]
+    twice = sorted({name for name in names if names.count(name) > 1})
+    if twice:
+        raise ValueError(f"{flag} {twice[0]} is given more than once")
+    return dict(pairs)
 
 
 def given_learner_settings(args: argparse.Namespace, learners) -> dict:
@@ -182,6 +237,8 @@ def parse_value(classes, name: str, text: str):
     if text.lower() == "none" and isinstance(field.type, types.UnionType):
         return None
     try:
+        if pair_value(field):  # NAME=VALUE,NAME=VALUE
+            return pairs_dict(name, [parser_of(field)(part) for part in text.split(",")])
         return parser_of(field)(text)
     except argparse.ArgumentTypeError as error:
         raise argparse.ArgumentTypeError(f"{name} {error}") from None

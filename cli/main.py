@@ -12,6 +12,8 @@
                                                    the paper's figures and table, and a report
     lwrl compare DOMAIN.TASK [--seeds N] [--episodes K] [--out DIR] [--rrd PATH] [--quick]
                                                    the analytic and MuJoCo plants compared
+    lwrl robustness DOMAIN.TASK... [--agents N] [--episodes K] [--out DIR] [--quick]
+                                                   trained controllers away from the paper's plant
     lwrl export PATH --c OUT_DIR [--agent I]       a saved agent as a C99 controller
     lwrl learner DOMAIN.TASK|PATH --c OUT_DIR [--real R] [--ram BYTES] ...
                                                    the learner itself as C99
@@ -27,13 +29,13 @@ function the command runs. Bad input ends with one line on standard error and ex
 import sys
 
 from lwrl import outputs
-from lwrl.cli import bench, compare, device, evaluate, export, learner, reproduce, rollout, tasks
-from lwrl.cli import train, view
+from lwrl.cli import (bench, compare, device, evaluate, export, learner, reproduce, robustness,
+                      rollout, tasks, train, view)
 from lwrl.cli import output
 from lwrl.cli.output import Parser
 
-SUBCOMMANDS = (tasks, rollout, train, evaluate, reproduce, bench, compare, export, learner, device,
-               view)
+SUBCOMMANDS = (tasks, rollout, train, evaluate, reproduce, bench, compare, robustness, export,
+               learner, device, view)
 
 
 def build_parser() -> Parser:

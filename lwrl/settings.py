@@ -19,6 +19,8 @@ from them, so that no list of field names is kept by hand:
 - `reading`: an open point of SPEC.md that `lwrl reproduce --set NAME=VALUE` may change.
 - `only_with`: `(field, value)`: the field matters only where that other field has that
   value (an NRBF's spread means nothing to a CMAC), so a reading leaves the others alone.
+- `describe`: a function returning text that the flag's help adds to the docstring (what
+  is allowed, generated from where it is declared, e.g. the domains' parameters).
 
 This module imports no other part of lwrl: every room may use it.
 """
@@ -34,10 +36,13 @@ LATE = "late"
 
 
 def setting(default=None, *, choices=None, flags=None, cli=True, task_default=False,
-            key=None, per_agent=False, reading=False, only_with=None, default_factory=None):
+            key=None, per_agent=False, reading=False, only_with=None, default_factory=None,
+            describe=None):
     """A dataclass field with the metadata above."""
     metadata = {"cli": cli, "task_default": task_default, "per_agent": per_agent,
                 "reading": reading}
+    if describe is not None:
+        metadata["describe"] = describe
     if choices is not None:
         metadata["choices"] = tuple(choices)
     if flags is not None:

@@ -2,6 +2,12 @@
 calls the task's own `transition` (the analytic plant) or MuJoCo's own `mj_step` and the
 task's `arrive` (`tasks.engine`), and the learner's own step (`Learner.step`), in parallel
 over agents.
+Each agent's episode has physical parameter values of its own (`tasks.parameters`: the
+agent's row, or drawn per episode, `tasks.randomisation`), so one batch spans a grid: the
+analytic plant reads the row, the engine steps the MuJoCo model compiled at it (one model
+per distinct row, sharing the first's `mjData`). Between the agent and the plant stand its
+sensors and actuator (`tasks.disturbances`: `noisy_observation`, `applied_control`, from
+the agent's own stream), as in `tasks.batched.BatchedEnv`.
 Its bookkeeping is the stepped loop's (`tasks.task_definition.advance_episode`,
 `runners.episodes.finish_episode`, `runners.recording`), and its numbers too (tested)."""
 
@@ -18,7 +24,9 @@ from lwrl.runners.recording import (make_tape, record_end, record_state, record_
                                     recordings)
 from lwrl.settings import check_count
 from lwrl.tasks.task_definition import advance_episode
-from lwrl.tasks.engine import close_workspace, engine_plant, open_workspace, step_state
+from lwrl.tasks.disturbances import Disturbances, applied_control, noisy_observation
+from lwrl.tasks.engine import close_workspace, engine_plant, open_workspace, step_model_state
+from lwrl.tasks.randomisation import check_ranges, draws
 from lwrl.tasks.integrators import check_integrator
 from lwrl.tasks.plants import check_equations
 
@@ -55,8 +63,9 @@ def analytic_close(plant, workspace):
     """Nothing to free."""
 
 
-def _analytic_transition(state, control, next_state, observation, plant, workspace, params):
-    """The task's `transition`; `plant` = (dt, semi_implicit, slips)."""
+def _analytic_transition(state, control, next_state, observation, plant, model, workspace,
+                         params):
+    """The task's `transition`; `plant` = (dt, semi_implicit, slips); no `model`."""
     dt, semi_implicit, slips = plant
     return transition(state, control, next_state, observation, dt, semi_implicit, slips, params)
 
@@ -66,10 +75,11 @@ def no_limit(state):
     """The `limit_state` of a domain without a limit: the state as it is."""
 
 
-def _mujoco_transition(state, control, next_state, observation, plant, workspace, params):
-    """MuJoCo's step (`tasks.engine.step_state`), the domain's `limit_state`, then the
-    task's `arrive`; `plant` an `EnginePlant`."""
-    step_state(plant, workspace, state, control, next_state)
+def _mujoco_transition(state, control, next_state, observation, plant, model, workspace,
+                       params):
+    """MuJoCo's step in the model at address `model` (`tasks.engine.step_model_state`),
+    the domain's `limit_state`, then the task's `arrive`; `plant` an `EnginePlant`."""
+    step_model_state(plant, model, workspace, state, control, next_state)
     limit_state(next_state)
     return arrive(next_state, observation, params)
 
@@ -83,37 +93,52 @@ PLANT_STEPS = {
 """What the loop calls to step each plant, as kernel bindings and helpers
 (`lwrl.kernels`): `open_plant(plant)` once per call of the kernel (MuJoCo: an `mjData`
 of the call's own, as each thread of `mujoco.rollout` has one), `plant_transition(state,
-control, next_state, observation, plant, workspace, params)` per step, and
+control, next_state, observation, plant, model, workspace, params)` per step (`model`: the
+address of the episode's MuJoCo model, 0 for the analytic plant), and
 `close_plant(plant, workspace)` at the end."""
 
 
-def _loop(start, stop, first, count, starts, start_observations, controls, dt, plant, params,
-          step_limit, learn, greedy, arrays, steps, returns, uptime, truncated,
-          diverged_episode, done, tape, cancel):
+def _loop(start, stop, first, count, starts, start_observations, controls, dt, plant, models,
+          task_params, physical, sigma_observation, delays, sigma_action, keys, step_limit,
+          learn, greedy, arrays, steps, returns, uptime, truncated, diverged_episode, done,
+          tape, cancel):
     """The whole learning loop around the plant's transition: agents `start..stop-1` run
     episodes `first..first+count-1` (their starts given) unless diverged; once `cancel[0]`
     is set (Ctrl-C), each agent stops after the episode it is in (at most tens of ms).
-    `dt`: seconds of up-time per step up."""
+    `dt`: seconds of up-time per step up. Agent b's episode k has the controls
+    `controls[b, k]` `(A,)`, the parameter values `physical[b, k]` `(P,)` and the MuJoCo
+    model at `models[b, k]`; its sensors and actuator have the options `sigma_observation[b]`,
+    `delays[b]`, `sigma_action[b]` and the stream `keys[b]` (`tasks.disturbances`)."""
     dim = starts.shape[2]
     workspace = open_plant(plant)
     for b in range(start, stop):
         state = np.empty(dim)
         next_state = np.empty(dim)
         observation = np.empty(dim)
+        buffer = np.zeros(delays[b])
         for k in range(first, first + count):
             if arrays.diverged[b] or cancel[0]:
                 break
             state[:] = starts[b, k]
-            action = agent_step(b, True, 0.0, 1.0, start_observations[b, k], learn, greedy,
-                                arrays)
+            observation[:] = start_observations[b, k]
+            noisy_observation(observation, sigma_observation[b], keys[b], k, 0)
+            buffer[:] = 0.0
+            episode_controls = controls[b, k]
+            low, high = episode_controls.min(), episode_controls.max()
+            arguments = (task_params, physical[b, k])
+            action = agent_step(b, True, 0.0, 1.0, observation, learn, greedy, arrays)
             r = tape.slot[b, k]
             if r >= 0:
-                record_state(tape, r, 0, state, start_observations[b, k], arrays.q[b])
+                record_state(tape, r, 0, state, observation, arrays.q[b])
             n, total, up, terminal, last = 0, 0.0, 0.0, False, False
             while not last:
-                reward, terminal, is_up = plant_transition(state, controls[action], next_state,
-                                                           observation, plant, workspace, params)
+                control = applied_control(buffer, n, episode_controls[action], sigma_action[b],
+                                          low, high, keys[b], k)
+                reward, terminal, is_up = plant_transition(state, control, next_state,
+                                                           observation, plant, models[b, k],
+                                                           workspace, arguments)
                 n, up, last = advance_episode(n, up, is_up, terminal, dt, step_limit)
+                noisy_observation(observation, sigma_observation[b], keys[b], k, n)
                 total += reward
                 state[:] = next_state
                 previous = action
@@ -164,24 +189,50 @@ def plant_of(domain: str, plant: str, integrator: str, equations: str, physical=
     return engine_plant(plants.mujoco_model(physical), plants.mujoco_physics.ACTUATOR, plants.substeps)
 
 
+def model_addresses(domain: str, plant: str, physical: np.ndarray) -> np.ndarray:
+    """`(B, K)`: the address of the MuJoCo model at each episode's parameter values
+    `physical` `(B, K, P)`, compiled once per distinct row (`DomainPlants.mujoco_model`,
+    which keeps them: compiled code holds their addresses); zeros for the analytic plant."""
+    if plant == "analytic":
+        return np.zeros(physical.shape[:2], dtype=np.int64)
+    rows, inverse = np.unique(physical.reshape(-1, physical.shape[-1]), axis=0, return_inverse=True)
+    models = tasks.domain(domain).plants.mujoco_model
+    addresses = np.array([models(row)._address for row in rows], dtype=np.int64)
+    return addresses[inverse.ravel()].reshape(physical.shape[:2])
+
+
 def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
                  learn: bool = True, integrator: str = "semi_implicit", equations: str = "paper",
                  progress=None, record=(), plant: str = "analytic", greedy: bool = False,
-                 **options) -> EpisodeResults:
+                 params=None, randomise=None, **options) -> EpisodeResults:
     """B agents of a compiled learner (`Learner.compiles`) on `plant` (analytic or mujoco)
     of `domain.task`, in one compiled loop; environment b is seeded with `seeds[b]` as in
     `BatchedEnv`; `learn` and `greedy` as for `Learner.step`. Episodes run
     in about 20 blocks, after each of which `progress(episodes_done)` is called. The
-    `(agent, episode)` pairs in `record` are recorded step by step (`results.recordings`)."""
+    `(agent, episode)` pairs in `record` are recorded step by step (`results.recordings`).
+    As in `BatchedEnv`, `params` (the physical parameters) and the sensor and actuator
+    options (`tasks.disturbances.OPTIONS`) take one value for every agent or one per
+    agent; `randomise={name: (low, high)}` draws those parameters anew for each episode
+    (`tasks.randomisation`)."""
     episodes = check_count("episodes", episodes, 1)
-    plant_options = {name: value for name, value in (("integrator", integrator), ("equations", equations))
-                     if name in tasks.plant_option_names(domain, plant)}
-    definition, _, _ = tasks.resolve(domain, task, plant, **options, **plant_options)
-    stepped = plant_of(domain, plant, integrator, equations, definition.physical)
     seeds = list(seeds)
     if len(seeds) != agent.batch_size:
         raise ValueError(f"{len(seeds)} seeds for a batch of {agent.batch_size} agents")
     batch = agent.batch_size
+    parameters = tasks.domain(domain).parameters
+    rows = parameters.values(params, batch)
+    ranges = check_ranges(parameters, randomise)
+    if params and np.all(rows == rows[0]):
+        options["params"] = dict(zip(parameters.names, rows[0]))
+    plant_options = {name: value for name, value in (("integrator", integrator), ("equations", equations))
+                     if name in tasks.plant_option_names(domain, plant)}
+    definition, _, _, sensing = tasks.resolve_environment(domain, task, plant, **options,
+                                                          **plant_options)
+    stepped = plant_of(domain, plant, integrator, equations, definition.physical)
+    physical = draws(parameters, ranges, rows, seeds, episodes)
+    controls = np.ascontiguousarray(definition.controls_at(physical))
+    sensors = Disturbances(definition.state_names, controls[:, 0], batch, **sensing)
+    sensors.seed(seeds)
     results = EpisodeResults.empty(batch, episodes)
     steps = np.zeros((batch, episodes), dtype=np.int64)
     starts = episode_starts(definition, seeds, episodes)
@@ -192,16 +243,18 @@ def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
     done = np.zeros(batch, dtype=np.int64)  # episodes each agent has finished
     cancel = np.zeros(1, dtype=bool)  # set on Ctrl-C: the loops stop after their episode
     block = max(1, episodes // 20)
+    models = model_addresses(domain, plant, physical)
     try:
         for first in range(0, episodes, block):
             count = min(block, episodes - first)
             run_in_chunks(
-                loop, batch, first, count, starts, definition.observe(starts),
-                np.asarray(definition.controls, dtype=np.float64), definition.control_timestep,
-                stepped, definition.loop_arguments(), int(step_limit), bool(learn),
-                bool(greedy), agent.arrays, steps, results.returns, results.uptime,
-                results.truncated, results.diverged_episode, done, tape, cancel, min_chunk=1,
-                chunks_per_worker=8, cancel=cancel)
+                loop, batch, first, count, starts, definition.observe(starts), controls,
+                definition.control_timestep, stepped, models,
+                definition.loop_arguments()[0], physical, sensors.sigma_observation,
+                sensors.delay, sensors.sigma_action, sensors.keys, int(step_limit),
+                bool(learn), bool(greedy), agent.arrays, steps, results.returns,
+                results.uptime, results.truncated, results.diverged_episode, done, tape,
+                cancel, min_chunk=1, chunks_per_worker=8, cancel=cancel)
             if progress is not None:
                 progress(batch * count)
     except KeyboardInterrupt:

@@ -24,7 +24,9 @@ from lwrl import agent, tasks
 from lwrl.agent.learner_contract import LearnerSettings, TaskInfo
 from lwrl.settings import (LATE, SCALARS, WHEN_SET, base_type, check_choices, check_count,
                            default_of, fill, setting)
+from lwrl.tasks import disturbances
 from lwrl.tasks.integrators import INTEGRATORS
+from lwrl.tasks.randomisation import check_ranges
 from lwrl.tasks.plants import EQUATIONS
 
 
@@ -70,6 +72,12 @@ def learner_settings(name: str, given) -> LearnerSettings:
     return cls(**given)
 
 
+def parameters_help() -> str:
+    """The domains' parameters and their ranges, for `--param`'s and `--randomise`'s help."""
+    return "; ".join(f"{name}: " + ", ".join(parameter.allowed() for parameter in domain.parameters.items)
+                     for name, domain in tasks.DOMAINS.items() if domain.parameters.items)
+
+
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class EnvironmentSettings:
     """Which task, on which plant."""
@@ -85,10 +93,38 @@ class EnvironmentSettings:
     equations: str = setting("paper", choices=EQUATIONS, key=WHEN_SET, reading=True)
     """Equations of the analytic plant: the paper's, or `kfnnet`, with the suspected slips
     of the author's code (SPEC.md, "Known traps")."""
+    params: dict[str, float] = setting(default_factory=dict, key=WHEN_SET, per_agent=True,
+                                       flags=("--param",), describe=parameters_help)
+    """A physical parameter at another value than the paper's, NAME=VALUE (repeatable; the
+    domain's `Domain.parameters`, `lwrl tasks --parameters`)."""
+    observation_noise: dict[str, float] = setting(default_factory=dict, key=WHEN_SET,
+                                                  per_agent=True)
+    """Gaussian noise on an observed state variable, NAME=SIGMA in its units (repeatable;
+    `tasks.disturbances`)."""
+    action_delay: int = setting(0, key=WHEN_SET, per_agent=True)
+    """Control steps K between choosing an action and the actuator applying it (0 before
+    the first arrives)."""
+    action_noise: float = setting(0.0, key=WHEN_SET, per_agent=True)
+    """Gaussian noise SIGMA added to the applied force or torque, in its units, clipped to
+    the actuator's range."""
+    randomise: dict[str, tuple] = setting(default_factory=dict, key=WHEN_SET,
+                                          describe=parameters_help)
+    """A physical parameter drawn anew for every episode of every agent, uniformly in
+    NAME=LOW:HIGH (repeatable; domain randomisation, `tasks.randomisation`): the draws are
+    columns of the results."""
+
+    def environment_options(self) -> dict:
+        """The physical parameters, the sensor and actuator options and the randomisation
+        that depart from their defaults, as `tasks.load` and the run loops take them."""
+        return {field.name: getattr(self, field.name) for field in dataclasses.fields(EnvironmentSettings)
+                if field.name in ENVIRONMENT_OPTIONS and getattr(self, field.name) != default_of(field)}
 
 
 PLANT_OPTIONS = ("integrator", "equations")
 """The settings that are options of a plant (`tasks.plant_option_names`)."""
+ENVIRONMENT_OPTIONS = ("params", "randomise") + disturbances.OPTIONS
+"""The settings that are options of every environment and run loop: the physics, its
+randomisation and the sensors and actuator."""
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -171,6 +207,13 @@ class RunConfig(LearnerChoice, ProtocolSettings, EnvironmentSettings):
 
     task_options: dict = setting(default_factory=dict, cli=False, key=WHEN_SET)
     """Options of the task (e.g. the cart-pole's `track_limit`; `tasks.resolve` checks them)."""
+    trained: str | None = setting(cli=False, key=WHEN_SET)
+    """The key of a run whose agents, as they ended it, this run takes (kept by a sweep with
+    `keep_agents`, `runners.sweep`); None: new agents."""
+    learn: bool = setting(True, cli=False, key=WHEN_SET)
+    """False: the agents make no update (an evaluation)."""
+    greedy: bool = setting(False, cli=False, key=WHEN_SET)
+    """True: the agents act greedily (an evaluation)."""
 
     def __init__(self, **values):
         compose(self, values)
@@ -187,6 +230,7 @@ class RunConfig(LearnerChoice, ProtocolSettings, EnvironmentSettings):
                 raise ValueError(f"{field.name} {value!r} applies to the analytic plant of the tasks "
                                  f"that have it; {self.task} on the {self.plant_name} plant has "
                                  f"{', '.join(self.plant_options) or 'no plant options'}")
+        self.check_environment()
         learner = agent.learner(self.learner)
         fill(self, agent=with_defaults(self.agent, defaults))
         info = self.task_info
@@ -195,6 +239,23 @@ class RunConfig(LearnerChoice, ProtocolSettings, EnvironmentSettings):
             raise ValueError(reason)
         self.agent.check(info)
         self.check_protocol()
+
+    def check_environment(self) -> None:
+        """A one-line ValueError for a parameter, sensor or actuator option or range that
+        the task does not take; the values as they are written (numbers, tuples)."""
+        options = self.environment_options()
+        parameters = tasks.domain(self.domain).parameters
+        ranges = check_ranges(parameters, options.pop("randomise", {}))
+        definition, _, _, sensing = tasks.resolve_environment(self.domain, self.task_name,
+                                                             self.plant_name, **options)
+        disturbances.Disturbances(definition.state_names, definition.controls, **sensing)
+        # One spelling per run, so one key: the domain's order, floats.
+        fill(self, randomise=ranges,
+             params={name: float(self.params[name]) for name in parameters.names
+                     if name in self.params},
+             observation_noise={name: float(self.observation_noise[name])
+                                for name in definition.state_names
+                                if name in self.observation_noise})
 
     @property
     def domain(self) -> str:
@@ -254,9 +315,15 @@ class RunConfig(LearnerChoice, ProtocolSettings, EnvironmentSettings):
     def columns(self) -> dict:
         """The settings repeated on every row of the run's results table: each of one value
         (its type a `lwrl.settings.SCALARS`, not a tuple or a dict), but the seed, which the
-        rows carry per agent."""
-        return {field.name: value for field, value in self.flat_fields()
-                if field.name != "seed" and base_type(field.type) in SCALARS}
+        rows carry per agent, and each physical parameter and observation noise set
+        (`params.NAME`, `observation_noise.NAME`)."""
+        columns = {}
+        for field, value in self.flat_fields():
+            if field.name in ("params", "observation_noise"):  # a column per value set
+                columns.update({f"{field.name}.{name}": v for name, v in value.items()})
+            elif field.name != "seed" and base_type(field.type) in SCALARS:
+                columns[field.name] = value
+        return columns
 
     def key_json(self) -> str:
         """The JSON that identifies the run's results: every setting in `flat_fields`' order,

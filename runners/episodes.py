@@ -25,6 +25,9 @@ class EpisodeResults:
     """True if the run was interrupted (Ctrl-C): episodes not run are NaN."""
     recordings: list = dataclasses.field(default_factory=list)
     """`EpisodeRecording`s of the episodes asked for with `record`."""
+    physical: dict = dataclasses.field(default_factory=dict)
+    """`{name: (B, K) values}` of the physical parameters drawn per episode (`randomise`,
+    `tasks.randomisation`; NaN where not run); empty where none was drawn."""
 
     @classmethod
     def empty(cls, agents: int, episodes: int) -> "EpisodeResults":
@@ -38,7 +41,8 @@ class EpisodeResults:
             self.steps[start:stop], self.returns[start:stop], self.uptime[start:stop],
             self.truncated[start:stop], self.diverged_episode[start:stop], self.interrupted,
             [dataclasses.replace(r, agent=r.agent - start) for r in self.recordings
-             if start <= r.agent < stop])
+             if start <= r.agent < stop],
+            {name: values[start:stop] for name, values in self.physical.items()})
 
     @property
     def diverged(self) -> np.ndarray:
@@ -48,14 +52,16 @@ class EpisodeResults:
 
     def columns(self, seeds) -> dict:
         """Flat columns, one entry per agent and episode (episodes numbered from 1), agent
-        b seeded with `seeds[b]`: the results tables and `episodes.csv` are made of them."""
+        b seeded with `seeds[b]`, and one per parameter drawn per episode (`physical`): the
+        results tables and `episodes.csv` are made of them."""
         agents, episodes = self.steps.shape
         return {"agent": np.repeat(np.arange(agents), episodes),
                 "seed": np.repeat(np.asarray(seeds), episodes),
                 "episode": np.tile(np.arange(1, episodes + 1), agents),
                 "steps": self.steps.ravel(), "return": self.returns.ravel(),
                 "uptime_s": self.uptime.ravel(), "truncated": self.truncated.ravel(),
-                "diverged": self.diverged.ravel()}
+                "diverged": self.diverged.ravel(),
+                **{name: values.ravel() for name, values in self.physical.items()}}
 
 
 @register_jitable

@@ -19,6 +19,8 @@ in is cut there and its later episodes are not run: NaN).
 
 import math
 
+import numpy as np
+
 from lwrl import agent as learners
 from lwrl import tasks
 from lwrl.agent.learner_contract import Agents
@@ -26,6 +28,7 @@ from lwrl.runners.compiled import compiles, run_compiled
 from lwrl.runners.episodes import EpisodeResults
 from lwrl.runners.stepped import run_batched, run_dm_env
 from lwrl.tasks.batched import BatchedEnv
+from lwrl.tasks.randomisation import check_ranges, draws
 
 __all__ = ["EpisodeResults", "make_agent", "memory_needed", "run", "run_batched", "run_compiled",
            "run_dm_env"]
@@ -56,25 +59,66 @@ def make_agent(*configs) -> Agents:
                         [seed for config in configs for seed in config.seeds])
 
 
+def environment_options(configs) -> dict:
+    """The physical parameters, sensor and actuator options and randomisation of a batch of
+    agents joining `configs` (`RunConfig`s, each one's agents in order), as the run loops
+    take them: each one's value where the configurations share it, else one value per agent
+    (a parameter or a noise that a configuration does not set at its default)."""
+    first = configs[0].environment_options()
+    if all(config.environment_options() == first for config in configs[1:]):
+        return first
+    nominal = tasks.domain(configs[0].domain).parameters.nominal._asdict()
+    options = {}
+    for name, default in (("params", nominal), ("observation_noise", {})):
+        names = dict.fromkeys(key for config in configs for key in getattr(config, name))
+        if names:
+            options[name] = {key: [getattr(config, name).get(key, default.get(key, 0.0))
+                                   for config in configs for _ in range(config.agents)]
+                             for key in names}
+    for name in ("action_delay", "action_noise"):
+        options[name] = [getattr(config, name) for config in configs for _ in range(config.agents)]
+    if "randomise" in first:
+        options["randomise"] = first["randomise"]
+    return options
+
+
+def drawn_values(config, options: dict, seeds, results: EpisodeResults) -> dict:
+    """`{name: (B, K)}`: the values each episode drew of the parameters `randomise` names
+    (`tasks.randomisation.draws`; NaN where not run), for the results tables."""
+    parameters = tasks.domain(config.domain).parameters
+    ranges = check_ranges(parameters, options.get("randomise"))
+    if not ranges:
+        return {}
+    physical = draws(parameters, ranges, parameters.values(options.get("params"), len(seeds)),
+                     seeds, config.episodes)
+    ran = np.isfinite(results.steps)
+    return {name: np.where(ran, physical[:, :, parameters.position(name)], np.nan)
+            for name in ranges}
+
+
 def run(config, agent: Agents | None = None, learn: bool = True, greedy: bool = False,
-        progress=None, record=(), seeds=None) -> tuple[Agents, EpisodeResults]:
+        progress=None, record=(), seeds=None, batch=None) -> tuple[Agents, EpisodeResults]:
     """Run a `RunConfig`: the compiled loop where it runs the plant and the learner, else
     the batched stepper. Returns the agents (new ones unless given) and their results, with
     recordings of the `(agent, episode)` pairs in `record`. `learn=False` runs without
     updates, `greedy=True` with greedy actions (evaluation: both). `seeds` (one per agent of
-    a given `agent`) replaces the configuration's, for batches that join several
-    configurations."""
+    a given `agent`) replaces the configuration's, and `batch` (the configurations the
+    agents come from, `config` first) gives each agent its configuration's physics and
+    sensors (`environment_options`), for batches that join several configurations. The
+    values drawn per episode (`randomise`) are in `results.physical`."""
     agent = make_agent(config) if agent is None else agent
     seeds = config.seeds if seeds is None else list(seeds)
     domain, task = config.domain, config.task_name
+    options = environment_options(batch or [config])
     if agent.learner.compiles and compiles(domain, config.plant_name):
         results = run_compiled(domain, task, agent, config.episodes, seeds, learn=learn,
                                greedy=greedy, progress=progress, record=record,
                                plant=config.plant_name, **config.plant_options,
-                               **config.task_options)
+                               **config.task_options, **options)
     else:
         env = BatchedEnv(domain, task, config.plant_name, seeds, **config.plant_options,
-                         **config.task_options)
+                         **config.task_options, **options)
         results = run_batched(env, agent, config.episodes, learn=learn, greedy=greedy,
                               progress=progress, record=record)
+    results.physical = drawn_values(config, options, seeds, results)
     return agent, results

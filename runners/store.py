@@ -19,18 +19,26 @@ from lwrl import outputs
 
 
 class RunStore:
-    """The runs of a sweep in `out_dir/runs`."""
+    """The runs of a sweep in `out_dir/runs`; with `keep_agents`, each run's agents too,
+    `<key>.agents.npz` (`agent.io`), written before its table."""
 
-    def __init__(self, out_dir):
+    def __init__(self, out_dir, keep_agents: bool = False):
         self.directory = pathlib.Path(out_dir) / "runs"
         self.directory.mkdir(parents=True, exist_ok=True)
+        self.keep_agents = keep_agents
         self._claims = {}
 
     def path(self, config) -> pathlib.Path:
         return self.directory / f"{config.key}.csv.gz"
 
+    @staticmethod
+    def agents_file(out_dir, key: str) -> pathlib.Path:
+        """Where the agents of the run `key` of the sweep in `out_dir` are kept."""
+        return pathlib.Path(out_dir) / "runs" / f"{key}.agents.npz"
+
     def finished(self, config) -> bool:
-        return self.path(config).exists()
+        return self.path(config).exists() and (
+            not self.keep_agents or self.agents_file(self.directory.parent, config.key).exists())
 
     def repair(self, configs) -> list[str]:
         """Set aside every unreadable run file of `configs`; return one line per file."""

@@ -9,7 +9,8 @@ import numpy as np
 from lwrl import outputs
 
 COLUMNS = ("agent", "seed", "episode", "steps", "return", "uptime_s", "truncated", "diverged")
-"""Columns of `episodes.csv`, one row per agent and episode."""
+"""Columns of `episodes.csv`, one row per agent and episode; a column per parameter drawn
+per episode follows (`EpisodeResults.physical`)."""
 
 
 def mean_and_error(per_agent: np.ndarray) -> tuple[float, float]:
@@ -111,13 +112,14 @@ def divergence_note(results, seeds) -> str:
 
 
 def write_csv(path, results, seeds) -> None:
-    """`episodes.csv`: one row per agent and episode (NaN where an episode was not run),
-    whole or not at all."""
+    """`episodes.csv`: one row per agent and episode (NaN where an episode was not run) and
+    the values drawn for it, whole or not at all."""
+    drawn = tuple(results.physical)
     with outputs.atomic_write(path, newline="") as file:
         writer = csv.writer(file)
-        writer.writerow(COLUMNS)
+        writer.writerow(COLUMNS + drawn)
         columns = results.columns(seeds)
-        for row in zip(*(columns[name] for name in COLUMNS)):
-            agent, seed, episode, steps, total, uptime, truncated, diverged = row
+        for row in zip(*(columns[name] for name in COLUMNS + drawn)):
+            agent, seed, episode, steps, total, uptime, truncated, diverged = row[:len(COLUMNS)]
             writer.writerow([agent, seed, episode, "" if math.isnan(steps) else int(steps),
-                             total, uptime, int(truncated), int(diverged)])
+                             total, uptime, int(truncated), int(diverged), *row[len(COLUMNS):]])

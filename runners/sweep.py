@@ -23,10 +23,12 @@ import json
 import sys
 import time
 
+import numpy as np
 import pandas as pd
 import tqdm
 
 from lwrl import outputs
+from lwrl.agent import io as agent_io
 from lwrl.agent import threads
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent, run
@@ -67,15 +69,38 @@ def batches(configs, max_agents: int = MAX_BATCH_AGENTS) -> list:
     return result
 
 
-def run_batch(configs, progress=None) -> list:
+def trained_agents(configs, directory):
+    """The agents of a batch of configurations that go on with the agents of the run
+    `configs[0].trained` (kept in `directory`, `RunStore.agents_path`): each configuration's
+    agents are that run's, as it ended (what `agent.io` saves of them: weights, random
+    streams, divergence), with the configuration's settings."""
+    kept, _ = agent_io.load(RunStore.agents_file(directory, configs[0].trained))
+    agent = make_agent(*configs)
+    _, target = agent.saved()
+    for name, values in kept.saved()[1].items():
+        target[name][:] = np.concatenate([values] * len(configs))
+    if not all(np.array_equal(target[name], agent.saved()[1][name]) for name in target):
+        raise ValueError(f"{agent.learner.name}'s saved arrays are not its own: its agents "
+                         "cannot take kept ones")
+    return agent
+
+
+def run_batch(configs, progress=None, directory=None, keep_agents: bool = False) -> list:
     """Run several configurations as one batch of agents; one tidy table per configuration,
     equal to running each alone (agents are independent). `progress(agent_episodes)` is
-    called as episodes finish."""
-    agent = make_agent(*configs)
+    called as episodes finish. Agents go on from a kept run where the configurations name
+    one (`RunConfig.trained`, `trained_agents`); with `keep_agents` the batch's agents (of
+    one configuration) are saved to `directory` for such runs."""
+    base = configs[0]
+    agent = trained_agents(configs, directory) if base.trained else make_agent(*configs)
     seeds = [seed for config in configs for seed in config.seeds]
-    _, results = run(configs[0], agent=agent, seeds=seeds, progress=progress)
+    _, results = run(base, agent=agent, seeds=seeds, progress=progress, learn=base.learn,
+                     greedy=base.greedy, batch=configs)
     if results.interrupted:
         raise KeyboardInterrupt
+    if keep_agents:
+        agent_io.save(RunStore.agents_file(directory, base.key), agent,
+                      {"config": dataclasses.asdict(base)})
     tables, start = [], 0
     for config in configs:
         tables.append(results_table(config, results.agents(start, start + config.agents)))
@@ -96,12 +121,12 @@ def _agent_episodes(configs) -> int:
     return sum(config.agents * config.episodes for config in configs)
 
 
-def _local(batches_, progress):
+def _local(batches_, progress, *options):
     for batch in batches_:
-        yield batch, run_batch(batch, progress)
+        yield batch, run_batch(batch, progress, *options)
 
 
-def _ray(batches_, address, progress):
+def _ray(batches_, address, progress, *options):
     try:
         import ray
     except ImportError:
@@ -109,7 +134,7 @@ def _ray(batches_, address, progress):
     ray.init(address=address, ignore_reinit_error=True, include_dashboard=False,
              log_to_driver=False)
     remote = ray.remote(run_batch)
-    pending = {remote.remote(batch): batch for batch in batches_}
+    pending = {remote.remote(batch, None, *options): batch for batch in batches_}
     try:
         while pending:
             done, _ = ray.wait(list(pending), num_returns=1)
@@ -124,7 +149,7 @@ def _ray(batches_, address, progress):
 
 def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None = None,
               address: str | None = None, description: str = "sweep",
-              wait_seconds: float = 2.0) -> tuple[pd.DataFrame, int]:
+              wait_seconds: float = 2.0, keep_agents: bool = False) -> tuple[pd.DataFrame, int]:
     """Run every configuration not already in `out_dir`; return all their results and how
     many runs this call computed.
 
@@ -133,6 +158,11 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
     again (a line on standard error names each). Batches that another process has claimed
     (`runners.store`) are left to it: this call computes the others, then waits for those,
     polling every `wait_seconds`, and takes over any whose process is gone.
+
+    With `keep_agents`, each run is a batch of its own whose agents are kept beside its
+    table (`RunStore.agents_path`; a run is finished once both are there), for runs that
+    go on with them (`RunConfig.trained`: an evaluation, `learn=False, greedy=True`), which
+    read them from the same directory.
     """
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; allowed: {', '.join(BACKENDS)}")
@@ -140,20 +170,21 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
         if workers < 1:
             raise ValueError(f"workers must be a positive integer; got {workers}")
         threads.set_workers(workers)
-    store = RunStore(out_dir)
+    store = RunStore(out_dir, keep_agents)
     for line in store.repair(configs):
         print(line, file=sys.stderr)
     pending = [config for config in configs if not store.finished(config)]
     total, left = _agent_episodes(configs), _agent_episodes(pending)
-    queue, computed = batches(pending), 0
+    queue, computed = batches(pending, 1 if keep_agents else MAX_BATCH_AGENTS), 0
+    options = (str(out_dir), keep_agents)
     with tqdm.tqdm(total=total, initial=total - left, desc=description, unit="agent-episode",
                    file=sys.stderr, disable=None, smoothing=0.05) as bar:
         try:
             while queue:
                 queue = [batch for batch in queue if not all(map(store.finished, batch))]
                 mine = [batch for batch in queue if store.claim(batch)]
-                finished = (_local(mine, bar.update) if backend == "local"
-                            else _ray(mine, address, bar.update))
+                finished = (_local(mine, bar.update, *options) if backend == "local"
+                            else _ray(mine, address, bar.update, *options))
                 for batch, tables in finished:
                     for config, table in zip(batch, tables):
                         store.write(config, table)

@@ -133,7 +133,9 @@ def load(domain_name: str, task: str, plant=None, seed=None, *, task_kwargs=None
     dm_control's `suite.load`, `task_kwargs` may hold the seed as `random` and the task's
     options (`params={name: value}`, the physical parameters), and `environment_kwargs` is
     passed to `control.Environment` (e.g. `flat_observation=True`). The sensor and actuator
-    options (`tasks.disturbances`) go in `task_kwargs` or as keywords, like the task's.
+    options (`tasks.disturbances`) and `randomise={name: (low, high)}`, parameters drawn
+    anew for each episode (`tasks.randomisation`), go in `task_kwargs` or as keywords, like
+    the task's.
     Unknown names or options raise a ValueError that names what is allowed.
     """
     task_kwargs = dict(task_kwargs or {})
@@ -144,10 +146,13 @@ def load(domain_name: str, task: str, plant=None, seed=None, *, task_kwargs=None
     twice = sorted(set(task_kwargs) & set(options))
     if twice:
         raise ValueError(f"option {twice[0]!r} given both in task_kwargs and as a keyword")
+    options = {**task_kwargs, **options}
+    randomise = options.pop("randomise", None)
     task_definition, plant, plant_options, sensing = resolve_environment(
-        domain_name, task, plant, **task_kwargs, **options)
+        domain_name, task, plant, **options)
     physics = domain(domain_name).plants.physics(plant, **plant_options,
                                                  physical=task_definition.physical)
     task_object = SuiteTask(task_definition, seed, disturbances.Disturbances(
-        task_definition.state_names, task_definition.controls, **sensing))
+        task_definition.state_names, task_definition.controls, **sensing),
+        domain(domain_name).parameters, randomise)
     return control.Environment(physics, task_object, **(environment_kwargs or {}))

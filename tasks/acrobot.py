@@ -334,4 +334,5 @@ DOMAIN = Domain(
                         limit_state=limit_state),
     value_axes=("shoulder_angle", "elbow_angle"),
     comparison=PlantComparison(tolerances={"shoulder_angle": 0.05, "elbow_angle": 0.05},
-                               transfer_episodes=3, rest_start=rest_start))
+                               transfer_episodes=3, rest_start=rest_start),
+    robustness_axes=("link_mass_2", "torque"))

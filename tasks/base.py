@@ -7,6 +7,8 @@ from dm_control.rl import control
 from dm_env import specs
 
 from lwrl.tasks.disturbances import Disturbances
+from lwrl.tasks.parameters import Parameters
+from lwrl.tasks.randomisation import check_ranges, episode_values
 from lwrl.tasks.task_definition import TaskDefinition, check_actions, random_starts
 
 
@@ -20,12 +22,21 @@ class SuiteTask(control.Task):
     plant and the agent.
     """
 
-    def __init__(self, definition: TaskDefinition, seed=None, disturbances: Disturbances = None):
+    def __init__(self, definition: TaskDefinition, seed=None, disturbances: Disturbances = None,
+                 parameters: Parameters = None, randomise=None):
+        """`randomise={name: (low, high)}` draws those of the domain's `parameters` anew for
+        each episode (`tasks.randomisation`), from a stream of `seed`."""
         self.definition = definition
         self.random = random_starts(seed)
         self.disturbances = disturbances or Disturbances(definition.state_names,
                                                          definition.controls)
         self.disturbances.seed([seed])
+        self._parameters = parameters
+        self._ranges = check_ranges(parameters, randomise) if randomise else {}
+        self._seed, self._episode = seed, -1
+        self.physical = np.asarray(definition.physical, dtype=np.float64)
+        """The parameter values of the current episode `(P,)`."""
+        self._controls = definition.controls
         self._steps = 0
         self._uptime = 0.0
 
@@ -46,6 +57,13 @@ class SuiteTask(control.Task):
         self.disturbances.seed([seed])
 
     def initialize_episode(self, physics):
+        if self._ranges:
+            self._episode += 1
+            self.physical = episode_values(self._parameters, self._ranges,
+                                           self.definition.physical, self._seed, self._episode)
+            physics.set_physical(self.physical)
+            self._controls = tuple(self.definition.controls_at(self.physical).tolist())
+            self.disturbances.low[:], self.disturbances.high[:] = min(self._controls), max(self._controls)
         physics.set_state_vector(self.definition.initial_states(self.random, 1)[0])
         self._steps = 0
         self._uptime = 0.0 if self.definition.has_uptime else float("nan")
@@ -56,14 +74,20 @@ class SuiteTask(control.Task):
         if index.ndim != 0:
             raise ValueError(f"action must be one integer index in 0..{self.definition.num_actions - 1}; "
                              f"got {action!r}")
-        control = self.definition.controls[int(index)]
+        control = self._controls[int(index)]
         if self.disturbances.active:
             control = float(self.disturbances.actuate([control], [0], [self._steps])[0])
         physics.set_control(control)
 
+    def _outcome(self, physics) -> tuple:
+        """`(reward, terminal, up)` of the plant's state at the episode's values."""
+        reward, terminal, up = self.definition.outcomes(physics.state_vector()[None], self.physical)
+        return float(reward[0]), bool(terminal[0]), bool(up[0])
+
     def after_step(self, physics):
         self._steps += 1
-        self._uptime += float(self.definition.uptime_increment(physics.state_vector()[None])[0])
+        if self.definition.has_uptime:
+            self._uptime += self.definition.control_timestep * self._outcome(physics)[2]
 
     def action_spec(self, physics):
         return specs.DiscreteArray(num_values=self.definition.num_actions, dtype=np.int64,
@@ -81,10 +105,10 @@ class SuiteTask(control.Task):
             (name, np.array(value)) for name, value in zip(self.definition.state_names, observation))
 
     def get_reward(self, physics):
-        return float(self.definition.reward(physics.state_vector()[None])[0])
+        return self._outcome(physics)[0]
 
     def get_termination(self, physics):
-        if self.definition.terminal(physics.state_vector()[None])[0]:
+        if self._outcome(physics)[1]:
             return 0.0
         if self._steps >= self.definition.step_limit:
             return 1.0

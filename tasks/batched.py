@@ -7,8 +7,9 @@ as a dm_env environment does when stepped after LAST. Given the same seeds and a
 batched environments produce exactly the time steps of B single `tasks.load` environments.
 The task's reward, termination and up-time are the same `TaskDefinition` functions the
 single environments call. Each environment may have physical parameter values of its own
-(`params={name: one value or B values}`), so that one batch spans a grid, and sensor and
-actuator options of its own (`tasks.disturbances`).
+(`params={name: one value or B values}`), so that one batch spans a grid, values drawn
+anew for each episode (`randomise={name: (low, high)}`, `tasks.randomisation`), and
+sensor and actuator options of its own (`tasks.disturbances`).
 """
 
 from typing import NamedTuple, Sequence
@@ -20,6 +21,7 @@ from lwrl import tasks
 from lwrl.tasks.task_definition import (advance_episode, check_actions, check_finite_state,
                                    random_starts)
 from lwrl.tasks.disturbances import Disturbances
+from lwrl.tasks.randomisation import check_ranges, episode_values
 
 FIRST, MID, LAST = (int(t) for t in (dm_env.StepType.FIRST, dm_env.StepType.MID, dm_env.StepType.LAST))
 
@@ -58,7 +60,7 @@ class BatchedEnv:
     """
 
     def __init__(self, domain: str, task: str, plant=None, seeds: Sequence[int] = (0,),
-                 params=None, **options):
+                 params=None, randomise=None, **options):
         if isinstance(seeds, (str, bytes)) or not hasattr(seeds, "__iter__"):
             raise ValueError(f"seeds must be a sequence of non-negative integers, one per "
                              f"environment; got {seeds!r}")
@@ -66,8 +68,12 @@ class BatchedEnv:
         if not seeds:
             raise ValueError("seeds must name at least one environment")
         self.batch_size = len(seeds)
-        self.physical = tasks.domain(domain).parameters.values(params, self.batch_size)
-        shared = bool(np.all(self.physical == self.physical[0]))
+        self._parameters = tasks.domain(domain).parameters
+        self.physical = self._parameters.values(params, self.batch_size)
+        self._ranges = check_ranges(self._parameters, randomise)
+        self._base = self.physical.copy()
+        self._episodes = np.full(self.batch_size, -1, dtype=np.int64)
+        shared = bool(np.all(self.physical == self.physical[0])) and not self._ranges
         if shared and params:
             options["params"] = dict(zip(tasks.domain(domain).parameters.names, self.physical[0]))
         self.definition, self.plant_name, plant_options, sensing = tasks.resolve_environment(
@@ -96,10 +102,20 @@ class BatchedEnv:
     def _start_episodes(self, which: np.ndarray) -> None:
         for i in np.flatnonzero(which):
             self.state[i] = self.definition.initial_states(self._rngs[i], 1)[0]
+            if self._ranges:
+                self._draw(i)
         self.steps[which] = 0
         self.uptime[which] = self.definition.initial_uptime
         self._needs_reset[which] = False
         self.disturbances.start(which)
+
+    def _draw(self, i: int) -> None:
+        """Environment i's parameter values for its next episode (`randomise`)."""
+        self._episodes[i] += 1
+        self.physical[i] = episode_values(self._parameters, self._ranges, self._base[i],
+                                          self.seeds[i], self._episodes[i])
+        self.controls[i] = self.definition.controls_at(self.physical[i])
+        self.disturbances.low[i], self.disturbances.high[i] = self.controls[i].min(), self.controls[i].max()
 
     def _observation(self) -> np.ndarray:
         """What the agents observe of the states, through their sensors: an array of its own

@@ -104,6 +104,10 @@ class Domain:
     """The plant comparison's settings, for domains with a MuJoCo plant."""
     c_plant: Optional[CPlant] = None
     """Its plant in C for the device programs, where it has one."""
+    robustness_axes: tuple = ()
+    """The one or two physical parameters (names of `parameters`) whose grid the robustness
+    study spans (`lwrl robustness`): what a real plant most often has otherwise than
+    modelled, its load and its actuator's strength."""
 
     @property
     def model(self) -> Optional[str]:

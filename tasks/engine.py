@@ -105,14 +105,23 @@ def step_state(plant, workspace, state, control, next_state):
     """One agent step of one state `(d,)` in the task's order (each coordinate, then its
     velocity) with `control` on the plant's actuator, as `mujoco.rollout` steps it; writes
     `next_state`."""
+    step_model_state(plant, plant.model, workspace, state, control, next_state)
+
+
+@register_jitable
+def step_model_state(plant, model, workspace, state, control, next_state):
+    """`step_state` in the model at address `model` instead of the plant's: a model of the
+    same MJCF file at other parameter values (`DomainPlants.mujoco_model`), whose sizes are
+    the plant's, so that the workspace's `mjData` serves it, as `mujoco.rollout` steps
+    several models with one `mjData` per thread."""
     engine, data, physics = plant.engine, workspace.data, workspace.physics
     half = state.shape[0] // 2
     physics[0] = 0.0
     for j in range(half):
         physics[1 + j] = state[2 * j]
         physics[1 + half + j] = state[2 * j + 1]
-    engine.set_state(plant.model, data, physics.ctypes, FULL_PHYSICS)
-    engine.set_state(plant.model, data, workspace.zeros.ctypes, WARMSTART)
+    engine.set_state(model, data, physics.ctypes, FULL_PHYSICS)
+    engine.set_state(model, data, workspace.zeros.ctypes, WARMSTART)
     # mjWarningStat is (lastinfo, number), two ints: warning i's count is int i * 2 from
     # the first count.
     counters = numba.carray(data, plant.warnings + 8 * WARNINGS)[plant.warnings:].view(np.int32)
@@ -125,9 +134,9 @@ def step_state(plant, workspace, state, control, next_state):
             warned = warned or counters[i * 2] != 0
         if warned:
             break
-        engine.set_state(plant.model, data, workspace.control.ctypes, CONTROLS)
-        engine.step(plant.model, data)
-    engine.get_state(plant.model, data, physics.ctypes, FULL_PHYSICS)
+        engine.set_state(model, data, workspace.control.ctypes, CONTROLS)
+        engine.step(model, data)
+    engine.get_state(model, data, physics.ctypes, FULL_PHYSICS)
     for j in range(half):
         next_state[2 * j] = physics[1 + j]
         next_state[2 * j + 1] = physics[1 + half + j]

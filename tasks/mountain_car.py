@@ -217,4 +217,5 @@ DOMAIN = Domain(
     name="mountain_car", tasks={"cost_to_go": cost_to_go},
     plants=DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=Physics,
                         parameters=PARAMETERS, euler=False, analytic_options=()),
-    value_axes=("position", "velocity"), drawing=_drawing(), c_plant=C_PLANT)
+    value_axes=("position", "velocity"), drawing=_drawing(), c_plant=C_PLANT,
+    robustness_axes=("gravity", "thrust"))

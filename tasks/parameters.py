@@ -79,7 +79,8 @@ class Parameters:
     def names(self) -> tuple:
         return tuple(parameter.name for parameter in self.items)
 
-    def _position(self, name) -> int:
+    def position(self, name) -> int:
+        """Where `name` sits in a vector, or a one-line ValueError naming the parameters."""
         if name not in self.names:
             allowed = ", ".join(parameter.allowed() for parameter in self.items) or "none"
             raise ValueError(f"unknown parameter {name!r}; allowed: {allowed}")
@@ -100,8 +101,8 @@ class Parameters:
         shape = (len(self.items),) if batch_size is None else (batch_size, len(self.items))
         values = np.broadcast_to(np.asarray(self.nominal, dtype=np.float64), shape).copy()
         for name, value in given.items():
-            parameter = self.items[self._position(name)]
-            values[..., self._position(name)] = per_environment(
+            parameter = self.items[self.position(name)]
+            values[..., self.position(name)] = per_environment(
                 f"{parameter.name} ({parameter.symbol})", value, parameter.low, parameter.high,
                 parameter.unit, batch_size)
         return values
@@ -134,7 +135,7 @@ def per_environment(name: str, value, low: float, high: float, unit: str,
         bad |= np.isfinite(array) & (array != np.round(array))
     if np.any(bad):
         raise ValueError(f"{name} must be a finite {kind} within [{low:g}, {high:g}] {unit}; got "
-                         f"{np.ravel(array)[np.flatnonzero(np.ravel(bad))[0]]!r}")
+                         f"{np.ravel(array)[np.flatnonzero(np.ravel(bad))[0]].item()!r}")
     return array
 
 

@@ -201,4 +201,5 @@ DOMAIN = Domain(
                         parameters=PARAMETERS, mujoco_physics=MujocoPhysicsPendulum,
                         model="pendulum", edit_model=edit_model),
     value_axes=("angle", "angular_velocity"),
-    comparison=PlantComparison(tolerances={"angle": 0.05}, transfer_episodes=10))
+    comparison=PlantComparison(tolerances={"angle": 0.05}, transfer_episodes=10),
+    robustness_axes=("mass", "torque"))

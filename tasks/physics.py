@@ -5,6 +5,8 @@ Both classes expose `state_vector()` / `set_state_vector(s)` in the task's varia
 modules add one-line accessors named after the quantities (`pole_angle()`, ...).
 """
 
+import copy
+
 import numpy as np
 from dm_control import mujoco as dm_mujoco
 from dm_control.mujoco import wrapper
@@ -32,6 +34,10 @@ class AnalyticPhysics(control.Physics):
     def physical(self) -> np.ndarray:
         """The plant's physical parameter values `(P,)` (`tasks.parameters`)."""
         return self._plant.physical
+
+    def set_physical(self, values) -> None:
+        """Step at the parameter values `values` `(P,)` from now on (a new episode's)."""
+        self._plant.physical = np.asarray(values, dtype=np.float64)
 
     def time(self):
         return self._time
@@ -78,12 +84,22 @@ class MujocoPhysics(dm_mujoco.Physics):
     """The domain's state limit after each agent step (`DomainPlants.limit`), or None."""
     physical = None
     """The physical parameter values `(P,)` the model was set to (`DomainPlants.physics`)."""
+    model_at = None
+    """`model_at(values)`: the domain's model at other parameter values
+    (`DomainPlants.mujoco_model`), for `set_physical`."""
 
     @classmethod
     def from_mujoco_model(cls, model):
         """The Physics of a compiled `mujoco.MjModel` (e.g. an MJCF model set to other
         parameter values, `DomainPlants.mujoco_model`), which it keeps and may change."""
         return cls.from_model(wrapper.MjModel(model))
+
+    def set_physical(self, values) -> None:
+        """Step the model at the parameter values `values` `(P,)` from now on (a new
+        episode's): the Physics reloads from a copy of that model (`model_at`)."""
+        values = np.asarray(values, dtype=np.float64)
+        self._reload_from_data(wrapper.MjData(wrapper.MjModel(copy.copy(self.model_at(values)))))
+        self.physical = values
 
     def step(self, nstep=1):
         """`nstep` agent steps: `substeps` MuJoCo steps each, then the domain's limit."""

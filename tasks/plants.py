@@ -233,5 +233,6 @@ class DomainPlants:
             values = self.values(physical)
             physics = self.mujoco_physics.from_mujoco_model(copy.copy(self.mujoco_model(values)))
             physics.substeps, physics.limit, physics.physical = self.substeps, self.limit, values
+            physics.model_at = self.mujoco_model
             return physics
         return self.analytic_physics(self.batch("analytic", 1, integrator, equations, physical))

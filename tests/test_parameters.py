@@ -8,6 +8,7 @@ whose environments each have values of their own is those environments one by on
 run paths give one set of numbers.
 """
 
+import dataclasses
 import inspect
 import pathlib
 import math
@@ -373,3 +374,43 @@ def test_the_readme_has_each_domains_parameters():
 
     readme = (pathlib.Path(__file__).resolve().parents[1] / "README.md").read_text()
     assert parameter_tables() in readme, "put `lwrl tasks --parameters`'s output in the README"
+
+
+def test_a_parameter_declared_in_its_domain_alone_reaches_every_path(monkeypatch, capsys):
+    """Adding a parameter is one more `Parameter` in its domain's `PARAMETERS` (and the
+    equations that read it, in the same module): the settings, `lwrl train`'s flags and help,
+    `lwrl tasks --parameters`, randomisation, a batch and the compiled loop take it from the
+    declaration, with nothing else changed (no other room names a parameter:
+    `test_architecture.py`). Here one that the equations do not read, so its runs are the
+    paper's."""
+    from lwrl.runners.run import run
+    from lwrl.tasks.parameters import Parameter, Parameters
+    from conftest import run_cli
+
+    domain = tasks.domain("pendulum")
+    added = Parameter("bob_radius", "r", "m", 0.05, 0.01, 0.5, "the bob's radius")
+    parameters = Parameters(*domain.parameters.items, added)
+    # What the module would hold with the declaration added: its PARAMETERS, and its DOMAIN
+    # built from them.
+    monkeypatch.setattr(inspect.getmodule(domain.plants.step), "PARAMETERS", parameters)
+    plants = dataclasses.replace(domain.plants, parameters=parameters)
+    monkeypatch.setitem(tasks.DOMAINS, "pendulum", dataclasses.replace(domain, plants=plants))
+    status, out, _ = run_cli(["train", "--help"], capsys)
+    assert status == 0 and added.allowed() in " ".join(out.split())
+    status, out, _ = run_cli(["tasks", "--parameters"], capsys)
+    assert status == 0 and "| `bob_radius` | r | m | 0.05 | 0.01 to 0.5 | the bob's radius |" in out
+    status, _, err = run_cli(["train", "pendulum.swingup", "--param", "bob_radius=2"], capsys)
+    assert status == 2 and len(err) == 1 and "[0.01, 0.5]" in err[0]
+    assert BatchedEnv("pendulum", "swingup", "analytic", [0, 1],
+                      params={"bob_radius": [0.1, 0.2]}).physical[:, -1].tolist() == [0.1, 0.2]
+    nominal = RunConfig(task="pendulum.swingup", plant="analytic", agents=2, episodes=3,
+                        task_options={"time_limit": 4.0})
+    added_config = dataclasses.replace(nominal, params={"bob_radius": 0.1},
+                                       randomise={"bob_radius": (0.02, 0.4)})
+    assert added_config.key != nominal.key
+    paper_agent, paper = run(nominal)
+    added_agent, added_run = run(added_config)
+    np.testing.assert_array_equal(added_run.steps, paper.steps)
+    np.testing.assert_array_equal(added_agent.weights, paper_agent.weights)
+    drawn = added_run.physical["bob_radius"]
+    assert drawn.shape == (2, 3) and np.all((drawn >= 0.02) & (drawn <= 0.4))

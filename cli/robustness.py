@@ -1,0 +1,67 @@
+"""`lwrl robustness`: how far from the paper's plant the learned controllers still work."""
+
+import shlex
+import time
+
+from lwrl import outputs, tasks
+from lwrl.cli import fields, output
+
+OUT = "robustness"
+"""The default output directory."""
+
+
+def add_parser(commands) -> None:
+    study = commands.add_parser(
+        "robustness", help="evaluate trained controllers away from the paper's plant",
+        description="Train every learner that fits each task on the paper's plant and with "
+                    "randomised physics, then run them greedily over a grid of the domain's "
+                    "robustness parameters, observation noise and actuation delays, with the "
+                    "exported C controller beside them; write a map figure per task and a "
+                    "report. Runs are written as they finish: the same command resumes.")
+    study.add_argument("task", nargs="+", metavar="DOMAIN.TASK", choices=tasks.TASK_NAMES,
+                       help="one or more of: " + ", ".join(tasks.TASK_NAMES))
+    study.add_argument("--plant", default="analytic",
+                       help="the plant (default analytic: it agrees with MuJoCo to round-off "
+                            "at any parameter values, and costs less)")
+    study.add_argument("--agents", type=fields.positive_int,
+                       help="agents per trained batch (default: the task's protocol)")
+    study.add_argument("--episodes", type=fields.positive_int,
+                       help="training episodes per agent (default: the task's protocol)")
+    study.add_argument("--evaluation-episodes", type=fields.positive_int,
+                       help="greedy episodes per agent and cell (default: the plant "
+                            "comparison's transfer episodes, else 10)")
+    study.add_argument("--out", metavar="DIR", default=OUT,
+                       help=f"output directory (default: {OUT})")
+    study.add_argument("--workers", type=fields.positive_int,
+                       help="threads (default: all cores)")
+    study.add_argument("--quick", action="store_true", help="tiny grids: a smoke test in seconds")
+    study.set_defaults(run=study_robustness)
+
+
+def command_line(args) -> str:
+    """The command that makes this study again, as the report names it: the tasks and every
+    option away from its default, the threads aside (they change no number)."""
+    words = ["lwrl", "robustness", *args.task]
+    if args.plant != "analytic":
+        words += ["--plant", args.plant]
+    for name in ("agents", "episodes", "evaluation_episodes"):
+        if getattr(args, name) is not None:
+            words += ["--" + name.replace("_", "-"), str(getattr(args, name))]
+    if args.quick:
+        words.append("--quick")
+    if args.out != OUT:
+        words += ["--out", args.out]
+    return shlex.join(words)
+
+
+def study_robustness(args) -> int:
+    """Run (or resume) the study and write its report."""
+    module, = output.study_modules("robustness", "lwrl.studies.robustness.robustness")
+    started = time.perf_counter()
+    output.claim_outputs(args, "out")
+    outputs.check_directory(args.out, "--out")  # a study resumes in its directory
+    path = module.robustness(args.task, args.out, command_line(args), plant=args.plant, quick=args.quick,
+                             agents=args.agents, episodes=args.episodes,
+                             evaluation_episodes=args.evaluation_episodes, workers=args.workers)
+    output.done(started, [path, f"the figures in {args.out}/figures", f"the runs in {args.out}/runs"])
+    return 0

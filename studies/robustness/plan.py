@@ -1,0 +1,142 @@
+"""The robustness study's runs: which agents are trained, and where each is evaluated.
+
+For a task, every learner of the registry that fits it (`agent.LEARNERS`, `Learner.fits`)
+is trained with its default settings for the task twice: on the paper's plant, and with
+the domain's robustness parameters (`Domain.robustness_axes`) drawn uniformly for every
+episode between `TRAINING_FACTORS` times their paper values (domain randomisation). Each
+trained batch is then evaluated greedily without learning (`RunConfig.trained`, `learn`,
+`greedy`) in every cell:
+
+- the grid of the robustness parameters, each at `FACTORS` times its paper value (clipped to
+  the values the plants accept);
+- observation noise on every state variable at once, sigma a fraction `NOISE_LEVELS` of the
+  variable's normalisation span (the task's `RunDefaults.low` to `high`);
+- actuation delays of `DELAYS` control steps.
+
+The evaluation episodes start from seeds of their own (`EVALUATION_SEED` + the agent's
+seed), not from the training's starts.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+
+from lwrl import agent as learners
+from lwrl import tasks
+from lwrl.runners.config import RunConfig, task_info
+
+FACTORS = (0.25, 0.5, 1.0, 2.0, 4.0)
+"""Each axis of the parameter grid, times the paper's value."""
+TRAINING_FACTORS = (0.5, 2.0)
+"""The range of the randomised training, times the paper's value."""
+NOISE_LEVELS = (0.0, 0.01, 0.02, 0.05, 0.1)
+"""Observation noise: sigma of each state variable as a fraction of its normalisation span."""
+DELAYS = (0, 1, 2, 3)
+"""Actuation delays, in control steps."""
+EVALUATION_SEED = 10_000
+"""Added to each agent's seed for its evaluation episodes' starts and sensor streams."""
+TRAININGS = ("nominal", "randomised")
+QUICK = {"factors": (0.5, 1.0, 2.0), "noise": (0.0, 0.05), "delays": (0, 2), "agents": 2,
+         "episodes": 3, "evaluation_episodes": 1, "time_limit_steps": 200}
+"""Tiny grids and runs, for a smoke test in seconds."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Cell:
+    """Where agents are evaluated: the robustness parameters at `factors` times their
+    paper values, observation noise at `noise` of each span, a delay of `delay` steps."""
+
+    factors: tuple
+    """One factor per robustness parameter (`Domain.robustness_axes`)."""
+    noise: float = 0.0
+    delay: int = 0
+
+    @property
+    def kind(self) -> str:
+        """`parameters`, `noise` or `delay`: which of the study's sets the cell is in (the
+        nominal cell, in all three, is `parameters`)."""
+        return "noise" if self.noise else "delay" if self.delay else "parameters"
+
+
+def axes(task: str) -> tuple:
+    """The task's robustness parameters (`Parameter`s of its domain), one or two."""
+    domain = tasks.domain(tasks.split_name(task)[0])
+    return tuple(domain.parameters.items[domain.parameters.position(name)]
+                 for name in domain.robustness_axes)
+
+
+def cells(task: str, quick: bool = False) -> list:
+    """Every cell of the study for `task`: the parameter grid, then the noise levels and
+    the delays at the paper's values (each cell once)."""
+    factors = QUICK["factors"] if quick else FACTORS
+    count = len(axes(task))
+    grid = [Cell(tuple(combination)) for combination in
+            np.array(np.meshgrid(*[factors] * count, indexing="ij")).reshape(count, -1).T.tolist()]
+    nominal = (1.0,) * count
+    noise = [Cell(nominal, noise=level) for level in (QUICK["noise"] if quick else NOISE_LEVELS) if level]
+    delays = [Cell(nominal, delay=delay) for delay in (QUICK["delays"] if quick else DELAYS) if delay]
+    return grid + noise + delays
+
+
+def values(task: str, cell: Cell) -> dict:
+    """`{name: value}` of the robustness parameters away from the paper's in `cell`, each
+    its factor times the paper's value, clipped to the accepted range."""
+    return {parameter.name: float(np.clip(factor * parameter.nominal, parameter.low, parameter.high))
+            for parameter, factor in zip(axes(task), cell.factors) if factor != 1.0}
+
+
+def learners_for(task: str) -> list:
+    """The learners of the registry that fit `task`, in the registry's order."""
+    info = task_info(task)
+    return [name for name, learner in learners.LEARNERS.items() if learner.fits(info) is None]
+
+
+def task_options(task: str, quick: bool) -> dict:
+    """The task's options: none, or for a quick run a short time limit."""
+    if not quick:
+        return {}
+    definition = tasks.definition(*tasks.split_name(task))
+    steps = min(QUICK["time_limit_steps"], definition.step_limit)
+    return {"time_limit": steps * definition.control_timestep if math.isfinite(steps) else steps}
+
+
+def trainings(task: str, plant: str, agents=None, episodes=None, quick: bool = False) -> dict:
+    """`{(learner, training): RunConfig}`: each learner that fits `task`, trained on the
+    paper's plant and with randomisation, `agents` agents (seeds 0..) for `episodes`
+    episodes each (None: the task's protocol)."""
+    if quick:
+        agents, episodes = agents or QUICK["agents"], episodes or QUICK["episodes"]
+    ranges = {parameter.name: tuple(float(np.clip(factor * parameter.nominal, parameter.low,
+                                                  parameter.high)) for factor in TRAINING_FACTORS)
+              for parameter in axes(task)}
+    configs = {}
+    for learner in learners_for(task):
+        for training in TRAININGS:
+            configs[learner, training] = RunConfig(
+                task=task, learner=learner, plant=plant, agents=agents, episodes=episodes,
+                task_options=task_options(task, quick),
+                randomise=ranges if training == "randomised" else {})
+    return configs
+
+
+def evaluation(task: str, trained: RunConfig, cell: Cell, episodes: int) -> RunConfig:
+    """The greedy evaluation of the agents of the run `trained` in `cell`, `episodes`
+    episodes each, without learning."""
+    definition = tasks.definition(*tasks.split_name(task))
+    span = np.asarray(definition.defaults.high) - np.asarray(definition.defaults.low)
+    noise = ({name: float(cell.noise * width) for name, width in zip(definition.state_names, span)}
+             if cell.noise else {})
+    return dataclasses.replace(trained, randomise={}, params=values(task, cell),
+                               observation_noise=noise, action_delay=cell.delay,
+                               trained=trained.key, learn=False, greedy=True, episodes=episodes,
+                               seed=trained.seed + EVALUATION_SEED)
+
+
+def evaluation_episodes(task: str, quick: bool = False) -> int:
+    """Greedy episodes per agent and cell: the plant comparison's transfer episodes where
+    the domain has them (fewer where the start is deterministic), else 10."""
+    if quick:
+        return QUICK["evaluation_episodes"]
+    comparison = tasks.domain(tasks.split_name(task)[0]).comparison
+    return comparison.transfer_episodes if comparison else 10

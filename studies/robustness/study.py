@@ -1,0 +1,194 @@
+"""`lwrl robustness`: train, evaluate over the cells, measure, report.
+
+Both phases go through the sweep runner into one directory, `OUT/runs/` (resumable: a
+second call computes only what the first did not finish): the training keeps its agents
+(`run_sweep(keep_agents=True)`), the evaluations go on with them greedily. Each cell's
+measure is the task's own (`measures`), per agent the mean over its evaluation episodes,
+with the 95 % bootstrap interval over agents (`analysis.statistics`).
+"""
+
+import dataclasses
+import hashlib
+import json
+import os
+import time
+
+import numpy as np
+import pandas as pd
+
+from lwrl import agent as learners
+from lwrl import outputs
+from lwrl import tasks
+from lwrl.agent import io as agent_io
+from lwrl.analysis.statistics import improvement_interval, mean_interval
+from lwrl.runners.sweep import run_sweep
+from lwrl.runners.store import RunStore
+from lwrl.studies.robustness import controller, plan
+
+C_LEARNER = learners.DEFAULT_LEARNER
+"""The learner whose exported controller runs in C: the paper's light-weight one, whose
+NRBF agents export (`Agents.controller`)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Measure:
+    """A column of the results that the study reads, per episode."""
+
+    column: str
+    label: str
+    unit: str
+    higher_is_better: bool
+    digits: int
+
+
+def measures(task: str) -> list:
+    """The task's own measures, the first the one mapped: up-time where the task has it,
+    else the success rate (the episodes that reach the task's terminal state, not its time
+    limit) and the steps per episode (to the goal, or the time limit's)."""
+    if tasks.definition(*tasks.split_name(task)).has_uptime:
+        return [Measure("uptime_s", "up-time", "s", True, 1)]
+    return [Measure("success", "success rate", "", True, 2),
+            Measure("steps", "steps per episode", "", False, 0)]
+
+
+@dataclasses.dataclass
+class TaskResult:
+    """What the study found on one task."""
+
+    task: str
+    plant: str
+    axes: tuple
+    cells: list
+    trainings: dict
+    """`{(learner, training): RunConfig}` of the trained runs."""
+    per_agent: dict
+    """`{(learner, training, cell, measure column): (agents,) values}`."""
+    controller: dict = dataclasses.field(default_factory=dict)
+    """The C controller's run: `agent` (its index), `same` (cells whose episodes equal the
+    Python agent's), `per_cell` `{cell: {measure column: value}}`; empty where none ran."""
+    evaluation_episodes: int = 0
+    seconds: float = 0.0
+    """This invocation's wall time on the task."""
+    computed: int = 0
+    runs: int = 0
+    timing: dict = dataclasses.field(default_factory=dict)
+    """`seconds` and `invocations`: the wall time of every invocation that computed some of
+    the task's runs, summed (`add_time`); no invocation where none was recorded."""
+
+    def estimate(self, learner, training, cell, measure):
+        return mean_interval(self.per_agent[learner, training, cell, measure.column])
+
+    def grid_cells(self) -> list:
+        return [cell for cell in self.cells if cell.kind == "parameters"]
+
+    def grid_scores(self, learner, training, measure) -> np.ndarray:
+        """Per agent, its mean over every cell of the parameter grid."""
+        return np.mean([self.per_agent[learner, training, cell, measure.column]
+                        for cell in self.grid_cells()], axis=0)
+
+    def comparison(self, first, second, measure):
+        """The probability that an agent of `first` `(learner, training)` does better over
+        the grid than one of `second`, with its interval."""
+        return improvement_interval(self.grid_scores(*first, measure),
+                                    self.grid_scores(*second, measure), measure.higher_is_better)
+
+
+def per_episode(table: pd.DataFrame) -> pd.DataFrame:
+    """The results with the study's derived column `success` (the episode reached a terminal
+    state: not truncated, not cut by divergence)."""
+    return table.assign(success=(~table["truncated"].astype(bool)
+                                 & ~table["diverged"].astype(bool)).astype(float))
+
+
+TIMINGS = "timings.json"
+"""Per task, the wall time that its runs took, kept beside the runs."""
+
+
+def add_time(out_dir: str, task: str, keys, seconds: float) -> dict:
+    """Add `seconds` of an invocation that computed some of the runs `keys` of `task` (none:
+    0) to the task's entry of `out_dir/timings.json`, so that a study resumed in several
+    invocations reports the time all of them took; an entry of other runs (the same task
+    studied otherwise in the same directory) is replaced, not added to. Return the entry."""
+    path = os.path.join(out_dir, TIMINGS)
+    timings = json.load(open(path)) if os.path.exists(path) else {}
+    runs = hashlib.sha256("\n".join(sorted(keys)).encode()).hexdigest()[:12]
+    if timings.get(task, {}).get("runs") != runs:
+        timings[task] = {"runs": runs, "seconds": 0.0, "invocations": 0}
+    entry = timings[task]
+    if seconds:
+        entry["seconds"] += seconds
+        entry["invocations"] += 1
+        with outputs.atomic_write(path) as file:
+            json.dump(timings, file, indent=2)
+    return entry
+
+
+def study_task(task: str, out_dir: str, plant: str = "analytic", quick: bool = False,
+               agents=None, episodes=None, evaluation_episodes=None, workers=None) -> TaskResult:
+    """Train, evaluate and measure `task`; the runs in `out_dir/runs`."""
+    started = time.perf_counter()
+    trained = plan.trainings(task, plant, agents, episodes, quick)
+    count = evaluation_episodes or plan.evaluation_episodes(task, quick)
+    cells = plan.cells(task, quick)
+    evaluations = {(learner, training, cell): plan.evaluation(task, config, cell, count)
+                   for (learner, training), config in trained.items() for cell in cells}
+    keys = [config.key for config in [*trained.values(), *evaluations.values()]]
+    try:
+        _, computed = run_sweep(list(trained.values()), out_dir, workers=workers,
+                                description=f"{task}: training", keep_agents=True)
+        table, more = run_sweep(list(evaluations.values()), out_dir, workers=workers,
+                                description=f"{task}: evaluation")
+    except KeyboardInterrupt:  # its finished runs are kept, and so is the time they took
+        add_time(out_dir, task, keys, time.perf_counter() - started)
+        raise
+    timing = add_time(out_dir, task, keys, time.perf_counter() - started if computed + more else 0.0)
+    table = per_episode(table)
+    per_agent = {}
+    for (learner, training, cell), config in evaluations.items():
+        rows = table[table["run"] == config.key]
+        for measure in measures(task):
+            per_agent[learner, training, cell, measure.column] = (
+                rows.groupby("agent")[measure.column].mean().to_numpy())
+    result = TaskResult(task, plant, tuple(p.name for p in plan.axes(task)), cells, trained,
+                        per_agent, evaluation_episodes=count, computed=computed + more,
+                        runs=len(trained) + len(evaluations), timing=timing)
+    if (C_LEARNER, "nominal") in trained:
+        result.controller = controlled(task, out_dir, trained[C_LEARNER, "nominal"], evaluations,
+                                       table)
+    result.seconds = time.perf_counter() - started
+    return result
+
+
+def controlled(task: str, out_dir: str, trained, evaluations: dict, table: pd.DataFrame) -> dict:
+    """The exported C controller of the first agent of `trained` that did not diverge, in
+    every cell of the study: its measures, and the cells whose episodes (steps and returns,
+    episode by episode) equal that Python agent's."""
+    kept = RunStore.agents_file(out_dir, trained.key)
+    runs = {cell: config for (learner, training, cell), config in evaluations.items()
+            if learner == C_LEARNER and training == "nominal"}
+    agent, _ = agent_io.load(kept)
+    alive = np.flatnonzero(~agent.diverged)
+    if len(alive) == 0:
+        return {}
+    b = int(alive[0])
+    directory = os.path.join(out_dir, "controller", task)
+    library = controller.build(kept, directory, b)
+    configs = [dataclasses.replace(config, agents=1, seed=config.seed + b) for config in runs.values()]
+    results = controller.run_controller(library, configs, [config.seed for config in configs])
+    c_table = per_episode(pd.DataFrame(results.columns([config.seed for config in configs])))
+    same, per_cell = 0, {}
+    for index, (cell, config) in enumerate(runs.items()):
+        ours = c_table[c_table["agent"] == index]
+        python = table[(table["run"] == config.key) & (table["agent"] == b)]
+        same += bool(np.array_equal(ours["steps"].to_numpy(), python["steps"].to_numpy())
+                     and np.array_equal(ours["return"].to_numpy(), python["return"].to_numpy()))
+        per_cell[cell] = {measure.column: float(ours[measure.column].mean())
+                          for measure in measures(task)}
+    return {"agent": b, "same": same, "cells": len(runs), "per_cell": per_cell,
+            "source": os.path.join(directory, "lwrl_policy.c")}
+
+
+def total_runs(task_names, plant: str, quick: bool) -> int:
+    """How many runs the study of `task_names` has (trainings and evaluations)."""
+    return sum(len(plan.trainings(task, plant, quick=quick)) * (1 + len(plan.cells(task, quick)))
+               for task in task_names)

@@ -1,0 +1,305 @@
+"""Phase B of the physics as parameters: per-agent physics, sensors and actuators in the
+compiled loop, randomisation while learning, the settings and flags that reach them, the
+evaluation of kept agents through the sweep, and `lwrl robustness` with its C controller.
+
+Each path is held to the others as `test_parameters.py` and `test_learners.py` hold them at
+one set of values: the compiled loop, the batched stepper and a dm_env environment give the
+same episodes and weights for the same seeds, whatever the options.
+"""
+
+import dataclasses
+import os
+import pathlib
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from lwrl import agent as learners
+from lwrl import tasks
+from lwrl.agent import io as agent_io
+from lwrl.runners import sweep
+from lwrl.runners.config import RunConfig
+from lwrl.runners.run import environment_options, make_agent, run, run_batched, run_compiled, run_dm_env
+from lwrl.studies.robustness import controller, plan
+from lwrl.tasks.batched import BatchedEnv
+from lwrl.tasks.randomisation import check_ranges, draws
+from conftest import off_nominal, run_cli
+
+PLANTS = ("analytic", "mujoco")
+SENSING = {"observation_noise": {"pole_angle": [0.01, 0.0, 0.02]}, "action_delay": [0, 1, 3],
+           "action_noise": [0.0, 2.0, 0.5]}
+"""Sensor and actuator options, one per agent of three."""
+
+
+def agent_options(options: dict, b: int) -> dict:
+    """Agent b's own values of per-agent options (`{name: values}` or values)."""
+    def own(value):
+        if isinstance(value, dict):
+            return {name: own(v) for name, v in value.items()}
+        return value[b] if isinstance(value, (list, np.ndarray)) else value
+    return {name: own(value) for name, value in options.items()}
+
+
+def assert_same(a, b):
+    for field in ("steps", "returns", "uptime", "truncated", "diverged_episode"):
+        np.testing.assert_array_equal(getattr(a, field), getattr(b, field), err_msg=field)
+
+
+@pytest.mark.parametrize("plant", PLANTS)
+def test_the_compiled_loop_gives_each_agent_its_physics_and_its_sensors(plant):
+    """Three agents, each with parameter values and sensor and actuator options of its own:
+    the compiled loop, the batched stepper and, agent by agent, a dm_env environment give
+    the same episodes and weights; and not those of the paper's plant."""
+    rows = off_nominal("cartpole", np.random.default_rng(11), 3)
+    params = {name: rows[:, j] for j, name in enumerate(tasks.domain("cartpole").parameters.names)}
+    options = {"params": params, **SENSING}
+    config = RunConfig(task="cartpole.balance", plant=plant, agents=3, episodes=4, seed=3)
+    compiled_agent, batched_agent, nominal_agent = (make_agent(config) for _ in range(3))
+    compiled = run_compiled("cartpole", "balance", compiled_agent, 4, config.seeds, plant=plant,
+                            **options)
+    batched = run_batched(BatchedEnv("cartpole", "balance", plant, config.seeds, **options),
+                          batched_agent, 4)
+    assert_same(compiled, batched)
+    np.testing.assert_array_equal(compiled_agent.weights, batched_agent.weights)
+    for b, seed in enumerate(config.seeds):
+        single_agent = make_agent(dataclasses.replace(config, agents=1, seed=seed))
+        single = run_dm_env(tasks.load("cartpole", "balance", plant=plant, seed=seed,
+                                       **agent_options(options, b)), single_agent, 4)
+        np.testing.assert_array_equal(single.steps[0], compiled.steps[b])
+        np.testing.assert_array_equal(single_agent.weights[0], compiled_agent.weights[b])
+    nominal = run_compiled("cartpole", "balance", nominal_agent, 4, config.seeds, plant=plant)
+    assert not np.array_equal(nominal.steps, compiled.steps)
+
+
+@pytest.mark.parametrize("plant", PLANTS)
+def test_randomised_physics_is_the_same_on_every_path(plant):
+    """`randomise`: each episode's values drawn from the agent's seed and the episode alone,
+    so that the three paths agree; the draws lie in their ranges and change per episode."""
+    ranges = {"pole_mass": (0.05, 0.4), "force": (5.0, 12.0)}
+    config = RunConfig(task="cartpole.balance", plant=plant, agents=2, episodes=5, seed=8,
+                       randomise=ranges, action_delay=1)
+    compiled_agent, compiled = run(config)
+    batched_agent = make_agent(config)
+    batched = run_batched(BatchedEnv("cartpole", "balance", plant, config.seeds,
+                                     **config.environment_options()), batched_agent, 5)
+    assert_same(compiled, batched)
+    np.testing.assert_array_equal(compiled_agent.weights, batched_agent.weights)
+    single_agent = make_agent(dataclasses.replace(config, agents=1, seed=9))
+    single = run_dm_env(tasks.load("cartpole", "balance", plant=plant, seed=9,
+                                   **config.environment_options()), single_agent, 5)
+    np.testing.assert_array_equal(single.steps[0], compiled.steps[1])
+    np.testing.assert_array_equal(single_agent.weights[0], compiled_agent.weights[1])
+    assert set(compiled.physical) == set(ranges)
+    for name, (low, high) in ranges.items():
+        drawn = compiled.physical[name]
+        assert drawn.shape == (2, 5) and np.all((drawn >= low) & (drawn <= high))
+        assert len(np.unique(drawn)) == drawn.size
+    _, fixed = run(dataclasses.replace(config, randomise={}))
+    assert not np.array_equal(fixed.steps, compiled.steps)
+
+
+def test_the_draws_depend_on_the_seed_and_the_episode_alone():
+    parameters = tasks.domain("pendulum").parameters
+    ranges = check_ranges(parameters, {"torque": (2, 8), "mass": (0.5, 2)})
+    assert list(ranges) == ["mass", "torque"]  # the domain's order
+    rows = parameters.values(None, 3)
+    all_at_once = draws(parameters, ranges, rows, [4, 5, 6], 6)
+    np.testing.assert_array_equal(draws(parameters, ranges, rows[1:2], [5], 3), all_at_once[1:2, :3])
+    untouched = [j for j, name in enumerate(parameters.names) if name not in ranges]
+    np.testing.assert_array_equal(all_at_once[:, :, untouched],
+                                  np.broadcast_to(rows[:, None, untouched], (3, 6, len(untouched))))
+
+
+@pytest.mark.parametrize("randomise, message", [
+    ({"pole_mas": (0.1, 0.2)}, "unknown parameter 'pole_mas'; allowed: cart_mass"),
+    ({"pole_mass": (0.2, 0.1)}, r"randomise\['pole_mass'\] must be a range \(low, high\), low <= high"),
+    ({"pole_mass": (0.1, 2.0)}, r"within pole_mass \(m, kg\) in \[0.01, 1\]"),
+    ({"pole_mass": 0.1}, "must be a range"),
+    ({"pole_mass": (0.1, float("nan"))}, "must be a range"),
+])
+def test_a_bad_randomisation_is_one_line(randomise, message):
+    with pytest.raises(ValueError, match=message) as error:
+        RunConfig(task="cartpole.balance", randomise=randomise)
+    assert "\n" not in str(error.value)
+    with pytest.raises(ValueError, match=message):
+        BatchedEnv("cartpole", "balance", "analytic", [0], randomise=randomise)
+
+
+def test_the_settings_take_the_physics_and_the_sensors_keyed_only_where_set():
+    """`RunConfig(params=..., action_delay=...)`: the key changes only where set, one
+    spelling gives one key, and a bad name or value is one line."""
+    nominal = RunConfig(task="cartpole.balance")
+    heavy = RunConfig(task="cartpole.balance", params={"pole_mass": 0.2}, action_delay=1)
+    assert heavy.key != nominal.key and "pole_mass" not in nominal.key_json()
+    assert RunConfig(task="cartpole.balance", params={}, action_delay=0).key == nominal.key
+    assert (RunConfig(task="cartpole.balance", params={"force": 8, "pole_mass": 0.2}).key
+            == RunConfig(task="cartpole.balance", params={"pole_mass": 0.2, "force": 8.0}).key)
+    assert heavy.environment_options() == {"params": {"pole_mass": 0.2}, "action_delay": 1}
+    assert heavy.columns()["params.pole_mass"] == 0.2
+    for values, message in (({"params": {"mass": 1.0}}, "unknown parameter 'mass'"),
+                            ({"params": {"pole_mass": 5.0}}, r"within \[0.01, 1\] kg; got 5.0"),
+                            ({"observation_noise": {"angle": 0.1}}, "unknown state variable 'angle'"),
+                            ({"action_delay": -1}, "action_delay must be a finite whole number"),
+                            ({"action_noise": -0.5}, "action_noise must be a finite number")):
+        with pytest.raises(ValueError, match=message) as error:
+            RunConfig(task="cartpole.balance", **values)
+        assert "\n" not in str(error.value)
+
+
+def test_a_batch_of_configurations_gives_each_agent_its_own():
+    configs = [RunConfig(task="pendulum.swingup", agents=2, params={"mass": 2.0}),
+               RunConfig(task="pendulum.swingup", agents=1, action_delay=2)]
+    options = environment_options(configs)
+    assert options["params"] == {"mass": [2.0, 2.0, 1.0]}
+    assert options["action_delay"] == [0, 0, 2] and options["action_noise"] == [0.0] * 3
+    assert environment_options(configs[:1]) == {"params": {"mass": 2.0}}
+
+
+def test_lwrl_train_takes_the_physics_and_the_sensors(tmp_path, capsys):
+    """The flags and their help come from the declarations; bad input is one line, exit 2;
+    the draws of `--randomise` are columns of episodes.csv."""
+    status, out, _ = run_cli(["train", "--help"], capsys)
+    for domain in tasks.DOMAINS.values():
+        for parameter in domain.parameters.items:
+            assert parameter.allowed() in " ".join(out.split())
+    base = ["train", "cartpole.balance", "--plant", "analytic", "--agents", "2", "--episodes", "3"]
+    for flags, message in ((["--param", "pole_mas=0.2"], "unknown parameter 'pole_mas'"),
+                           (["--param", "pole_mass=heavy"], "argument --param: must be a finite number"),
+                           (["--param", "pole_mass"], "argument --param: must be NAME=VALUE"),
+                           (["--param", "pole_mass=0.2", "--param", "pole_mass=0.3"],
+                            "--param pole_mass is given more than once"),
+                           (["--randomise", "force=5"], "must be a range LOW:HIGH"),
+                           (["--observation-noise", "x=0.1"], "unknown state variable 'x'"),
+                           (["--action-delay", "1.5"], "argument --action-delay: must be an integer")):
+        status, _, err = run_cli(base + flags, capsys)
+        assert status == 2 and len(err) == 1 and message in err[0], (flags, err)
+    out_dir = tmp_path / "run"
+    status, _, _ = run_cli(base + ["--param", "pole_mass=0.2", "--randomise", "force=5:12",
+                                   "--action-delay", "1", "--observation-noise", "pole_angle=0.01",
+                                   "--action-noise", "0.5", "--out", str(out_dir)], capsys)
+    assert status == 0
+    table = pd.read_csv(out_dir / "episodes.csv")
+    assert list(table.columns)[-1] == "force" and table["force"].between(5, 12).all()
+    config = RunConfig(task="cartpole.balance", plant="analytic", agents=2, episodes=3,
+                       params={"pole_mass": 0.2}, randomise={"force": (5.0, 12.0)}, action_delay=1,
+                       observation_noise={"pole_angle": 0.01}, action_noise=0.5)
+    _, results = run(config)
+    np.testing.assert_array_equal(table["steps"], results.steps.ravel())
+    np.testing.assert_array_equal(table["force"], results.physical["force"].ravel())
+
+
+def test_kept_agents_are_evaluated_through_the_sweep_as_alone(tmp_path):
+    """Training keeps its agents; evaluations over a grid (one batch, each cell's agents at
+    its values) equal evaluating the trained agents cell by cell; a second sweep computes
+    nothing; the randomised training's tables have a column per drawn parameter."""
+    trained = RunConfig(task="cartpole.balance", plant="analytic", agents=2, episodes=4, seed=1,
+                        randomise={"pole_mass": (0.05, 0.2)}, task_options={"time_limit": 4.0})
+    table, computed = sweep.run_sweep([trained], tmp_path, keep_agents=True)
+    assert computed == 1 and table["pole_mass"].between(0.05, 0.2).all()
+    cells = [{"pole_mass": mass} for mass in (0.05, 0.4)] + [{}]
+    evaluations = [dataclasses.replace(trained, randomise={}, params=params, trained=trained.key,
+                                       learn=False, greedy=True, episodes=2, seed=50)
+                   for params in cells]
+    assert len(sweep.batches(evaluations)) == 1
+    results, computed = sweep.run_sweep(evaluations, tmp_path)
+    assert computed == 3
+    agent, _ = run(trained)
+    for config in evaluations:
+        kept = make_agent(config)
+        kept.weights[:] = agent.weights
+        kept.arrays.streams[:] = agent.arrays.streams
+        _, alone = run(config, agent=kept, learn=False, greedy=True)
+        rows = results[results["run"] == config.key]
+        np.testing.assert_array_equal(rows["steps"], alone.steps.ravel())
+    assert sweep.run_sweep(evaluations, tmp_path)[1] == 0
+
+
+def test_the_c_controller_acts_as_the_python_agent(tmp_path):
+    """`lwrl_act` compiled as a shared library and called through ctypes picks the Python
+    agent's greedy action on a grid of states, and its episodes over a small grid of
+    parameter values are the Python agent's."""
+    config = RunConfig(task="pendulum.swingup", plant="analytic", agents=1, episodes=5, seed=2,
+                       task_options={"time_limit": 4.0})
+    agent, _ = run(config)
+    path = tmp_path / "agent.npz"
+    agent_io.save(path, agent, {"config": dataclasses.asdict(config)})
+    library = controller.build(path, str(tmp_path / "c"))
+    c = controller.CController(library, 1)
+    angles, speeds = np.meshgrid(np.linspace(-np.pi, np.pi, 15), np.linspace(-3, 3, 15))
+    states = np.column_stack([angles.ravel(), speeds.ravel()])
+    q = agent.action_values(states)[0]
+    assert np.all(np.abs(q[:, 0] - q[:, 1]) > 0)  # no ties: the greedy action is one
+    np.testing.assert_array_equal([c.act(state) for state in states], q.argmax(axis=1))
+    cells = [dataclasses.replace(config, params=params, trained="x", learn=False, greedy=True,
+                                 episodes=2)
+             for params in ({"mass": 0.5}, {}, {"torque": 8.0, "mass": 2.0})]
+    ours = controller.run_controller(library, cells, [config.seed] * len(cells))
+    for b, cell in enumerate(cells):
+        loaded, _ = agent_io.load(path)
+        _, python = run(cell, agent=loaded, learn=False, greedy=True)
+        np.testing.assert_array_equal(ours.steps[b], python.steps[0])
+        np.testing.assert_array_equal(ours.returns[b], python.returns[0])
+
+
+def test_each_domain_names_its_robustness_parameters():
+    """One or two of its parameters, as the README lists them."""
+    for domain in tasks.DOMAINS.values():
+        assert 1 <= len(domain.robustness_axes) <= 2
+        assert set(domain.robustness_axes) <= set(domain.parameters.names)
+    listed = "; ".join(f"{name} " + " x ".join(f"`{axis}`" for axis in domain.robustness_axes)
+                       for name, domain in tasks.DOMAINS.items())
+    readme = (pathlib.Path(__file__).resolve().parents[1] / "README.md").read_text()
+    assert listed in " ".join(readme.split())
+
+
+def test_the_plan_covers_every_learner_and_cell():
+    task = "cartpole.balance"
+    trainings = plan.trainings(task, "analytic")
+    assert {learner for learner, _ in trainings} == {
+        name for name, learner in learners.LEARNERS.items()
+        if learner.fits(RunConfig(task=task).task_info) is None}
+    cells = plan.cells(task)
+    assert len(cells) == len(plan.FACTORS) ** 2 + len(plan.NOISE_LEVELS) - 1 + len(plan.DELAYS) - 1
+    assert len({plan.evaluation(task, trainings[next(iter(trainings))], cell, 1).key
+                for cell in cells}) == len(cells)
+    heavy = plan.values(task, plan.Cell((4.0, 0.25)))
+    assert heavy == {"pole_mass": 0.4, "force": 2.5}
+
+
+def test_lwrl_robustness_writes_its_report_and_resumes(tmp_path, capsys):
+    """`--quick` on Mountain-Car: the report names the command, every learner that fits,
+    the C controller's agreement; a second call computes nothing and writes it again."""
+    out = tmp_path / "study"
+    argv = ["robustness", "mountain_car.cost_to_go", "--quick", "--out", str(out)]
+    status, _, _ = run_cli(argv, capsys)
+    assert status == 0
+    report = (out / "report.md").read_text()
+    assert "lwrl robustness mountain_car.cost_to_go --quick" in report
+    for name in plan.learners_for("mountain_car.cost_to_go"):
+        assert f"| {name} | nominal |" in report and f"| {name} | randomised |" in report
+    cells = len(plan.cells("mountain_car.cost_to_go", quick=True))
+    assert f"in {cells} of {cells} cells" in report
+    assert os.path.exists(out / "figures" / "mountain_car_cost_to_go.png")
+    status, _, _ = run_cli(argv, capsys)
+    again = (out / "report.md").read_text()
+    assert status == 0 and ", 0 computed by this command" in again
+    assert "in 1 invocation of the command" in again  # the first call's time, kept
+    for bad in (["mountain_car.climb"], ["pendulum.swingup", "--agents", "1"],
+                ["pendulum.swingup", "--evaluation-episodes", "0"]):
+        status, _, err = run_cli(["robustness", *bad, "--out", str(tmp_path / "bad")], capsys)
+        assert status == 2 and len(err) == 1, (bad, err)
+    assert not (tmp_path / "bad").exists()
+
+
+def test_the_wall_time_is_summed_over_the_invocations_that_computed_a_studys_runs(tmp_path):
+    """A resumed study adds its time; one that computed nothing adds none; a study of the
+    same task with other runs in the same directory starts its own record."""
+    from lwrl.studies.robustness.study import add_time
+
+    assert add_time(tmp_path, "pendulum.swingup", ["a", "b"], 5.0)["seconds"] == 5.0
+    assert add_time(tmp_path, "pendulum.swingup", ["b", "a"], 0.0)["invocations"] == 1
+    resumed = add_time(tmp_path, "pendulum.swingup", ["a", "b"], 3.0)
+    assert (resumed["seconds"], resumed["invocations"]) == (8.0, 2)
+    other = add_time(tmp_path, "pendulum.swingup", ["a", "c"], 2.0)
+    assert (other["seconds"], other["invocations"]) == (2.0, 1)
