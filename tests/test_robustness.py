@@ -303,3 +303,16 @@ def test_the_wall_time_is_summed_over_the_invocations_that_computed_a_studys_run
     assert (resumed["seconds"], resumed["invocations"]) == (8.0, 2)
     other = add_time(tmp_path, "pendulum.swingup", ["a", "c"], 2.0)
     assert (other["seconds"], other["invocations"]) == (2.0, 1)
+
+
+def test_the_study_takes_the_compiled_learners_and_names_the_others():
+    """Each cell's agents are one batch of the compiled loop going on with kept agents'
+    arrays, so a learner that runs only in the stepped loop is left out, and said to be."""
+    from lwrl import agent
+    from lwrl.studies.robustness import plan, report
+
+    for name in plan.learners_for("cartpole.balance"):
+        assert agent.LEARNERS[name].compiles
+    for name in plan.stepped_only():
+        assert not agent.LEARNERS[name].compiles
+        assert name in report.left_out()

@@ -1,7 +1,7 @@
 """The robustness study's runs: which agents are trained, and where each is evaluated.
 
 For a task, every learner of the registry that fits it (`agent.LEARNERS`, `Learner.fits`)
-is trained with its default settings for the task twice: on the paper's plant, and with
+and runs in the compiled loop (`Learner.compiles`) is trained with its default settings for the task twice: on the paper's plant, and with
 the domain's robustness parameters (`Domain.robustness_axes`) drawn uniformly for every
 episode between `TRAINING_FACTORS` times their paper values (domain randomisation). Each
 trained batch is then evaluated greedily without learning (`RunConfig.trained`, `learn`,
@@ -87,9 +87,18 @@ def values(task: str, cell: Cell) -> dict:
 
 
 def learners_for(task: str) -> list:
-    """The learners of the registry that fit `task`, in the registry's order."""
+    """The learners of the registry that fit `task` and run in the compiled loop, in the
+    registry's order: each cell's agents are one batch of that loop, going on with the
+    arrays of their trained run's agents (`runners.sweep.trained_agents`)."""
     info = task_info(task)
-    return [name for name, learner in learners.LEARNERS.items() if learner.fits(info) is None]
+    return [name for name, learner in learners.LEARNERS.items()
+            if learner.fits(info) is None and learner.compiles]
+
+
+def stepped_only() -> list:
+    """The learners of the registry the study leaves out: those that run only in the
+    stepped loop."""
+    return [name for name, learner in learners.LEARNERS.items() if not learner.compiles]
 
 
 def task_options(task: str, quick: bool) -> dict:

@@ -178,6 +178,14 @@ def studied(results, what: str) -> list:
     return sorted(found)
 
 
+def left_out() -> str:
+    """A sentence naming the learners the study leaves out (`plan.stepped_only`), or none."""
+    names = plan.stepped_only()
+    return (f" Not in the study: {', '.join(names)}, which run only in the stepped loop, "
+            "not as a batch of the compiled loop going on with kept agents' arrays."
+            if names else "")
+
+
 def document(results, command: str, seconds: float, figure_paths: dict) -> str:
     """The whole report: how it was made, then one section per task."""
     lines = ["# How robust are the learned controllers?", "",
@@ -187,7 +195,8 @@ def document(results, command: str, seconds: float, figure_paths: dict) -> str:
              + "summed over the tasks and over the invocations that computed them: the same "
              "command resumes an interrupted study, reading what an earlier one finished); "
              f"this invocation took {seconds / 60:.1f} minutes.", "",
-             "Agents of every learner of the registry that fits the task, each with its "
+             "Agents of every learner of the registry that fits the task and runs in the "
+             "compiled loop, each with its "
              "default settings for the task, are trained on the paper's plant (*nominal*) and "
              "with the domain's robustness parameters drawn uniformly for every episode "
              f"between x{plan.TRAINING_FACTORS[0]:g} and x{plan.TRAINING_FACTORS[1]:g} their "
@@ -208,7 +217,7 @@ def document(results, command: str, seconds: float, figure_paths: dict) -> str:
              "each task's section states: the task's own protocol (agents, training episodes) "
              "unless the command sets them, every cell's agents run as one batch of the "
              "compiled loop, the plant comparison's evaluation episodes (fewer where the start "
-             "is deterministic) unless the command sets them.", ""]
+             "is deterministic) unless the command sets them." + left_out(), ""]
     for result in results:
         lines.append(section(result, figure_paths[result.task]))
     return "\n".join(lines)
