@@ -315,13 +315,14 @@ class RunConfig(LearnerChoice, ProtocolSettings, EnvironmentSettings):
     def columns(self) -> dict:
         """The settings repeated on every row of the run's results table: each of one value
         (its type a `lwrl.settings.SCALARS`, not a tuple or a dict), but the seed, which the
-        rows carry per agent, and each physical parameter and observation noise set
-        (`params.NAME`, `observation_noise.NAME`)."""
+        rows carry per agent, and a setting left unset (None: a column of it would read back
+        from the run's file as numbers, not as the table the run made); and each physical
+        parameter and observation noise set (`params.NAME`, `observation_noise.NAME`)."""
         columns = {}
         for field, value in self.flat_fields():
             if field.name in ("params", "observation_noise"):  # a column per value set
                 columns.update({f"{field.name}.{name}": v for name, v in value.items()})
-            elif field.name != "seed" and base_type(field.type) in SCALARS:
+            elif field.name != "seed" and value is not None and base_type(field.type) in SCALARS:
                 columns[field.name] = value
         return columns
 
