@@ -67,7 +67,8 @@ def environment_options(configs) -> dict:
     first = configs[0].environment_options()
     if all(config.environment_options() == first for config in configs[1:]):
         return first
-    nominal = tasks.domain(configs[0].domain).parameters.nominal._asdict()
+    nominal = {parameter.name: parameter.nominal
+               for parameter in tasks.domain(configs[0].domain).parameters.items}
     options = {}
     for name, default in (("params", nominal), ("observation_noise", {})):
         names = dict.fromkeys(key for config in configs for key in getattr(config, name))

@@ -37,8 +37,8 @@ DELAYS = (0, 1, 2, 3)
 EVALUATION_SEED = 10_000
 """Added to each agent's seed for its evaluation episodes' starts and sensor streams."""
 TRAININGS = ("nominal", "randomised")
-QUICK = {"factors": (0.5, 1.0, 2.0), "noise": (0.0, 0.05), "delays": (0, 2), "agents": 2,
-         "episodes": 3, "evaluation_episodes": 1, "time_limit_steps": 200}
+QUICK: dict = {"factors": (0.5, 1.0, 2.0), "noise": (0.0, 0.05), "delays": (0, 2), "agents": 2,
+               "episodes": 3, "evaluation_episodes": 1, "time_limit_steps": 200}
 """Tiny grids and runs, for a smoke test in seconds."""
 
 
