@@ -17,7 +17,6 @@ network (NaN where there is none); `weights` the online Q-network's parameters, 
 greedy controller is that network as C (`mlp_policy` in `export/templates`).
 """
 
-import collections
 import dataclasses
 
 import numpy as np
@@ -28,8 +27,6 @@ from lwrl.agent.stable_baselines import (ModelAgents, ModelSettings, buffer_byte
                                          saved_arrays, td_error)
 from lwrl.settings import check_count, check_positive, check_unit_interval, setting
 
-Arrays = collections.namedtuple("Arrays", "q delta diverged weights")
-"""What the loops read (`Agents.arrays`), each with a leading axis B; the models hold the rest."""
 BUFFER = ("observations", "next_observations", "actions", "rewards", "dones", "timeouts")
 
 
@@ -84,7 +81,6 @@ class DqnSettings(ModelSettings):
 class DqnAgents(ModelAgents):
     """B independent SB3 DQN models (see the module)."""
 
-    Arrays = Arrays
     COUNTERS = ("num_timesteps", "_n_calls", "_n_updates", "exploration_rate",
                 "_current_progress_remaining")
 

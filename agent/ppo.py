@@ -18,7 +18,6 @@ are the critic's; `weights` the policy's parameters (actor and critic), flattene
 controller is the actor as C (`mlp_policy` in `export/templates`).
 """
 
-import collections
 import dataclasses
 
 import numpy as np
@@ -30,8 +29,6 @@ from lwrl.agent.stable_baselines import (ModelAgents, ModelSettings, buffer_byte
                                          saved_arrays, td_error)
 from lwrl.settings import check_count, check_positive, check_unit_interval, setting
 
-Arrays = collections.namedtuple("Arrays", "q delta diverged weights")
-"""What the loops read (`Agents.arrays`), each with a leading axis B; the models hold the rest."""
 BUFFER = ("observations", "actions", "rewards", "episode_starts", "values", "log_probs")
 
 
@@ -89,7 +86,6 @@ class PpoSettings(ModelSettings):
 class PpoAgents(ModelAgents):
     """B independent SB3 PPO models (see the module)."""
 
-    Arrays = Arrays
     COUNTERS = ("num_timesteps", "_n_updates", "_current_progress_remaining")
 
     def _model(self, settings: PpoSettings, env, seed):

@@ -34,6 +34,7 @@ After `timesteps` steps of learning (SB3's `total_timesteps`, rounded up to a wh
 `learn()` and then run with `predict(deterministic=True)`.
 """
 
+import collections
 import contextlib
 import dataclasses
 import importlib.util
@@ -314,7 +315,9 @@ class ModelAgents(Agents):
     name its networks (`_networks`, what `arrays.weights` flattens) and take one time step
     of one agent (`_step_one`)."""
 
-    Arrays = None
+    Arrays = collections.namedtuple("Arrays", "q delta diverged weights")
+    """What the loops read (`Agents.arrays`), each with a leading axis B; the models hold
+    the rest."""
     COUNTERS: tuple = ()
     """The model's counters `saved` keeps (SB3's `num_timesteps`, ...)."""
 
