@@ -234,8 +234,25 @@ def memory(settings, task) -> int:
             + network_bytes(dim, settings.layers(), task.num_actions, 4))
 
 
+ZOO_SETS = {
+    "MountainCar-v0": dict(timesteps=120_000, learning_rate=4e-3, batch_size=128, buffer_size=10_000,
+                           learning_starts=1000, gamma=0.98, target_update_interval=600,
+                           train_freq=16, gradient_steps=8, exploration_fraction=0.2,
+                           exploration_final_eps=0.07, net_arch="256,256"),
+    "CartPole-v1": dict(timesteps=50_000, learning_rate=2.3e-3, batch_size=64, buffer_size=100_000,
+                        learning_starts=1000, gamma=0.99, target_update_interval=10,
+                        train_freq=256, gradient_steps=128, exploration_fraction=0.16,
+                        exploration_final_eps=0.04, net_arch="256,256"),
+    "Acrobot-v1": dict(timesteps=100_000, learning_rate=6.3e-4, batch_size=128, buffer_size=50_000,
+                       learning_starts=0, gamma=0.99, target_update_interval=250, train_freq=4,
+                       gradient_steps=-1, exploration_fraction=0.12, exploration_final_eps=0.1,
+                       net_arch="256,256"),
+}
+"""rl-baselines3-zoo's DQN sets (policy MlpPolicy; `stable_baselines.ZOO`)."""
+
 LEARNER = Learner(
     name="dqn", title="DQN (Stable-Baselines3): an MLP Q-network, replay and a target network",
     source="Mnih et al. (2015), Nature 518; Raffin et al. (2021), JMLR 22(268): stable_baselines3.DQN",
-    settings=DqnSettings, make=make, load=load, memory=memory, fits=fits_when_installed("dqn"))
+    settings=DqnSettings, make=make, load=load, memory=memory, fits=fits_when_installed("dqn"),
+    tuned=ZOO_SETS)
 DqnAgents.learner = LEARNER

@@ -96,6 +96,10 @@ class Learner:
     """The numba-jitable per-agent step of the compiled loop; None: stepped loop only."""
     fits: Callable = lambda task: None
     """`fits(task)`: None, or one line saying why the learner does not fit the task."""
+    tuned: Mapping = dataclasses.field(default_factory=dict)
+    """`{Gymnasium environment id: {setting: value}}`: settings tuned for the learner
+    elsewhere (rl-baselines3-zoo's), which a study takes on the domains tuned as that
+    environment (`Domain.tuned_as`); empty: the task's defaults are its own."""
 
     @property
     def compiles(self) -> bool:
@@ -200,6 +204,32 @@ class Agents:
         """`(document, arrays)`: what `agent.io.save` writes (JSON and NumPy arrays); the
         learner's `load` reads them back."""
         raise NotImplementedError
+
+    def copies_of(self, kept: "Agents") -> int:
+        """How many times these agents hold the kept ones (`take_over`), or a one-line error
+        where B is not a whole multiple of K."""
+        copies, rest = divmod(self.batch_size, kept.batch_size)
+        if rest or not copies:
+            raise ValueError(f"{self.batch_size} agents cannot take over {kept.batch_size} kept "
+                             "ones: they must be a whole multiple of them")
+        return copies
+
+    def take_over(self, kept: "Agents") -> None:
+        """Become the agents `kept` (of this learner) as they ended, in turn: agent b is kept
+        agent b mod K (K kept agents, B a multiple of K), with everything `agent.io` saves
+        of it (what it learned, its random stream, its divergence), keeping these agents'
+        settings. A run that goes on with a kept run's agents starts so
+        (`runners.sweep.trained_agents`: an evaluation in several cells at once).
+
+        The default copies the arrays of `saved`, which must be these agents' own with a
+        leading axis B; a learner whose agents hold more overrides it."""
+        copies = self.copies_of(kept)
+        _, target = self.saved()
+        for name, values in kept.saved()[1].items():
+            target[name][:] = np.concatenate([values] * copies)
+        if not all(np.array_equal(target[name], self.saved()[1][name]) for name in target):
+            raise ValueError(f"{self.learner.name}'s saved arrays are not its own: its agents "
+                             "cannot take over kept ones")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -231,9 +231,23 @@ def memory(settings, task) -> int:
             + network_bytes(dim, layers, task.num_actions, 4) + network_bytes(dim, layers, 1, 4))
 
 
+ZOO_SETS = {
+    "MountainCar-v0": dict(timesteps=1_000_000, n_steps=16 * 16, gae_lambda=0.98, gamma=0.99,
+                           n_epochs=4, ent_coef=0.0),
+    "CartPole-v1": dict(timesteps=100_000, n_steps=8 * 32, batch_size=256, gae_lambda=0.8,
+                        gamma=0.98, n_epochs=20, ent_coef=0.0, learning_rate=1e-3,
+                        learning_rate_schedule="linear", clip_range=0.2,
+                        clip_range_schedule="linear"),
+    "Acrobot-v1": dict(timesteps=1_000_000, n_steps=16 * 256, gae_lambda=0.94, gamma=0.99,
+                       n_epochs=4, ent_coef=0.0),
+}
+"""rl-baselines3-zoo's PPO sets (policy MlpPolicy, n_steps = n_envs x n_steps;
+`stable_baselines.ZOO`)."""
+
 LEARNER = Learner(
     name="ppo", title="PPO (Stable-Baselines3): MLP actor and critic, clipped surrogate, GAE",
     source="Schulman et al. (2017), arXiv:1707.06347; Raffin et al. (2021), JMLR 22(268): "
            "stable_baselines3.PPO",
-    settings=PpoSettings, make=make, load=load, memory=memory, fits=fits_when_installed("ppo"))
+    settings=PpoSettings, make=make, load=load, memory=memory, fits=fits_when_installed("ppo"),
+    tuned=ZOO_SETS)
 PpoAgents.learner = LEARNER

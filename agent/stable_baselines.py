@@ -45,6 +45,12 @@ import numpy as np
 from lwrl.agent.learner_contract import Agents, LearnerSettings
 from lwrl.settings import check_count, check_positive, check_unit_interval, setting
 
+ZOO = "DLR-RM/rl-baselines3-zoo, hyperparams/{dqn,ppo}.yml at commit 22e3ff2450fd92033f7f032915e1f64894a09584"
+"""Where the learners' tuned sets (`Learner.tuned`) come from. The zoo's `n_timesteps` is a
+learner's horizon (`timesteps`: the schedules', the exploration's); PPO's `n_envs` parallel
+environments become one environment with a rollout of `n_envs x n_steps` transitions; the
+zoo's `normalize: true` (VecNormalize, for PPO on MountainCar and Acrobot) has no
+counterpart here and is left out."""
 LIBRARIES = ("torch", "stable_baselines3")
 EXTRA = "pip install 'lwrl[baselines]'"
 ACTIVATIONS = ("relu", "tanh")
@@ -455,25 +461,38 @@ class ModelAgents(Agents):
         task = TaskInfo(name, tuple(state_names), num_actions, tuple(low), tuple(high))
         settings = [settings_class(**values) for values in document["settings"]]
         agents = cls(settings, task, document["seeds"])
-        torch = agents.torch
         if len(document["agents"]) != agents.batch_size:
             raise ValueError(f"{len(document['agents'])} agents' states for {agents.batch_size} agents")
-        for b, (model, kept) in enumerate(zip(agents.models, document["agents"])):
-            prefix = f"agent{b}."
-            load_module_state(torch, prefix + "policy.", model.policy, arrays)
-            load_optimizer_state(torch, prefix + "optimizer.", model.policy.optimizer,
-                                 kept["optimizer"], arrays)
-            agents.states[b].load(prefix + "rng.", kept["rng"], arrays)
-            for counter, value in kept["model"].items():
-                setattr(model, counter, value)
-            agents._buffer_loaded(b, prefix + "buffer.", arrays)
-            agents.own[b] = agents._own_loaded(b, prefix + "own.", kept["own"], arrays)
+        for b in range(agents.batch_size):
+            agents._load_agent(b, b, document, arrays)
         for name in ("weights", "q", "delta"):
             if arrays[name].shape != getattr(agents.arrays, name).shape:
                 raise ValueError(f"{name} of shape {arrays[name].shape}; these agents have "
                                  f"{getattr(agents.arrays, name).shape}")
             getattr(agents.arrays, name)[:] = arrays[name]
         return agents
+
+    def _load_agent(self, b: int, source: int, document: dict, arrays: dict) -> None:
+        """Agent b becomes agent `source` of what `saved` wrote (`document`, `arrays`): its
+        networks, optimiser, generators, counters, buffer and place in the loop."""
+        kept, prefix, model = document["agents"][source], f"agent{source}.", self.models[b]
+        load_module_state(self.torch, prefix + "policy.", model.policy, arrays)
+        load_optimizer_state(self.torch, prefix + "optimizer.", model.policy.optimizer,
+                             kept["optimizer"], arrays)
+        self.states[b].load(prefix + "rng.", kept["rng"], arrays)
+        for counter, value in kept["model"].items():
+            setattr(model, counter, value)
+        self._buffer_loaded(b, prefix + "buffer.", arrays)
+        self.own[b] = self._own_loaded(b, prefix + "own.", kept["own"], arrays)
+
+    def take_over(self, kept: "ModelAgents") -> None:
+        """As `Agents.take_over`: each model loads its kept model's state (`_load_agent`)."""
+        copies = self.copies_of(kept)
+        document, arrays = kept.saved()
+        for b in range(self.batch_size):
+            self._load_agent(b, b % kept.batch_size, document, arrays)
+        for name, values in kept.arrays._asdict().items():
+            getattr(self.arrays, name)[:] = np.concatenate([values] * copies)
 
     def _own_saved(self, b: int, prefix: str) -> tuple[dict, dict]:
         """`(document, arrays)` of the agent's place in lwrl's loop (`own[b]`): flags and

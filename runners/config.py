@@ -38,6 +38,14 @@ def task_defaults(task: str) -> dict:
     return dataclasses.asdict(tasks.definition(*tasks.split_name(task)).defaults)
 
 
+def tuned_settings(task: str, learner: str) -> dict:
+    """The settings tuned elsewhere for `learner` on `task` (DOMAIN.TASK): its `tuned` set
+    for the Gymnasium environment the domain is tuned as (`Domain.tuned_as`); {} where
+    there is none (the task's defaults, then the learner's, stand)."""
+    domain = tasks.domain(tasks.split_name(task)[0])
+    return dict(agent.learner(learner).tuned.get(domain.tuned_as, {}))
+
+
 def task_info(task: str, task_options: dict | None = None) -> TaskInfo:
     """What a learner may know of `task` (DOMAIN.TASK) with its options."""
     definition = tasks.definition(*tasks.split_name(task), **(task_options or {}))

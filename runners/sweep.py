@@ -23,7 +23,6 @@ import json
 import sys
 import time
 
-import numpy as np
 import pandas as pd
 import tqdm
 
@@ -72,16 +71,11 @@ def batches(configs, max_agents: int = MAX_BATCH_AGENTS) -> list:
 def trained_agents(configs, directory):
     """The agents of a batch of configurations that go on with the agents of the run
     `configs[0].trained` (kept in `directory`, `RunStore.agents_path`): each configuration's
-    agents are that run's, as it ended (what `agent.io` saves of them: weights, random
-    streams, divergence), with the configuration's settings."""
+    agents are that run's, as it ended (`Agents.take_over`), with the configuration's
+    settings."""
     kept, _ = agent_io.load(RunStore.agents_file(directory, configs[0].trained))
     agent = make_agent(*configs)
-    _, target = agent.saved()
-    for name, values in kept.saved()[1].items():
-        target[name][:] = np.concatenate([values] * len(configs))
-    if not all(np.array_equal(target[name], agent.saved()[1][name]) for name in target):
-        raise ValueError(f"{agent.learner.name}'s saved arrays are not its own: its agents "
-                         "cannot take kept ones")
+    agent.take_over(kept)
     return agent
 
 

@@ -335,4 +335,4 @@ DOMAIN = Domain(
     value_axes=("shoulder_angle", "elbow_angle"),
     comparison=PlantComparison(tolerances={"shoulder_angle": 0.05, "elbow_angle": 0.05},
                                transfer_episodes=3, rest_start=rest_start),
-    robustness_axes=("link_mass_2", "torque"))
+    robustness_axes=("link_mass_2", "torque"), tuned_as="Acrobot-v1")

@@ -261,4 +261,4 @@ DOMAIN = Domain(
     value_axes=("pole_angle", "pole_angular_velocity"),
     comparison=PlantComparison(tolerances={"cart_position": 0.01, "pole_angle": 0.05},
                                transfer_episodes=3, rest_start=rest_start),
-    robustness_axes=("pole_mass", "force"))
+    robustness_axes=("pole_mass", "force"), tuned_as="CartPole-v1")

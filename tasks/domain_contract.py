@@ -108,6 +108,10 @@ class Domain:
     """The one or two physical parameters (names of `parameters`) whose grid the robustness
     study spans (`lwrl robustness`): what a real plant most often has otherwise than
     modelled, its load and its actuator's strength."""
+    tuned_as: Optional[str] = None
+    """The Gymnasium environment whose settings other suites tuned (rl-baselines3-zoo's
+    `hyperparams/`) a learner takes on this domain's tasks (`Learner.tuned`): its own
+    counterpart, or the nearest one the zoo tuned; None: none."""
 
     @property
     def model(self) -> Optional[str]:

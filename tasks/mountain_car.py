@@ -218,4 +218,4 @@ DOMAIN = Domain(
     plants=DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=Physics,
                         parameters=PARAMETERS, euler=False, analytic_options=()),
     value_axes=("position", "velocity"), drawing=_drawing(), c_plant=C_PLANT,
-    robustness_axes=("gravity", "thrust"))
+    robustness_axes=("gravity", "thrust"), tuned_as="MountainCar-v0")

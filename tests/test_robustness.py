@@ -258,7 +258,7 @@ def test_the_plan_covers_every_learner_and_cell():
     trainings = plan.trainings(task, "analytic")
     assert {learner for learner, _ in trainings} == {
         name for name, learner in learners.LEARNERS.items()
-        if learner.fits(RunConfig(task=task).task_info) is None and learner.compiles}
+        if learner.fits(RunConfig(task=task).task_info) is None}
     cells = plan.cells(task)
     assert len(cells) == len(plan.FACTORS) ** 2 + len(plan.NOISE_LEVELS) - 1 + len(plan.DELAYS) - 1
     assert len({plan.evaluation(task, trainings[next(iter(trainings))], cell, 1).key
@@ -301,18 +301,54 @@ def test_the_wall_time_is_summed_over_the_invocations_that_computed_a_studys_run
     assert add_time(tmp_path, "pendulum.swingup", ["b", "a"], 0.0)["invocations"] == 1
     resumed = add_time(tmp_path, "pendulum.swingup", ["a", "b"], 3.0)
     assert (resumed["seconds"], resumed["invocations"]) == (8.0, 2)
+    grown = add_time(tmp_path, "pendulum.swingup", ["c", "a", "b"], 1.0)
+    assert (grown["seconds"], grown["invocations"]) == (9.0, 3)  # a learner joined the study
     other = add_time(tmp_path, "pendulum.swingup", ["a", "c"], 2.0)
     assert (other["seconds"], other["invocations"]) == (2.0, 1)
 
 
-def test_the_study_takes_the_compiled_learners_and_names_the_others():
-    """Each cell's agents are one batch of the compiled loop going on with kept agents'
-    arrays, so a learner that runs only in the stepped loop is left out, and said to be."""
-    from lwrl import agent
-    from lwrl.studies.robustness import plan, report
+def test_a_learner_of_the_stepped_loop_trains_the_benchmarks_agents_with_its_tuned_settings():
+    """DQN and PPO (where installed) take part with at most `STEPPED_AGENTS` agents and
+    rl-baselines3-zoo's sets, as the benchmark; the compiled loop's learners keep the count
+    asked for and their defaults (their runs' keys unchanged)."""
+    from lwrl.runners.config import tuned_settings
 
-    for name in plan.learners_for("cartpole.balance"):
-        assert agent.LEARNERS[name].compiles
-    for name in plan.stepped_only():
-        assert not agent.LEARNERS[name].compiles
-        assert name in report.left_out()
+    task = "cartpole.balance"
+    trainings = plan.trainings(task, "analytic", agents=30)
+    for (name, _), config in trainings.items():
+        if learners.LEARNERS[name].compiles:
+            assert config.agents == 30 and config == RunConfig(
+                task=task, learner=name, plant="analytic", agents=30, randomise=config.randomise)
+        else:
+            assert config.agents == plan.STEPPED_AGENTS < 30
+            assert tuned_settings(task, name)
+            for setting, value in tuned_settings(task, name).items():
+                assert getattr(config.agent, setting) == value
+    assert plan.agents_for(task, "dqn", 2) == 2
+
+
+@pytest.mark.parametrize("name", [name for name, learner in learners.LEARNERS.items()
+                                  if learner.fits(RunConfig(task="mountain_car.cost_to_go").task_info) is None])
+def test_every_learner_goes_on_with_its_kept_agents_in_several_cells_at_once(name, tmp_path):
+    """An evaluation batch over two cells takes over the kept agents twice
+    (`Agents.take_over`): each cell's greedy episodes equal those of the kept agents, loaded
+    from their file and run alone in that cell."""
+    from lwrl.runners.config import tuned_settings
+
+    task = "mountain_car.cost_to_go"
+    trained = RunConfig(task=task, learner=name, agents=2, episodes=2, seed=3,
+                        task_options={"time_limit": 40.0}, **tuned_settings(task, name))
+    sweep.run_sweep([trained], tmp_path, keep_agents=True)
+    cells = [dataclasses.replace(trained, params=params, trained=trained.key, learn=False,
+                                 greedy=True, episodes=2, seed=40)
+             for params in ({"thrust": 0.0015}, {})]
+    assert len(sweep.batches(cells)) == 1
+    results, _ = sweep.run_sweep(cells, tmp_path)
+    for config in cells:
+        kept, _ = agent_io.load(sweep.RunStore.agents_file(tmp_path, trained.key))
+        _, alone = run(config, agent=kept, learn=False, greedy=True)
+        rows = results[results["run"] == config.key]
+        np.testing.assert_array_equal(rows["steps"], alone.steps.ravel())
+        np.testing.assert_array_equal(rows["return"], alone.returns.ravel())
+    with pytest.raises(ValueError, match="whole multiple"):
+        make_agent(dataclasses.replace(trained, agents=3)).take_over(kept)

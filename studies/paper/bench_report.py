@@ -11,6 +11,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from lwrl import outputs
+from lwrl.agent.stable_baselines import ZOO
 from lwrl.analysis import statistics as st
 from lwrl.analysis.plots import plot_learning_curve, save_figure
 from lwrl.studies.paper import bench_protocol as protocol
@@ -196,8 +197,8 @@ def write(cells, results, costs, out_dir: str, command: str, seconds: float,
         "defaults); its other trace, true online Sarsa(λ), the CMAC (Mountain-Car) and ASE/ACE "
         "(the cart-pole) stand beside it.",
         f"- DQN and PPO: Stable-Baselines3 2.9.2 on PyTorch 2.13.0 (CPU), with rl-baselines3-zoo's "
-        f"tuned sets ({protocol.ZOO}; `studies/paper/bench_protocol.py` says which set per task "
-        "and what does not carry over). No search beyond the zoo's sets: its budget here was nil "
+        f"tuned sets ({ZOO}; each domain names the environment whose set its tasks take, "
+        "`Domain.tuned_as`, and `agent/stable_baselines.py` what does not carry over). No search beyond the zoo's sets: its budget here was nil "
         "(a search's every cell would cost as much as the row it tunes).",
         "- Terminal states are kept apart from truncations (DQN: the replay buffer's "
         "`handle_timeout_termination`; PPO: the truncated state's value bootstraps).",

@@ -1,11 +1,15 @@
 """The robustness study's runs: which agents are trained, and where each is evaluated.
 
-For a task, every learner of the registry that fits it (`agent.LEARNERS`, `Learner.fits`)
-and runs in the compiled loop (`Learner.compiles`) is trained with its default settings for the task twice: on the paper's plant, and with
-the domain's robustness parameters (`Domain.robustness_axes`) drawn uniformly for every
-episode between `TRAINING_FACTORS` times their paper values (domain randomisation). Each
-trained batch is then evaluated greedily without learning (`RunConfig.trained`, `learn`,
-`greedy`) in every cell:
+For a task, every learner of the registry that fits it (`agent.LEARNERS`, `Learner.fits`) is
+trained twice, with the settings tuned for it elsewhere where it has them
+(`runners.config.tuned_settings`: rl-baselines3-zoo's for DQN and PPO, as `lwrl bench`
+takes them), else the task's defaults: on the
+paper's plant, and with the domain's robustness parameters (`Domain.robustness_axes`) drawn
+uniformly for every episode between `TRAINING_FACTORS` times their paper values (domain
+randomisation). A learner that runs only in the stepped loop trains `STEPPED_AGENTS` agents
+at most. Each trained batch is then evaluated greedily without learning
+(`RunConfig.trained`, `learn`, `greedy`; the agents go on as they ended,
+`Agents.take_over`) in every cell:
 
 - the grid of the robustness parameters, each at `FACTORS` times its paper value (clipped to
   the values the plants accept);
@@ -24,7 +28,7 @@ import numpy as np
 
 from lwrl import agent as learners
 from lwrl import tasks
-from lwrl.runners.config import RunConfig, task_info
+from lwrl.runners.config import RunConfig, task_defaults, task_info, tuned_settings
 
 FACTORS = (0.25, 0.5, 1.0, 2.0, 4.0)
 """Each axis of the parameter grid, times the paper's value."""
@@ -36,6 +40,10 @@ DELAYS = (0, 1, 2, 3)
 """Actuation delays, in control steps."""
 EVALUATION_SEED = 10_000
 """Added to each agent's seed for its evaluation episodes' starts and sensor streams."""
+STEPPED_AGENTS = 5
+"""Agents per trained batch, at most, of a learner that runs only in the stepped loop: the
+benchmark's count (docs/benchmark), for DQN and PPO take 1 to 3 ms of CPU per learning step
+here, 250 to 660 times the paper's agent."""
 TRAININGS = ("nominal", "randomised")
 QUICK: dict = {"factors": (0.5, 1.0, 2.0), "noise": (0.0, 0.05), "delays": (0, 2), "agents": 2,
                "episodes": 3, "evaluation_episodes": 1, "time_limit_steps": 200}
@@ -87,18 +95,17 @@ def values(task: str, cell: Cell) -> dict:
 
 
 def learners_for(task: str) -> list:
-    """The learners of the registry that fit `task` and run in the compiled loop, in the
-    registry's order: each cell's agents are one batch of that loop, going on with the
-    arrays of their trained run's agents (`runners.sweep.trained_agents`)."""
+    """The learners of the registry that fit `task`, in the registry's order."""
     info = task_info(task)
-    return [name for name, learner in learners.LEARNERS.items()
-            if learner.fits(info) is None and learner.compiles]
+    return [name for name, learner in learners.LEARNERS.items() if learner.fits(info) is None]
 
 
-def stepped_only() -> list:
-    """The learners of the registry the study leaves out: those that run only in the
-    stepped loop."""
-    return [name for name, learner in learners.LEARNERS.items() if not learner.compiles]
+def agents_for(task: str, learner: str, agents=None):
+    """Agents per trained batch of `learner` on `task`: `agents` (None: the task's
+    protocol), at most `STEPPED_AGENTS` for a learner that runs only in the stepped loop."""
+    if learners.learner(learner).compiles:
+        return agents
+    return min(agents or task_defaults(task)["agents"], STEPPED_AGENTS)
 
 
 def task_options(task: str, quick: bool) -> dict:
@@ -112,8 +119,8 @@ def task_options(task: str, quick: bool) -> dict:
 
 def trainings(task: str, plant: str, agents=None, episodes=None, quick: bool = False) -> dict:
     """`{(learner, training): RunConfig}`: each learner that fits `task`, trained on the
-    paper's plant and with randomisation, `agents` agents (seeds 0..) for `episodes`
-    episodes each (None: the task's protocol)."""
+    paper's plant and with randomisation, `agents_for(task, learner, agents)` agents (seeds 0..)
+    for `episodes` episodes each (None: the task's protocol)."""
     if quick:
         agents, episodes = agents or QUICK["agents"], episodes or QUICK["episodes"]
     ranges = {parameter.name: tuple(float(np.clip(factor * parameter.nominal, parameter.low,
@@ -123,9 +130,10 @@ def trainings(task: str, plant: str, agents=None, episodes=None, quick: bool = F
     for learner in learners_for(task):
         for training in TRAININGS:
             configs[learner, training] = RunConfig(
-                task=task, learner=learner, plant=plant, agents=agents, episodes=episodes,
-                task_options=task_options(task, quick),
-                randomise=ranges if training == "randomised" else {})
+                task=task, learner=learner, plant=plant, agents=agents_for(task, learner, agents),
+                episodes=episodes, task_options=task_options(task, quick),
+                randomise=ranges if training == "randomised" else {},
+                **tuned_settings(task, learner))
     return configs
 
 

@@ -8,7 +8,6 @@ with the 95 % bootstrap interval over agents (`analysis.statistics`).
 """
 
 import dataclasses
-import hashlib
 import json
 import os
 import time
@@ -107,14 +106,17 @@ TIMINGS = "timings.json"
 def add_time(out_dir: str, task: str, keys, seconds: float) -> dict:
     """Add `seconds` of an invocation that computed some of the runs `keys` of `task` (none:
     0) to the task's entry of `out_dir/timings.json`, so that a study resumed in several
-    invocations reports the time all of them took; an entry of other runs (the same task
-    studied otherwise in the same directory) is replaced, not added to. Return the entry."""
+    invocations reports the time all of them took. An entry of runs that are all among
+    `keys` is added to (the study grew: a learner joined it, and the runs it had are kept);
+    an entry of other runs (the same task studied otherwise in the same directory) is
+    replaced. Return the entry."""
     path = os.path.join(out_dir, TIMINGS)
     timings = json.load(open(path)) if os.path.exists(path) else {}
-    runs = hashlib.sha256("\n".join(sorted(keys)).encode()).hexdigest()[:12]
-    if timings.get(task, {}).get("runs") != runs:
-        timings[task] = {"runs": runs, "seconds": 0.0, "invocations": 0}
-    entry = timings[task]
+    keys = sorted(keys)
+    entry = timings.get(task)
+    if entry is None or not set(entry.get("keys", [None])) <= set(keys):
+        entry = {"seconds": 0.0, "invocations": 0}
+    timings[task] = entry = {**entry, "keys": keys}
     if seconds:
         entry["seconds"] += seconds
         entry["invocations"] += 1
