@@ -173,7 +173,7 @@ class DqnAgents(ModelAgents):
         """`DQN.predict` on the latest observation (uniform before `learning_starts`),
         greedy where asked or once learning is over; the draws are kept to give back."""
         model, own = self.models[b], self.own[b]
-        if greedy or (learn and not own["learning"]) or self.arrays.diverged[b]:
+        if self._acts_greedily(b, learn, greedy):
             return int(q.argmax(dim=1)[0])
         own["undo"] = self.states[b].snapshot()
         if model.num_timesteps < model.learning_starts and learn:

@@ -141,7 +141,7 @@ class PpoAgents(ModelAgents):
             arrays.delta[b] = reward - previous
             own["open"] = False
             return 0
-        deterministic = greedy or (learn and not own["learning"]) or bool(arrays.diverged[b])
+        deterministic = self._acts_greedily(b, learn, greedy)
         if not deterministic:
             own["undo"] = self.states[b].torch_snapshot()
         actions, values, log_prob, logits = self._forward(b, observation, deterministic)

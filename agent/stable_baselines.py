@@ -403,11 +403,24 @@ class ModelAgents(Agents):
         discount = np.asarray(discount, dtype=np.float64)
         actions = np.zeros(batch, dtype=np.int64)
         for b in np.flatnonzero(active):
-            with self.states[b].used():
+            with self.states[b].used() if self._draws(b, learn, greedy) else contextlib.nullcontext():
                 actions[b] = self._step_one(b, bool(first[b]), float(reward[b]),
                                             float(discount[b]), observation[b:b + 1].copy(),
                                             bool(learn), bool(greedy))
         return actions
+
+    def _acts_greedily(self, b: int, learn: bool, greedy: bool) -> bool:
+        """Agent b's action is greedy (`predict(deterministic=True)`): where asked, once its
+        learning is over (as a model trained by `learn()`), or once it diverged."""
+        return greedy or (learn and not self.own[b]["learning"]) or bool(self.arrays.diverged[b])
+
+    def _draws(self, b: int, learn: bool, greedy: bool) -> bool:
+        """Whether agent b's step may draw from its generators or give draws back: not a
+        step that neither learns nor explores (an evaluation, or past the horizon), unless
+        draws of an earlier step are still to be given back. Swapping the generators in
+        costs more than such a step's forward pass, so those steps swap none."""
+        return (self._learning(b, learn) or not self._acts_greedily(b, learn, greedy)
+                or self.own[b]["undo"] is not None)
 
     def _tensor(self, states):
         return self.torch.as_tensor(np.asarray(states, dtype=np.float64))

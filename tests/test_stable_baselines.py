@@ -111,6 +111,25 @@ def test_after_its_horizon_an_agent_acts_greedily_and_learns_no_more():
     np.testing.assert_array_equal(agents.arrays.weights, before)
 
 
+@pytest.mark.parametrize("learner, settings", [(dqn, DQN_SETTINGS), (ppo, PPO_SETTINGS)])
+def test_a_greedy_evaluation_draws_nothing_and_acts_on_each_agents_own_network(learner, settings):
+    """Greedy steps without learning, in a batch of two agents: each one's action is the
+    argmax of its own network's outputs (`arrays.q`) and every agent's generators are as they
+    were, so it goes on learning as if it had not been evaluated."""
+    make = dqn.DqnSettings if learner is dqn else ppo.PpoSettings
+    agents = learner.make([make(timesteps=100, **settings)] * 2, task_info(TASK), [SEED, SEED + 1])
+    before = [agents.states[b].saved("")[1]["torch"].copy() for b in range(2)]
+    numpy_before = [agents.states[b].numpy_state[1].copy() for b in range(2)]
+    observations = np.random.default_rng(0).normal(size=(12, 2, 4))
+    for t, observation in enumerate(observations):
+        actions = agents.step([t == 0] * 2, [1.0] * 2, [1.0] * 2, observation, learn=False, greedy=True)
+        np.testing.assert_array_equal(actions, agents.arrays.q.argmax(axis=1))
+        assert not np.array_equal(*agents.arrays.q)  # two networks of their own
+    for b in range(2):
+        np.testing.assert_array_equal(agents.states[b].saved("")[1]["torch"], before[b])
+        np.testing.assert_array_equal(agents.states[b].numpy_state[1], numpy_before[b])
+
+
 def test_models_leave_nothing_under_the_temporary_directory(tmp_path, monkeypatch):
     monkeypatch.setenv("TMPDIR", str(tmp_path))
     import tempfile
