@@ -352,3 +352,15 @@ def test_every_learner_goes_on_with_its_kept_agents_in_several_cells_at_once(nam
         np.testing.assert_array_equal(rows["return"], alone.returns.ravel())
     with pytest.raises(ValueError, match="whole multiple"):
         make_agent(dataclasses.replace(trained, agents=3)).take_over(kept)
+
+
+def test_an_interrupted_study_that_finished_no_run_adds_no_time(tmp_path, monkeypatch):
+    """Its interrupted batch is computed again by the next call, which counts that time."""
+    from lwrl.studies.robustness import study
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(study, "run_sweep", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        study.study_task("mountain_car.cost_to_go", str(tmp_path), quick=True)
+    assert not (tmp_path / study.TIMINGS).exists()

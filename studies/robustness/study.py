@@ -125,6 +125,13 @@ def add_time(out_dir: str, task: str, keys, seconds: float) -> dict:
     return entry
 
 
+def finished(out_dir: str, trained: dict, evaluations: dict) -> int:
+    """How many of the study's runs are finished in `out_dir` (a training with its kept
+    agents)."""
+    return (sum(map(RunStore(out_dir, keep_agents=True).finished, trained.values()))
+            + sum(map(RunStore(out_dir).finished, evaluations.values())))
+
+
 def study_task(task: str, out_dir: str, plant: str = "analytic", quick: bool = False,
                agents=None, episodes=None, evaluation_episodes=None, workers=None) -> TaskResult:
     """Train, evaluate and measure `task`; the runs in `out_dir/runs`."""
@@ -135,13 +142,15 @@ def study_task(task: str, out_dir: str, plant: str = "analytic", quick: bool = F
     evaluations = {(learner, training, cell): plan.evaluation(task, config, cell, count)
                    for (learner, training), config in trained.items() for cell in cells}
     keys = [config.key for config in [*trained.values(), *evaluations.values()]]
+    finished_before = finished(out_dir, trained, evaluations)
     try:
         _, computed = run_sweep(list(trained.values()), out_dir, workers=workers,
                                 description=f"{task}: training", keep_agents=True)
         table, more = run_sweep(list(evaluations.values()), out_dir, workers=workers,
                                 description=f"{task}: evaluation")
     except KeyboardInterrupt:  # its finished runs are kept, and so is the time they took
-        add_time(out_dir, task, keys, time.perf_counter() - started)
+        if finished(out_dir, trained, evaluations) > finished_before:
+            add_time(out_dir, task, keys, time.perf_counter() - started)
         raise
     timing = add_time(out_dir, task, keys, time.perf_counter() - started if computed + more else 0.0)
     table = per_episode(table)
