@@ -2,6 +2,7 @@
 on every task, the light-weight claim's rule says what docs/FINDINGS.md says, callgrind
 counts an exported controller's instructions, and bad input is one line."""
 
+import dataclasses
 import shutil
 
 import numpy as np
@@ -64,3 +65,35 @@ def test_callgrind_counts_the_same_instructions_every_time(tmp_path):
 def test_bad_input_is_one_line(argv, fragment, capsys, tmp_path):
     status, _, err = run_cli(argv + ["--out", str(tmp_path / "out")], capsys)
     assert status == 2 and len(err) >= 1 and fragment in err[-1]
+
+
+@BASELINES
+def test_the_search_tries_the_zoos_set_first_and_keeps_the_best_on_seeds_of_its_own():
+    """Each baseline's candidates are the zoo's set and its learning rate times each factor,
+    on seeds none of the rows take; the best mean is chosen (fewer steps on Mountain-Car, more
+    up-time on the pendulum), the zoo's on a tie; the row with the zoo's set chosen keeps its
+    run key, so its kept run is not recomputed."""
+    import pandas as pd
+
+    from lwrl.studies.paper import bench_search
+
+    tasks = ["mountain_car.cost_to_go", "pendulum.swingup"]
+    cells = bench_protocol.configs(tasks, ["paper", "dqn", "ppo"], "analytic", 5)
+    found = bench_search.candidates(cells)
+    assert set(found) == {(task, label) for task in tasks for label in ("dqn", "ppo")}
+    for (task, label), configs in found.items():
+        row = next(config for t, l, config in cells if (t, l) == (task, label))
+        rates = [config.agent.learning_rate / row.agent.learning_rate for config in configs]
+        np.testing.assert_allclose(rates, (1.0, *bench_search.FACTORS))
+        assert all(min(config.seeds) >= row.agents for config in configs)
+        assert dataclasses.replace(configs[0], agents=row.agents, seed=row.seed).key == row.key
+
+    def results(scores):
+        return pd.DataFrame([{"run": config.key, "seed": seed, "steps": value, "uptime_s": value}
+                             for configs in found.values()
+                             for config, value in zip(configs, scores) for seed in config.seeds])
+    chosen = bench_search.choose(found, results([50.0, 20.0, 80.0]))
+    assert chosen["mountain_car.cost_to_go", "dqn"] is found["mountain_car.cost_to_go", "dqn"][1]
+    assert chosen["pendulum.swingup", "ppo"] is found["pendulum.swingup", "ppo"][2]
+    tie = bench_search.choose(found, results([30.0, 30.0, 30.0]))
+    assert all(tie[cell] is configs[0] for cell, configs in found.items())

@@ -15,6 +15,7 @@ from lwrl.agent.stable_baselines import ZOO
 from lwrl.analysis import statistics as st
 from lwrl.analysis.plots import plot_learning_curve, save_figure
 from lwrl.studies.paper import bench_protocol as protocol
+from lwrl.studies.paper import bench_search
 
 RIVALS = ("dqn", "ppo")
 COMPUTE_FRACTION = 1 / 100
@@ -168,8 +169,10 @@ and writes this page with its row, its costs and its points on the figures."""
 
 
 def write(cells, results, costs, out_dir: str, command: str, seconds: float,
-          total_seconds: float, computed: int) -> str:
-    """Write `README.md` and the figures to `out_dir`; return the report's path."""
+          total_seconds: float, computed: int, search: tuple) -> str:
+    """Write `README.md` and the figures to `out_dir`; return the report's path. `search`:
+    the baselines' candidates, the chosen ones and the candidates' results
+    (`bench_search`)."""
     figure_dir = os.path.join(out_dir, "figures")
     costs = {config.key: costs[config.key] for _, _, config in cells if config.key in costs}
     tasks = list(dict.fromkeys(task for task, _, _ in cells))
@@ -177,12 +180,13 @@ def write(cells, results, costs, out_dir: str, command: str, seconds: float,
     sections, verdicts = [], {}
     for task in tasks:
         lines, verdicts[task] = task_section(task, cells, results, costs, figure_dir)
-        sections += lines
+        sections += lines + bench_search.table(task, *search)
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     lines = [
         "# Benchmark: every learner under the paper's protocol, and what each costs", "",
         f"Written by `{command}` on {stamp}; this call took {seconds / 60:.1f} min of wall "
-        f"time and computed {computed} of the {len(cells)} runs (the others were kept from an "
+        f"time and computed {computed} of the {len(cells) + sum(map(len, search[0].values()))} "
+        "runs, the search's among them (the others were kept from an "
         f"earlier call of the same command, which resumes); the calls that finished took "
         f"{total_seconds / 60:.1f} min together (an interrupted call's time is not counted).", "",
         "| task | light-weight claim (docs/FINDINGS.md's rule) |", "|---|---|",
@@ -198,8 +202,13 @@ def write(cells, results, costs, out_dir: str, command: str, seconds: float,
         "(the cart-pole) stand beside it.",
         f"- DQN and PPO: Stable-Baselines3 2.9.2 on PyTorch 2.13.0 (CPU), with rl-baselines3-zoo's "
         f"tuned sets ({ZOO}; each domain names the environment whose set its tasks take, "
-        "`Domain.tuned_as`, and `agent/stable_baselines.py` what does not carry over). No search beyond the zoo's sets: its budget here was nil "
-        "(a search's every cell would cost as much as the row it tunes).",
+        "`Domain.tuned_as`, and `agent/stable_baselines.py` what does not carry over) as the start, "
+        f"then a small search per task (`studies/paper/bench_search.py`): the zoo's learning "
+        f"rate and {' and '.join(f'{f:g}' for f in bench_search.FACTORS)} times it, "
+        f"{bench_search.AGENTS} agents each on seeds of their own ({bench_search.SEED} on), "
+        "the row taking the best mean; each task's section lists the candidates. Its budget: "
+        f"{len(bench_search.FACTORS) + 1} x {bench_search.AGENTS} agents per baseline and task, "
+        "about what the row costs.",
         "- Terminal states are kept apart from truncations (DQN: the replay buffer's "
         "`handle_timeout_termination`; PPO: the truncated state's value bootstraps).",
         "- Intervals: 95 % percentile bootstrap over agents; P(paper's agent better): the "
