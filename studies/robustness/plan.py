@@ -2,8 +2,8 @@
 
 For a task, every learner of the registry that fits it (`agent.LEARNERS`, `Learner.fits`) is
 trained twice, with the settings tuned for it elsewhere where it has them
-(`runners.config.tuned_settings`: rl-baselines3-zoo's for DQN and PPO, as `lwrl bench`
-takes them), else the task's defaults: on the
+(`runners.config.tuned_settings`: rl-baselines3-zoo's for DQN and PPO, where `lwrl bench`'s
+search starts), else the task's defaults: on the
 paper's plant, and with the domain's robustness parameters (`Domain.robustness_axes`) drawn
 uniformly for every episode between `TRAINING_FACTORS` times their paper values (domain
 randomisation). A learner that runs only in the stepped loop trains `STEPPED_AGENTS` agents

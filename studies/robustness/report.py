@@ -197,8 +197,8 @@ def document(results, command: str, seconds: float, figure_paths: dict) -> str:
              "command resumes an interrupted study, reading what an earlier one finished); "
              f"this invocation took {seconds / 60:.1f} minutes.", "",
              "Agents of every learner of the registry that fits the task, each with the "
-             "settings the benchmark gives it (docs/benchmark: rl-baselines3-zoo's tuned sets "
-             "for DQN and PPO, the task's defaults for the others), are trained on the paper's plant (*nominal*) and "
+             "settings tuned for it elsewhere where it has them (rl-baselines3-zoo's sets for "
+             "DQN and PPO, where the benchmark's search starts), else the task's defaults, are trained on the paper's plant (*nominal*) and "
              "with the domain's robustness parameters drawn uniformly for every episode "
              f"between x{plan.TRAINING_FACTORS[0]:g} and x{plan.TRAINING_FACTORS[1]:g} their "
              "paper values (*randomised*, domain randomisation). Then they run greedily, "
