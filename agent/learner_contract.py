@@ -22,7 +22,9 @@ What a learner gives (`Learner`):
   the stepped loop (its `Agents.step` does the work);
 - `fits(task)`: None, or one line saying why the learner does not fit a task (`TaskInfo`);
 - `load(document, arrays)`: agents from a file written by `agent.io.save`;
-- `memory(settings, task)`: the bytes one agent needs, before any is made.
+- `memory(settings, task)`: the bytes one agent needs, before any is made;
+- `tuned`: settings tuned for it elsewhere, by the Gymnasium environment they were tuned
+  on (rl-baselines3-zoo's, for DQN and PPO), which studies take on the domains tuned as it.
 
 What a batch of agents gives (`Agents`): `step` over the batch (the stepped loop), `arrays`
 (a namedtuple whose fields `q` `(B, A)`, `delta` `(B,)`, `diverged` `(B,)` and `weights`
@@ -30,7 +32,8 @@ What a batch of agents gives (`Agents`): `step` over the batch (the stepped loop
 observation, the latest TD error or NaN, the divergence flag, and what the learner has
 learned), action values and state values over states where the learner has them, its
 greedy controller as C where it has one, itself as C that learns on a device where it can,
-and what `agent.io` saves.
+what `agent.io` saves, and `take_over`: becoming kept agents as they ended, for a run that
+goes on with them.
 """
 
 import collections
