@@ -2,7 +2,6 @@
 
 import os
 import shlex
-import sys
 import time
 
 from lwrl import outputs
@@ -40,7 +39,7 @@ def run_bench(args) -> int:
     tasks = list(protocol.TASKS) if args.tasks == ["all"] else args.tasks
     output.claim_outputs(args, "out")
     outputs.check_directory(args.out, "--out")  # a benchmark resumes in its directory
-    command = "lwrl " + " ".join(shlex.quote(part) for part in sys.argv[1:])
+    command = shlex.join(["lwrl", *args.argv])
     path = study.bench(tasks, args.learners, args.out, plant=args.plant,
                        agents=args.agents_per_cell, quick=args.quick, backend=args.backend,
                        workers=args.workers, address=args.address, command=command)

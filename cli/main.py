@@ -52,6 +52,7 @@ def main(argv=None) -> int:
     1 when an output could not be written after the work, 130 when interrupted."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)  # the command as it was given
     output.INTERRUPTS = output.Interrupts(args.command)
     with output.INTERRUPTS:
         try:

@@ -97,3 +97,17 @@ def test_the_search_tries_the_zoos_set_first_and_keeps_the_best_on_seeds_of_its_
     assert chosen["pendulum.swingup", "ppo"] is found["pendulum.swingup", "ppo"][2]
     tie = bench_search.choose(found, results([30.0, 30.0, 30.0]))
     assert all(tie[cell] is configs[0] for cell, configs in found.items())
+
+
+def test_lwrl_bench_writes_its_report_and_resumes(tmp_path, capsys):
+    """`--quick` with the paper's agent alone (no baseline, so no search): the report names
+    the command and has the row; a second call computes nothing."""
+    out = tmp_path / "bench"
+    argv = ["bench", "mountain_car.cost_to_go", "--learners", "paper", "--quick",
+            "--agents-per-cell", "2", "--out", str(out)]
+    status, _, _ = run_cli(argv, capsys)
+    report = (out / "README.md").read_text()
+    assert status == 0 and "lwrl bench mountain_car.cost_to_go --learners paper --quick" in report
+    assert "computed 1 of the 1 runs" in report and "\n| paper | " in report
+    assert run_cli(argv, capsys)[0] == 0
+    assert "computed 0 of the 1 runs" in (out / "README.md").read_text()

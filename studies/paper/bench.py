@@ -26,6 +26,7 @@ from lwrl.runners import sweep
 from lwrl.studies.paper import bench_protocol as protocol
 from lwrl.studies.paper import bench_search as search
 
+
 def ordered(cells) -> list:
     """The cells, lwrl's learners on every task before the baselines, task by task."""
     return sorted(cells, key=lambda cell: (cell[1] in search.SEARCHED, cell[1] in search.SEARCHED
@@ -44,10 +45,12 @@ def bench(tasks, labels, out_dir: str, plant: str = "analytic", agents: int = 5,
     os.makedirs(out_dir, exist_ok=True)
     options = dict(backend=backend, workers=workers, address=address)
     unsearched = [config for _, label, config in cells if label not in search.SEARCHED]
-    _, computed = sweep.run_sweep(unsearched, out_dir, description="bench", **options)
+    _, computed = (sweep.run_sweep(unsearched, out_dir, description="bench", **options)
+                   if unsearched else (None, 0))
     found = search.candidates(cells)
     tried = [config for configs in found.values() for config in configs]
-    searched, more = sweep.run_sweep(tried, out_dir, description="bench: search", **options)
+    searched, more = (sweep.run_sweep(tried, out_dir, description="bench: search", **options)
+                      if tried else (None, 0))
     chosen = search.choose(found, searched)
     cells = [(task, label, dataclasses.replace(chosen[task, label], agents=config.agents, seed=config.seed)
               if (task, label) in chosen else config) for task, label, config in cells]
