@@ -69,8 +69,8 @@ def test_bad_input_is_one_line(argv, fragment, capsys, tmp_path):
 
 @BASELINES
 def test_the_search_tries_the_zoos_set_first_and_keeps_the_best_on_seeds_of_its_own():
-    """Each baseline's candidates are the zoo's set and its learning rate times each factor,
-    on seeds none of the rows take; the best mean is chosen (fewer steps on Mountain-Car, more
+    """Each baseline's candidates are the zoo's set, its learning rate times each factor and
+    its horizon (DQN: and warm-up) shorter, on seeds none of the rows take; the best mean is chosen (fewer steps on Mountain-Car, more
     up-time on the pendulum), the zoo's on a tie; the row with the zoo's set chosen keeps its
     run key, so its kept run is not recomputed."""
     import pandas as pd
@@ -84,7 +84,11 @@ def test_the_search_tries_the_zoos_set_first_and_keeps_the_best_on_seeds_of_its_
     for (task, label), configs in found.items():
         row = next(config for t, l, config in cells if (t, l) == (task, label))
         rates = [config.agent.learning_rate / row.agent.learning_rate for config in configs]
-        np.testing.assert_allclose(rates, (1.0, *bench_search.FACTORS))
+        np.testing.assert_allclose(rates, (1.0, *bench_search.FACTORS, 1.0))
+        shorter = configs[-1].agent
+        assert shorter.timesteps == row.agent.timesteps // bench_search.SHORTER
+        if label == "dqn":
+            assert shorter.learning_starts == row.agent.learning_starts // bench_search.SHORTER
         assert all(min(config.seeds) >= row.agents for config in configs)
         assert dataclasses.replace(configs[0], agents=row.agents, seed=row.seed).key == row.key
 
@@ -92,10 +96,10 @@ def test_the_search_tries_the_zoos_set_first_and_keeps_the_best_on_seeds_of_its_
         return pd.DataFrame([{"run": config.key, "seed": seed, "steps": value, "uptime_s": value}
                              for configs in found.values()
                              for config, value in zip(configs, scores) for seed in config.seeds])
-    chosen = bench_search.choose(found, results([50.0, 20.0, 80.0]))
+    chosen = bench_search.choose(found, results([50.0, 20.0, 80.0, 50.0]))
     assert chosen["mountain_car.cost_to_go", "dqn"] is found["mountain_car.cost_to_go", "dqn"][1]
     assert chosen["pendulum.swingup", "ppo"] is found["pendulum.swingup", "ppo"][2]
-    tie = bench_search.choose(found, results([30.0, 30.0, 30.0]))
+    tie = bench_search.choose(found, results([30.0, 30.0, 30.0, 30.0]))
     assert all(tie[cell] is configs[0] for cell, configs in found.items())
 
 

@@ -203,11 +203,13 @@ def write(cells, results, costs, out_dir: str, command: str, seconds: float,
         f"- DQN and PPO: Stable-Baselines3 2.9.2 on PyTorch 2.13.0 (CPU), with rl-baselines3-zoo's "
         f"tuned sets ({ZOO}; each domain names the environment whose set its tasks take, "
         "`Domain.tuned_as`, and `agent/stable_baselines.py` what does not carry over) as the start, "
-        f"then a small search per task (`studies/paper/bench_search.py`): the zoo's learning "
-        f"rate and {' and '.join(f'{f:g}' for f in bench_search.FACTORS)} times it, "
+        f"then a small search per task (`studies/paper/bench_search.py`): the zoo's set, its "
+        f"learning rate {' and '.join(f'{f:g}' for f in bench_search.FACTORS)} times as large, "
+        f"and its horizon and warm-up {bench_search.SHORTER} times shorter (the zoo's are for "
+        "Gymnasium's budgets of 50 000 steps and more), "
         f"{bench_search.AGENTS} agents each on seeds of their own ({bench_search.SEED} on), "
         "the row taking the best mean; each task's section lists the candidates. Its budget: "
-        f"{len(bench_search.FACTORS) + 1} x {bench_search.AGENTS} agents per baseline and task, "
+        f"{len(bench_search.FACTORS) + 2} x {bench_search.AGENTS} agents per baseline and task, "
         "about what the row costs.",
         "- Terminal states are kept apart from truncations (DQN: the replay buffer's "
         "`handle_timeout_termination`; PPO: the truncated state's value bootstraps).",
