@@ -83,6 +83,7 @@ class DqnAgents(ModelAgents):
 
     COUNTERS = ("num_timesteps", "_n_calls", "_n_updates", "exploration_rate",
                 "_current_progress_remaining")
+    PENDING = "stored"
 
     def _model(self, settings: DqnSettings, env, seed):
         from stable_baselines3.common import utils
@@ -116,18 +117,7 @@ class DqnAgents(ModelAgents):
     def _step_one(self, b, first, reward, discount, observation, learn, greedy) -> int:
         model, own, arrays = self.models[b], self.own[b], self.arrays
         previous = arrays.q[b, own["action"][0]]  # Q(s, a) of the transition ending here
-        if first:
-            if own["open"]:  # the last episode was cut: a truncation, as SB3 would have seen it
-                self._truncated(b)
-            arrays.delta[b] = np.nan
-        else:
-            own["stored"] = False
-            if self._learning(b, learn):
-                self._store(b, reward, discount, observation)
-        own["undo"], own["open"] = None, True
-        if not first and discount == 0.0:  # a terminal state: no action
-            arrays.delta[b] = reward - previous
-            own["open"] = False
+        if self._arrive(b, first, reward, discount, observation, learn, previous):
             return 0
         q = self._q(b, observation)
         arrays.q[b] = q[0].numpy()
@@ -139,8 +129,7 @@ class DqnAgents(ModelAgents):
         return action
 
     def _truncated(self, b) -> None:
-        """The episode ended at the latest observation without a terminal state: the draws
-        of the action chosen there go back, and its transition is marked a time-out."""
+        """As `ModelAgents._truncated`: the transition is marked a time-out."""
         model, own = self.models[b], self.own[b]
         if own["undo"] is not None:
             self.states[b].restore(own["undo"])
@@ -150,7 +139,7 @@ class DqnAgents(ModelAgents):
             buffer.dones[last], buffer.timeouts[last] = 1.0, 1.0
         own["stored"] = False
 
-    def _store(self, b, reward, discount, observation) -> None:
+    def _record(self, b, reward, discount, observation) -> None:
         """SB3's step after `env.step`: store, count, `_on_step`, and train when it is time."""
         model, own = self.models[b], self.own[b]
         model._store_transition(model.replay_buffer, own["action"], observation,

@@ -87,6 +87,7 @@ class PpoAgents(ModelAgents):
     """B independent SB3 PPO models (see the module)."""
 
     COUNTERS = ("num_timesteps", "_n_updates", "_current_progress_remaining")
+    PENDING = "added"
 
     def _model(self, settings: PpoSettings, env, seed):
         from stable_baselines3.common import utils
@@ -127,19 +128,8 @@ class PpoAgents(ModelAgents):
 
     def _step_one(self, b, first, reward, discount, observation, learn, greedy) -> int:
         model, own, arrays = self.models[b], self.own[b], self.arrays
-        if first:
-            if own["open"]:  # the last episode was cut: a truncation, as SB3 would have seen it
-                self._truncated(b)
-            arrays.delta[b] = np.nan
-        else:
-            own["added"] = False
-            if self._learning(b, learn):
-                self._add(b, reward, discount, observation)
-        own["undo"], own["open"] = None, True
-        previous = np.nan if own["value"] is None else float(own["value"][0, 0])
-        if not first and discount == 0.0:  # a terminal state: no action
-            arrays.delta[b] = reward - previous
-            own["open"] = False
+        previous = np.nan if own["value"] is None else float(own["value"][0, 0])  # V(s)
+        if self._arrive(b, first, reward, discount, observation, learn, previous):
             return 0
         deterministic = self._acts_greedily(b, learn, greedy)
         if not deterministic:
@@ -152,7 +142,7 @@ class PpoAgents(ModelAgents):
                    value=values, log_prob=log_prob, start=np.array([first]))
         return int(actions[0])
 
-    def _add(self, b, reward, discount, observation) -> None:
+    def _record(self, b, reward, discount, observation) -> None:
         """SB3's step after `env.step`: the rollout entry; at a full rollout, the advantages
         (bootstrapped from V of this observation) and `train()`."""
         model, own = self.models[b], self.own[b]
@@ -175,8 +165,7 @@ class PpoAgents(ModelAgents):
         self._horizon_reached(b)
 
     def _truncated(self, b) -> None:
-        """The episode ended at the latest observation without a terminal state: the draws
-        of the action sampled there go back, and the last reward takes gamma V(s_T)."""
+        """As `ModelAgents._truncated`: the last reward takes gamma V(s_T)."""
         model, own = self.models[b], self.own[b]
         if own["undo"] is not None:
             self.states[b].restore(own["undo"])

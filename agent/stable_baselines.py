@@ -326,6 +326,9 @@ class ModelAgents(Agents):
     the rest."""
     COUNTERS: tuple = ()
     """The model's counters `saved` keeps (SB3's `num_timesteps`, ...)."""
+    PENDING: str = ""
+    """The key of `own[b]` saying that the latest recorded transition is one a truncation,
+    seen at the next episode's start, must still mark (DQN: `stored`, PPO: `added`)."""
 
     def _model(self, settings, env, seed):
         """The SB3 model of one agent, built as SB3 builds it with `seed`."""
@@ -343,6 +346,37 @@ class ModelAgents(Agents):
     def _step_one(self, b, first, reward, discount, observation, learn, greedy) -> int:
         """One time step of agent b (`Agents.step`'s arguments for it); its action."""
         raise NotImplementedError
+
+    def _record(self, b, reward, discount, observation) -> None:
+        """SB3's step after `env.step` for agent b's transition into `observation`."""
+        raise NotImplementedError
+
+    def _truncated(self, b) -> None:
+        """The episode ended at the latest observation without a terminal state, as SB3
+        would have seen at once: give back the draws of the action chosen there and mark
+        the transition recorded last (`PENDING`)."""
+        raise NotImplementedError
+
+    def _arrive(self, b, first, reward, discount, observation, learn, previous) -> bool:
+        """Agent b's part of a time step before it acts: a new episode closes a cut one
+        (`_truncated`), a transition is recorded where the agent learns (`_record`). True at
+        a terminal state, where it takes no action (its TD error taken against `previous`,
+        its value of the transition's state)."""
+        own, arrays = self.own[b], self.arrays
+        if first:
+            if own["open"]:  # the last episode was cut: a truncation, as SB3 would have seen it
+                self._truncated(b)
+            arrays.delta[b] = np.nan
+        else:
+            own[self.PENDING] = False
+            if self._learning(b, learn):
+                self._record(b, reward, discount, observation)
+        own["undo"], own["open"] = None, True
+        if not first and discount == 0.0:  # a terminal state: no action
+            arrays.delta[b] = reward - previous
+            own["open"] = False
+            return True
+        return False
 
     def _buffer_saved(self, b: int, prefix: str) -> dict:
         raise NotImplementedError
