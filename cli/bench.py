@@ -5,7 +5,7 @@ import shlex
 import time
 
 from lwrl import outputs
-from lwrl.cli import fields, output, reproduce
+from lwrl.cli import output, reproduce
 
 
 def add_parser(commands) -> None:
@@ -23,7 +23,7 @@ def add_parser(commands) -> None:
                             "ase_ace, dqn, ppo")
     bench.add_argument("--plant", choices=("analytic", "mujoco"), default="analytic",
                        help="plant of the tasks that have both")
-    bench.add_argument("--agents-per-cell", metavar="N", type=fields.integer_at_least(2, "at least 2 (an interval needs two agents)"), default=5,
+    bench.add_argument("--agents-per-cell", metavar="N", type=reproduce.agents_per_cell, default=5,
                        help="agents per learner and task (seeds 0 to N-1; default 5)")
     bench.add_argument("--quick", action="store_true", help="tiny episodes and budgets: a smoke test (minutes, most of it the costs)")
     bench.add_argument("--out", metavar="DIR", default="benchmark",
