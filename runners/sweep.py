@@ -150,8 +150,9 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
     `workers` caps the threads of the local backend; `address` is the Ray cluster's
     (default: start a local Ray instance). Unreadable run files are set aside and computed
     again (a line on standard error names each). Batches that another process has claimed
-    (`runners.store`) are left to it: this call computes the others, then waits for those,
-    polling every `wait_seconds`, and takes over any whose process is gone.
+    (`runners.store`) are left to it: this call computes the others (the local backend
+    claiming each as it starts it), then waits for those, polling every `wait_seconds`, and
+    takes over any whose process is gone.
 
     With `keep_agents`, each run is a batch of its own whose agents are kept beside its
     table (`RunStore.agents_path`; a run is finished once both are there), for runs that
@@ -176,9 +177,12 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
         try:
             while queue:
                 queue = [batch for batch in queue if not all(map(store.finished, batch))]
-                mine = [batch for batch in queue if store.claim(batch)]
+                # the local backend claims each batch as it starts it, leaving the rest to
+                # other processes on the directory; Ray starts all it claims at once
+                mine = (batch for batch in list(queue)
+                        if not all(map(store.finished, batch)) and store.claim(batch))
                 finished = (_local(mine, bar.update, *options) if backend == "local"
-                            else _ray(mine, address, bar.update, *options))
+                            else _ray(list(mine), address, bar.update, *options))
                 for batch, tables in finished:
                     for config, table in zip(batch, tables):
                         store.write(config, table)

@@ -88,3 +88,17 @@ def test_a_stale_claim_is_taken_over(tmp_path, clean):
     results, computed = sweep.run_sweep(grid(), tmp_path, wait_seconds=0.2)
     assert computed == 3 and not list(store.directory.glob("*.claim"))
     pd.testing.assert_frame_equal(results, clean)
+
+
+def test_the_local_backend_claims_a_batch_only_as_it_starts_it(tmp_path, monkeypatch):
+    """A second process on the directory finds the batches not yet started unclaimed."""
+    configs = grid() + [RunConfig(task="pendulum.swingup", agents=1, episodes=1)]
+    claimed, compute = [], sweep.run_batch
+
+    def counting(batch, *options):
+        claimed.append(len(list(tmp_path.glob("runs/*.claim"))))
+        return compute(batch, *options)
+
+    monkeypatch.setattr(sweep, "run_batch", counting)
+    _, computed = sweep.run_sweep(configs, tmp_path)
+    assert computed == 4 and claimed == [1, 1]
