@@ -1,5 +1,6 @@
 """Action choice: epsilon-greedy on Q with ties broken uniformly at random (SPEC "Agent")."""
 
+import numpy as np
 from numba.extending import register_jitable
 
 from lwrl.agent.streams import uniform
@@ -17,7 +18,11 @@ def epsilon_greedy(q, epsilon, streams, i):
     num_actions = q.shape[0]
     if epsilon > 0.0 and uniform(streams, i) < epsilon:
         return min(int(uniform(streams, i) * num_actions), num_actions - 1)
-    best = q.max()
+    best = q[0]
+    for a in range(num_actions):
+        if np.isnan(q[a]):
+            return 0  # no action is best
+        best = max(best, q[a])
     ties = 0
     for a in range(num_actions):
         ties += q[a] == best
@@ -27,4 +32,4 @@ def epsilon_greedy(q, epsilon, streams, i):
             if pick == 0:
                 return a
             pick -= 1
-    return 0  # q holds NaN: no action is best
+    return 0  # not reached: best is one of q's values

@@ -15,6 +15,12 @@ function}`, functions of the template's module) are written into the module too,
 where they are called, so that the bindings reach the functions the template calls as well.
 `kernel(...)` returns a callable that writes, imports and compiles on its first call.
 
+A kernel made with `runtime=False` is compiled without numba's runtime (`_nrt=False`): it
+and every function it calls may allocate nothing and hold no reference counts, so a view of
+an array (`arrays.weights[b]`) costs no atomic increment and decrement of the array's
+reference count, which numba's runtime spends on every view and call. The compiler refuses what would need the runtime (an array allocated, one array assigned into
+another: `copy_into` does that element by element); the caller passes the memory in.
+
 The cache is `$LWRL_CACHE_DIR`, else `$XDG_CACHE_HOME/lwrl/kernels`, else
 `~/.cache/lwrl/kernels`; where it cannot be written, kernels are compiled in memory.
 
@@ -87,7 +93,8 @@ def sources_digest(modules=()) -> str:
     return _DIGESTS[key]
 
 
-def kernel_source(template, bindings: dict, helpers: dict | None = None) -> str:
+def kernel_source(template, bindings: dict, helpers: dict | None = None,
+                  runtime: bool = True) -> str:
     """The module text of a kernel: the template's module's globals, the bindings, the
     helpers' sources (compiled where called) under their names, and the template's source
     compiled by numba (cached)."""
@@ -102,7 +109,8 @@ def kernel_source(template, bindings: dict, helpers: dict | None = None) -> str:
                   textwrap.dedent(inspect.getsource(helper)).rstrip(),
                   f"{name} = {helper.__name__}"]
     source = textwrap.dedent(inspect.getsource(template))
-    return "\n".join(lines) + "\n\n\n@numba.njit(nogil=True, cache=True)\n" + source
+    options = "nogil=True, cache=True" + ("" if runtime else ", _nrt=False")
+    return "\n".join(lines) + f"\n\n\n@numba.njit({options})\n" + source
 
 
 def _write(path: pathlib.Path, text: str) -> bool:
@@ -164,11 +172,11 @@ class _HealingCache(numba.core.caching.FunctionCache):
                          f"{' '.join(str(error).split())}); it runs compiled in memory")
 
 
-def _load(name: str, template, bindings: dict, helpers: dict):
+def _load(name: str, template, bindings: dict, helpers: dict, runtime: bool):
     """The kernel's numba dispatcher: from its module in the cache, or compiled in memory."""
     modules = {template.__module__} | {function.__module__ for function in bindings.values()}
     path = cache_root() / sources_digest(modules) / f"{name}.py"
-    text = kernel_source(template, bindings, helpers)
+    text = kernel_source(template, bindings, helpers, runtime)
     report = _Report(name)
     try:
         if _write(path, text):
@@ -179,7 +187,7 @@ def _load(name: str, template, bindings: dict, helpers: dict):
             namespace[helper_name] = numba.extending.register_jitable(
                 type(helper)(helper.__code__, namespace, helper.__name__))
         function = type(template)(template.__code__, namespace, template.__name__)
-        return numba.njit(nogil=True)(function)
+        return numba.njit(nogil=True, _nrt=runtime)(function)
     module = types.ModuleType(f"lwrl_kernels_{name}")
     module.__file__ = str(path)
     sys.modules[module.__name__] = module  # numba's cache finds a kernel's module by its name
@@ -193,8 +201,9 @@ class Kernel:
     """A kernel compiled on its first call (see the module's docstring)."""
 
     def __init__(self, name: str, template, bindings: dict | None = None,
-                 helpers: dict | None = None):
+                 helpers: dict | None = None, runtime: bool = True):
         self.name = name
+        self.runtime = runtime
         self.template = template
         self.bindings = dict(bindings or {})
         self.helpers = dict(helpers or {})
@@ -207,7 +216,7 @@ class Kernel:
             with _LOCK:
                 if self._dispatcher is None:
                     self._dispatcher = _load(self.name, self.template, self.bindings,
-                                           self.helpers)
+                                             self.helpers, self.runtime)
         return self._dispatcher
 
     def __call__(self, *args):
@@ -215,9 +224,18 @@ class Kernel:
 
 
 def kernel(name: str, template, bindings: dict | None = None,
-           helpers: dict | None = None) -> Kernel:
+           helpers: dict | None = None, runtime: bool = True) -> Kernel:
     """The kernel `name` (a file name: letters, digits, `_`) compiled from `template` with the
-    globals `bindings` replaced and the `helpers` written in under their names."""
+    globals `bindings` replaced and the `helpers` written in under their names; without
+    numba's runtime if not `runtime` (see the module's docstring)."""
     if not name.replace("_", "").isalnum():
         raise ValueError(f"kernel name must be letters, digits and _; got {name!r}")
-    return Kernel(name, template, bindings, helpers)
+    return Kernel(name, template, bindings, helpers, runtime)
+
+
+@numba.extending.register_jitable
+def copy_into(out, values):
+    """`out[:] = values` for 1-D arrays, element by element, as a kernel without numba's
+    runtime can (see the module's docstring)."""
+    for i in range(values.shape[0]):
+        out[i] = values[i]

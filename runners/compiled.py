@@ -9,14 +9,21 @@ per distinct row, sharing the first's `mjData`). Between the agent and the plant
 sensors and actuator (`tasks.disturbances`: `noisy_observation`, `applied_control`, from
 the agent's own stream), as in `tasks.batched.BatchedEnv`.
 Its bookkeeping is the stepped loop's (`tasks.task_definition.advance_episode`,
-`runners.episodes.finish_episode`, `runners.recording`), and its numbers too (tested)."""
+`runners.episodes.finish_episode`, `runners.recording`), and its numbers too (tested).
 
+On the analytic plant the loop is compiled without numba's runtime (`lwrl.kernels`,
+`runtime=False`): a step allocates nothing and counts no references, and `run_compiled`
+passes in the memory it works in (`Scratch`). MuJoCo's needs the runtime to view the
+warning counters of its `mjData`."""
+
+import collections
 import functools
 
 import numpy as np
 from numba.extending import register_jitable
 
 from lwrl import kernels, tasks
+from lwrl.kernels import copy_into
 from lwrl.agent.learner_contract import Agents
 from lwrl.agent.threads import run_in_chunks
 from lwrl.runners.episodes import EpisodeResults, episode_starts, finish_episode
@@ -29,6 +36,11 @@ from lwrl.tasks.engine import close_workspace, engine_plant, open_workspace, ste
 from lwrl.tasks.randomisation import check_ranges, draws
 from lwrl.tasks.integrators import check_integrator
 from lwrl.tasks.plants import check_equations
+
+
+Scratch = collections.namedtuple("Scratch", "states buffers")
+"""The compiled loop's memory, one row per agent: `states` `(B, 3, d)` its state, next
+state and observation, `buffers` `(B, max delay)` its actuator's delay line."""
 
 
 def transition(state, control, next_state, observation, dt, semi_implicit, slips, params):
@@ -97,34 +109,38 @@ control, next_state, observation, plant, model, workspace, params)` per step (`m
 address of the episode's MuJoCo model, 0 for the analytic plant), and
 `close_plant(plant, workspace)` at the end."""
 
+WITHOUT_RUNTIME = ("analytic",)
+"""The plants whose loop is compiled without numba's runtime (`lwrl.kernels`)."""
+
 
 def _loop(start, stop, first, count, starts, start_observations, controls, dt, plant, models,
           task_params, physical, sigma_observation, delays, sigma_action, keys, step_limit,
           learn, greedy, arrays, steps, returns, uptime, truncated, diverged_episode, done,
-          tape, cancel):
+          tape, cancel, scratch):
     """The whole learning loop around the plant's transition: agents `start..stop-1` run
     episodes `first..first+count-1` (their starts given) unless diverged; once `cancel[0]`
     is set (Ctrl-C), each agent stops after the episode it is in (at most tens of ms).
     `dt`: seconds of up-time per step up. Agent b's episode k has the controls
     `controls[b, k]` `(A,)`, the parameter values `physical[b, k]` `(P,)` and the MuJoCo
     model at `models[b, k]`; its sensors and actuator have the options `sigma_observation[b]`,
-    `delays[b]`, `sigma_action[b]` and the stream `keys[b]` (`tasks.disturbances`)."""
-    dim = starts.shape[2]
+    `delays[b]`, `sigma_action[b]` and the stream `keys[b]` (`tasks.disturbances`); it
+    works in `scratch` (`Scratch`)."""
     workspace = open_plant(plant)
     for b in range(start, stop):
-        state = np.empty(dim)
-        next_state = np.empty(dim)
-        observation = np.empty(dim)
-        buffer = np.zeros(delays[b])
+        state, next_state, observation = (scratch.states[b, 0], scratch.states[b, 1],
+                                          scratch.states[b, 2])
+        buffer = scratch.buffers[b, :delays[b]]
         for k in range(first, first + count):
             if arrays.diverged[b] or cancel[0]:
                 break
-            state[:] = starts[b, k]
-            observation[:] = start_observations[b, k]
+            copy_into(state, starts[b, k])
+            copy_into(observation, start_observations[b, k])
             noisy_observation(observation, sigma_observation[b], keys[b], k, 0)
             buffer[:] = 0.0
             episode_controls = controls[b, k]
-            low, high = episode_controls.min(), episode_controls.max()
+            low, high = np.inf, -np.inf
+            for value in episode_controls:
+                low, high = min(low, value), max(high, value)
             arguments = (task_params, physical[b, k])
             action = agent_step(b, True, 0.0, 1.0, observation, learn, greedy, arrays)
             r = tape.slot[b, k]
@@ -140,7 +156,7 @@ def _loop(start, stop, first, count, starts, start_observations, controls, dt, p
                 n, up, last = advance_episode(n, up, is_up, terminal, dt, step_limit)
                 noisy_observation(observation, sigma_observation[b], keys[b], k, n)
                 total += reward
-                state[:] = next_state
+                copy_into(state, next_state)
                 previous = action
                 action = agent_step(b, False, reward, 0.0 if terminal else 1.0, observation,
                                     learn, greedy, arrays)
@@ -172,7 +188,7 @@ def _compiled_loop(task_transition, task_arrive, task_limit, learner_step,
     return kernels.kernel(f"loop_{plant}_{module}_{learner}", _loop,
                           {"transition": task_transition, "arrive": task_arrive,
                            "limit_state": task_limit, "agent_step": learner_step, **bindings},
-                          helpers)
+                          helpers, runtime=plant not in WITHOUT_RUNTIME)
 
 
 def compiles(domain: str, plant: str) -> bool:
@@ -244,6 +260,8 @@ def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
     cancel = np.zeros(1, dtype=bool)  # set on Ctrl-C: the loops stop after their episode
     block = max(1, episodes // 20)
     models = model_addresses(domain, plant, physical)
+    dim = starts.shape[2]
+    scratch = Scratch(np.zeros((batch, 3, dim)), np.zeros((batch, int(sensors.delay.max(initial=0)))))
     try:
         for first in range(0, episodes, block):
             count = min(block, episodes - first)
@@ -254,7 +272,7 @@ def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
                 sensors.delay, sensors.sigma_action, sensors.keys, int(step_limit),
                 bool(learn), bool(greedy), agent.arrays, steps, results.returns,
                 results.uptime, results.truncated, results.diverged_episode, done, tape,
-                cancel, min_chunk=1, chunks_per_worker=8, cancel=cancel)
+                cancel, scratch, min_chunk=1, chunks_per_worker=8, cancel=cancel)
             if progress is not None:
                 progress(batch * count)
     except KeyboardInterrupt:

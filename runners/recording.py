@@ -12,6 +12,8 @@ import dataclasses
 import numpy as np
 from numba.extending import register_jitable
 
+from lwrl.kernels import copy_into
+
 
 @dataclasses.dataclass
 class EpisodeRecording:
@@ -97,9 +99,9 @@ def make_tape(record, agents: int, episodes: int, step_limit, dim: int, num_acti
 def record_state(tape, r, n, state, observation, q):
     """Step n of the episode in tape row r: the plant's state, what the agent saw and its Q
     there (before its update)."""
-    tape.states[r, n] = state
-    tape.observations[r, n] = observation
-    tape.q_values[r, n] = q
+    copy_into(tape.states[r, n], state)
+    copy_into(tape.observations[r, n], observation)
+    copy_into(tape.q_values[r, n], q)
 
 
 @register_jitable
@@ -116,7 +118,8 @@ def record_end(tape, r, steps, weights):
     """The episode in tape row r ended after `steps` steps with the agent's `weights`
     (an episode cut short by an interrupt is never ended, and left out)."""
     tape.length[r] = steps
-    tape.weights[r] = weights
+    for row in range(weights.shape[0]):
+        copy_into(tape.weights[r, row], weights[row])
 
 
 def recordings(tape: Tape, definition, plant: str, seeds) -> list:

@@ -49,6 +49,7 @@ import mujoco
 import numpy as np
 from numba.extending import register_jitable
 
+from lwrl.kernels import copy_into
 from lwrl.tasks.task_definition import RunDefaults, TaskDefinition, positive_number, step_limit
 from lwrl.tasks.domain_contract import Domain, PlantComparison
 from lwrl.tasks.integrators import euler_pair
@@ -149,7 +150,7 @@ def arrive(state, observation, arguments):
     """The observation of entering one state `(4,)` (the state itself), written into
     `observation`, and the state's `outcome`; `arguments` = ((track_limit,), p)."""
     params, p = arguments
-    observation[:] = state
+    copy_into(observation, state)
     return outcome(state[0], state[1], state[2], state[3], params[0], p)
 
 

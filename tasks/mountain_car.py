@@ -36,6 +36,7 @@ Task `cost_to_go`:
 import numpy as np
 from numba.extending import register_jitable
 
+from lwrl.kernels import copy_into
 from lwrl.tasks.domain_contract import Box, CPlant, Domain, Drawing, Line
 from lwrl.tasks.parameters import Parameter, Parameters
 from lwrl.tasks.task_definition import RunDefaults, TaskDefinition, step_limit
@@ -109,7 +110,7 @@ def controls(p):
 def arrive(state, observation, arguments):
     """The observation of entering one state `(2,)` (the state itself), written into
     `observation`, and the state's `outcome`; `arguments` = ((), p)."""
-    observation[:] = state
+    copy_into(observation, state)
     return outcome(state[0], state[1], arguments[1])
 
 

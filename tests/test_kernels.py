@@ -6,6 +6,8 @@ import os
 import subprocess
 import sys
 
+import numba
+import numpy as np
 import pytest
 
 from lwrl import kernels
@@ -90,3 +92,43 @@ def test_the_cache_follows_the_sources(tmp_path, monkeypatch):
 def test_kernel_names_are_file_names():
     with pytest.raises(ValueError, match="letters, digits and _"):
         kernels.kernel("../evil", lambda: None)
+
+
+def _row_sums(start, stop, values, out):
+    """A template: each row's sum, through a view of the row."""
+    for b in range(start, stop):
+        row = values[b]
+        out[b] = row.sum()
+
+
+def _fresh_rows(start, stop, values, out):
+    """A template that allocates."""
+    for b in range(start, stop):
+        out[b] = np.zeros(3).sum() + values[b, 0]
+
+
+def test_a_kernel_without_the_runtime_counts_no_references_and_allocates_nothing(tmp_path, monkeypatch):
+    """The compiled loop's views of per-agent rows cost no reference counts; a kernel
+    without the runtime refuses to allocate."""
+    monkeypatch.setenv("LWRL_CACHE_DIR", str(tmp_path))
+    values, out = np.arange(6.0).reshape(2, 3), np.zeros(2)
+    counted = kernels.kernel("row_sums_counted", _row_sums)
+    uncounted = kernels.kernel("row_sums_uncounted", _row_sums, runtime=False)
+    for kernel in (counted, uncounted):
+        out[:] = 0.0
+        kernel(0, 2, values, out)
+        assert out.tolist() == [3.0, 12.0]
+    llvm = {kernel: "".join(kernel.dispatcher.inspect_llvm().values())
+            for kernel in (counted, uncounted)}
+    assert "NRT_incref" in llvm[counted] and "NRT_incref" not in llvm[uncounted]
+    with pytest.raises(numba.core.errors.TypingError):
+        kernels.kernel("fresh_rows", _fresh_rows, runtime=False)(0, 2, values, out)
+
+
+def test_the_analytic_loop_runs_without_the_runtime():
+    from lwrl.agent.sarsa import LEARNER
+    from lwrl.runners.compiled import compiled_loop
+    from lwrl.tasks import mountain_car, pendulum
+
+    assert not compiled_loop(mountain_car.cost_to_go(), LEARNER).runtime
+    assert compiled_loop(pendulum.swingup(), LEARNER, "mujoco").runtime  # it views mjData
