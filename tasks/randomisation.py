@@ -75,7 +75,6 @@ def draws(parameters: Parameters, ranges: dict, rows: np.ndarray, seeds,
     seeded with `seeds[b]` and at `rows[b]` `(B, P)` but for the drawn parameters."""
     rows = np.asarray(rows, dtype=np.float64)
     if not ranges:
-        return np.ascontiguousarray(np.broadcast_to(rows[:, None, :], (len(rows), episodes,
-                                                                        rows.shape[1])))
+        return np.repeat(rows[:, None, :], episodes, axis=1)  # a new array, as the stack's
     return np.stack([[episode_values(parameters, ranges, row, seed, k) for k in range(episodes)]
                      for row, seed in zip(rows, seeds)])

@@ -132,3 +132,21 @@ def test_the_analytic_loop_runs_without_the_runtime():
 
     assert not compiled_loop(mountain_car.cost_to_go(), LEARNER).runtime
     assert compiled_loop(pendulum.swingup(), LEARNER, "mujoco").runtime  # it views mjData
+
+
+def test_one_compile_serves_runs_of_any_length(tmp_path, monkeypatch):
+    """The compiled loop's arguments have the same types for one episode as for several (a
+    one-episode run's parameter array was a read-only view: a second compile, seconds)."""
+    from lwrl.agent.sarsa import LEARNER
+    from lwrl.runners.compiled import compiled_loop
+    from lwrl.runners.config import RunConfig
+    from lwrl.runners.run import run
+    from lwrl.tasks import mountain_car
+
+    monkeypatch.setenv("LWRL_CACHE_DIR", str(tmp_path))
+    loop = compiled_loop(mountain_car.cost_to_go(), LEARNER)
+    compiled = []
+    for episodes in (1, 3):
+        run(RunConfig(task="mountain_car.cost_to_go", agents=2, episodes=episodes))
+        compiled.append(len(loop.dispatcher.signatures))
+    assert compiled[1] == compiled[0]
