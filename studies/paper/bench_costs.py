@@ -129,13 +129,15 @@ def callgrind_instructions(c_dir: str, count: int = CALLGRIND_DECISIONS) -> floa
 
 
 def _controller(agent, config, c_dir: str) -> dict:
-    """Export agent 0's greedy controller as C; its sizes and instructions per decision."""
+    """Export agent 0's greedy controller as C, from the agent saved beside it
+    (`c_dir/agent.npz`, which the C file's header names); its sizes and instructions per
+    decision."""
     from lwrl.agent import io as agent_io
     from lwrl.export.c import export_c, measure
-    with tempfile.TemporaryDirectory() as scratch:
-        path = os.path.join(scratch, "agent.npz")
-        agent_io.save(path, agent, {"config": {"task": config.task}})
-        written = export_c(path, c_dir)
+    path = os.path.join(c_dir, "agent.npz")
+    os.makedirs(c_dir, exist_ok=True)
+    agent_io.save(path, agent, {"config": {"task": config.task}})
+    written = export_c(path, c_dir)
     sizes = measure(c_dir)
     return {"c_weight_bytes": written["weight_bytes"], "c_code_bytes": sizes["code_bytes"],
             "c_rodata_bytes": sizes["rodata_bytes"], "c_ns_per_decision": sizes["ns_per_decision"],
