@@ -18,8 +18,9 @@ where they are called, so that the bindings reach the functions the template cal
 A kernel made with `runtime=False` is compiled without numba's runtime (`_nrt=False`): it
 and every function it calls may allocate nothing and hold no reference counts, so a view of
 an array (`arrays.weights[b]`) costs no atomic increment and decrement of the array's
-reference count, which numba's runtime spends on every view and call. The compiler refuses what would need the runtime (an array allocated, one array assigned into
-another: `copy_into` does that element by element); the caller passes the memory in.
+reference count, which numba's runtime spends on every view and call. The compiler refuses
+what would need the runtime (an array allocated, one array assigned into another:
+`copy_into` does that element by element); the caller passes the memory in.
 
 The cache is `$LWRL_CACHE_DIR`, else `$XDG_CACHE_HOME/lwrl/kernels`, else
 `~/.cache/lwrl/kernels`; where it cannot be written, kernels are compiled in memory.

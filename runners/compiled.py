@@ -40,7 +40,7 @@ from lwrl.tasks.plants import check_equations
 
 Scratch = collections.namedtuple("Scratch", "states buffers")
 """The compiled loop's memory, one row per agent: `states` `(B, 3, d)` its state, next
-state and observation, `buffers` `(B, max delay)` its actuator's delay line."""
+state and observation, `buffers` its actuator's delay line (`Disturbances.buffers`)."""
 
 
 def transition(state, control, next_state, observation, dt, semi_implicit, slips, params):
@@ -260,8 +260,7 @@ def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
     cancel = np.zeros(1, dtype=bool)  # set on Ctrl-C: the loops stop after their episode
     block = max(1, episodes // 20)
     models = model_addresses(domain, plant, physical)
-    dim = starts.shape[2]
-    scratch = Scratch(np.zeros((batch, 3, dim)), np.zeros((batch, int(sensors.delay.max(initial=0)))))
+    scratch = Scratch(np.zeros((batch, 3, starts.shape[2])), sensors.buffers)
     try:
         for first in range(0, episodes, block):
             count = min(block, episodes - first)

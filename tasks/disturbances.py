@@ -153,7 +153,8 @@ class Disturbances:
     and nothing is changed.
 
     `sigma_observation` `(B, d)`, `delay` `(B,)` and `sigma_action` `(B,)` hold the options
-    per environment; `low`, `high` `(B,)` each actuator's range.
+    per environment; `low`, `high` `(B,)` each actuator's range; `buffers` `(B, max delay)`
+    the commands in transit (each row's first `delay[b]`), which a compiled loop works in too.
     """
 
     def __init__(self, state_names: tuple, controls: np.ndarray, batch_size=None,
@@ -183,7 +184,7 @@ class Disturbances:
         self.low, self.high = controls.min(axis=1), controls.max(axis=1)
         self.keys = np.zeros(count, dtype=np.uint64)
         self.episodes = np.full(count, -1, dtype=np.int64)
-        self._buffers = np.zeros((count, int(self.delay.max(initial=0))))
+        self.buffers = np.zeros((count, int(self.delay.max(initial=0))))
         self.active = bool(np.any(self.sigma_observation > 0) or np.any(self.delay > 0)
                            or np.any(self.sigma_action > 0))
 
@@ -197,7 +198,7 @@ class Disturbances:
         """A new episode in the environments `which` (a mask or indices): nothing in transit."""
         if self.active:
             self.episodes[which] += 1
-            self._buffers[which] = 0.0
+            self.buffers[which] = 0.0
 
     def observe(self, observations: np.ndarray, rows: np.ndarray, steps: np.ndarray) -> np.ndarray:
         """`observations` `(n, d)` of the environments `rows` at their episodes' `steps`, with
@@ -213,7 +214,7 @@ class Disturbances:
         `steps` when commanded `controls` `(n,)` (the commands themselves where inactive)."""
         controls = np.array(controls, dtype=np.float64)
         if self.active:
-            ACTUATE_ROWS(controls, np.asarray(rows, dtype=np.int64), self._buffers, self.delay,
+            ACTUATE_ROWS(controls, np.asarray(rows, dtype=np.int64), self.buffers, self.delay,
                          self.sigma_action, self.low, self.high, self.keys, self.episodes,
                          np.asarray(steps, dtype=np.int64))
         return controls
