@@ -308,10 +308,13 @@ def test_the_wall_time_is_summed_over_the_invocations_that_computed_a_studys_run
 
 
 def test_a_learner_of_the_stepped_loop_trains_the_benchmarks_agents_with_its_tuned_settings():
-    """DQN and PPO (where installed) take part with at most `STEPPED_AGENTS` agents and
-    rl-baselines3-zoo's sets, as the benchmark; the compiled loop's learners keep the count
-    asked for and their defaults (their runs' keys unchanged)."""
+    """DQN and PPO (where installed) take part with at most `STEPPED_AGENTS` agents,
+    rl-baselines3-zoo's sets and the benchmark's episodes (the cart-pole's 30 of 60 s), and
+    are evaluated on the task's own episodes as every learner is; the compiled loop's
+    learners keep the count asked for, the paper's protocol and their defaults (their runs'
+    keys unchanged)."""
     from lwrl.runners.config import tuned_settings
+    from lwrl.studies.paper import bench_protocol
 
     task = "cartpole.balance"
     trainings = plan.trainings(task, "analytic", agents=30)
@@ -321,10 +324,15 @@ def test_a_learner_of_the_stepped_loop_trains_the_benchmarks_agents_with_its_tun
                 task=task, learner=name, plant="analytic", agents=30, randomise=config.randomise)
         else:
             assert config.agents == plan.STEPPED_AGENTS < 30
+            assert (config.episodes, config.task_options) == (30, {"time_limit": 60.0}) == (
+                bench_protocol.TASKS[task].episodes, bench_protocol.TASKS[task].task_options)
             assert tuned_settings(task, name)
             for setting, value in tuned_settings(task, name).items():
                 assert getattr(config.agent, setting) == value
+        evaluation = plan.evaluation(task, config, plan.cells(task)[0], 3)
+        assert evaluation.task_options == {} and evaluation.episodes == 3
     assert plan.agents_for(task, "dqn", 2) == 2
+    assert plan.stepped_protocol(task, "dqn", 7, quick=False) == (7, {})
 
 
 @pytest.mark.parametrize("name", [name for name, learner in learners.LEARNERS.items()

@@ -7,7 +7,9 @@ search starts), else the task's defaults: on the
 paper's plant, and with the domain's robustness parameters (`Domain.robustness_axes`) drawn
 uniformly for every episode between `TRAINING_FACTORS` times their paper values (domain
 randomisation). A learner that runs only in the stepped loop trains `STEPPED_AGENTS` agents
-at most. Each trained batch is then evaluated greedily without learning
+at most, under the benchmark's protocol where the command sets no episodes
+(`stepped_protocol`: `lwrl bench`'s episodes and episode length, docs/benchmark, instead of
+the paper's, which would take DQN and PPO hours per agent on the cart-pole). Each trained batch is then evaluated greedily without learning
 (`RunConfig.trained`, `learn`, `greedy`; the agents go on as they ended,
 `Agents.take_over`) in every cell:
 
@@ -29,6 +31,7 @@ import numpy as np
 from lwrl import agent as learners
 from lwrl import tasks
 from lwrl.runners.config import RunConfig, task_defaults, task_info, tuned_settings
+from lwrl.studies.paper import bench_protocol
 
 FACTORS = (0.25, 0.5, 1.0, 2.0, 4.0)
 """Each axis of the parameter grid, times the paper's value."""
@@ -108,6 +111,17 @@ def agents_for(task: str, learner: str, agents=None):
     return min(agents or task_defaults(task)["agents"], STEPPED_AGENTS)
 
 
+def stepped_protocol(task: str, learner: str, episodes, quick: bool) -> tuple:
+    """`(episodes, task options)` of the training of `learner` on `task`: `episodes` (None:
+    the task's protocol) and `task_options`, or for a learner that runs only in the stepped
+    loop, where neither the command nor `quick` sets them, `lwrl bench`'s
+    (`bench_protocol.TASKS`, which says what it cuts from the paper's) where it has the task."""
+    bench = bench_protocol.TASKS.get(task)
+    if learners.learner(learner).compiles or episodes is not None or quick or bench is None:
+        return episodes, task_options(task, quick)
+    return bench.episodes, dict(bench.task_options)
+
+
 def task_options(task: str, quick: bool) -> dict:
     """The task's options: none, or for a quick run a short time limit."""
     if not quick:
@@ -120,7 +134,7 @@ def task_options(task: str, quick: bool) -> dict:
 def trainings(task: str, plant: str, agents=None, episodes=None, quick: bool = False) -> dict:
     """`{(learner, training): RunConfig}`: each learner that fits `task`, trained on the
     paper's plant and with randomisation, `agents_for(task, learner, agents)` agents (seeds 0..)
-    for `episodes` episodes each (None: the task's protocol)."""
+    for `episodes` episodes each (None: the task's protocol; `stepped_protocol`)."""
     if quick:
         agents, episodes = agents or QUICK["agents"], episodes or QUICK["episodes"]
     ranges = {parameter.name: tuple(float(np.clip(factor * parameter.nominal, parameter.low,
@@ -128,18 +142,21 @@ def trainings(task: str, plant: str, agents=None, episodes=None, quick: bool = F
               for parameter in axes(task)}
     configs = {}
     for learner in learners_for(task):
+        count, options = stepped_protocol(task, learner, episodes, quick)
         for training in TRAININGS:
             configs[learner, training] = RunConfig(
                 task=task, learner=learner, plant=plant, agents=agents_for(task, learner, agents),
-                episodes=episodes, task_options=task_options(task, quick),
+                episodes=count, task_options=options,
                 randomise=ranges if training == "randomised" else {},
                 **tuned_settings(task, learner))
     return configs
 
 
-def evaluation(task: str, trained: RunConfig, cell: Cell, episodes: int) -> RunConfig:
+def evaluation(task: str, trained: RunConfig, cell: Cell, episodes: int,
+               quick: bool = False) -> RunConfig:
     """The greedy evaluation of the agents of the run `trained` in `cell`, `episodes`
-    episodes each, without learning."""
+    episodes each, without learning, on the task's own episodes (`task_options`) whatever
+    the training's were, so that every learner is measured alike."""
     definition = tasks.definition(*tasks.split_name(task))
     span = np.asarray(definition.defaults.high) - np.asarray(definition.defaults.low)
     noise = ({name: float(cell.noise * width) for name, width in zip(definition.state_names, span)}
@@ -147,6 +164,7 @@ def evaluation(task: str, trained: RunConfig, cell: Cell, episodes: int) -> RunC
     return dataclasses.replace(trained, randomise={}, params=values(task, cell),
                                observation_noise=noise, action_delay=cell.delay,
                                trained=trained.key, learn=False, greedy=True, episodes=episodes,
+                               task_options=task_options(task, quick),
                                seed=trained.seed + EVALUATION_SEED)
 
 

@@ -99,10 +99,9 @@ def section(result, figure_path: str) -> str:
     first = measures(result.task)[0]
     pairs = list(result.trainings)
     lines = [f"## {result.task}", "",
-             f"{len(pairs)} trained batches ({agent_counts(result.trainings)}; each "
+             f"{len(pairs)} trained batches ({budgets(result.trainings)}; each "
              f"trained on the paper's plant and with {', '.join(result.axes)} drawn per episode "
-             f"between x{plan.TRAINING_FACTORS[0]:g} and x{plan.TRAINING_FACTORS[1]:g}), "
-             f"{next(iter(result.trainings.values())).episodes} training episodes; "
+             f"between x{plan.TRAINING_FACTORS[0]:g} and x{plan.TRAINING_FACTORS[1]:g}); "
              f"{len(result.cells)} cells, {result.evaluation_episodes} greedy episodes per "
              f"agent and cell; {result.runs} runs, {result.computed} computed by "
              f"this command ({result.seconds:.0f} s); " + took(result.timing) + ".", "",
@@ -141,14 +140,16 @@ def section(result, figure_path: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def agent_counts(trainings: dict) -> str:
-    """The learners and their agents per batch, `sarsa, true_online_sarsa: 30 agents each;
-    dqn, ppo: 5 agents each`, sorted by learner within a count."""
-    counts = {}
+def budgets(trainings: dict) -> str:
+    """The learners and their training budgets, `sarsa, true_online_sarsa: 30 agents, 200
+    episodes each; dqn, ppo: 5 agents, 30 episodes of 60 s each`, the largest first."""
+    found = {}
     for (learner, _), config in trainings.items():
-        counts.setdefault(config.agents, set()).add(learner)
-    return "; ".join(f"{', '.join(sorted(names))}: {agents} agents each"
-                     for agents, names in sorted(counts.items(), reverse=True))
+        limit = config.task_options.get("time_limit")
+        budget = (config.agents, config.episodes, "" if limit is None else f" of {limit:g} s")
+        found.setdefault(budget, set()).add(learner)
+    return "; ".join(f"{', '.join(sorted(names))}: {agents} agents, {episodes} episodes{length} each"
+                     for (agents, episodes, length), names in sorted(found.items(), reverse=True))
 
 
 def took(timing: dict) -> str:
@@ -218,8 +219,12 @@ def document(results, command: str, seconds: float, figure_paths: dict) -> str:
              "each task's section states: the task's own protocol (agents, training episodes) "
              "unless the command sets them, at most "
              f"{plan.STEPPED_AGENTS} agents for a learner that runs only in the stepped loop "
-             "(DQN, PPO: 250 to 660 times the paper's agent's CPU per learning step on "
-             "Mountain-Car, docs/benchmark), the plant "
+             "(DQN, PPO: 160 to 710 times the paper's agent's CPU per learning step, "
+             "docs/benchmark), trained under the benchmark's protocol unless the command sets "
+             "the episodes (docs/benchmark: Mountain-Car's and the acrobot's 20 episodes, the "
+             "pendulum's 30, the cart-pole's 30 of 60 s instead of 200 of 240 s, which would "
+             "take such an agent hours), and evaluated, as every learner, on the task's own "
+             "episodes; the plant "
              "comparison's evaluation episodes (fewer where the start is deterministic) unless "
              "the command sets them.", ""]
     for result in results:

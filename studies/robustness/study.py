@@ -139,7 +139,7 @@ def study_task(task: str, out_dir: str, plant: str = "analytic", quick: bool = F
     trained = plan.trainings(task, plant, agents, episodes, quick)
     count = evaluation_episodes or plan.evaluation_episodes(task, quick)
     cells = plan.cells(task, quick)
-    evaluations = {(learner, training, cell): plan.evaluation(task, config, cell, count)
+    evaluations = {(learner, training, cell): plan.evaluation(task, config, cell, count, quick)
                    for (learner, training), config in trained.items() for cell in cells}
     keys = [config.key for config in [*trained.values(), *evaluations.values()]]
     finished_before = finished(out_dir, trained, evaluations)
