@@ -4,7 +4,7 @@ import shlex
 import time
 
 from lwrl import outputs, tasks
-from lwrl.cli import fields, output
+from lwrl.cli import fields, output, reproduce
 
 OUT = "robustness"
 """The default output directory."""
@@ -32,15 +32,14 @@ def add_parser(commands) -> None:
                             "comparison's transfer episodes, else 10)")
     study.add_argument("--out", metavar="DIR", default=OUT,
                        help=f"output directory (default: {OUT})")
-    study.add_argument("--workers", type=fields.positive_int,
-                       help="threads (default: all cores)")
+    reproduce.add_sweep_flags(study)
     study.add_argument("--quick", action="store_true", help="tiny grids: a smoke test in seconds")
     study.set_defaults(run=study_robustness)
 
 
 def command_line(args) -> str:
     """The command that makes this study again, as the report names it: the tasks and every
-    option away from its default, the threads aside (they change no number)."""
+    option away from its default, where its batches run aside (that changes no number)."""
     words = ["lwrl", "robustness", *args.task]
     if args.plant != "analytic":
         words += ["--plant", args.plant]
@@ -62,6 +61,8 @@ def study_robustness(args) -> int:
     outputs.check_directory(args.out, "--out")  # a study resumes in its directory
     path = module.robustness(args.task, args.out, command_line(args), plant=args.plant, quick=args.quick,
                              agents=args.agents, episodes=args.episodes,
-                             evaluation_episodes=args.evaluation_episodes, workers=args.workers)
+                             evaluation_episodes=args.evaluation_episodes,
+                             sweep={"backend": args.backend, "workers": args.workers,
+                                    "address": args.address})
     output.done(started, [path, f"the figures in {args.out}/figures", f"the runs in {args.out}/runs"])
     return 0

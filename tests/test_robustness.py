@@ -8,6 +8,7 @@ same episodes and weights for the same seeds, whatever the options.
 """
 
 import dataclasses
+import importlib.util
 import os
 import pathlib
 
@@ -290,6 +291,23 @@ def test_lwrl_robustness_writes_its_report_and_resumes(tmp_path, capsys):
         status, _, err = run_cli(["robustness", *bad, "--out", str(tmp_path / "bad")], capsys)
         assert status == 2 and len(err) == 1, (bad, err)
     assert not (tmp_path / "bad").exists()
+
+
+@pytest.mark.skipif(importlib.util.find_spec("ray") is None,
+                    reason="Ray is an optional extra: pip install -e '.[ray]' to run this test")
+def test_a_study_on_ray_gives_the_local_results(tmp_path):
+    """The trainings, whose agents are kept, and the evaluations that go on with them, sent
+    to a local Ray instance (`lwrl robustness --backend ray`): every measure as on the local
+    backend."""
+    from lwrl.studies.robustness.study import study_task
+
+    task = "mountain_car.cost_to_go"
+    local = study_task(task, str(tmp_path / "local"), quick=True)
+    on_ray = study_task(task, str(tmp_path / "ray"), quick=True, sweep={"backend": "ray"})
+    assert on_ray.computed == local.computed == local.runs
+    assert on_ray.per_agent.keys() == local.per_agent.keys()
+    for key, values in local.per_agent.items():
+        np.testing.assert_array_equal(on_ray.per_agent[key], values)
 
 
 def test_the_wall_time_is_summed_over_the_invocations_that_computed_a_studys_runs(tmp_path):

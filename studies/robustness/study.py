@@ -133,8 +133,9 @@ def finished(out_dir: str, trained: dict, evaluations: dict) -> int:
 
 
 def study_task(task: str, out_dir: str, plant: str = "analytic", quick: bool = False,
-               agents=None, episodes=None, evaluation_episodes=None, workers=None) -> TaskResult:
-    """Train, evaluate and measure `task`; the runs in `out_dir/runs`."""
+               agents=None, episodes=None, evaluation_episodes=None, sweep=None) -> TaskResult:
+    """Train, evaluate and measure `task`; the runs in `out_dir/runs`, their batches run by
+    `runners.sweep.run_sweep` with the options `sweep` (`backend`, `workers`, `address`)."""
     started = time.perf_counter()
     trained = plan.trainings(task, plant, agents, episodes, quick)
     count = evaluation_episodes or plan.evaluation_episodes(task, quick)
@@ -144,9 +145,9 @@ def study_task(task: str, out_dir: str, plant: str = "analytic", quick: bool = F
     keys = [config.key for config in [*trained.values(), *evaluations.values()]]
     finished_before = finished(out_dir, trained, evaluations)
     try:
-        _, computed = run_sweep(list(trained.values()), out_dir, workers=workers,
+        _, computed = run_sweep(list(trained.values()), out_dir, **(sweep or {}),
                                 description=f"{task}: training", keep_agents=True)
-        table, more = run_sweep(list(evaluations.values()), out_dir, workers=workers,
+        table, more = run_sweep(list(evaluations.values()), out_dir, **(sweep or {}),
                                 description=f"{task}: evaluation")
     except KeyboardInterrupt:  # its finished runs are kept, and so is the time they took
         if finished(out_dir, trained, evaluations) > finished_before:
