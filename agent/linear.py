@@ -204,12 +204,16 @@ def action_value(w, phi, a):
     return (s0 + s1) + (s2 + s3)
 
 
-@register_jitable
+@register_jitable(inline="always")
 def choose(b, first, discount, observation, greedy, arrays):
     """The first half of a linear learner's step: agent b's features of `observation` (into
     the free slot of `arrays.phi`) and its action values there (into `arrays.q[b]`), and the
     epsilon-greedy action (epsilon 0 if `greedy`; none, 0, at a terminal state, discount 0).
-    Returns `(phi_t, q_t, a_t, bootstrap)`, `bootstrap` False at a terminal state."""
+    Returns `(phi_t, q_t, a_t, bootstrap)`, `bootstrap` False at a terminal state.
+
+    Inlined into the learner's step by numba (`inline="always"`), as `advance` is: a call
+    passes `arrays` flattened, every array's pointer, shape and strides, some 150 words per
+    call, a tenth of a Mountain-Car agent-step's CPU time (30 agents, one thread)."""
     phi_t = arrays.phi[b, 1 - arrays.slot[b]]
     features_into(arrays.features, observation, phi_t, arrays.scratch[b])
     w = arrays.weights[b]
@@ -223,7 +227,7 @@ def choose(b, first, discount, observation, greedy, arrays):
     return phi_t, q_t, a_t, bootstrap
 
 
-@register_jitable
+@register_jitable(inline="always")
 def advance(b, a_t, arrays):
     """The last of a linear learner's step: the new features become the previous ones, and
     `a_t` the action taken."""
