@@ -55,7 +55,10 @@ def command_line(args) -> str:
 
 def study_robustness(args) -> int:
     """Run (or resume) the study and write its report."""
-    module, = output.study_modules("robustness", "lwrl.studies.robustness.robustness")
+    module, bench = output.study_modules("robustness", "lwrl.studies.robustness.robustness",
+                                         "lwrl.studies.paper.bench_protocol")
+    stepped = {task: (protocol.episodes, protocol.task_options)
+               for task, protocol in bench.TASKS.items()}  # DQN and PPO: the benchmark's
     started = time.perf_counter()
     output.claim_outputs(args, "out")
     outputs.check_directory(args.out, "--out")  # a study resumes in its directory
@@ -63,6 +66,6 @@ def study_robustness(args) -> int:
                              agents=args.agents, episodes=args.episodes,
                              evaluation_episodes=args.evaluation_episodes,
                              sweep={"backend": args.backend, "workers": args.workers,
-                                    "address": args.address})
+                                    "address": args.address}, stepped=stepped)
     output.done(started, [path, f"the figures in {args.out}/figures", f"the runs in {args.out}/runs"])
     return 0

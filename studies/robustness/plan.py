@@ -31,7 +31,6 @@ import numpy as np
 from lwrl import agent as learners
 from lwrl import tasks
 from lwrl.runners.config import RunConfig, task_defaults, task_info, tuned_settings
-from lwrl.studies.paper import bench_protocol
 
 FACTORS = (0.25, 0.5, 1.0, 2.0, 4.0)
 """Each axis of the parameter grid, times the paper's value."""
@@ -111,15 +110,17 @@ def agents_for(task: str, learner: str, agents=None):
     return min(agents or task_defaults(task)["agents"], STEPPED_AGENTS)
 
 
-def stepped_protocol(task: str, learner: str, episodes, quick: bool) -> tuple:
+def stepped_protocol(task: str, learner: str, episodes, quick: bool, stepped=None) -> tuple:
     """`(episodes, task options)` of the training of `learner` on `task`: `episodes` (None:
     the task's protocol) and `task_options`, or for a learner that runs only in the stepped
-    loop, where neither the command nor `quick` sets them, `lwrl bench`'s
-    (`bench_protocol.TASKS`, which says what it cuts from the paper's) where it has the task."""
-    bench = bench_protocol.TASKS.get(task)
-    if learners.learner(learner).compiles or episodes is not None or quick or bench is None:
+    loop, where neither the command nor `quick` sets them, `stepped[task]` where given
+    (`{task: (episodes, task options)}`: `lwrl robustness` passes the benchmark's,
+    docs/benchmark, which says what each cuts from the paper's)."""
+    stepped = stepped or {}
+    if learners.learner(learner).compiles or episodes is not None or quick or task not in stepped:
         return episodes, task_options(task, quick)
-    return bench.episodes, dict(bench.task_options)
+    count, options = stepped[task]
+    return count, dict(options)
 
 
 def task_options(task: str, quick: bool) -> dict:
@@ -131,10 +132,11 @@ def task_options(task: str, quick: bool) -> dict:
     return {"time_limit": steps * definition.control_timestep if math.isfinite(steps) else steps}
 
 
-def trainings(task: str, plant: str, agents=None, episodes=None, quick: bool = False) -> dict:
+def trainings(task: str, plant: str, agents=None, episodes=None, quick: bool = False,
+              stepped=None) -> dict:
     """`{(learner, training): RunConfig}`: each learner that fits `task`, trained on the
     paper's plant and with randomisation, `agents_for(task, learner, agents)` agents (seeds 0..)
-    for `episodes` episodes each (None: the task's protocol; `stepped_protocol`)."""
+    for `episodes` episodes each (None: the task's protocol; `stepped_protocol` with `stepped`)."""
     if quick:
         agents, episodes = agents or QUICK["agents"], episodes or QUICK["episodes"]
     ranges = {parameter.name: tuple(float(np.clip(factor * parameter.nominal, parameter.low,
@@ -142,7 +144,7 @@ def trainings(task: str, plant: str, agents=None, episodes=None, quick: bool = F
               for parameter in axes(task)}
     configs = {}
     for learner in learners_for(task):
-        count, options = stepped_protocol(task, learner, episodes, quick)
+        count, options = stepped_protocol(task, learner, episodes, quick, stepped)
         for training in TRAININGS:
             configs[learner, training] = RunConfig(
                 task=task, learner=learner, plant=plant, agents=agents_for(task, learner, agents),

@@ -13,16 +13,16 @@ FIGURES = "figures"
 
 def robustness(task_names, out_dir: str, command: str, plant: str = "analytic",
                quick: bool = False, agents=None, episodes=None, evaluation_episodes=None,
-               sweep=None) -> str:
+               sweep=None, stepped=None) -> str:
     """Run the study of each task (resuming what an earlier call into `out_dir` finished;
     `sweep`: where its batches run, `runners.sweep.run_sweep`'s `backend`, `workers` and
-    `address`), then write one map figure per task in `out_dir/figures` and
+    `address`; `stepped`: `plan.stepped_protocol`'s), then write one map figure per task in `out_dir/figures` and
     `out_dir/report.md`, which names `command` and the wall time; return the report's path."""
     if agents is not None and agents < 2:
         raise ValueError(f"agents must be at least 2 (an interval needs two agents); got {agents}")
     started = time.perf_counter()
     results = [study_task(task, out_dir, plant, quick, agents, episodes, evaluation_episodes,
-                          sweep) for task in task_names]
+                          sweep, stepped) for task in task_names]
     figure_dir = os.path.join(out_dir, FIGURES)
     paths = {}
     for result in results:
