@@ -57,8 +57,6 @@ def study_robustness(args) -> int:
     """Run (or resume) the study and write its report."""
     module, bench = output.study_modules("robustness", "lwrl.studies.robustness.robustness",
                                          "lwrl.studies.paper.bench_protocol")
-    stepped = {task: (protocol.episodes, protocol.task_options)
-               for task, protocol in bench.TASKS.items()}  # DQN and PPO: the benchmark's
     started = time.perf_counter()
     output.claim_outputs(args, "out")
     outputs.check_directory(args.out, "--out")  # a study resumes in its directory
@@ -66,6 +64,7 @@ def study_robustness(args) -> int:
                              agents=args.agents, episodes=args.episodes,
                              evaluation_episodes=args.evaluation_episodes,
                              sweep={"backend": args.backend, "workers": args.workers,
-                                    "address": args.address}, stepped=stepped)
+                                    "address": args.address},
+                             stepped=bench.episode_budgets())  # DQN and PPO: the benchmark's
     output.done(started, [path, f"the figures in {args.out}/figures", f"the runs in {args.out}/runs"])
     return 0

@@ -335,8 +335,7 @@ def test_a_learner_of_the_stepped_loop_trains_the_benchmarks_agents_with_its_tun
     from lwrl.studies.paper import bench_protocol
 
     task = "cartpole.balance"
-    stepped = {name: (bench.episodes, bench.task_options)
-               for name, bench in bench_protocol.TASKS.items()}  # as lwrl robustness passes
+    stepped = bench_protocol.episode_budgets()  # as lwrl robustness passes them
     trainings = plan.trainings(task, "analytic", agents=30, stepped=stepped)
     for (name, _), config in trainings.items():
         if learners.LEARNERS[name].compiles:
@@ -353,6 +352,23 @@ def test_a_learner_of_the_stepped_loop_trains_the_benchmarks_agents_with_its_tun
         assert evaluation.task_options == {} and evaluation.episodes == 3
     assert plan.agents_for(task, "dqn", 2) == 2
     assert plan.stepped_protocol(task, "dqn", 7, quick=False, stepped=stepped) == (7, {})
+
+
+def test_lwrl_robustness_gives_the_stepped_learners_the_benchmarks_episodes(tmp_path, capsys,
+                                                                            monkeypatch):
+    """The command passes the benchmark's episodes on to the study, and its sweep flags."""
+    from lwrl.studies.paper import bench_protocol
+    from lwrl.studies.robustness import robustness
+
+    passed = {}
+    monkeypatch.setattr(robustness, "robustness", lambda *args, **options: passed.update(options)
+                        or str(tmp_path / "report.md"))
+    status, _, _ = run_cli(["robustness", "cartpole.balance", "--out", str(tmp_path / "study"),
+                            "--backend", "ray", "--workers", "2"], capsys)
+    assert status == 0
+    assert passed["stepped"] == bench_protocol.episode_budgets()
+    assert passed["stepped"]["cartpole.balance"] == (30, {"time_limit": 60.0})
+    assert passed["sweep"] == {"backend": "ray", "workers": 2, "address": None}
 
 
 @pytest.mark.parametrize("name", [name for name, learner in learners.LEARNERS.items()

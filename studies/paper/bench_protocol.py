@@ -71,6 +71,12 @@ TASKS = {
 """The benchmark's tasks, in the order they run (the cheapest for the baselines first)."""
 
 
+def episode_budgets() -> dict:
+    """`{task: (episodes, task options)}`: every task's episodes and episode options, which
+    the benchmark gives every learner (`lwrl robustness` trains DQN and PPO with them)."""
+    return {name: (bench.episodes, dict(bench.task_options)) for name, bench in TASKS.items()}
+
+
 def other_trace(task: str) -> str:
     from lwrl.runners.config import task_defaults
     return "accumulating" if task_defaults(task)["trace"] == "replacing" else "replacing"

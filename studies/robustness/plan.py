@@ -9,9 +9,9 @@ uniformly for every episode between `TRAINING_FACTORS` times their paper values 
 randomisation). A learner that runs only in the stepped loop trains `STEPPED_AGENTS` agents
 at most, under the benchmark's protocol where the command sets no episodes
 (`stepped_protocol`: `lwrl bench`'s episodes and episode length, docs/benchmark, instead of
-the paper's, which would take DQN and PPO hours per agent on the cart-pole). Each trained batch is then evaluated greedily without learning
-(`RunConfig.trained`, `learn`, `greedy`; the agents go on as they ended,
-`Agents.take_over`) in every cell:
+the paper's, which would take DQN and PPO hours per agent on the cart-pole). Each trained
+batch is then evaluated greedily without learning (`RunConfig.trained`, `learn`, `greedy`;
+the agents go on as they ended, `Agents.take_over`) in every cell:
 
 - the grid of the robustness parameters, each at `FACTORS` times its paper value (clipped to
   the values the plants accept);

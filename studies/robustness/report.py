@@ -220,11 +220,10 @@ def document(results, command: str, seconds: float, figure_paths: dict) -> str:
              "unless the command sets them, at most "
              f"{plan.STEPPED_AGENTS} agents for a learner that runs only in the stepped loop "
              "(DQN, PPO: 160 to 710 times the paper's agent's CPU per learning step, "
-             "docs/benchmark), trained under the benchmark's protocol unless the command sets "
-             "the episodes (docs/benchmark: Mountain-Car's and the acrobot's 20 episodes, the "
-             "pendulum's 30, the cart-pole's 30 of 60 s instead of 200 of 240 s, which would "
-             "take such an agent hours), and evaluated, as every learner, on the task's own "
-             "episodes; the plant "
+             "docs/benchmark), trained for the benchmark's episodes unless the command sets "
+             "them (each task's section states them; the benchmark's cart-pole episodes last "
+             "60 s, as the paper's 200 of 240 s would take such an agent hours), and "
+             "evaluated, as every learner, on the task's own episodes; the plant "
              "comparison's evaluation episodes (fewer where the start is deterministic) unless "
              "the command sets them.", ""]
     for result in results:

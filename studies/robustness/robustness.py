@@ -16,8 +16,9 @@ def robustness(task_names, out_dir: str, command: str, plant: str = "analytic",
                sweep=None, stepped=None) -> str:
     """Run the study of each task (resuming what an earlier call into `out_dir` finished;
     `sweep`: where its batches run, `runners.sweep.run_sweep`'s `backend`, `workers` and
-    `address`; `stepped`: `plan.stepped_protocol`'s), then write one map figure per task in `out_dir/figures` and
-    `out_dir/report.md`, which names `command` and the wall time; return the report's path."""
+    `address`; `stepped`: `plan.stepped_protocol`'s), then write one map figure per task in
+    `out_dir/figures` and `out_dir/report.md`, which names `command` and the wall time;
+    return the report's path."""
     if agents is not None and agents < 2:
         raise ValueError(f"agents must be at least 2 (an interval needs two agents); got {agents}")
     started = time.perf_counter()
