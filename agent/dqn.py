@@ -24,7 +24,8 @@ import numpy as np
 from lwrl.agent.learner_contract import ControllerForm, Learner
 from lwrl.agent.stable_baselines import (ModelAgents, ModelSettings, buffer_bytes,
                                          fits_when_installed, load_arrays, network_bytes,
-                                         saved_arrays, td_error)
+                                         policy_features, saved_arrays, sequential_forward,
+                                         td_error)
 from lwrl.settings import check_count, check_positive, check_unit_interval, setting
 
 BUFFER = ("observations", "next_observations", "actions", "rewards", "dones", "timeouts")
@@ -110,9 +111,12 @@ class DqnAgents(ModelAgents):
                 "stored": False, "undo": None}
 
     def _q(self, b: int, observation):
-        """Q(s, .) `(1, A)` of agent b's online network (a tensor), as `QNetwork._predict`."""
+        """Q(s, .) `(1, A)` of agent b's online network (a tensor): `QNetwork.forward`, op for
+        op (`sequential_forward`)."""
+        q_net = self.models[b].q_net
         with self.torch.no_grad():
-            return self.models[b].q_net(self._tensor(observation))
+            features = policy_features(self.torch, q_net, self._tensor(observation))
+            return sequential_forward(self.torch, q_net.q_net, features)
 
     def _step_one(self, b, first, reward, discount, observation, learn, greedy) -> int:
         model, own, arrays = self.models[b], self.own[b], self.arrays

@@ -26,7 +26,8 @@ from lwrl.agent.dqn import mlp_form
 from lwrl.agent.learner_contract import ControllerForm, Learner
 from lwrl.agent.stable_baselines import (ModelAgents, ModelSettings, buffer_bytes,
                                          fits_when_installed, load_arrays, network_bytes,
-                                         saved_arrays, td_error)
+                                         policy_features, saved_arrays, sequential_forward,
+                                         td_error)
 from lwrl.settings import check_count, check_positive, check_unit_interval, setting
 
 BUFFER = ("observations", "actions", "rewards", "episode_starts", "values", "log_probs")
@@ -116,6 +117,8 @@ class PpoAgents(ModelAgents):
     def _forward(self, b: int, observation, deterministic: bool):
         """`ActorCriticPolicy.forward` on the observation, with the distribution's logits."""
         policy = self.models[b].policy
+        if deterministic:
+            return self._mode_forward(policy, observation)
         with self.torch.no_grad():
             features = policy.extract_features(self._tensor(observation))
             latent_pi, latent_vf = policy.mlp_extractor(features)
@@ -125,6 +128,21 @@ class PpoAgents(ModelAgents):
             log_prob = distribution.log_prob(actions)
         return actions.reshape((-1, *policy.action_space.shape)), values, log_prob, \
             distribution.distribution.logits
+
+    def _mode_forward(self, policy, observation):
+        """`_forward` of a greedy step, op for op (`sequential_forward`), without building
+        the distribution: `Categorical(logits=l)` keeps l - logsumexp(l), SB3's mode is the
+        argmax of its softmax (`CategoricalDistribution.mode`), its log-probability the
+        normalised logit of the action (`Categorical.log_prob`)."""
+        torch, extractor = self.torch, policy.mlp_extractor
+        with torch.no_grad():
+            features = policy_features(torch, policy, self._tensor(observation))
+            values = sequential_forward(torch, [*extractor.value_net, policy.value_net], features)
+            raw = sequential_forward(torch, [*extractor.policy_net, policy.action_net], features)
+            logits = raw - raw.logsumexp(dim=-1, keepdim=True)
+            actions = torch.argmax(torch.nn.functional.softmax(logits, dim=-1), dim=1)
+            log_prob = logits.gather(-1, actions.unsqueeze(-1)).squeeze(-1)
+        return actions.reshape((-1, *policy.action_space.shape)), values, log_prob, logits
 
     def _step_one(self, b, first, reward, discount, observation, learn, greedy) -> int:
         model, own, arrays = self.models[b], self.own[b], self.arrays

@@ -134,6 +134,36 @@ def torch_modules():
     return torch, stable_baselines3
 
 
+def policy_features(torch, policy, tensor):
+    """`policy.extract_features(tensor)` of an SB3 policy with one features extractor, SB3's
+    `FlattenExtractor` (an MLP policy's), op for op: `preprocess_obs` of a Box (a float32 cast),
+    then `Flatten(start_dim=1)`; other extractors are called as SB3 calls them."""
+    from stable_baselines3.common.torch_layers import FlattenExtractor
+    if type(policy.features_extractor) is FlattenExtractor and getattr(
+            policy, "share_features_extractor", True):
+        return tensor.float().flatten(1)
+    return policy.extract_features(tensor)
+
+
+def sequential_forward(torch, modules, x):
+    """The forward pass of `modules` (a `torch.nn.Sequential`, or a list of modules) op for op as
+    its `Linear`, `ReLU` and `Tanh` layers compute it (`F.linear`, `torch.relu`, `torch.tanh`),
+    the same numbers without each module call's overhead (some 5 us, most of a greedy step's
+    forward pass); a module of another kind is called."""
+    functional = torch.nn.functional
+    for module in modules:
+        kind = type(module)
+        if kind is torch.nn.Linear:
+            x = functional.linear(x, module.weight, module.bias)
+        elif kind is torch.nn.ReLU and not module.inplace:
+            x = torch.relu(x)
+        elif kind is torch.nn.Tanh:
+            x = torch.tanh(x)
+        else:
+            x = module(x)
+    return x
+
+
 def spaces_env(dim: int, num_actions: int):
     """A Gymnasium environment that only carries the spaces SB3 builds a model for: float64
     observations of `dim` variables (as `lwrl.gym` gives them; SB3's MLP reads them as

@@ -130,6 +130,29 @@ def test_a_greedy_evaluation_draws_nothing_and_acts_on_each_agents_own_network(l
         np.testing.assert_array_equal(agents.states[b].numpy_state[1], numpy_before[b])
 
 
+@pytest.mark.parametrize("learner, settings", [(dqn, DQN_SETTINGS), (ppo, PPO_SETTINGS)])
+def test_the_direct_forward_pass_is_sb3s_to_the_bit(learner, settings):
+    """DQN's Q-values (`_q`) and PPO's greedy step (`_mode_forward`), the layers' operations
+    called directly, are SB3's own forward pass bit for bit, on a network that has learned."""
+    make = dqn.DqnSettings if learner is dqn else ppo.PpoSettings
+    agents = learner.make([make(timesteps=200, **settings)], task_info(TASK), [SEED])
+    lwrl_loop(agents, SEED, 200)
+    model = agents.models[0]
+    assert model._n_updates > 0
+    for observation in np.random.default_rng(1).normal(scale=3.0, size=(200, 1, 4)):
+        tensor = torch.as_tensor(observation)
+        with torch.no_grad():
+            if learner is dqn:
+                ours, sb3s = [agents._q(0, observation)], [model.q_net(tensor)]
+            else:
+                ours = agents._mode_forward(model.policy, observation)
+                sb3s = (*model.policy(tensor, deterministic=True),
+                        model.policy.get_distribution(tensor).distribution.logits)
+        for mine, theirs in zip(ours, sb3s, strict=True):
+            assert mine.dtype == theirs.dtype
+            np.testing.assert_array_equal(mine.numpy(), theirs.numpy())
+
+
 def test_models_leave_nothing_under_the_temporary_directory(tmp_path, monkeypatch):
     monkeypatch.setenv("TMPDIR", str(tmp_path))
     import tempfile
