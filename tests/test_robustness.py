@@ -312,7 +312,8 @@ def test_a_study_on_ray_gives_the_local_results(tmp_path):
 
 def test_the_wall_time_is_summed_over_the_invocations_that_computed_a_studys_runs(tmp_path):
     """A resumed study adds its time; one that computed nothing adds none; a study of the
-    same task with other runs in the same directory starts its own record."""
+    same task with other runs in the same directory, or one that found none of its runs
+    (the record kept, the runs not), starts its own record."""
     from lwrl.studies.robustness.study import add_time
 
     assert add_time(tmp_path, "pendulum.swingup", ["a", "b"], 5.0)["seconds"] == 5.0
@@ -323,6 +324,8 @@ def test_the_wall_time_is_summed_over_the_invocations_that_computed_a_studys_run
     assert (grown["seconds"], grown["invocations"]) == (9.0, 3)  # a learner joined the study
     other = add_time(tmp_path, "pendulum.swingup", ["a", "c"], 2.0)
     assert (other["seconds"], other["invocations"]) == (2.0, 1)
+    again = add_time(tmp_path, "pendulum.swingup", ["a", "c"], 4.0, resumed=False)
+    assert (again["seconds"], again["invocations"]) == (4.0, 1)
 
 
 def test_a_learner_of_the_stepped_loop_trains_the_benchmarks_agents_with_its_tuned_settings():

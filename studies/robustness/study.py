@@ -103,18 +103,20 @@ TIMINGS = "timings.json"
 """Per task, the wall time that its runs took, kept beside the runs."""
 
 
-def add_time(out_dir: str, task: str, keys, seconds: float) -> dict:
+def add_time(out_dir: str, task: str, keys, seconds: float, resumed: bool = True) -> dict:
     """Add `seconds` of an invocation that computed some of the runs `keys` of `task` (none:
     0) to the task's entry of `out_dir/timings.json`, so that a study resumed in several
     invocations reports the time all of them took. An entry of runs that are all among
-    `keys` is added to (the study grew: a learner joined it, and the runs it had are kept);
-    an entry of other runs (the same task studied otherwise in the same directory) is
-    replaced. Return the entry."""
+    `keys` is added to (the study grew: a learner joined it, and the runs it had are kept)
+    where the invocation `resumed` (it found some of those runs finished); an entry of other
+    runs (the same task studied otherwise in the same directory), or of runs of which none
+    is left (a fresh checkout holds the entry but not the runs, which are computed again),
+    is replaced. Return the entry."""
     path = os.path.join(out_dir, TIMINGS)
     timings = json.load(open(path)) if os.path.exists(path) else {}
     keys = sorted(keys)
     entry = timings.get(task)
-    if entry is None or not set(entry.get("keys", [None])) <= set(keys):
+    if entry is None or not resumed or not set(entry.get("keys", [None])) <= set(keys):
         entry = {"seconds": 0.0, "invocations": 0}
     timings[task] = entry = {**entry, "keys": keys}
     if seconds:
@@ -153,9 +155,10 @@ def study_task(task: str, out_dir: str, plant: str = "analytic", quick: bool = F
                                 description=f"{task}: evaluation")
     except KeyboardInterrupt:  # its finished runs are kept, and so is the time they took
         if finished(out_dir, trained, evaluations) > finished_before:
-            add_time(out_dir, task, keys, time.perf_counter() - started)
+            add_time(out_dir, task, keys, time.perf_counter() - started, finished_before > 0)
         raise
-    timing = add_time(out_dir, task, keys, time.perf_counter() - started if computed + more else 0.0)
+    timing = add_time(out_dir, task, keys, time.perf_counter() - started if computed + more else 0.0,
+                      finished_before > 0)
     table = per_episode(table)
     per_agent = {}
     for (learner, training, cell), config in evaluations.items():
