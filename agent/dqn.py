@@ -115,7 +115,7 @@ class DqnAgents(ModelAgents):
         op (`sequential_forward`)."""
         q_net = self.models[b].q_net
         with self.torch.no_grad():
-            features = policy_features(self.torch, q_net, self._tensor(observation))
+            features = policy_features(self.sb3, q_net, self._tensor(observation))
             return sequential_forward(self.torch, q_net.q_net, features)
 
     def _step_one(self, b, first, reward, discount, observation, learn, greedy) -> int:

@@ -115,33 +115,27 @@ class PpoAgents(ModelAgents):
                 "start": np.ones(1, dtype=bool), "added": False, "undo": None}
 
     def _forward(self, b: int, observation, deterministic: bool):
-        """`ActorCriticPolicy.forward` on the observation, with the distribution's logits."""
-        policy = self.models[b].policy
-        if deterministic:
-            return self._mode_forward(policy, observation)
-        with self.torch.no_grad():
-            features = policy.extract_features(self._tensor(observation))
-            latent_pi, latent_vf = policy.mlp_extractor(features)
-            values = policy.value_net(latent_vf)
-            distribution = policy._get_action_dist_from_latent(latent_pi)
-            actions = distribution.get_actions(deterministic=deterministic)
-            log_prob = distribution.log_prob(actions)
-        return actions.reshape((-1, *policy.action_space.shape)), values, log_prob, \
-            distribution.distribution.logits
-
-    def _mode_forward(self, policy, observation):
-        """`_forward` of a greedy step, op for op (`sequential_forward`), without building
-        the distribution: `Categorical(logits=l)` keeps l - logsumexp(l), SB3's mode is the
-        argmax of its softmax (`CategoricalDistribution.mode`), its log-probability the
-        normalised logit of the action (`Categorical.log_prob`)."""
-        torch, extractor = self.torch, policy.mlp_extractor
+        """`ActorCriticPolicy.forward` on the observation, with the distribution's logits; the
+        networks op for op (`sequential_forward`). A greedy step builds no distribution:
+        `Categorical(logits=l)` keeps l - logsumexp(l), SB3's mode is the argmax of its
+        softmax (`CategoricalDistribution.mode`), its log-probability the normalised logit of
+        the action (`Categorical.log_prob`)."""
+        torch, policy = self.torch, self.models[b].policy
+        extractor = policy.mlp_extractor
         with torch.no_grad():
-            features = policy_features(torch, policy, self._tensor(observation))
+            features = policy_features(self.sb3, policy, self._tensor(observation))
             values = sequential_forward(torch, [*extractor.value_net, policy.value_net], features)
-            raw = sequential_forward(torch, [*extractor.policy_net, policy.action_net], features)
-            logits = raw - raw.logsumexp(dim=-1, keepdim=True)
-            actions = torch.argmax(torch.nn.functional.softmax(logits, dim=-1), dim=1)
-            log_prob = logits.gather(-1, actions.unsqueeze(-1)).squeeze(-1)
+            latent_pi = sequential_forward(torch, extractor.policy_net, features)
+            if deterministic:
+                raw = sequential_forward(torch, [policy.action_net], latent_pi)
+                logits = raw - raw.logsumexp(dim=-1, keepdim=True)
+                actions = torch.argmax(torch.nn.functional.softmax(logits, dim=-1), dim=1)
+                log_prob = logits.gather(-1, actions.unsqueeze(-1)).squeeze(-1)
+            else:
+                distribution = policy._get_action_dist_from_latent(latent_pi)
+                actions = distribution.get_actions(deterministic=False)
+                log_prob = distribution.log_prob(actions)
+                logits = distribution.distribution.logits
         return actions.reshape((-1, *policy.action_space.shape)), values, log_prob, logits
 
     def _step_one(self, b, first, reward, discount, observation, learn, greedy) -> int:

@@ -134,12 +134,11 @@ def torch_modules():
     return torch, stable_baselines3
 
 
-def policy_features(torch, policy, tensor):
+def policy_features(sb3, policy, tensor):
     """`policy.extract_features(tensor)` of an SB3 policy with one features extractor, SB3's
     `FlattenExtractor` (an MLP policy's), op for op: `preprocess_obs` of a Box (a float32 cast),
     then `Flatten(start_dim=1)`; other extractors are called as SB3 calls them."""
-    from stable_baselines3.common.torch_layers import FlattenExtractor
-    if type(policy.features_extractor) is FlattenExtractor and getattr(
+    if type(policy.features_extractor) is sb3.common.torch_layers.FlattenExtractor and getattr(
             policy, "share_features_extractor", True):
         return tensor.float().flatten(1)
     return policy.extract_features(tensor)

@@ -132,7 +132,7 @@ def test_a_greedy_evaluation_draws_nothing_and_acts_on_each_agents_own_network(l
 
 @pytest.mark.parametrize("learner, settings", [(dqn, DQN_SETTINGS), (ppo, PPO_SETTINGS)])
 def test_the_direct_forward_pass_is_sb3s_to_the_bit(learner, settings):
-    """DQN's Q-values (`_q`) and PPO's greedy step (`_mode_forward`), the layers' operations
+    """DQN's Q-values (`_q`) and PPO's greedy step (`_forward`), the layers' operations
     called directly, are SB3's own forward pass bit for bit, on a network that has learned."""
     make = dqn.DqnSettings if learner is dqn else ppo.PpoSettings
     agents = learner.make([make(timesteps=200, **settings)], task_info(TASK), [SEED])
@@ -145,7 +145,7 @@ def test_the_direct_forward_pass_is_sb3s_to_the_bit(learner, settings):
             if learner is dqn:
                 ours, sb3s = [agents._q(0, observation)], [model.q_net(tensor)]
             else:
-                ours = agents._mode_forward(model.policy, observation)
+                ours = agents._forward(0, observation, deterministic=True)
                 sb3s = (*model.policy(tensor, deterministic=True),
                         model.policy.get_distribution(tensor).distribution.logits)
         for mine, theirs in zip(ours, sb3s, strict=True):

@@ -148,6 +148,7 @@ def study_task(task: str, out_dir: str, plant: str = "analytic", quick: bool = F
                    for (learner, training), config in trained.items() for cell in cells}
     keys = [config.key for config in [*trained.values(), *evaluations.values()]]
     finished_before = finished(out_dir, trained, evaluations)
+    resumed = finished_before > 0
     try:
         _, computed = run_sweep(list(trained.values()), out_dir, **(sweep or {}),
                                 description=f"{task}: training", keep_agents=True)
@@ -155,10 +156,10 @@ def study_task(task: str, out_dir: str, plant: str = "analytic", quick: bool = F
                                 description=f"{task}: evaluation")
     except KeyboardInterrupt:  # its finished runs are kept, and so is the time they took
         if finished(out_dir, trained, evaluations) > finished_before:
-            add_time(out_dir, task, keys, time.perf_counter() - started, finished_before > 0)
+            add_time(out_dir, task, keys, time.perf_counter() - started, resumed)
         raise
     timing = add_time(out_dir, task, keys, time.perf_counter() - started if computed + more else 0.0,
-                      finished_before > 0)
+                      resumed)
     table = per_episode(table)
     per_agent = {}
     for (learner, training, cell), config in evaluations.items():
