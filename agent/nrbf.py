@@ -64,10 +64,9 @@ def nrbf_features_into(state, low, high, n, r2, out, scratch):
     `state`, `low`, `high`: shape `(d,)`, in the task's units; `n`: centroids per dimension;
     `r2`: the spread r^2; `out`: shape `(n^d,)`, overwritten with the features in C order;
     `scratch`: shape `(d, n)`, overwritten with the per-dimension normalised factors
-    `g_j / sum_k g_j[k]`. Allocates nothing; runs from Python and inside numba-compiled code.
-    The exponent `((s_j - c_k)^2 - min_k (s_j - c_k)^2) / r^2` is computed as
-    `(|s_j - c_k| - m)(|s_j - c_k| + m) / r^2` (m the smallest distance), which does not
-    overflow to inf - inf = NaN for huge finite states as the squares would.
+    `g_j / sum_k g_j[k]` (`nrbf_factors_into`), whose outer product the features are
+    (`outer_product_into`). Allocates nothing; runs from Python and inside numba-compiled
+    code.
     """
     d = state.shape[0]
     if low.shape[0] != d or high.shape[0] != d:
@@ -76,33 +75,64 @@ def nrbf_features_into(state, low, high, n, r2, out, scratch):
         raise ValueError("scratch must have shape (d, n)")
     if out.shape[0] != n ** d:
         raise ValueError("out must have shape (n^d,)")
+    nrbf_factors_into(state, low, high, n, r2, scratch)
+    outer_product_into(scratch, out)
+
+
+@register_jitable
+def nrbf_factors_into(state, low, high, n, r2, factors):
+    """Row j of `factors` `(d, n)` := dimension j's normalised Gaussians `g_j / sum_k g_j[k]`
+    of one state. The exponent `((s_j - c_k)^2 - min_k (s_j - c_k)^2) / r^2` is computed as
+    `(|s_j - c_k| - m)(|s_j - c_k| + m) / r^2` (m the smallest distance), which does not
+    overflow to inf - inf = NaN for huge finite states as the squares would. Each pass over
+    a row is a loop of its own: the distances, the exponents and the division by the sum
+    vectorise, and only the exponentials (calls) and the sum run one by one."""
     margin = clamp_margin(n, r2)
-    for j in range(d):
+    for j in range(state.shape[0]):
+        g = factors[j]
         s_j = min(max(normalise(state[j], low[j], high[j]), -margin), 1.0 + margin)
+        for k in range(n):
+            g[k] = np.abs(s_j - centroid(k, n))
         nearest = np.inf
         for k in range(n):
-            scratch[j, k] = np.abs(s_j - centroid(k, n))
-            nearest = min(nearest, scratch[j, k])
+            nearest = min(nearest, g[k])
+        for k in range(n):
+            g[k] = -(g[k] - nearest) * (g[k] + nearest) / r2
         total = 0.0
         for k in range(n):
-            distance = scratch[j, k]
-            scratch[j, k] = np.exp(-(distance - nearest) * (distance + nearest) / r2)
-            total += scratch[j, k]
+            g[k] = np.exp(g[k])
+            total += g[k]
         for k in range(n):
-            scratch[j, k] /= total
-    # Outer product in place, from the last dimension to the first: after dimension j,
-    # out[:size] holds the features of dimensions j..d-1 in C order, and dimension j's
-    # factor k scales that block into out[k*size : (k+1)*size]. Blocks k >= 1 lie past
-    # out[:size] and are written first; block 0 is scaled in place last. The inner loop is
-    # contiguous, which compilers vectorise.
-    out[0] = 1.0
-    size = 1
-    for j in range(d - 1, -1, -1):
-        for k in range(n - 1, -1, -1):
-            factor = scratch[j, k]
-            base = k * size
+            g[k] /= total
+
+
+@register_jitable
+def outer_product_into(factors, out):
+    """`out` `(n^d,)` := the outer product of the rows of `factors` `(d, n)` in C order, each
+    entry `g_0[i_0] (g_1[i_1] (... g_{d-1}[i_{d-1}]))`, multiplied from the last dimension
+    to the first.
+
+    The last dimension's factors are copied (each is itself times 1.0). Then in place,
+    from the last dimension but one to the first: after dimension j, `out[:size]` holds
+    the products of dimensions j..d-1 in C order, and dimension j's factor k scales that
+    block into `out[k*size : (k+1)*size]`. Blocks k >= 1 lie past `out[:size]` and are
+    written first, each through a view of its own so that its loop reads and writes
+    different arrays (a compiler vectorises it); block 0 is scaled in place last."""
+    d, n = factors.shape
+    last = factors[d - 1]
+    for k in range(n):
+        out[k] = last[k]
+    size = n
+    for j in range(d - 2, -1, -1):
+        g = factors[j]
+        for k in range(n - 1, 0, -1):
+            factor = g[k]
+            block = out[k * size:(k + 1) * size]
             for r in range(size):
-                out[base + r] = factor * out[r]
+                block[r] = factor * out[r]
+        factor = g[0]
+        for r in range(size):
+            out[r] *= factor
         size *= n
 
 

@@ -156,3 +156,18 @@ def test_single_state_function_equals_the_batch_method(d):
     for state, expected in zip(states, batch):
         nrbf_features_into(state, low, high, net.n, net.r2, out, scratch)
         np.testing.assert_allclose(out, expected, rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("d, n", [(1, 5), (2, 8), (3, 4), (4, 6)])
+def test_the_features_are_the_factors_outer_product_multiplied_from_the_last(d, n):
+    """Bit for bit `g_0 (g_1 (... g_{d-1}))` of the per-dimension factors (`scratch`), the
+    order every result was computed in, whatever loops compute it."""
+    net = network(d, n)
+    low, high = np.array(net.low), np.array(net.high)
+    out, factors = np.empty(net.num_features), np.empty((d, n))
+    for state in to_task_units(net, np.random.default_rng(n).uniform(-0.5, 1.5, size=(20, d))):
+        nrbf_features_into(state, low, high, n, net.r2, out, factors)
+        expected = factors[d - 1]
+        for j in range(d - 2, -1, -1):
+            expected = np.multiply.outer(factors[j], expected)
+        assert out.tobytes() == expected.ravel().tobytes()
