@@ -18,6 +18,7 @@ to a Ray cluster (`pip install -e '.[ray]'`), one task each, and writes their re
 as they come back.
 """
 
+import concurrent.futures
 import dataclasses
 import json
 import sys
@@ -104,11 +105,7 @@ def run_batch(configs, progress=None, directory=None, keep_agents: bool = False)
 
 def results_table(config: RunConfig, results) -> pd.DataFrame:
     """A run's `EpisodeResults` as a tidy table with its configuration on every row."""
-    table = pd.DataFrame(results.columns(config.seeds))
-    for column, value in reversed(config.columns().items()):
-        table.insert(0, column, value)
-    table.insert(0, "run", config.key)
-    return table
+    return pd.DataFrame({"run": config.key, **config.columns(), **results.columns(config.seeds)})
 
 
 def _agent_episodes(configs) -> int:
@@ -174,6 +171,7 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
     options = (str(out_dir), keep_agents)
     with tqdm.tqdm(total=total, initial=total - left, desc=description, unit="agent-episode",
                    file=sys.stderr, disable=None, smoothing=0.05) as bar:
+        writer = _Writer(store)
         try:
             while queue:
                 queue = [batch for batch in queue if not all(map(store.finished, batch))]
@@ -184,16 +182,53 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
                 finished = (_local(mine, bar.update, *options) if backend == "local"
                             else _ray(list(mine), address, bar.update, *options))
                 for batch, tables in finished:
-                    for config, table in zip(batch, tables):
-                        store.write(config, table)
-                    store.release(batch)
+                    writer.write(batch, tables)
                     computed += len(batch)
                     queue.remove(batch)
+                writer.wait()
                 if queue:  # claimed by another process: wait for its runs
                     time.sleep(wait_seconds)
         finally:
-            store.release_all()
+            try:
+                writer.wait()
+            finally:
+                store.release_all()
     return store.read(configs), computed
+
+
+class _Writer:
+    """Writes finished batches' tables (`RunStore.write`) on a thread of its own, then
+    releases their claims, while the next batch computes: the files of a batch of 512
+    agents take a second or two of one core that the learners' threads would otherwise
+    wait for. `wait` returns once everything handed over is written, and raises the first
+    error a write met."""
+
+    def __init__(self, store: RunStore):
+        self.store = store
+        self.pending = []
+        self.pool = None
+
+    def _write(self, batch, tables) -> None:
+        for config, table in zip(batch, tables):
+            self.store.write(config, table)
+        self.store.release(batch)
+
+    def write(self, batch, tables) -> None:
+        self._raise_failed()
+        if self.pool is None:
+            self.pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="lwrl-writer")
+        self.pending.append(self.pool.submit(self._write, batch, tables))
+
+    def _raise_failed(self) -> None:
+        for future in self.pending:
+            if future.done() and future.exception() is not None:
+                self.wait()
+
+    def wait(self) -> None:
+        pending, self.pending = self.pending, []
+        concurrent.futures.wait(pending)
+        for future in pending:
+            future.result()
 
 
 def write_configs(configs, path: str) -> None:

@@ -91,14 +91,20 @@ def test_a_stale_claim_is_taken_over(tmp_path, clean):
 
 
 def test_the_local_backend_claims_a_batch_only_as_it_starts_it(tmp_path, monkeypatch):
-    """A second process on the directory finds the batches not yet started unclaimed."""
+    """A second process on the directory finds the batches not yet started unclaimed: as a
+    batch starts, the claims held are its own and those of batches started before it
+    whose files are still being written."""
     configs = grid() + [RunConfig(task="pendulum.swingup", agents=1, episodes=1)]
-    claimed, compute = [], sweep.run_batch
+    store, started, held, compute = RunStore(tmp_path), [], [], sweep.run_batch
 
-    def counting(batch, *options):
-        claimed.append(len(list(tmp_path.glob("runs/*.claim"))))
+    def recording(batch, *options):
+        started.append(store._claim_path(batch).name)
+        held.append({path.name for path in tmp_path.glob("runs/*.claim")})
         return compute(batch, *options)
 
-    monkeypatch.setattr(sweep, "run_batch", counting)
+    monkeypatch.setattr(sweep, "run_batch", recording)
     _, computed = sweep.run_sweep(configs, tmp_path)
-    assert computed == 4 and claimed == [1, 1]
+    assert computed == 4 and len(started) == 2
+    assert all(started[i] in claims and claims <= set(started[:i + 1])
+               for i, claims in enumerate(held))
+    assert not list(tmp_path.glob("runs/*.claim"))
