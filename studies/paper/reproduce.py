@@ -12,6 +12,7 @@ Layout of the output directory:
     report.md                our numbers beside the paper's, item by item
 """
 
+import concurrent.futures
 import dataclasses
 import datetime
 import json
@@ -155,16 +156,25 @@ def reproduce(item, out_dir: str, plant: str = "analytic", quick: bool = False,
     timings = json.load(open(timings_path)) if os.path.exists(timings_path) else {}
     sections = {}
     sweep_options = dict(backend=backend, workers=workers, address=address)
-    for name, configs in plan.items():
-        item_dir = os.path.join(out_dir, name)
-        results = run_and_keep(configs, name, out_dir, item_dir, "", timings, **sweep_options)
-        confirmation, confirming = None, ITEMS[name].confirm
-        if agents_per_cell and confirming is not None:
-            extra = confirming(configs, results, agents_per_cell)
-            confirmation = run_and_keep(extra, f"{name} confirmation", out_dir, item_dir,
-                                        "confirmation", timings, **sweep_options)
-        sections[name] = (ITEMS[name].analyse(results, figure_dir, confirmation), len(configs),
-                          len(results), None if confirmation is None else len(extra))
+    # the items' tables are written on a thread of their own while the analyses run; every
+    # one is on disk before the report is written, or before an error leaves
+    with concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="lwrl-tables") as tables:
+        written = []
+        for name, configs in plan.items():
+            item_dir = os.path.join(out_dir, name)
+            results = run_and_keep(configs, name, out_dir, item_dir, "", timings, tables,
+                                   written, **sweep_options)
+            confirmation, confirming = None, ITEMS[name].confirm
+            if agents_per_cell and confirming is not None:
+                extra = confirming(configs, results, agents_per_cell)
+                confirmation = run_and_keep(extra, f"{name} confirmation", out_dir, item_dir,
+                                            "confirmation", timings, tables, written,
+                                            **sweep_options)
+            sections[name] = (ITEMS[name].analyse(results, figure_dir, confirmation),
+                              len(configs), len(results),
+                              None if confirmation is None else len(extra))
+        for table in written:
+            table.result()
     evidence = [item for section, *_ in sections.values() for item in section.evidence]
     claims = None if quick or not evidence else save_figure(
         plot_claims(evidence, f"The paper's claims against our 95 % intervals ({plant} plant)"),
@@ -177,12 +187,13 @@ def reproduce(item, out_dir: str, plant: str = "analytic", quick: bool = False,
 
 
 def run_and_keep(configs, key: str, out_dir: str, item_dir: str, kind: str, timings: dict,
-                 **sweep_options):
+                 tables, written: list, **sweep_options):
     """Run `configs` (`runners.sweep`, resuming from `out_dir/runs`) and return their tidy
     table, written whole to `item_dir` as `results.csv.gz` and `configs.jsonl` (`kind`
-    empty) or `<kind>.csv.gz` and `<kind>-configs.jsonl`. The wall time goes into `timings`
-    (and `out_dir/timings.json`) under `key` when this invocation computed runs or none is
-    kept yet."""
+    empty) or `<kind>.csv.gz` and `<kind>-configs.jsonl` by the executor `tables` (its
+    future appended to `written`). The wall time goes into `timings` (and
+    `out_dir/timings.json`) under `key` when this invocation computed runs or none is kept
+    yet."""
     start = time.perf_counter()
     results, computed = sweep.run_sweep(configs, out_dir, description=key, **sweep_options)
     if computed or key not in timings:
@@ -191,12 +202,17 @@ def run_and_keep(configs, key: str, out_dir: str, item_dir: str, kind: str, timi
     with outputs.atomic_write(os.path.join(out_dir, "timings.json")) as file:
         json.dump(timings, file, indent=2)
     os.makedirs(item_dir, exist_ok=True)
+    written.append(tables.submit(keep_table, results, configs, item_dir, kind))
+    return results
+
+
+def keep_table(results, configs, item_dir: str, kind: str) -> None:
+    """Write a sweep's tidy table and configurations into `item_dir` (`run_and_keep`)."""
     table = f"{kind}.csv.gz" if kind else "results.csv.gz"
     with outputs.atomic_path(os.path.join(item_dir, table)) as temporary:
         results.to_csv(temporary, index=False, compression="gzip")
     sweep.write_configs(configs, os.path.join(item_dir, f"{kind}-configs.jsonl" if kind
                                               else "configs.jsonl"))
-    return results
 
 
 def describe_readings(readings: dict) -> str:
