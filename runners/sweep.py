@@ -190,7 +190,7 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
                     time.sleep(wait_seconds)
         finally:
             try:
-                writer.wait()
+                writer.close()
             finally:
                 store.release_all()
     return store.read(configs), computed
@@ -201,12 +201,12 @@ class _Writer:
     releases their claims, while the next batch computes: the files of a batch of 512
     agents take a second or two of one core that the learners' threads would otherwise
     wait for. `wait` returns once everything handed over is written, and raises the first
-    error a write met."""
+    error a write met; `write` raises it too, once it is known, before taking more."""
 
     def __init__(self, store: RunStore):
         self.store = store
-        self.pending = []
-        self.pool = None
+        self.pending: list[concurrent.futures.Future] = []
+        self.pool: concurrent.futures.ThreadPoolExecutor | None = None
 
     def _write(self, batch, tables) -> None:
         for config, table in zip(batch, tables):
@@ -229,6 +229,14 @@ class _Writer:
         concurrent.futures.wait(pending)
         for future in pending:
             future.result()
+
+    def close(self) -> None:
+        """`wait`, then end the thread."""
+        try:
+            self.wait()
+        finally:
+            if self.pool is not None:
+                self.pool.shutdown()
 
 
 def write_configs(configs, path: str) -> None:

@@ -108,3 +108,22 @@ def test_the_local_backend_claims_a_batch_only_as_it_starts_it(tmp_path, monkeyp
     assert all(started[i] in claims and claims <= set(started[:i + 1])
                for i, claims in enumerate(held))
     assert not list(tmp_path.glob("runs/*.claim"))
+
+
+def test_a_table_that_cannot_be_written_stops_the_sweep_and_the_others_are_kept(tmp_path,
+                                                                                monkeypatch):
+    """The tables are written on a thread of their own: a write that fails there reaches
+    the caller, every other finished batch is on disk, and no claim is left behind."""
+    configs = grid() + [RunConfig(task="pendulum.swingup", agents=1, episodes=1)]
+    store, write = RunStore(tmp_path), RunStore.write
+
+    def failing(self, config, table):
+        if config.task_name == "swingup":
+            raise OSError("no space left on device")
+        write(self, config, table)
+
+    monkeypatch.setattr(RunStore, "write", failing)
+    with pytest.raises(OSError, match="no space left"):
+        sweep.run_sweep(configs, tmp_path)
+    assert [store.path(config).exists() for config in configs] == [True, True, True, False]
+    assert not list(tmp_path.glob("runs/*.claim"))
