@@ -2,9 +2,9 @@
 
 `lane_dot(x, y)` is `sum_i x_i y_i` summed in four partial sums, lane k taking the terms
 with `i % 4 == k` in increasing i (the last `n % 4` terms go to lane 0), the lanes combined
-as `(s0 + s1) + (s2 + s3)`. That fixed order lets the CPU overlap the additions (a single
-running sum is 3 to 4 times slower), and it is the order of every linear learner's Q
-(`agent.linear.action_value`), of the C learner (`agent.sarsa_c`) and of every result
+as `(s0 + s1) + (s2 + s3)`. That fixed order lets the CPU overlap the additions, which a
+single running sum makes wait for each other, and it is the order of every linear learner's
+Q (`agent.linear.action_value`), of the C learner (`agent.sarsa_c`) and of every result
 computed so far.
 
 Numba compiles four scalar partial sums as four scalar chains: its LLVM passes do not pack
@@ -13,8 +13,8 @@ it once made), and the loop vectorizer may not reorder a sum without fast-math. 
 `lane_sums` writes the loop in LLVM IR with one `<4 x double>` accumulator: each step
 multiplies four `x_i` by four `y_i` and adds the products lane by lane, the same
 multiplications and additions in the same order as the scalar code (no fused multiply-add:
-the product is rounded, then added), so every result is the same to the bit, at two to
-three times the speed.
+the product is rounded, then added), so every result is the same to the bit
+(`tests/test_lanes.py`).
 """
 
 from llvmlite import ir

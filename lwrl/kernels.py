@@ -235,7 +235,7 @@ def inline_copy(function):
     (LLVM's `alwaysinline`): a kernel's bindings and helpers are inlined into it. A call
     of a compiled function passes every array argument as its pointer, shape and strides,
     and a namedtuple of arrays field by field: the compiled loop's call of a learner's step
-    with the batch's arrays copied some 150 words, a sixth of a Mountain-Car agent-step."""
+    with the batch's arrays copied some 150 words at every step."""
     copy = types.FunctionType(function.__code__, function.__globals__, function.__name__,
                               function.__defaults__, function.__closure__)
     copy.__kwdefaults__ = function.__kwdefaults__

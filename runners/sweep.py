@@ -198,9 +198,9 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
 
 class _Writer:
     """Writes finished batches' tables (`RunStore.write`) on a thread of its own, then
-    releases their claims, while the next batch computes: the files of a batch of 512
-    agents take a second or two of one core that the learners' threads would otherwise
-    wait for. `wait` returns once everything handed over is written, and raises the first
+    releases their claims, while the next batch computes: formatting and compressing a
+    batch's tables is work of one core that the learners' threads would otherwise wait
+    for. `wait` returns once everything handed over is written, and raises the first
     error a write met; `write` raises it too, once it is known, before taking more."""
 
     def __init__(self, store: RunStore):
