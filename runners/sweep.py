@@ -206,7 +206,7 @@ class _Writer:
     def __init__(self, store: RunStore):
         self.store = store
         self.pending: list[concurrent.futures.Future] = []
-        self.pool: concurrent.futures.ThreadPoolExecutor | None = None
+        self.pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="lwrl-writer")
 
     def _write(self, batch, tables) -> None:
         for config, table in zip(batch, tables):
@@ -214,15 +214,9 @@ class _Writer:
         self.store.release(batch)
 
     def write(self, batch, tables) -> None:
-        self._raise_failed()
-        if self.pool is None:
-            self.pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="lwrl-writer")
+        if any(future.done() and future.exception() is not None for future in self.pending):
+            self.wait()
         self.pending.append(self.pool.submit(self._write, batch, tables))
-
-    def _raise_failed(self) -> None:
-        for future in self.pending:
-            if future.done() and future.exception() is not None:
-                self.wait()
 
     def wait(self) -> None:
         pending, self.pending = self.pending, []
@@ -235,8 +229,7 @@ class _Writer:
         try:
             self.wait()
         finally:
-            if self.pool is not None:
-                self.pool.shutdown()
+            self.pool.shutdown()
 
 
 def write_configs(configs, path: str) -> None:
