@@ -13,11 +13,14 @@
   as it works on it (a lock on a claim file naming the host and process); a second process
   aimed at it is refused, and a claim whose process is gone is taken over.
 - `available_memory()` and `check_memory(needed, what)`: refuse a batch that would not fit.
+- `BackgroundWriter`: outputs written on a thread of their own while the work goes on, every
+  one on disk, or its error raised, before the writer is done.
 
 Every room may use it; it imports no other part of lwrl.
 """
 
 import atexit
+import concurrent.futures
 import contextlib
 import ctypes
 import errno
@@ -319,3 +322,36 @@ def check_memory(needed: int, what: str) -> None:
     if available is not None and needed > available:
         raise ValueError(f"{what} needs about {needed / 2**30:.1f} GiB of memory; this machine "
                          f"has {available / 2**30:.1f} GiB available")
+
+
+class BackgroundWriter:
+    """Writes outputs on one thread of its own, in the order given, while the caller goes
+    on computing (formatting and compressing a table is work of one core that the
+    learners' threads would otherwise wait for). `submit(write, *args)` hands one over,
+    first raising the error of one that failed, if any is known; `wait` returns once
+    everything handed over is written, and raises the first error a write met; as a
+    context manager it waits, then ends its thread, however the block is left."""
+
+    def __init__(self, name: str):
+        self.pending: list[concurrent.futures.Future] = []
+        self.pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix=name)
+
+    def submit(self, write, *args) -> None:
+        if any(future.done() and future.exception() is not None for future in self.pending):
+            self.wait()
+        self.pending.append(self.pool.submit(write, *args))
+
+    def wait(self) -> None:
+        pending, self.pending = self.pending, []
+        concurrent.futures.wait(pending)
+        for future in pending:
+            future.result()
+
+    def __enter__(self) -> "BackgroundWriter":
+        return self
+
+    def __exit__(self, *exception) -> None:
+        try:
+            self.wait()
+        finally:
+            self.pool.shutdown()

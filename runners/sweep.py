@@ -18,7 +18,6 @@ to a Ray cluster (`pip install -e '.[ray]'`), one task each, and writes their re
 as they come back.
 """
 
-import concurrent.futures
 import dataclasses
 import json
 import sys
@@ -169,9 +168,10 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
     total, left = _agent_episodes(configs), _agent_episodes(pending)
     queue, computed = batches(pending, 1 if keep_agents else MAX_BATCH_AGENTS), 0
     options = (str(out_dir), keep_agents)
+    # the tables of a finished batch are written while the next batch computes
     with tqdm.tqdm(total=total, initial=total - left, desc=description, unit="agent-episode",
-                   file=sys.stderr, disable=None, smoothing=0.05) as bar:
-        writer = _Writer(store)
+                   file=sys.stderr, disable=None, smoothing=0.05) as bar, \
+            outputs.BackgroundWriter("lwrl-writer") as writer:
         try:
             while queue:
                 queue = [batch for batch in queue if not all(map(store.finished, batch))]
@@ -182,7 +182,7 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
                 finished = (_local(mine, bar.update, *options) if backend == "local"
                             else _ray(list(mine), address, bar.update, *options))
                 for batch, tables in finished:
-                    writer.write(batch, tables)
+                    writer.submit(_keep, store, batch, tables)
                     computed += len(batch)
                     queue.remove(batch)
                 writer.wait()
@@ -190,46 +190,17 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
                     time.sleep(wait_seconds)
         finally:
             try:
-                writer.close()
+                writer.wait()
             finally:
                 store.release_all()
     return store.read(configs), computed
 
 
-class _Writer:
-    """Writes finished batches' tables (`RunStore.write`) on a thread of its own, then
-    releases their claims, while the next batch computes: formatting and compressing a
-    batch's tables is work of one core that the learners' threads would otherwise wait
-    for. `wait` returns once everything handed over is written, and raises the first
-    error a write met; `write` raises it too, once it is known, before taking more."""
-
-    def __init__(self, store: RunStore):
-        self.store = store
-        self.pending: list[concurrent.futures.Future] = []
-        self.pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="lwrl-writer")
-
-    def _write(self, batch, tables) -> None:
-        for config, table in zip(batch, tables):
-            self.store.write(config, table)
-        self.store.release(batch)
-
-    def write(self, batch, tables) -> None:
-        if any(future.done() and future.exception() is not None for future in self.pending):
-            self.wait()
-        self.pending.append(self.pool.submit(self._write, batch, tables))
-
-    def wait(self) -> None:
-        pending, self.pending = self.pending, []
-        concurrent.futures.wait(pending)
-        for future in pending:
-            future.result()
-
-    def close(self) -> None:
-        """`wait`, then end the thread."""
-        try:
-            self.wait()
-        finally:
-            self.pool.shutdown()
+def _keep(store: RunStore, batch, tables) -> None:
+    """Write a finished batch's tables, then release its claim."""
+    for config, table in zip(batch, tables):
+        store.write(config, table)
+    store.release(batch)
 
 
 def write_configs(configs, path: str) -> None:

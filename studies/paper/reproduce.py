@@ -12,7 +12,6 @@ Layout of the output directory:
     report.md                our numbers beside the paper's, item by item
 """
 
-import concurrent.futures
 import dataclasses
 import datetime
 import json
@@ -156,25 +155,21 @@ def reproduce(item, out_dir: str, plant: str = "analytic", quick: bool = False,
     timings = json.load(open(timings_path)) if os.path.exists(timings_path) else {}
     sections = {}
     sweep_options = dict(backend=backend, workers=workers, address=address)
-    # the items' tables are written on a thread of their own while the analyses run; every
-    # one is on disk before the report is written, or before an error leaves
-    with concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="lwrl-tables") as tables:
-        written = []
+    # the items' tables are written while the analyses run; every one is on disk before
+    # the report is written, or before an error leaves
+    with outputs.BackgroundWriter("lwrl-tables") as tables:
         for name, configs in plan.items():
             item_dir = os.path.join(out_dir, name)
             results = run_and_keep(configs, name, out_dir, item_dir, "", timings, tables,
-                                   written, **sweep_options)
+                                   **sweep_options)
             confirmation, confirming = None, ITEMS[name].confirm
             if agents_per_cell and confirming is not None:
                 extra = confirming(configs, results, agents_per_cell)
                 confirmation = run_and_keep(extra, f"{name} confirmation", out_dir, item_dir,
-                                            "confirmation", timings, tables, written,
-                                            **sweep_options)
+                                            "confirmation", timings, tables, **sweep_options)
             sections[name] = (ITEMS[name].analyse(results, figure_dir, confirmation),
                               len(configs), len(results),
                               None if confirmation is None else len(extra))
-        for table in written:
-            table.result()
     evidence = [item for section, *_ in sections.values() for item in section.evidence]
     claims = None if quick or not evidence else save_figure(
         plot_claims(evidence, f"The paper's claims against our 95 % intervals ({plant} plant)"),
@@ -187,11 +182,11 @@ def reproduce(item, out_dir: str, plant: str = "analytic", quick: bool = False,
 
 
 def run_and_keep(configs, key: str, out_dir: str, item_dir: str, kind: str, timings: dict,
-                 tables, written: list, **sweep_options):
+                 tables: outputs.BackgroundWriter, **sweep_options):
     """Run `configs` (`runners.sweep`, resuming from `out_dir/runs`) and return their tidy
     table, written whole to `item_dir` as `results.csv.gz` and `configs.jsonl` (`kind`
-    empty) or `<kind>.csv.gz` and `<kind>-configs.jsonl` by the executor `tables` (its
-    future appended to `written`). The wall time goes into `timings` (and
+    empty) or `<kind>.csv.gz` and `<kind>-configs.jsonl` by the writer `tables`. The wall
+    time goes into `timings` (and
     `out_dir/timings.json`) under `key` when this invocation computed runs or none is kept
     yet."""
     start = time.perf_counter()
@@ -202,7 +197,7 @@ def run_and_keep(configs, key: str, out_dir: str, item_dir: str, kind: str, timi
     with outputs.atomic_write(os.path.join(out_dir, "timings.json")) as file:
         json.dump(timings, file, indent=2)
     os.makedirs(item_dir, exist_ok=True)
-    written.append(tables.submit(keep_table, results, configs, item_dir, kind))
+    tables.submit(keep_table, results, configs, item_dir, kind)
     return results
 
 
