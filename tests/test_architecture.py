@@ -18,14 +18,18 @@ from lwrl.agent.linear import FEATURE_MAPS
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 FLOORS = {"kernels": 0, "outputs": 0, "settings": 0, "models": 0, "agent": 1, "tasks": 1,
-          "analysis": 2, "gym": 2, "viz": 3, "runners": 4, "adapters": 5, "export": 5,
-          "studies": 6, "cli": 7}
-"""Room -> floor. `gym` is `lwrl/gym.py`, the suite's Gymnasium face (it reads `tasks`);
+          "analysis": 2, "gym": 2, "jax": 2, "viz": 3, "runners": 4, "adapters": 5,
+          "export": 5, "studies": 6, "cli": 7}
+"""Room -> floor. `gym` is `lwrl/gym.py`, the suite's Gymnasium face (it reads `tasks`), and
+`jax` is `lwrl/jax/`, the suite in JAX (it reads `tasks` too);
 `kernels`, `outputs` and `settings` (`lwrl/kernels.py`, `lwrl/outputs.py`,
 `lwrl/settings.py`), the cache of compiled kernels, the writing of whole files and the
 settings dataclasses' metadata, are there for every room."""
 LWRL_MODULES = ("gym", "kernels", "outputs", "settings")
 """The rooms that are one module of `lwrl/`."""
+LWRL_PACKAGES = ("jax",)
+"""The rooms that are a package inside `lwrl/` (not a top-level folder: a folder `jax/` at
+the repository's root would shadow the library for code run from there)."""
 ISOLATED = {"agent": {"kernels", "outputs", "settings"}, "tasks": {"models", "kernels", "outputs"}}
 """Rooms that may import only these others: the learner sees arrays only."""
 NAMING_DOMAINS_ALLOWED = ("studies/paper/",)
@@ -39,13 +43,16 @@ rivals) and name them as data."""
 def room_of(path: pathlib.Path) -> str:
     """The room of a source file: its top-level folder, or the module of `lwrl/`."""
     relative = path.relative_to(ROOT)
-    return relative.stem if relative.parts[0] == "lwrl" else relative.parts[0]
+    if relative.parts[0] != "lwrl":
+        return relative.parts[0]
+    return relative.parts[1] if relative.parts[1] in LWRL_PACKAGES else relative.stem
 
 
 def package_files() -> list:
     """Every module the `lwrl` wheel installs."""
     return sorted(path for room in FLOORS for path in
                   ([ROOT / "lwrl" / f"{room}.py"] if room in LWRL_MODULES
+                   else (ROOT / "lwrl" / room).rglob("*.py") if room in LWRL_PACKAGES
                    else (ROOT / room).rglob("*.py"))
                   if path.exists())
 

@@ -1,0 +1,48 @@
+"""One physics, another array library: a domain's NumPy-written functions run on JAX arrays.
+
+The suite writes each domain's physics once, element-wise, in NumPy's vocabulary (`np.sin`,
+`np.minimum`, arithmetic and indexing: `tasks/<domain>.py`), so that NumPy batches, the
+dm_env Physics and numba's compiled loops all call the same functions. `as_jax(f)` is that
+function with its module's `np` bound to `jax.numpy` instead, and every lwrl function it
+calls bound in the same way, recursively: the same code, traced by JAX. Nothing is ported,
+so nothing can drift from the NumPy plant but the library's own arithmetic (the operations
+are the same, in the same order; `tests/test_jax_tasks.py` holds the two to 1e-12).
+"""
+
+import functools
+import types
+
+import jax.numpy as jnp
+
+
+class Vocabulary:
+    """`jax.numpy` as a function's `np`, with `float64` standing for the environment's
+    floating-point type (`float32` unless JAX runs in 64 bits)."""
+
+    def __init__(self, dtype):
+        self.float64 = dtype
+
+    def __getattr__(self, name):
+        return getattr(jnp, name)
+
+
+def _is_lwrl_function(value) -> bool:
+    return isinstance(value, types.FunctionType) and value.__module__.startswith("lwrl.")
+
+
+@functools.lru_cache(maxsize=None)
+def as_jax(function, dtype=jnp.float64):
+    """`function` (a NumPy-written lwrl function) with `np` bound to `jax.numpy` and the lwrl
+    functions it calls translated alike; `dtype` is what its `np.float64` means."""
+    vocabulary = Vocabulary(dtype)
+    names = dict(function.__globals__)
+    names["np"] = vocabulary
+    for name in function.__code__.co_names:
+        value = names.get(name)
+        if _is_lwrl_function(value) and value is not function:
+            names[name] = as_jax(value, dtype)
+    translated = types.FunctionType(function.__code__, names, function.__name__,
+                                    function.__defaults__, function.__closure__)
+    names[function.__name__] = translated  # a recursive call stays in JAX
+    translated.__doc__ = function.__doc__
+    return translated
