@@ -5,7 +5,7 @@ registry (`tasks.DOMAINS`) lists the modules. Every other room looks a domain up
 names none: the runners take the plants and the run defaults, the viewer the drawing and
 the value image's axes, the plant comparison the tolerances, the Gymnasium registration the
 observation bounds (those are per task, in `TaskDefinition`), the documentation the physical
-parameters, the device programs the plant in C.
+parameters, the device programs the plant in C, the benchmark the classical controller.
 """
 
 import dataclasses
@@ -86,6 +86,24 @@ class CPlant:
 
 
 @dataclasses.dataclass(frozen=True)
+class Classical:
+    """A domain's classical controller, which uses the model: the benchmark's reference, the
+    1 of a normalised score (SPEC.md, "The benchmark's protocol"). A discrete task runs it
+    through the action nearest its control (`TaskDefinition.nearest_action`: bang-bang where
+    the actions are the actuator's two limits)."""
+
+    control: Callable
+    """`control(state, p) -> u`: the control (force, torque or thrust, in the task's units,
+    within the actuator's range) it wants at one state `(d,)`, in the task's order (angles
+    unwrapped or not), at the physical parameter values `p` `(P,)` (`tasks.parameters`),
+    from which it derives its gains."""
+    source: str
+    """Where the controller comes from: the papers it follows."""
+    summary: str
+    """What it does, in one line."""
+
+
+@dataclasses.dataclass(frozen=True)
 class Domain:
     """One domain of the suite: its tasks, its plants and what each room needs of it."""
 
@@ -112,6 +130,9 @@ class Domain:
     """The Gymnasium environment whose settings other suites tuned (rl-baselines3-zoo's
     `hyperparams/`) a learner takes on this domain's tasks (`Learner.tuned`): its own
     counterpart, or the nearest one the zoo tuned; None: none."""
+    classical: Optional[Classical] = None
+    """Its classical controller (the benchmark's 1 of a normalised score), where it has
+    one."""
 
     @property
     def model(self) -> Optional[str]:

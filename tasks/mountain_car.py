@@ -37,7 +37,7 @@ import numpy as np
 from numba.extending import register_jitable
 
 from lwrl.kernels import copy_into
-from lwrl.tasks.domain_contract import Box, CPlant, Domain, Drawing, Line
+from lwrl.tasks.domain_contract import Box, Classical, CPlant, Domain, Drawing, Line
 from lwrl.tasks.parameters import Parameter, Parameters
 from lwrl.tasks.task_definition import RunDefaults, TaskDefinition, step_limit
 from lwrl.tasks.physics import AnalyticPhysics
@@ -183,6 +183,27 @@ class Physics(AnalyticPhysics):
         return float(np.sin(3.0 * self.position()))
 
 
+def thrust_along_velocity(state, p) -> float:
+    """The classical controller's thrust a at one state `(2,)`: +1 where v >= 0, else -1.
+
+    Energy pumping: the thrust's work k a v per step is then k |v| >= 0, so the car's energy
+    (v^2 / 2 + (g / 3) sin 3x per unit mass, the slope being sin 3x) grows as fast as the
+    thrust can make it, whatever the parameters `p`, and the swings grow until one clears the
+    right hill. At v = 0 it pushes forward, toward the goal: at the left wall, which stops
+    the car, that is the only way out; elsewhere v = 0 lasts one step."""
+    del p
+    return 1.0 if state[1] >= 0.0 else -1.0
+
+
+CLASSICAL = Classical(
+    control=thrust_along_velocity,
+    source="energy pumping, a = sign(v) (SPEC.md, \"The benchmark's protocol\"): the thrust's "
+           "power k a v is then k |v|, the most the actuator can give",
+    summary="full thrust along the velocity, forward at rest")
+"""Mountain-Car's classical controller: from the paper's random starts (seeded) it reaches
+the goal within 200 steps (tests/test_classical.py)."""
+
+
 def altitude(x) -> np.ndarray:
     """The hill's altitude sin(3x)."""
     return np.sin(3.0 * np.asarray(x, dtype=np.float64))
@@ -219,4 +240,4 @@ DOMAIN = Domain(
     plants=DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=Physics,
                         parameters=PARAMETERS, euler=False, analytic_options=()),
     value_axes=("position", "velocity"), drawing=_drawing(), c_plant=C_PLANT,
-    robustness_axes=("gravity", "thrust"), tuned_as="MountainCar-v0")
+    robustness_axes=("gravity", "thrust"), tuned_as="MountainCar-v0", classical=CLASSICAL)

@@ -122,6 +122,23 @@ class TaskDefinition:
     def num_actions(self) -> int:
         return len(self.controls)
 
+    def nearest_action(self, control, physical=None):
+        """The index of the action whose control (`controls`, or `controls_at(physical)`
+        with rows `(..., P)`) is nearest to `control` (a number, or an array `(...)`: an
+        int array then), the lower index on a tie: how a discrete task runs a continuous
+        controller (`Domain.classical`), bang-bang where the actions are the actuator's two
+        limits. A one-line ValueError unless `control` is finite."""
+        try:
+            value = np.asarray(control, dtype=np.float64)
+        except (TypeError, ValueError):
+            value = np.asarray(np.nan)
+        if not np.all(np.isfinite(value)):
+            raise ValueError(f"control must be a finite number; got {control!r}")
+        controls = (np.asarray(self.controls) if physical is None
+                    else self.controls_at(physical))
+        index = np.argmin(np.abs(controls - value[..., None]), axis=-1)  # the first on a tie
+        return int(index) if index.ndim == 0 else index
+
     def loop_arguments(self) -> tuple:
         """What `transition` and `arrive` take as `arguments` in compiled loops: `(params,
         p)`, the task's options `(K,)` and the physical parameters' values `(P,)`, float64."""
