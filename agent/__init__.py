@@ -10,7 +10,7 @@ share), `stable_baselines` (what the Stable-Baselines3 learners share), `traces`
 
 import importlib
 
-LEARNER_MODULES = ("sarsa", "true_online_sarsa", "ase_ace", "dqn", "ppo")
+LEARNER_MODULES = ("sarsa", "true_online_sarsa", "ase_ace", "dqn", "ppo", "ppo_jax", "dqn_jax")
 """The registry: the modules of `agent/` that each define one learner, the default first."""
 
 LEARNERS = {module.LEARNER.name: module.LEARNER for module in

@@ -24,7 +24,9 @@ What a learner gives (`Learner`):
 - `load(document, arrays)`: agents from a file written by `agent.io.save`;
 - `memory(settings, task)`: the bytes one agent needs, before any is made;
 - `tuned`: settings tuned for it elsewhere, by the Gymnasium environment they were tuned
-  on (rl-baselines3-zoo's, for DQN and PPO), which studies take on the domains tuned as it.
+  on (rl-baselines3-zoo's, for DQN and PPO), which studies take on the domains tuned as it;
+- `population`: its agents train as one jitted JAX program (`runners.population`), the
+  third run path beside the compiled and stepped loops, with the same per-episode records.
 
 What a batch of agents gives (`Agents`): `step` over the batch (the stepped loop), `arrays`
 (a namedtuple whose fields `q` `(B, A)`, `delta` `(B,)`, `diverged` `(B,)` and `weights`
@@ -103,6 +105,10 @@ class Learner:
     """`{Gymnasium environment id: {setting: value}}`: settings tuned for the learner
     elsewhere (rl-baselines3-zoo's), which a study takes on the domains tuned as that
     environment (`Domain.tuned_as`); empty: the task's defaults are its own."""
+
+    population: bool = False
+    """True: its agents train as one jitted JAX program over the suite's JAX tasks
+    (`runners.population`; `agent.jax_population.PopulationAgents`), not step by step."""
 
     @property
     def compiles(self) -> bool:

@@ -87,8 +87,8 @@ def train_agents(args) -> int:
     started = time.perf_counter()
     settings = {**fields.given(args, EnvironmentSettings, LearnerChoice, ProtocolSettings),
                 **fields.given_learner_settings(args, learners.LEARNERS.values())}
-    settings["plant"] = tasks.resolve(*tasks.split_name(args.task), settings.get("plant"))[1]
-    config = RunConfig(task=args.task, **settings)  # config.json names the plant it ran on
+    config = RunConfig(task=args.task, **settings)
+    config = dataclasses.replace(config, plant=config.plant_name)  # config.json names it
     check_outputs(args)
     logging = bool(args.rrd or args.rerun)
     record, logged_agents, best = (), [], False

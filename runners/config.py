@@ -275,8 +275,12 @@ class RunConfig(LearnerChoice, ProtocolSettings, EnvironmentSettings):
 
     @property
     def plant_name(self) -> str:
-        """`plant`, or the domain's default plant where it is None."""
-        return tasks.resolve(self.domain, self.task_name, self.plant)[1]
+        """`plant`, or where it is None the domain's default plant, or the analytic plant
+        for a learner that trains on the JAX tasks (`Learner.population`)."""
+        plant = self.plant
+        if plant is None and agent.learner(self.learner).population:
+            plant = "analytic"
+        return tasks.resolve(self.domain, self.task_name, plant)[1]
 
     @property
     def plant_options(self) -> dict:

@@ -26,6 +26,7 @@ from lwrl import tasks
 from lwrl.agent.learner_contract import Agents
 from lwrl.runners.compiled import compiles, run_compiled
 from lwrl.runners.episodes import EpisodeResults
+from lwrl.runners.population import run_population
 from lwrl.runners.stepped import run_batched, run_dm_env
 from lwrl.tasks.batched import BatchedEnv
 from lwrl.tasks.randomisation import check_ranges, draws
@@ -111,7 +112,12 @@ def run(config, agent: Agents | None = None, learn: bool = True, greedy: bool = 
     seeds = config.seeds if seeds is None else list(seeds)
     domain, task = config.domain, config.task_name
     options = environment_options(batch or [config])
-    if agent.learner.compiles and compiles(domain, config.plant_name):
+    if agent.learner.population:
+        results = run_population(domain, task, agent, config.episodes, seeds, learn=learn,
+                                 greedy=greedy, progress=progress, record=record,
+                                 plant=config.plant_name, **config.plant_options,
+                                 **config.task_options, **options)
+    elif agent.learner.compiles and compiles(domain, config.plant_name):
         results = run_compiled(domain, task, agent, config.episodes, seeds, learn=learn,
                                greedy=greedy, progress=progress, record=record,
                                plant=config.plant_name, **config.plant_options,

@@ -59,11 +59,23 @@ def test_settings_shared_by_name_mean_one_kind_of_value():
 @pytest.mark.parametrize("learner, task", PAIRS)
 def test_every_run_path_gives_the_same_numbers(learner, task):
     """The compiled loop (where the learner has a compiled step), the batched stepper and
-    one agent on a dm_env environment: identical episodes and learned arrays."""
+    one agent on a dm_env environment: identical episodes and learned arrays. A population
+    learner has one path, the JAX program (`runners.population`): the stepped loop refuses
+    it in one line, and the program gives the same numbers again (how it is cut into
+    chunks changes none either: `tests/test_population.py`)."""
     config = config_of(learner, task)
     domain, name = tasks.split_name(task)
     options = config.task_options
     batched_agent = make_agent(config)
+    if learners.learner(learner).population:
+        with pytest.raises(ValueError, match="one JAX program"):
+            run_batched(BatchedEnv(domain, name, "analytic", config.seeds, **options),
+                        batched_agent, config.episodes)
+        first_agent, first = run(config)
+        again_agent, again = run(config)
+        assert_same_results(again, first)
+        np.testing.assert_array_equal(again_agent.arrays.weights, first_agent.arrays.weights)
+        return
     batched = run_batched(BatchedEnv(domain, name, "analytic", config.seeds, **options),
                           batched_agent, config.episodes)
     if learners.learner(learner).compiles:

@@ -136,11 +136,16 @@ class Environment:
         self.check_params(self.default_params if params is None else params)
         start_key, noise_key = jax.random.split(key)
         draw = as_jax(self.definition.initial_states, self.dtype)
-        physics = jnp.asarray(draw(StartDraws(start_key, self.dtype), 1)[0], self.dtype)
+        return self.start(noise_key, draw(StartDraws(start_key, self.dtype), 1)[0])
+
+    def start(self, key, physics):
+        """`(observation, EnvState)` of an episode starting in the plant state `physics`
+        `(d,)` (a start drawn elsewhere, e.g. the protocol's from each agent's seed)."""
+        physics = jnp.asarray(physics, self.dtype)
         state = EnvState(physics=physics, steps=jnp.int32(0),
                          uptime=jnp.asarray(self.definition.initial_uptime, self.dtype),
                          transit=jnp.zeros(self.action_delay, self.dtype))
-        return self.observe(noise_key, physics), state
+        return self.observe(key, physics), state
 
     reset = reset_env
     """`(observation, EnvState)` of a new episode: gymnax's `reset`."""

@@ -1,0 +1,274 @@
+"""What lwrl's JAX population learners (`agent.ppo_jax`) share: B agents as one pytree of
+arrays with a leading axis B, trained by one jitted program (`runners.population`), and the
+pieces of Stable-Baselines3's learners written in JAX with PyTorch's arithmetic.
+
+A population learner gives the runner a `Program`: pure per-agent functions that the runner
+`vmap`s over the batch, in the style of PureJaxRL (Lu et al. 2022) and rejax:
+
+- `act(state, observation, key, hyper, greedy, clock) -> (action, extras)` at the agent's
+  step `clock` (its steps of learning so far), `extras` what `record` needs of the choice
+  (e.g. PPO's V(s) and log-probability);
+- `record(state, extras, observation, action, reward, terminated, truncated,
+  final_observation, hyper, clock, write) -> state`: the transition just taken, written
+  only where `write` (learning, and the agent still running);
+- `update(state, next_observation, next_start, hyper, clock, due) -> state`: the update
+  after the agent's step `clock`, taking effect only where `due` (`update_due(hyper,
+  clock)`); the runner runs it where some agent of the batch is due, so it is not computed
+  for every step and thrown away.
+
+`record` and `update` mask what they change themselves, so that the runner never selects
+between two copies of a whole state (a replay buffer of a million transitions).
+
+`hyper` are the per-agent settings as arrays (`Program.hyper`); the others (the network's
+shape, the rollout's length, the epochs) are the batch's and shape the program.
+
+The networks, the initialisation, Adam and the gradient clipping are SB3's and PyTorch's
+(`mlp`, `adam`, `clip_by_norm`): the same equations, drawn from JAX's random streams.
+JAX is optional (the `jax` extra); nothing here is imported without it but this module's
+names.
+"""
+
+import collections
+import dataclasses
+import importlib.util
+import math
+from typing import Any
+
+import numpy as np
+
+from lwrl.agent.learner_contract import Agents
+
+EXTRA = "pip install 'lwrl[jax]'"
+PopulationArrays = collections.namedtuple("PopulationArrays", "q delta diverged weights")
+"""What the loops read of a population (`Agents.arrays`): `q` and `delta` are not kept per
+step (zeros and NaN), `weights` what the agents have learned, flattened."""
+
+
+def missing_jax() -> bool:
+    return importlib.util.find_spec("jax") is None
+
+
+def fits_with_jax(name: str):
+    """A population learner's `fits`: every task, once JAX is installed; else one line
+    naming the extra."""
+    def fits(task):
+        if missing_jax():
+            return f"{name} on {task.name} needs JAX (not installed): {EXTRA}"
+        return None
+    return fits
+
+
+def jax_modules():
+    """`(jax, jax.numpy)`, in 64 bits (the analytic plant's numbers; the networks stay float32),
+    or a one-line error naming the extra."""
+    if missing_jax():
+        raise ValueError(f"the JAX population learners need JAX: {EXTRA}")
+    import jax
+    import jax.numpy as jnp
+    jax.config.update("jax_enable_x64", True)
+    return jax, jnp
+
+
+def mlp_init(key, sizes, gains, orthogonal: bool):
+    """`[(W (in, out), b (out,)), ...]` float32 for layer widths `sizes`: PyTorch's
+    `nn.Linear` default (W and b ~ U(-1/sqrt(in), 1/sqrt(in)), Kaiming's uniform with a =
+    sqrt(5)) or, `orthogonal`, SB3's `ActorCriticPolicy.init_weights` (W orthogonal with
+    the layer's gain from `gains`, b = 0)."""
+    jax, jnp = jax_modules()
+    layers = []
+    for (fan_in, fan_out), gain, layer_key in zip(zip(sizes[:-1], sizes[1:]), gains,
+                                                  jax.random.split(key, len(sizes) - 1)):
+        w_key, b_key = jax.random.split(layer_key)
+        if orthogonal:
+            w = jax.nn.initializers.orthogonal(scale=gain)(w_key, (fan_in, fan_out), jnp.float32)
+            b = jnp.zeros(fan_out, jnp.float32)
+        else:
+            bound = 1.0 / math.sqrt(fan_in)
+            w = jax.random.uniform(w_key, (fan_in, fan_out), jnp.float32, -bound, bound)
+            b = jax.random.uniform(b_key, (fan_out,), jnp.float32, -bound, bound)
+        layers.append((w, b))
+    return layers
+
+
+def mlp(layers, x, activation):
+    """The MLP's output: `activation` after every layer but the last (SB3's `create_mlp`)."""
+    for index, (w, b) in enumerate(layers):
+        x = x @ w + b
+        if index < len(layers) - 1:
+            x = activation(x)
+    return x
+
+
+def clip_by_norm(grads, max_norm):
+    """PyTorch's `clip_grad_norm_`: the gradients scaled by max_norm / (norm + 1e-6) where
+    their global norm exceeds `max_norm`."""
+    jax, jnp = jax_modules()
+    leaves = jax.tree.leaves(grads)
+    norm = jnp.sqrt(sum(jnp.sum(g * g) for g in leaves))
+    scale = jnp.minimum(max_norm / (norm + 1e-6), 1.0).astype(jnp.float32)
+    return jax.tree.map(lambda g: g * scale, grads)
+
+
+def adam_init(params):
+    """Adam's state `(m, v, count)` for `params`: zeros."""
+    jax, jnp = jax_modules()
+    zeros = jax.tree.map(jnp.zeros_like, params)
+    return zeros, zeros, jnp.zeros((), jnp.int32)
+
+
+def adam(params, grads, state, learning_rate, eps, beta1=0.9, beta2=0.999):
+    """PyTorch's Adam step (Kingma and Ba 2015, Algorithm 1, as `torch.optim.Adam` computes
+    it): m = b1 m + (1 - b1) g, v = b2 v + (1 - b2) g^2, w -= lr / (1 - b1^t) m /
+    (sqrt(v) / sqrt(1 - b2^t) + eps). Returns `(params, state)`."""
+    jax, jnp = jax_modules()
+    m, v, count = state
+    count = count + 1
+    m = jax.tree.map(lambda m_, g: beta1 * m_ + (1.0 - beta1) * g, m, grads)
+    v = jax.tree.map(lambda v_, g: beta2 * v_ + (1.0 - beta2) * g * g, v, grads)
+    t = count.astype(jnp.float32)
+    step = (learning_rate / (1.0 - beta1 ** t)).astype(jnp.float32)
+    root = jnp.sqrt(1.0 - beta2 ** t).astype(jnp.float32)
+    params = jax.tree.map(lambda p, m_, v_: p - step * m_ / (jnp.sqrt(v_) / root + eps),
+                          params, m, v)
+    return params, (m, v, count)
+
+
+def flat(tree) -> np.ndarray:
+    """`(B, N)`: each agent's leaves of `tree` (leading axis B), flattened in order."""
+    import jax
+    leaves = [np.asarray(leaf) for leaf in jax.tree.leaves(tree)]
+    return np.concatenate([leaf.reshape(len(leaf), -1).astype(np.float64) for leaf in leaves],
+                          axis=1)
+
+
+@dataclasses.dataclass(frozen=True)
+class Program:
+    """A population learner's pure functions and the batch's settings (see the module)."""
+
+    act: Any
+    record: Any
+    update: Any
+    update_due: Any
+    """`update_due(hyper, clock)`: True after the agent's step `clock` (its steps of
+    learning, counted from 0) where an update follows, e.g. the step that fills a rollout."""
+    hyper: Any
+    """`{setting: (B,) array}`: the per-agent settings the functions take, and
+    `learning_steps`, each agent's steps of learning (`timesteps`, rounded up to a whole
+    rollout or training period as SB3's `learn()` rounds it), after which it acts greedily
+    and learns no more."""
+
+
+class PopulationAgents(Agents):
+    """B agents of a population learner: `state`, a pytree of arrays with a leading axis B
+    (JAX arrays), and `clocks` `(B,)`, each agent's steps of learning so far. Subclasses build
+    the state
+    (`initial_state`) and the program (`program`), and say which leaves are the weights
+    (`weight_tree`)."""
+
+    def __init__(self, settings, task, seeds):
+        self.jax, self.jnp = jax_modules()
+        self.settings, self.task = tuple(settings), task
+        self.seeds = [int(seed) for seed in seeds]
+        if len(self.settings) != len(self.seeds):
+            raise ValueError(f"{len(self.settings)} settings for {len(self.seeds)} seeds")
+        self.check_batchable()
+        self.dim = len(task.state_names)
+        keys = self.jax.vmap(self.jax.random.PRNGKey)(self.jnp.asarray(self.seeds, self.jnp.uint32))
+        self.state = self.jax.vmap(self.initial_state)(keys)
+        self.clocks = np.zeros(len(self.seeds), dtype=np.int64)
+        batch = len(self.seeds)
+        self.arrays = PopulationArrays(q=np.zeros((batch, task.num_actions)),
+                                       delta=np.full(batch, np.nan),
+                                       diverged=np.zeros(batch, dtype=bool),
+                                       weights=flat(self.weight_tree(self.state)))
+
+    def check_batchable(self) -> None:
+        """A one-line ValueError where the agents' settings differ in a field that shapes
+        the program (one not marked `per_agent`)."""
+        first = self.settings[0]
+        for settings in self.settings[1:]:
+            for field in dataclasses.fields(first):
+                if not field.metadata.get("per_agent") and getattr(settings, field.name) != \
+                        getattr(first, field.name):
+                    raise ValueError(
+                        f"{self.learner.name} agents of one batch must share {field.name} (it "
+                        f"shapes the program); got {getattr(first, field.name)!r} and "
+                        f"{getattr(settings, field.name)!r}")
+
+    def initial_state(self, key):
+        raise NotImplementedError
+
+    def program(self) -> Program:
+        raise NotImplementedError
+
+    @staticmethod
+    def weight_tree(state):
+        raise NotImplementedError
+
+    def finished(self, state, clocks) -> None:
+        """After a run: the batch's new state and clocks, its weights and divergence."""
+        self.state, self.clocks = state, np.asarray(clocks, dtype=np.int64)
+        self.arrays = self.arrays._replace(weights=flat(self.weight_tree(state)))
+        self.arrays.diverged[:] |= ~np.isfinite(self.arrays.weights).all(axis=1)
+
+    def value_box(self) -> tuple:
+        """The task's normalisation ranges (the networks read states in task units)."""
+        return self.task.low, self.task.high
+
+    def unflatten(self, weights):
+        """One agent's `weight_tree` from its flattened `weights` (`arrays.weights[b]`)."""
+        template = self.jax.tree.map(lambda leaf: leaf[0], self.weight_tree(self.state))
+        leaves, structure = self.jax.tree.flatten(template)
+        sizes = np.cumsum([leaf.size for leaf in leaves])[:-1]
+        parts = np.split(np.asarray(weights, dtype=np.float64), sizes)
+        return self.jax.tree.unflatten(structure, [
+            self.jnp.asarray(part.reshape(leaf.shape), leaf.dtype) for part, leaf in zip(parts, leaves)])
+
+    def over_agents(self, states, weights, values) -> np.ndarray:
+        """`values(tree, states (n, d)) -> (n, ...)` at `states` `(..., d)`, for every agent
+        `(B, ..., ...)` or for one agent's `weights`, as float64."""
+        states = np.asarray(states, dtype=np.float64)
+        flat_states = states.reshape(-1, states.shape[-1])
+
+        def one(tree):
+            result = np.asarray(values(tree, self.jnp.asarray(flat_states)), dtype=np.float64)
+            return result.reshape(states.shape[:-1] + result.shape[1:])
+        if weights is not None:
+            return one(self.unflatten(weights))
+        return np.stack([one(self.unflatten(w)) for w in self.arrays.weights])
+
+    def step(self, *args, **kwargs):
+        raise ValueError(f"{self.learner.name} trains as one JAX program (runners.population): "
+                         "it has no step-by-step loop")
+
+    def saved(self) -> tuple[dict, dict]:
+        """Every leaf of the state, by position in the pytree, and the clocks."""
+        leaves = self.jax.tree.leaves(self.state)
+        arrays = {f"leaf{i}": np.asarray(leaf) for i, leaf in enumerate(leaves)}
+        arrays["diverged"], arrays["clocks"] = self.arrays.diverged, self.clocks
+        document = {"settings": [dataclasses.asdict(s) for s in self.settings],
+                    "seeds": self.seeds, "task": self.task._asdict()}
+        return document, arrays
+
+    @classmethod
+    def loaded(cls, document, arrays, settings_class):
+        from lwrl.agent.learner_contract import TaskInfo
+        task = TaskInfo(**{k: tuple(v) if isinstance(v, list) else v
+                           for k, v in document["task"].items()})
+        agents = cls([settings_class(**s) for s in document["settings"]], task, document["seeds"])
+        leaves, structure = agents.jax.tree.flatten(agents.state)
+        given = [np.asarray(arrays[f"leaf{i}"]) for i in range(len(leaves))]
+        for leaf, value in zip(leaves, given):
+            if value.shape != leaf.shape:
+                raise ValueError(f"a saved array of shape {value.shape} where the learner "
+                                 f"holds {leaf.shape}")
+        agents.finished(agents.jax.tree.unflatten(
+            structure, [agents.jnp.asarray(v, leaf.dtype) for v, leaf in zip(given, leaves)]),
+            arrays["clocks"])
+        return agents
+
+    def take_over(self, kept: "PopulationAgents") -> None:
+        copies = self.copies_of(kept)
+        self.finished(self.jax.tree.map(lambda x: self.jnp.concatenate([x] * copies), kept.state),
+                      np.concatenate([kept.clocks] * copies))
+        self.arrays.diverged[:] = np.concatenate([kept.arrays.diverged] * copies)

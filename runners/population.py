@@ -1,0 +1,212 @@
+"""The third run path: B agents of a population learner (`Learner.population`) and their B
+copies of a task, stepped together in one jitted JAX program over the suite's JAX tasks
+(`lwrl.jax`), as PureJaxRL trains (Lu et al. 2022, "Discovered policy optimisation").
+
+The loop keeps the other loops' protocol and records: agent b's episodes start where
+`runners.episodes.episode_starts` draws them from its seed (the same starts as every other
+learner's agent b), each episode's steps, return, up-time and truncation are recorded as
+`runners.episodes.finish_episode` records them, an agent stops after K episodes or when
+its weights stop being finite (the episode it diverged in cut there). Each agent counts its
+own steps (`PopulationAgents.clocks`: its rollout's slots, its schedules, the end of its
+learning) and the learner's `update` runs as one branch of the program where `update_due`
+says for some agent, applied to those agents only: the batch's agents start together and
+step together, so the branch runs once per rollout, not at every step to be discarded.
+
+The program runs in chunks of `CHUNK` steps, so that progress is reported and a Ctrl-C
+stops the run between two chunks with every finished episode kept (`interrupted`). A chunk
+is compiled once per process for what shapes it (the task and its options, the learner's
+batch-wide settings, the batch's size, the episodes, learning or not), the per-agent settings
+being its arguments; XLA's compiled code is also kept on disk beside lwrl's numba kernels
+(`lwrl.kernels.cache_root`, JAX's persistent compilation cache), so a later process loads it.
+"""
+
+import dataclasses
+
+import numpy as np
+
+from lwrl import kernels, tasks
+from lwrl.runners.episodes import EpisodeResults, episode_starts
+from lwrl.settings import check_count
+
+CHUNK = 1024
+"""Steps of the batch per call of the compiled program."""
+STREAM = 0x9E37
+"""Added to an agent's seed for the key of its actions and its environment's noise, apart
+from the key its learner's state starts from."""
+
+
+def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: bool = True,
+                   greedy: bool = False, progress=None, record=(), plant: str = "analytic",
+                   integrator: str = "semi_implicit", equations: str = "paper", params=None,
+                   observation_noise=None, action_delay=0, action_noise=0.0, randomise=None,
+                   **task_options) -> EpisodeResults:
+    """Run `agent` (a population learner's agents, `agent.jax_population.PopulationAgents`)
+    for `episodes` episodes each on `domain.task`'s JAX plant, agent b from `seeds[b]`'s
+    starts with the physical parameter values of row b of `params` (`{name: value or B
+    values}`); `learn` and `greedy` as for `Agents.step`. A one-line ValueError for what
+    the path does not run: a plant but the analytic one, recordings, randomised physics,
+    per-agent sensor or actuator options."""
+    import jax.numpy as jnp
+    import lwrl.jax as jax_tasks
+
+    episodes = check_count("episodes", episodes, 1)
+    name = agent.learner.name
+    if plant != "analytic":
+        raise ValueError(f"{name} runs on the analytic plant only (its JAX port, lwrl.jax); "
+                         f"got plant {plant!r}")
+    if len(record):
+        raise ValueError(f"{name} keeps no recordings: it trains as one JAX program")
+    if randomise:
+        raise ValueError(f"{name} does not draw physical parameters per episode (randomise)")
+    env_options = dict(integrator=integrator, equations=equations,
+                       observation_noise=observation_noise, action_delay=action_delay,
+                       action_noise=action_noise, **task_options)
+    env, _ = jax_tasks.make(f"{domain}.{task}", **env_options)
+    batch = agent.batch_size
+    physical = jnp.asarray(tasks.domain(domain).parameters.values(params, batch))
+    starts = jnp.asarray(episode_starts(env.definition, seeds, episodes))
+    program = agent.program()
+    shape = (env.name, repr(sorted(env_options.items())), type(agent), agent.dim,
+             agent.num_actions, repr(_shared_settings(agent.settings[0])), batch, episodes,
+             bool(learn), bool(greedy), CHUNK)
+    if shape not in _CHUNKS:
+        _use_disk_cache()
+        _CHUNKS[shape] = _compiled_chunk(env, program, episodes, agent.weight_tree,
+                                         bool(learn), bool(greedy))
+    step = _CHUNKS[shape]
+    carry = _first_carry(env, agent, starts, episodes)
+    results = EpisodeResults.empty(batch, episodes)
+    try:
+        while bool(np.any(np.asarray(carry["active"]))):
+            before = int(np.asarray(carry["done"]).sum())
+            carry = step(carry, program.hyper, physical, starts)
+            if progress is not None:
+                progress(int(np.asarray(carry["done"]).sum()) - before)
+    except KeyboardInterrupt:
+        results.interrupted = True
+    agent.finished(carry["learner"], np.asarray(carry["clock"]))
+    ran = np.arange(episodes)[None, :] < np.asarray(carry["done"])[:, None]
+    for field, values in (("steps", results.steps), ("returns", results.returns),
+                          ("uptime", results.uptime)):
+        values[ran] = np.asarray(carry[field], dtype=np.float64)[ran]
+    results.truncated[ran] = np.asarray(carry["truncated"])[ran]
+    results.diverged_episode[:] = np.asarray(carry["diverged_episode"])
+    agent.arrays.diverged[:] |= results.diverged_episode >= 0
+    return results
+
+
+_CHUNKS: dict = {}
+"""The compiled chunks of this process, by what shapes them."""
+
+
+def _shared_settings(settings) -> tuple:
+    """The settings a batch shares (not `per_agent`): they shape the program."""
+    return tuple((field.name, getattr(settings, field.name)) for field in
+                 dataclasses.fields(settings) if not field.metadata.get("per_agent"))
+
+
+def _use_disk_cache() -> None:
+    """JAX's persistent compilation cache in `<lwrl cache>/jax`, for programs that take a
+    second or more to compile (where the cache directory can be written)."""
+    import jax
+    directory = kernels.cache_root() / "jax"
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return
+    if jax.config.jax_compilation_cache_dir is None:
+        jax.config.update("jax_compilation_cache_dir", str(directory))
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
+
+
+def _first_carry(env, agent, starts, episodes: int) -> dict:
+    """Every agent at its first episode's start, nothing recorded."""
+    import jax
+    import jax.numpy as jnp
+    batch = agent.batch_size
+    clocks = jnp.asarray(agent.clocks, jnp.int32)
+    keys = jax.vmap(jax.random.fold_in)(  # each agent's stream, where its last run left it
+        jax.vmap(jax.random.PRNGKey)(jnp.asarray(agent.seeds, jnp.uint32) + jnp.uint32(STREAM)),
+        clocks)
+    observation, state = jax.vmap(env.start)(keys, starts[:, 0])
+    nan = jnp.full((batch, episodes), jnp.nan)
+    return {"learner": agent.state, "env": state, "observation": observation,
+            "start": jnp.ones(batch, bool), "total": jnp.zeros(batch), "key": keys,
+            "clock": clocks,
+            "done": jnp.zeros(batch, jnp.int32), "active": ~jnp.asarray(agent.arrays.diverged),
+            "steps": nan, "returns": nan, "uptime": nan,
+            "truncated": jnp.zeros((batch, episodes), bool),
+            "diverged_episode": jnp.full(batch, -1, jnp.int32)}
+
+
+def _compiled_chunk(env, program, episodes: int, weight_tree, learn: bool, greedy: bool):
+    """`CHUNK` steps of the batch as one jitted function of the carry."""
+    import jax
+    import jax.numpy as jnp
+
+    def finish(row, ended, steps, total, uptime, truncated):
+        """`finish_episode` of one agent where `ended`: its episode's record at `done`."""
+        k = jnp.minimum(row["done"], episodes - 1)
+        put = lambda values, value: jnp.where(ended, values.at[k].set(value), values)
+        return {**row, "steps": put(row["steps"], steps.astype(row["steps"].dtype)),
+                "returns": put(row["returns"], total), "uptime": put(row["uptime"], uptime),
+                "truncated": put(row["truncated"], truncated),
+                "done": row["done"] + ended.astype(jnp.int32)}
+
+    def agent_step(row, hyper, physical, starts):
+        clock = row["clock"]
+        learning = learn & (clock < hyper["learning_steps"])
+        key, act_key, env_key, start_key = jax.random.split(row["key"], 4)
+        action, extras = program.act(row["learner"], row["observation"], act_key, hyper,
+                                     greedy | ~learning, clock)
+        observation, state, reward, terminated, truncated, info = env.step_env(
+            env_key, row["env"], action, physical)
+        learner = program.record(row["learner"], extras, row["observation"], action, reward,
+                                 terminated, truncated, observation, hyper, clock,
+                                 learning & row["active"])
+        ended = terminated | truncated
+        total = row["total"] + reward
+        new = finish({**row, "learner": learner, "key": key}, ended, state.steps, total,
+                     state.uptime, truncated)
+        start_observation, start = env.start(
+            start_key, starts[jnp.minimum(new["done"], episodes - 1)])
+        new = {**new, "env": jax.tree.map(lambda a, b: jnp.where(ended, a, b), start, state),
+               "observation": jnp.where(ended, start_observation, observation),
+               "start": ended, "total": jnp.where(ended, 0.0, total),
+               "clock": clock + learn, "due": learning & program.update_due(hyper, clock)}
+        new["active"] = new["done"] < episodes
+        rest = [name for name in new if name != "learner"]  # the learner masks its own writes
+        kept = jax.tree.map(lambda a, b: jnp.where(row["active"], a, b),
+                            {name: new[name] for name in rest}, {name: row[name] for name in rest})
+        return {**kept, "learner": learner, "due": new["due"] & row["active"]}
+
+    def diverge(row):
+        """An agent whose weights are no longer finite: its episode is cut and it stops."""
+        finite = jnp.all(jnp.stack([jnp.all(jnp.isfinite(leaf)) for leaf in
+                                    jax.tree.leaves(weight_tree(row["learner"]))]))
+        newly = row["active"] & ~finite
+        new = finish(row, newly, row["env"].steps, row["total"], row["env"].uptime, False)
+        return {**new, "active": new["active"] & finite,
+                "diverged_episode": jnp.where(newly, row["done"], row["diverged_episode"])}
+
+    def update(carry, hyper):
+        """The learner's update for the agents whose rollout the step just filled."""
+        learner = jax.vmap(program.update)(
+            carry["learner"], carry["observation"], carry["start"].astype(jnp.float32), hyper,
+            carry["clock"] - 1, carry["due"])
+        return jax.vmap(diverge)({**carry, "learner": learner})
+
+    def one(carry, _, hyper, physical, starts):
+        carry = jax.vmap(agent_step)(carry, hyper, physical, starts)
+        carry = jax.lax.cond(jnp.any(carry["due"]), lambda c: update(c, hyper), lambda c: c,
+                             carry)
+        return carry, None
+
+    @jax.jit
+    def chunk(carry, hyper, physical, starts):
+        carry = {**carry, "due": jnp.zeros_like(carry["active"])}
+        carry = jax.lax.scan(lambda c, x: one(c, x, hyper, physical, starts), carry, None,
+                             length=CHUNK)[0]
+        return {name: value for name, value in carry.items() if name != "due"}
+
+    return chunk

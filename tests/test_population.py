@@ -1,0 +1,217 @@
+"""The JAX population learners (`ppo_jax`, `dqn_jax`) against Stable-Baselines3's own training
+step: from the same weights and the same data, one update of each gives SB3's weights (to
+float32 round-off); and what the population path promises beside the learner contract
+(`tests/test_learners.py`): the task's starts, refusals in one line, learning."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+pytest.importorskip("jax", reason="the population learners need the jax extra: pip install 'lwrl[jax]'")
+
+from lwrl import agent as learners  # noqa: E402
+from lwrl.agent.stable_baselines import missing_libraries, spaces_env  # noqa: E402
+from lwrl.runners import episodes as episode_records, population  # noqa: E402
+from lwrl.runners.config import RunConfig, task_info  # noqa: E402
+from lwrl.runners.run import make_agent, run  # noqa: E402
+
+TASK = task_info("cartpole.balance")
+needs_sb3 = pytest.mark.skipif(bool(missing_libraries()), reason="needs the baselines extra: "
+                               "pip install 'lwrl[baselines]'")
+
+
+def sb3_model(kind, settings, seed=0):
+    """An SB3 model set up as `agent.stable_baselines.ModelAgents` sets it up."""
+    import stable_baselines3
+    from stable_baselines3.common.logger import Logger
+    common = dict(learning_rate=settings.learning_rate, gamma=settings.gamma,
+                  max_grad_norm=settings.max_grad_norm, seed=seed, device="cpu",
+                  policy_kwargs={"net_arch": settings.layers()})
+    env = spaces_env(len(TASK.state_names), TASK.num_actions)
+    if kind == "ppo":
+        model = stable_baselines3.PPO(
+            "MlpPolicy", env, n_steps=settings.n_steps, batch_size=settings.batch_size,
+            n_epochs=settings.n_epochs, gae_lambda=settings.gae_lambda,
+            clip_range=settings.clip_range, ent_coef=settings.ent_coef, vf_coef=settings.vf_coef,
+            **common)
+    else:
+        model = stable_baselines3.DQN(
+            "MlpPolicy", env, buffer_size=settings.buffer_size, batch_size=settings.batch_size,
+            learning_starts=0, tau=settings.tau, train_freq=settings.train_freq,
+            gradient_steps=settings.gradient_steps,
+            target_update_interval=settings.target_update_interval, **common)
+    model.set_logger(Logger(folder=None, output_formats=[]))
+    model._setup_learn(total_timesteps=settings.timesteps)
+    return model
+
+
+def copy_into(torch, layers, linears):
+    """JAX layers `[(W (in, out), b)]` into torch `Linear`s (weight (out, in))."""
+    with torch.no_grad():
+        for (w, b), linear in zip(layers, linears):
+            linear.weight.copy_(torch.from_numpy(np.asarray(w).T.copy()))
+            linear.bias.copy_(torch.from_numpy(np.asarray(b).copy()))
+
+
+def linears(torch, module):
+    return [m for m in module.modules() if isinstance(m, torch.nn.Linear)]
+
+
+def assert_layers_close(layers, modules, torch):
+    for (w, b), linear in zip(layers, modules):
+        np.testing.assert_allclose(np.asarray(w).T, linear.weight.detach().numpy(), rtol=2e-5, atol=2e-6)
+        np.testing.assert_allclose(np.asarray(b), linear.bias.detach().numpy(), rtol=2e-5, atol=2e-6)
+
+
+@needs_sb3
+def test_one_ppo_update_is_sb3s_train():
+    """A rollout of 8 transitions (two episodes, one cut by a time limit), one epoch of one
+    minibatch (so the order of the minibatch does not matter): SB3's GAE and `PPO.train`
+    give the weights `ppo_jax`'s update gives."""
+    import jax
+    import jax.numpy as jnp
+    import torch
+    settings = learners.learner("ppo_jax").settings(
+        net_arch="8,8", n_steps=8, batch_size=8, n_epochs=1, timesteps=1000, ent_coef=0.01,
+        learning_rate=0.01)
+    agents = make_agent(RunConfig(task="cartpole.balance", learner="ppo_jax", agents=1,
+                                  **{f.name: getattr(settings, f.name)
+                                     for f in dataclasses.fields(settings)}))
+    rng = np.random.default_rng(0)
+    state = jax.tree.map(lambda x: x[0], agents.state)
+    observations = rng.normal(size=(9, 4)).astype(np.float32)
+    actions = rng.integers(2, size=8).astype(np.int32)
+    rewards = rng.normal(size=8).astype(np.float32)
+    starts = np.array([1, 0, 0, 0, 1, 0, 0, 0], dtype=np.float32)
+    log_probs, values = agents.forward(state["params"], jnp.asarray(observations))
+    buffer = {"observations": jnp.asarray(observations[:8]), "actions": jnp.asarray(actions),
+              "rewards": jnp.asarray(rewards), "starts": jnp.asarray(starts),
+              "values": values[:8], "log_probs": log_probs[jnp.arange(8), actions]}
+    program = agents.program()
+    hyper = {name: jnp.asarray(values_[0]) for name, values_ in program.hyper.items()}
+    updated = program.update({**state, "buffer": buffer}, jnp.asarray(observations[8]),
+                             jnp.float32(0.0), hyper, 7, True)
+
+    model = sb3_model("ppo", settings)
+    policy = model.policy
+    copy_into(torch, state["params"]["actor"], linears(torch, policy.mlp_extractor.policy_net)
+              + [policy.action_net])
+    copy_into(torch, state["params"]["critic"], linears(torch, policy.mlp_extractor.value_net)
+              + [policy.value_net])
+    for t in range(8):
+        model.rollout_buffer.add(observations[t:t + 1], actions[t:t + 1, None], rewards[t:t + 1],
+                                 starts[t:t + 1].astype(bool),
+                                 torch.tensor([float(values[t])]),
+                                 torch.tensor([float(log_probs[t, actions[t]])]))
+    model.rollout_buffer.compute_returns_and_advantage(
+        last_values=torch.tensor([[float(values[8])]]), dones=np.array([False]))
+    model.num_timesteps = 8
+    model._update_current_progress_remaining(8, settings.timesteps)
+    model.train()
+    assert_layers_close(updated["params"]["actor"],
+                        linears(torch, policy.mlp_extractor.policy_net) + [policy.action_net], torch)
+    assert_layers_close(updated["params"]["critic"],
+                        linears(torch, policy.mlp_extractor.value_net) + [policy.value_net], torch)
+
+
+@needs_sb3
+def test_one_dqn_update_is_sb3s_train():
+    """A replay buffer of one transition repeated (so the batch SB3 samples is the one JAX
+    samples), one gradient step: SB3's `DQN.train` gives the weights `dqn_jax`'s gives."""
+    import jax
+    import jax.numpy as jnp
+    import torch
+    settings = learners.learner("dqn_jax").settings(
+        net_arch="8,8", buffer_size=16, batch_size=4, gradient_steps=1, train_freq=1,
+        timesteps=1000, learning_rate=0.01, learning_starts=0, max_grad_norm=0.5)
+    agents = make_agent(RunConfig(task="cartpole.balance", learner="dqn_jax", agents=1,
+                                  **{f.name: getattr(settings, f.name)
+                                     for f in dataclasses.fields(settings)}))
+    rng = np.random.default_rng(1)
+    state = jax.tree.map(lambda x: x[0], agents.state)
+    target = jax.tree.map(lambda x: x + 0.1, state["params"])  # a target apart from the net
+    observation, next_observation = rng.normal(size=(2, 4)).astype(np.float32)
+    buffer = {"observations": jnp.tile(observation, (16, 1)),
+              "next_observations": jnp.tile(next_observation, (16, 1)),
+              "actions": jnp.ones(16, jnp.int32), "rewards": jnp.full(16, 0.5, jnp.float32),
+              "terminals": jnp.zeros(16, jnp.float32), "count": jnp.int32(16)}
+    program = agents.program()
+    hyper = {name: jnp.asarray(values_[0]) for name, values_ in program.hyper.items()}
+    updated = program.update({**state, "buffer": buffer, "target": target}, None, None, hyper,
+                             15, True)
+
+    model = sb3_model("dqn", settings)
+    copy_into(torch, state["params"], linears(torch, model.q_net))
+    copy_into(torch, target, linears(torch, model.q_net_target))
+    for _ in range(16):
+        model.replay_buffer.add(observation[None].astype(np.float64),
+                                next_observation[None].astype(np.float64), np.array([[1]]),
+                                np.array([0.5]), np.array([False]), [{}])
+    model.num_timesteps = 16
+    model._update_current_progress_remaining(16, settings.timesteps)
+    model.train(gradient_steps=1, batch_size=4)
+    assert_layers_close(updated["params"], linears(torch, model.q_net), torch)
+
+
+@pytest.mark.parametrize("name", ["ppo_jax", "dqn_jax"])
+def test_episodes_start_where_every_learners_start(name, monkeypatch):
+    """Agent b's episode k starts where `runners.episodes.episode_starts` puts it (the
+    protocol's starts, drawn from the agent's seed as every loop draws them): here a start
+    one step from Mountain-Car's goal for the second episode of every agent."""
+    drawn = []
+
+    def starts(definition, seeds, episodes):
+        values = episode_records.episode_starts(definition, seeds, episodes)
+        values[:, 1] = (0.49, 0.07)
+        drawn.append((list(seeds), episodes))
+        return values
+    monkeypatch.setattr(population, "episode_starts", starts)
+    settings = learners.learner(name).settings(
+        timesteps=100, **({"n_steps": 64, "batch_size": 64} if name == "ppo_jax" else
+                          {"buffer_size": 100}))
+    config = RunConfig(task="mountain_car.cost_to_go", learner=name, agents=3, episodes=3,
+                       seed=4, plant="analytic", agent=settings, task_options={"time_limit": 50})
+    _, results = run(config)
+    assert drawn == [([4, 5, 6], 3)]
+    np.testing.assert_array_equal(results.steps[:, 1], 1.0)
+    np.testing.assert_array_equal(results.returns[:, 1], 0.0)
+    assert np.all(np.isfinite(results.steps))
+
+
+@pytest.mark.parametrize("name", ["ppo_jax", "dqn_jax"])
+def test_how_the_program_is_cut_into_chunks_changes_no_number(name, monkeypatch):
+    """The runner steps the batch in compiled chunks of `CHUNK` steps (so that progress is
+    reported and Ctrl-C stops between two): chunks of 7 steps give the same episodes and
+    weights as the default's, an episode and a rollout crossing many chunk boundaries."""
+    settings = learners.learner(name).settings(
+        timesteps=2000, **({"n_steps": 64, "batch_size": 32} if name == "ppo_jax" else
+                           {"buffer_size": 500, "learning_starts": 50}))
+    config = RunConfig(task="pendulum.swingup", learner=name, agents=2, episodes=3, seed=3,
+                       plant="analytic", agent=settings, task_options={"time_limit": 2.0})
+    whole_agent, whole = run(config)
+    monkeypatch.setattr(population, "CHUNK", 7)
+    chunked_agent, chunked = run(config)
+    for field in ("steps", "returns", "uptime", "truncated", "diverged_episode"):
+        np.testing.assert_array_equal(getattr(chunked, field), getattr(whole, field))
+    np.testing.assert_array_equal(chunked_agent.arrays.weights, whole_agent.arrays.weights)
+
+
+@pytest.mark.parametrize("change, message", [
+    (dict(plant="mujoco", task="cartpole.balance"), "runs on the analytic plant only"),
+    (dict(randomise={"pole_mass": (0.05, 0.2)}), "does not draw physical parameters"),
+])
+def test_what_the_population_path_does_not_run_is_refused_in_one_line(change, message):
+    config = RunConfig(**{**dict(task="cartpole.balance", learner="ppo_jax", agents=2,
+                                 episodes=1, plant="analytic"), **change})
+    with pytest.raises(ValueError) as error:
+        run(config)
+    assert message in str(error.value) and "\n" not in str(error.value)
+
+
+def test_a_batch_of_settings_that_cannot_be_batched_is_refused_in_one_line():
+    first = learners.learner("ppo_jax").settings(n_steps=64, batch_size=64)
+    second = dataclasses.replace(first, batch_size=32)
+    with pytest.raises(ValueError) as error:
+        learners.learner("ppo_jax").make([first, second], TASK, [0, 1])
+    assert "must share batch_size" in str(error.value) and "\n" not in str(error.value)
