@@ -58,9 +58,12 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
         raise ValueError(f"{name} keeps no recordings: it trains as one JAX program")
     if randomise:
         raise ValueError(f"{name} does not draw physical parameters per episode (randomise)")
+    sensors = {name: {variable: _one(name, sigma) for variable, sigma in
+                      (observation_noise or {}).items()} for name in ["observation_noise"]}
     env_options = dict(integrator=integrator, equations=equations,
-                       observation_noise=observation_noise, action_delay=action_delay,
-                       action_noise=action_noise, **task_options)
+                       action_delay=_one("action_delay", action_delay),
+                       action_noise=_one("action_noise", action_noise), **sensors,
+                       **task_options)
     env, _ = jax_tasks.make(f"{domain}.{task}", **env_options)
     batch = agent.batch_size
     physical = jnp.asarray(tasks.domain(domain).parameters.values(params, batch))
@@ -93,6 +96,17 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
     results.diverged_episode[:] = np.asarray(carry["diverged_episode"])
     agent.arrays.diverged[:] |= results.diverged_episode >= 0
     return results
+
+
+def _one(name: str, value):
+    """An environment option the batch shares: a number, or B equal numbers (a batch joining
+    several runs, `runners.run.environment_options`); a one-line ValueError where its agents
+    differ in it (the JAX task takes its sensors and actuator for the whole batch)."""
+    values = np.unique(np.ravel(np.asarray(value, dtype=np.float64)))
+    if len(values) > 1:
+        raise ValueError(f"a population learner's batch takes one {name} for all its agents; "
+                         f"got {sorted(values.tolist())}")
+    return value if np.ndim(value) == 0 else type(np.ravel(value)[0].item())(values[0])
 
 
 _CHUNKS: dict = {}

@@ -97,9 +97,13 @@ def values(task: str, cell: Cell) -> dict:
 
 
 def learners_for(task: str) -> list:
-    """The learners of the registry that fit `task`, in the registry's order."""
+    """The learners of the registry that fit `task`, in the registry's order, but those
+    that train on the JAX tasks (`Learner.population`): their run path does not yet draw
+    parameters per episode nor take sensor and actuator options per agent, which the
+    study's trainings and cells need."""
     info = task_info(task)
-    return [name for name, learner in learners.LEARNERS.items() if learner.fits(info) is None]
+    return [name for name, learner in learners.LEARNERS.items()
+            if learner.fits(info) is None and not learner.population]
 
 
 def agents_for(task: str, learner: str, agents=None):
