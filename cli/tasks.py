@@ -1,5 +1,5 @@
 """`lwrl tasks`: the suite's tasks and their plants, or (`--parameters`) each domain's
-physical parameters as the README's tables."""
+physical parameters as the tasks page's tables (docs/guide/tasks.md)."""
 
 from lwrl import tasks
 

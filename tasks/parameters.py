@@ -108,7 +108,7 @@ class Parameters:
         return values
 
     def table(self) -> str:
-        """The parameters as a Markdown table (the README's, checked by a test)."""
+        """The parameters as a Markdown table (docs/guide/tasks.md's, checked by a test)."""
         lines = ["| parameter | symbol | unit | nominal | accepted range | what it is |",
                  "|---|---|---|---|---|---|"]
         lines += [f"| `{p.name}` | {p.symbol} | {p.unit} | {p.nominal:g} | {p.low:g} to {p.high:g} "

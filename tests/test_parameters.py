@@ -367,13 +367,20 @@ def test_bad_parameter_values_are_one_line_naming_what_is_allowed(data, domain, 
         assert message.startswith("params must be a mapping")
 
 
-def test_the_readme_has_each_domains_parameters():
-    """The README's tables are `lwrl tasks --parameters`'s (run it and paste them when a
-    declaration changes)."""
+def test_the_docs_have_each_domains_parameters():
+    """The tasks page's tables (docs/guide/tasks.md) are `lwrl tasks --parameters`'s: the
+    site's hook writes them in from the declarations where the page marks their place."""
+    import importlib.util
+
     from lwrl.cli.tasks import parameter_tables
 
-    readme = (pathlib.Path(__file__).resolve().parents[1] / "README.md").read_text()
-    assert parameter_tables() in readme, "put `lwrl tasks --parameters`'s output in the README"
+    docs = pathlib.Path(__file__).resolve().parents[1] / "docs"
+    spec = importlib.util.spec_from_file_location("lwrl_docs_hooks", docs / "hooks.py")
+    hooks = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(hooks)
+    page = (docs / "guide" / "tasks.md").read_text()
+    assert hooks.PARAMETER_TABLES in page, "mark the tables' place on the tasks page"
+    assert parameter_tables() in hooks.generate(page)
 
 
 def test_a_parameter_declared_in_its_domain_alone_reaches_every_path(monkeypatch, capsys):

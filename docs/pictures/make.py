@@ -1,4 +1,5 @@
-"""The README's pictures, made again by the commands they show.
+"""The pictures of the README and the documentation site, made again by the commands they
+show: the front page's learning curve and the Rerun page's viewer (docs/guide/rerun.md).
 
     python docs/pictures/make.py [learning_curve] [viewer]    (both by default)
 
