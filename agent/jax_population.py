@@ -174,7 +174,7 @@ class PopulationAgents(Agents):
         self.check_batchable()
         self.dim = len(task.state_names)
         keys = self.jax.vmap(self.jax.random.PRNGKey)(self.jnp.asarray(self.seeds, self.jnp.uint32))
-        self.state = self.jax.vmap(self.initial_state)(keys)
+        self.state = self.jax.jit(self.jax.vmap(self.initial_state))(keys)  # one program
         self.clocks = np.zeros(len(self.seeds), dtype=np.int64)
         batch = len(self.seeds)
         self.arrays = PopulationArrays(q=np.zeros((batch, task.num_actions)),

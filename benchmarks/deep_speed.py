@@ -1,0 +1,819 @@
+"""What each learner costs: CPU per agent-step of the JAX population learners (`ppo_jax`,
+`dqn_jax`) against their Stable-Baselines3 twins (`ppo`, `dqn`), their compile time, and for
+every learner of the registry the counted arithmetic of one greedy decision and one
+agent-step of learning beside the time measured.
+
+Workload (`FULL`): the pendulum swing-up (`pendulum.swingup`, analytic plant) cut at a
+`time_limit` of 10.24 s, 512 steps: the task has no terminal state, so every agent takes
+512 steps an episode and 1024 in its 2 episodes (exactly one chunk of the population
+program, `runners.population.CHUNK`, so no scanned step is spent on finished agents). The
+twins of a pair take the same settings (`SETTINGS`): PPO with rollouts of 512 (one rollout
+an episode: two updates per agent), 10 epochs of minibatches of 64, MLP 64,64; DQN with SB3's
+defaults but a replay buffer of 50 000 and learning from step 100; `timesteps` 100 000 for
+both, so that every agent learns throughout the run. Agent b has seed b.
+
+One run of this script measures:
+
+1. **CPU per agent-step**, `time.process_time()` (every thread of the process) over a whole
+   `runners.run.run(config)` from new agents, divided by its agent-steps (the sum of
+   `results.steps`), and its wall time likewise. Each measurement repeats the run until
+   `--seconds` of wall time have passed (at least `MIN_RUNS` runs; one for a batch of
+   SB3's agents, whose run lasts from half a minute to two) and reports the median over the
+   runs; the JAX learners' first run compiles (the program is cached in the process by its
+   shape, `runners.population._CHUNKS`) and is not timed. SB3's learners (one model per
+   agent, stepped one after another, torch on one thread) at 1, 16 and 64 agents, after an
+   untimed warm-up run of one agent; the JAX learners at 1, 16 and 64 agents, under two
+   conditions (3.).
+2. **Greedy decisions**: the same at 16 agents with `learn=False, greedy=True` (an
+   evaluation: no update, the greedy action), one thread.
+3. **One thread against both cores** (JAX): every JAX measurement runs in a subprocess of
+   this script (`--worker`), one per condition, whose environment is set before JAX is
+   imported. *One thread*: `XLA_FLAGS="--xla_cpu_multi_thread_eigen=false
+   intra_op_parallelism_threads=1"` and the process pinned to one core
+   (`os.sched_setaffinity`), because the flag alone does not keep XLA on one thread: with
+   it, and without it, XLA's CPU client runs the program on two `tf_XLAEigen` threads,
+   both running at once a fifth to a third of the time (measured at 64 `ppo_jax` agents
+   while writing this benchmark); pinned, XLA starts one such thread. *Both cores*: neither. The
+   script checks the condition it got: how many XLA threads the process has, the busiest
+   thread's share of the process's CPU time (from `/proc/self/task`), and, over one extra
+   run of the largest batch, how often two XLA threads were running at once (sampled every
+   2 ms). SB3's learners are one thread by construction (lwrl sets torch to one thread,
+   `agent.stable_baselines.torch_modules`), measured in this process; the busiest-thread
+   share checks that too. The compiled learners (the table of 5.) run in this process with
+   lwrl's loop on one worker thread (`agent.threads.set_workers(1)`).
+4. **Compile time** of `ppo_jax` and `dqn_jax`: the first run's wall time minus the second's
+   (the same work), with how many XLA programs the first run compiled (JAX's
+   `/jax/core/compile/backend_compile_duration` events: the population program and the
+   small programs of the eager operations around it) and whether any later run compiled
+   again (it must not). JAX's persistent compilation cache is off unless `--cached`
+   (else a later process loads the program from lwrl's cache and the "compile" is a load).
+5. **Counted arithmetic** of every learner of the registry (`lwrl.agent.LEARNERS`), on the
+   benchmark's settings (the twins) or its task's defaults (the others, on the workload's
+   task where they fit it, else on the first task of the suite they fit): multiply-adds
+   (MACs) and exponentials (exp, tanh, log and cos count one each) of one greedy decision
+   and of one agent-step of learning (its action and its share of the updates, amortised
+   over the measured run), from the shapes (`counted` and the small functions it calls,
+   each citing what it counts): the NRBF grid, the MLPs' layers, the replay ratio, epochs
+   and minibatches. A learner whose settings they do not know is "not counted". Beside each
+   count: the CPU time per agent-step measured at 16 agents on one thread and the ns per
+   counted MAC (which includes the plant's step and the loop, not counted).
+
+Ratios are of times measured in the same run of this script; the machine's load average is
+printed with every measurement, since other jobs change what the figures mean (CPU time
+less than wall time). The aims (from the issue): `ppo_jax` at most 1/20 of SB3 PPO's CPU
+per agent-step at 16 agents, `dqn_jax` at most 1/4 of SB3 DQN's.
+
+Run from the repository root (the JAX part needs the `jax` extra, the SB3 part the
+`baselines` extra; either part is skipped, saying so, without its extra):
+
+    python -m benchmarks.deep_speed            # 10-20 minutes on two loaded cores
+    python -m benchmarks.deep_speed --quick    # smoke test: tiny networks and episodes
+"""
+
+import argparse
+import contextlib
+import dataclasses
+import json
+import math
+import os
+import pathlib
+import platform
+import statistics
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+
+from benchmarks.agent_speed import cpu_model, plural
+from lwrl import agent as learners
+from lwrl import tasks
+from lwrl.agent.ase_ace import BOXES, AseAceSettings
+from lwrl.agent.dqn import DqnSettings
+from lwrl.agent.ppo import PpoSettings
+from lwrl.agent.sarsa import SarsaSettings
+from lwrl.agent.threads import set_workers, workers
+from lwrl.agent.true_online_sarsa import TrueOnlineSettings
+from lwrl.runners.config import RunConfig, task_info
+from lwrl.runners.run import run
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+TASK = "pendulum.swingup"
+"""The workload's task: no terminal state, so every agent takes as many steps."""
+PAIRS = {"ppo": "ppo_jax", "dqn": "dqn_jax"}
+"""Each SB3 learner and its JAX twin."""
+FAMILY = {**{sb3: sb3 for sb3 in PAIRS}, **{twin: sb3 for sb3, twin in PAIRS.items()}}
+"""Which settings (`Workload.settings`) each learner of a pair takes."""
+ONE_THREAD_FLAGS = "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
+CONDITIONS = ("one", "both")
+"""One thread, both cores (module docstring, 3.)."""
+MIN_RUNS = 2
+"""Timed runs of a measurement at least (after the untimed first of the JAX learners)."""
+MAX_RUNS = 40
+"""Timed runs of a measurement at most."""
+SAMPLE_PERIOD = 0.002
+"""Seconds between two samples of the running XLA threads."""
+OPTIMISER_MACS = 10
+"""Arithmetic per parameter of one gradient step beside the gradient, counted as
+multiply-adds: the global norm (1) and the clipping's scale (1), Adam's first moment (2),
+second moment (3) and step (3, with a square root and a division)
+(`agent.jax_population.clip_by_norm`, `adam`; PyTorch's `clip_grad_norm_` and Adam)."""
+BACKWARD_MACS = 2
+"""A backward pass in forward passes' multiply-adds (the gradients with respect to each
+layer's input and to its weights): forward and backward cost 3 forward passes."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Workload:
+    """What is run: the episodes, the batch sizes and the twins' settings."""
+
+    time_limit: float
+    """Seconds of an episode of `TASK` (50 steps a second)."""
+    episodes: int
+    agents: tuple
+    reference: int
+    """The batch size of the aims, the greedy runs and the counted-arithmetic table."""
+    settings: dict
+    """`{family: {setting: value}}`, the twins' settings."""
+    other_episodes: int
+    """Episodes per agent of a learner measured on another task than `TASK` (they end on
+    terminal states there)."""
+
+
+FULL = Workload(time_limit=10.24, episodes=2, agents=(1, 16, 64), reference=16, settings={
+    "ppo": dict(n_steps=512, batch_size=64, n_epochs=10, net_arch="64,64", timesteps=100_000),
+    "dqn": dict(buffer_size=50_000, learning_starts=100, net_arch="64,64", timesteps=100_000)},
+    other_episodes=20)
+QUICK = Workload(time_limit=0.16, episodes=2, agents=(1, 2), reference=2, settings={
+    "ppo": dict(n_steps=8, batch_size=4, n_epochs=2, net_arch="8", timesteps=1000),
+    "dqn": dict(buffer_size=64, learning_starts=2, batch_size=4, net_arch="8", timesteps=1000)},
+    other_episodes=2)
+QUICK_SECONDS = 0.05
+"""Time budget per measurement with `--quick`."""
+
+
+# --- Counted arithmetic ----------------------------------------------------------------------
+
+@dataclasses.dataclass(frozen=True)
+class Count:
+    """Multiply-adds and exponentials (exp, tanh, log, cos: one each)."""
+
+    macs: float = 0.0
+    exps: float = 0.0
+
+    def __add__(self, other: "Count") -> "Count":
+        return Count(self.macs + other.macs, self.exps + other.exps)
+
+    def __mul__(self, factor: float) -> "Count":
+        return Count(self.macs * factor, self.exps * factor)
+
+    __rmul__ = __mul__
+
+
+@dataclasses.dataclass(frozen=True)
+class Counts:
+    """A learner's counts: one greedy decision, and one agent-step of learning (its action
+    and `update`, its share of the updates), with where they come from."""
+
+    decision: Count
+    step: Count
+    update: Count
+    source: str
+
+
+def mlp_forward(sizes, exponential_activation: bool) -> Count:
+    """One forward pass of an MLP with layer widths `sizes` (input, hidden..., output), SB3's
+    `create_mlp`: in x out multiply-adds per layer (the biases' additions not counted) and
+    one activation per hidden unit, an exponential where it is tanh (ReLU: none)."""
+    macs = sum(a * b for a, b in zip(sizes[:-1], sizes[1:]))
+    return Count(macs, sum(sizes[1:-1]) if exponential_activation else 0)
+
+
+def mlp_parameters(sizes) -> int:
+    """Weights and biases of an MLP with layer widths `sizes`."""
+    return sum(a * b + b for a, b in zip(sizes[:-1], sizes[1:]))
+
+
+def nrbf_decision(dim: int, n: int, actions: int) -> Count:
+    """One greedy decision over NRBF features (Främling 2008, eq. 8, 9) as `agent/nrbf.py`
+    computes them: d n exponentials (eq. 8 factorised per dimension; as written it takes one
+    per feature, n^d), n + n^2 + ... + n^d multiply-adds for the outer product of the
+    factors (`outer_product_into`), and A N for Q(s, .) over the A actions (N = n^d), as
+    `benchmarks.arithmetic_bound.step_counts` counts them."""
+    return Count(sum(n ** m for m in range(1, dim + 1)) + actions * n ** dim, dim * n)
+
+
+def sarsa_update(dim: int, n: int, actions: int) -> Count:
+    """Sarsa(lambda)'s update of one transition (eq. 1 with the traces of eq. 2 or 6,
+    `agent/sarsa.py`): N for Q(s, a) under the current weights, A N for the traces' decay
+    and A N for the weights' update."""
+    return Count((2 * actions + 1) * n ** dim)
+
+
+def true_online_update(dim: int, n: int, actions: int) -> Count:
+    """True online Sarsa(lambda)'s update of one transition (`agent/true_online_sarsa.py`,
+    `agent_step` and `dutch_update_`): N for Q(s, a), N for z^T x, and over the A N traces
+    and weights two multiply-adds each in the action's row (z, w) and one each elsewhere,
+    plus N for the correction in the action's row: (2 A + 4) N."""
+    return Count((2 * actions + 4) * n ** dim)
+
+
+def linear_counts(settings, task, update) -> Counts | str:
+    """A linear learner over NRBF features: its decision and `update`'s counts."""
+    if settings.features != "nrbf":
+        return f"not counted ({settings.features} features)"
+    dim, n, actions = len(task.state_names), settings.n, task.num_actions
+    decision = nrbf_decision(dim, n, actions)
+    learning = update(dim, n, actions)
+    return Counts(decision, decision + learning, learning,
+                  f"NRBF {' x '.join([str(n)] * dim)} grid (N = {n ** dim}, d n = {dim * n} "
+                  f"exponentials), {actions} actions ({update.__name__}, nrbf_decision)")
+
+
+def ase_ace_counts(settings, task) -> Counts:
+    """ASE/ACE (`agent/ase_ace.py`): a greedy decision reads one weight of the state's box
+    (no multiply-add); an agent-step of learning updates the actor's and the critic's
+    weights and decays both traces over the 162 boxes (4 x 162 multiply-adds) and draws its
+    action's noise (Box-Muller, a log and a cos; `pole.c`'s logistic policy: one exp)."""
+    noise = 1 if settings.policy == "logistic" else 2
+    update = Count(4 * BOXES, 0)
+    return Counts(Count(), update + Count(0, noise), update,
+                  f"{BOXES} boxes, {settings.policy} policy (ase_ace_counts)")
+
+
+def ppo_counts(settings, task, steps: int | None = None) -> Counts:
+    """PPO (`agent/ppo.py`, `agent/ppo_jax.py`): separate actor and critic MLPs of
+    `net_arch`, tanh. A greedy decision is the actor's forward pass (the argmax of its
+    logits). An agent-step of learning is the actor's and the critic's forward passes for
+    the action (A exponentials for the log-softmax) and its share of the updates: each
+    rollout of `n_steps` transitions is learned `n_epochs` times, each transition in an
+    epoch a forward and a backward pass of both networks (3 forward passes' multiply-adds,
+    `BACKWARD_MACS`) with their tanh, the log-softmax's and the entropy's A exponentials
+    each and the probability ratio's one, and each minibatch of `batch_size` one gradient
+    step of `OPTIMISER_MACS` per parameter. Amortised over `steps` steps of learning (the
+    updates of whole rollouts in them), or per step of a long run where None. GAE's few
+    operations per transition are left out."""
+    dim, actions, layers = len(task.state_names), task.num_actions, settings.layers()
+    actor_sizes, critic_sizes = [dim, *layers, actions], [dim, *layers, 1]
+    actor, critic = mlp_forward(actor_sizes, True), mlp_forward(critic_sizes, True)
+    per_transition = Count((1 + BACKWARD_MACS) * (actor.macs + critic.macs),
+                           actor.exps + critic.exps + 2 * actions + 1)
+    minibatches = math.ceil(settings.n_steps / settings.batch_size)
+    parameters = mlp_parameters(actor_sizes) + mlp_parameters(critic_sizes)
+    rollout = settings.n_epochs * (settings.n_steps * per_transition
+                                   + Count(minibatches * OPTIMISER_MACS * parameters))
+    rollouts_per_step = (steps // settings.n_steps) / steps if steps else 1 / settings.n_steps
+    update = rollout * rollouts_per_step
+    return Counts(actor, actor + critic + Count(0, actions) + update, update,
+                  f"actor {'-'.join(map(str, actor_sizes))} and critic "
+                  f"{'-'.join(map(str, critic_sizes))} tanh ({parameters} parameters); "
+                  f"{settings.n_epochs} epochs x {minibatches} minibatches of "
+                  f"{settings.batch_size} per rollout of {settings.n_steps} (ppo_counts)")
+
+
+def dqn_counts(settings, task, steps: int | None = None) -> Counts:
+    """DQN (`agent/dqn.py`, `agent/dqn_jax.py`): one Q MLP of `net_arch`, ReLU (no
+    exponential). A greedy decision is one forward pass of Q. An agent-step of learning is
+    that forward pass for the epsilon-greedy action and its share of the updates: every
+    `train_freq` steps past `learning_starts`, `gradient_steps` gradient steps, each over
+    `batch_size` transitions a forward and backward pass of the online network (3 forward
+    passes, `BACKWARD_MACS`) and a forward pass of the target network, and
+    `OPTIMISER_MACS` per parameter; every `target_update_interval` steps the target's
+    Polyak update (2 per parameter). Amortised over `steps` steps of learning from an
+    agent's first (the training calls in them), or per step of a long run where None."""
+    dim, actions, layers = len(task.state_names), task.num_actions, settings.layers()
+    sizes = [dim, *layers, actions]
+    q, parameters = mlp_forward(sizes, False), mlp_parameters(sizes)
+    gradient_steps = (settings.gradient_steps if settings.gradient_steps >= 0
+                      else settings.train_freq)
+    call = gradient_steps * (settings.batch_size * (1 + BACKWARD_MACS + 1) * q
+                             + Count(OPTIMISER_MACS * parameters))
+    interval = settings.target_update_interval
+    if steps:
+        calls = (steps // settings.train_freq
+                 - min(settings.learning_starts, steps) // settings.train_freq) / steps
+        targets = (steps // interval) / steps
+    else:
+        calls, targets = 1 / settings.train_freq, 1 / interval
+    update = call * calls + Count(2 * parameters * targets)
+    return Counts(q, q + update, update,
+                  f"Q {'-'.join(map(str, sizes))} ReLU ({parameters} parameters); "
+                  f"{gradient_steps} x {settings.batch_size} transitions every "
+                  f"{settings.train_freq} steps from step {settings.learning_starts} (dqn_counts)")
+
+
+COUNTERS = (
+    (PpoSettings, ppo_counts),
+    (DqnSettings, dqn_counts),
+    (SarsaSettings, lambda settings, task, steps: linear_counts(settings, task, sarsa_update)),
+    (TrueOnlineSettings,
+     lambda settings, task, steps: linear_counts(settings, task, true_online_update)),
+    (AseAceSettings, lambda settings, task, steps: ase_ace_counts(settings, task)),
+)
+"""The settings classes the counts know (a learner's settings or their base), each with
+its counting function `(settings, task, steps)` (the linear learners update at every step:
+their counts do not depend on the steps)."""
+
+
+def counted(settings, task, steps: int | None = None) -> Counts | str:
+    """The counts of a learner with `settings` on `task` (`TaskInfo`), its updates amortised
+    over `steps` steps of learning per agent; "not counted" for settings none of
+    `COUNTERS` knows."""
+    for kind, count in COUNTERS:
+        if isinstance(settings, kind):
+            return count(settings, task, steps)
+    return f"not counted (no count knows {type(settings).__name__})"
+
+
+# --- Configurations --------------------------------------------------------------------------
+
+def home_task(name: str) -> str | None:
+    """The task a learner is measured on: `TASK` where it fits, else the suite's first task
+    it fits (None: none)."""
+    learner = learners.learner(name)
+    for task in (TASK, *(f"{domain}.{task}" for domain, task in tasks.ALL_TASKS)):
+        if learner.fits(task_info(task)) is None:
+            return task
+    return None
+
+
+def config_of(name: str, agents: int, workload: Workload) -> RunConfig:
+    """The run of `agents` agents of learner `name`: the twins on the workload with its
+    settings, the others with their task's defaults."""
+    task = home_task(name)
+    options = {"time_limit": workload.time_limit} if task == TASK else {}
+    episodes = workload.episodes if task == TASK else workload.other_episodes
+    settings = {}
+    if name in FAMILY:
+        settings["agent"] = learners.learner(name).settings(**workload.settings[FAMILY[name]])
+    return RunConfig(task=task, learner=name, agents=agents, episodes=episodes, seed=0,
+                     plant="analytic", task_options=options, **settings)
+
+
+def episode_steps(workload: Workload) -> int:
+    """Steps of an episode of `TASK` cut at the workload's time limit."""
+    return int(tasks.definition(*tasks.split_name(TASK), time_limit=workload.time_limit).step_limit)
+
+
+def skip_reason(name: str) -> str | None:
+    """Why learner `name` is not measured here (a missing extra, no task it fits), or None."""
+    if home_task(name) is None:
+        return learners.learner(name).fits(task_info(TASK))
+    return None
+
+
+# --- Measuring -------------------------------------------------------------------------------
+
+def thread_cpu() -> dict:
+    """`{thread id: (name, CPU seconds)}` of this process's threads (Linux; else empty)."""
+    threads = {}
+    tick = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
+    try:
+        ids = os.listdir("/proc/self/task")
+    except OSError:
+        return threads
+    for tid in ids:
+        try:
+            with open(f"/proc/self/task/{tid}/stat") as stat:
+                fields = stat.read().rsplit(")", 1)[1].split()
+            with open(f"/proc/self/task/{tid}/comm") as comm:
+                name = comm.read().strip()
+        except OSError:
+            continue
+        threads[tid] = (name, (int(fields[11]) + int(fields[12])) / tick)
+    return threads
+
+
+def busiest_share(before: dict, after: dict) -> float | None:
+    """The busiest thread's share of the CPU time the threads took between two
+    `thread_cpu` snapshots (None where unknown or too little to tell)."""
+    spent = [seconds - before.get(tid, (None, 0.0))[1] for tid, (_, seconds) in after.items()]
+    total = sum(spent)
+    return max(spent) / total if spent and total >= 0.05 else None
+
+
+def xla_threads() -> list:
+    """The ids of this process's XLA worker threads (named `tf_XLA...`)."""
+    return [tid for tid, (name, _) in thread_cpu().items() if name.startswith("tf_XLA")]
+
+
+class Sampler:
+    """Within: every `SAMPLE_PERIOD` s, how many XLA threads are running (state R)."""
+
+    def __init__(self):
+        self.samples, self.stop = [], threading.Event()
+
+    def _sample(self) -> None:
+        while not self.stop.is_set():
+            running = 0
+            for tid in xla_threads():
+                try:
+                    with open(f"/proc/self/task/{tid}/stat") as stat:
+                        running += stat.read().rsplit(")", 1)[1].split()[0] == "R"
+                except OSError:
+                    pass
+            self.samples.append(running)
+            time.sleep(SAMPLE_PERIOD)
+
+    def __enter__(self):
+        self.thread = threading.Thread(target=self._sample, daemon=True)
+        self.thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        self.stop.set()
+        self.thread.join()
+
+    def concurrent(self) -> float | None:
+        """The fraction of samples with at least two XLA threads running."""
+        return sum(s >= 2 for s in self.samples) / len(self.samples) if self.samples else None
+
+
+@dataclasses.dataclass
+class Measurement:
+    """Timed runs of one learner, batch size, condition and mode, and what was checked."""
+
+    learner: str
+    agents: int
+    condition: str
+    """`one` (one thread) or `both` (both cores)."""
+    greedy: bool
+    task: str
+    steps: list = dataclasses.field(default_factory=list)
+    walls: list = dataclasses.field(default_factory=list)
+    cpus: list = dataclasses.field(default_factory=list)
+    loads: list = dataclasses.field(default_factory=list)
+    """The 1-minute load average at the start of each timed run."""
+    busiest: float | None = None
+    """The busiest thread's share of the CPU time over the timed runs."""
+    first_wall: float | None = None
+    """The untimed first run's wall time (the JAX learners: it compiles)."""
+    compiles: int = 0
+    """XLA programs compiled (or loaded) in the first run."""
+    compile_seconds: float = 0.0
+    cache_hits: int = 0
+    recompiles: int = 0
+    """XLA programs compiled in the timed runs (must be 0)."""
+    chunks_added: int = 0
+    """Population programs the first run added to `runners.population._CHUNKS`."""
+    xla_threads: int | None = None
+    concurrent: float | None = None
+    """Fraction of samples, over one extra run, with two XLA threads running at once."""
+    pinned: int | None = None
+    """The core the process was pinned to (one thread), or None."""
+
+    @property
+    def cpu_per_step(self) -> float:
+        return statistics.median(c / s for c, s in zip(self.cpus, self.steps))
+
+    @property
+    def wall_per_step(self) -> float:
+        return statistics.median(w / s for w, s in zip(self.walls, self.steps))
+
+    def timed(self, config: RunConfig) -> None:
+        """One timed run of `config`, from new agents."""
+        self.loads.append(os.getloadavg()[0])
+        wall, cpu = time.perf_counter(), time.process_time()
+        _, results = run(config, learn=not self.greedy, greedy=self.greedy)
+        self.walls.append(time.perf_counter() - wall)
+        self.cpus.append(time.process_time() - cpu)
+        self.steps.append(int(np.nansum(results.steps)))
+
+    def repeat(self, config: RunConfig, seconds: float, min_runs: int = MIN_RUNS) -> None:
+        """Timed runs until `seconds` of wall time (`min_runs` to `MAX_RUNS` runs)."""
+        before = thread_cpu()
+        while len(self.walls) < min_runs or (sum(self.walls) < seconds
+                                             and len(self.walls) < MAX_RUNS):
+            self.timed(config)
+        self.busiest = busiest_share(before, thread_cpu())
+
+
+@contextlib.contextmanager
+def one_thread():
+    """Within: lwrl's loops run a batch on one thread (`agent.threads.set_workers`)."""
+    before = workers()
+    set_workers(1)
+    try:
+        yield
+    finally:
+        set_workers(before)
+
+
+def measure_here(name: str, agents: int, workload: Workload, seconds: float,
+                 greedy: bool = False, warm_up: bool = False) -> Measurement:
+    """A measurement in this process on one thread (SB3's learners, whose torch has one
+    thread; the compiled learners, whose loop gets one worker thread): timed runs for
+    `seconds`, at least `MIN_RUNS` of one agent and one of a batch (whose runs are long:
+    SB3's agents step one after another); `warm_up` runs one agent in the same mode first,
+    untimed (imports, compiled kernels)."""
+    config = config_of(name, agents, workload)
+    measurement = Measurement(name, agents, "one", greedy, config.task)
+    with one_thread():
+        if warm_up:
+            start = time.perf_counter()
+            run(config_of(name, 1, workload), learn=not greedy, greedy=greedy)
+            measurement.first_wall = time.perf_counter() - start
+        measurement.repeat(config, seconds, MIN_RUNS if agents == 1 else 1)
+    return measurement
+
+
+# --- The JAX worker (a subprocess per condition) ---------------------------------------------
+
+def worker(spec: dict) -> None:
+    """Run `spec`'s JAX jobs under its condition; one JSON line per measurement on stdout."""
+    pinned = None
+    if spec["condition"] == "one" and hasattr(os, "sched_setaffinity"):
+        pinned = min(os.sched_getaffinity(0))
+        os.sched_setaffinity(0, {pinned})  # before JAX starts its threads
+    late = "jax" in sys.modules
+    import jax
+    import jax.monitoring
+    from lwrl.runners import population
+
+    if late:
+        print("deep_speed worker: JAX was imported before the condition was set", file=sys.stderr)
+    if not spec["cached"]:
+        jax.config.update("jax_enable_compilation_cache", False)
+    events = {"compiles": 0, "seconds": 0.0, "hits": 0}
+
+    def on_duration(event, seconds, **_):
+        if event == "/jax/core/compile/backend_compile_duration":
+            events["compiles"] += 1
+            events["seconds"] += seconds
+
+    def on_event(event, **_):
+        if event == "/jax/compilation_cache/cache_hits":
+            events["hits"] += 1
+
+    jax.monitoring.register_event_duration_secs_listener(on_duration)
+    jax.monitoring.register_event_listener(on_event)
+    workload = QUICK if spec["quick"] else FULL
+    for job in spec["jobs"]:
+        config = config_of(job["learner"], job["agents"], workload)
+        m = Measurement(job["learner"], job["agents"], spec["condition"], job["greedy"],
+                        config.task, pinned=pinned)
+        chunks, before = len(population._CHUNKS), dict(events)
+        start = time.perf_counter()
+        run(config, learn=not m.greedy, greedy=m.greedy)
+        m.first_wall = time.perf_counter() - start
+        m.compiles = events["compiles"] - before["compiles"]
+        m.compile_seconds = events["seconds"] - before["seconds"]
+        m.cache_hits = events["hits"] - before["hits"]
+        m.chunks_added = len(population._CHUNKS) - chunks
+        compiled = events["compiles"]
+        m.repeat(config, spec["seconds"])
+        m.recompiles = events["compiles"] - compiled
+        m.xla_threads = len(xla_threads())
+        if job.get("sample"):
+            with Sampler() as sampler:
+                run(config, learn=not m.greedy, greedy=m.greedy)
+            m.concurrent = sampler.concurrent()
+        print(json.dumps(dataclasses.asdict(m)), flush=True)
+        mode = ", greedy" if m.greedy else ""
+        print(f"deep_speed: {m.learner} x {m.agents} ({m.condition}{mode}) "
+              f"{1e6 * m.cpu_per_step:,.1f} us CPU per agent-step", file=sys.stderr, flush=True)
+
+
+def run_worker(condition: str, jobs: list, quick: bool, seconds: float, cached: bool) -> list:
+    """The measurements of `jobs` in a subprocess under `condition`."""
+    env = dict(os.environ)
+    env.pop("XLA_FLAGS", None)
+    if condition == "one":
+        env["XLA_FLAGS"] = ONE_THREAD_FLAGS
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))
+    spec = {"condition": condition, "jobs": jobs, "quick": quick, "seconds": seconds,
+            "cached": cached}
+    done = subprocess.run([sys.executable, "-m", "benchmarks.deep_speed", "--worker",
+                           json.dumps(spec)], cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                          text=True, check=True)
+    return [Measurement(**json.loads(line)) for line in done.stdout.splitlines()
+            if line.startswith("{")]
+
+
+# --- Output ----------------------------------------------------------------------------------
+
+def us(seconds: float) -> str:
+    """Microseconds, with a decimal below 100."""
+    value = 1e6 * seconds
+    return f"{value:,.1f}" if value < 100 else f"{value:,.0f}"
+
+
+def cell(m: Measurement | None) -> str:
+    """CPU µs per agent-step (wall µs)."""
+    return "—" if m is None else f"{us(m.cpu_per_step)} ({us(m.wall_per_step)})"
+
+
+def ratio(sb3: Measurement | None, twin: Measurement | None) -> str:
+    return "—" if sb3 is None or twin is None else f"{sb3.cpu_per_step / twin.cpu_per_step:,.1f}"
+
+
+def share(value: float | None) -> str:
+    return "n/a" if value is None else f"{100 * value:.0f} %"
+
+
+def run_line(m: Measurement) -> str:
+    """What one measurement ran, and the load average then."""
+    low, high = min(m.loads), max(m.loads)
+    loads = f"{low:.2f}" if round(low, 2) == round(high, 2) else f"{low:.2f} to {high:.2f}"
+    condition = "one thread" if m.condition == "one" else "both cores"
+    mode = "greedy, no learning" if m.greedy else "learning"
+    return (f"- {m.learner} x {m.agents} on {m.task} ({condition}, {mode}): "
+            f"{plural(len(m.walls), 'timed run')} of {m.steps[0]:,} agent-steps, "
+            f"median {us(m.cpu_per_step)} us CPU / {us(m.wall_per_step)} us wall per "
+            f"agent-step; busiest thread {share(m.busiest)} of the CPU; load average "
+            f"(1 min) at the runs' start {loads}")
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(
+        description="CPU per agent-step of ppo_jax and dqn_jax against SB3's PPO and DQN "
+                    "(1, 16, 64 agents; one thread and both cores), their compile time, and "
+                    "every learner's counted arithmetic beside its measured time; prints "
+                    "Markdown tables.")
+    parser.add_argument("--seconds", type=float, default=3.0,
+                        help="wall time per JAX measurement and per one-agent measurement "
+                             "(at least 2 timed runs each; default: 3)")
+    parser.add_argument("--quick", action="store_true",
+                        help="smoke test: tiny networks and episodes, 1 and 2 agents")
+    parser.add_argument("--cached", action="store_true",
+                        help="let JAX load programs from lwrl's persistent compilation cache "
+                             "(then the compile times are load times)")
+    parser.add_argument("--worker", help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if not args.seconds > 0:
+        parser.error(f"--seconds must be positive; got {args.seconds}")
+    if args.quick:
+        args.seconds = QUICK_SECONDS
+    return args
+
+
+def main(argv=None) -> None:
+    args = parse_args(argv)
+    if args.worker:
+        worker(json.loads(args.worker))
+        return
+    script_start = time.perf_counter()
+    workload = QUICK if args.quick else FULL
+    reference = workload.reference
+    command = "python -m benchmarks.deep_speed " + " ".join(sys.argv[1:] if argv is None else argv)
+    header = [f"Command: `{command.strip()}`",
+              f"Host: platform.processor() {platform.processor()!r} ({platform.machine()}), "
+              f"CPU {cpu_model()}, "
+              f"os.cpu_count() {os.cpu_count()}; load average at the start "
+              f"{' '.join(f'{x:.2f}' for x in os.getloadavg())}"]
+    names = list(learners.LEARNERS)
+    skipped = {name: skip_reason(name) for name in names}
+    skipped = {name: reason for name, reason in skipped.items() if reason}
+    measured: dict = {}  # (learner, agents, condition, greedy) -> Measurement
+
+    # 1. The JAX learners, one subprocess per condition.
+    population = [name for name in names if learners.learner(name).population
+                  and name not in skipped]
+    if population:
+        for condition in CONDITIONS:
+            jobs = []
+            for name in population:
+                sizes = workload.agents if name in FAMILY else (reference,)
+                jobs += [{"learner": name, "agents": agents, "greedy": False,
+                          "sample": agents == max(sizes)} for agents in sizes]
+                if condition == "one":
+                    jobs.append({"learner": name, "agents": reference, "greedy": True})
+            for m in run_worker(condition, jobs, args.quick, args.seconds, args.cached):
+                measured[(m.learner, m.agents, m.condition, m.greedy)] = m
+
+    # 2. The others in this process: SB3's learners (one thread), the compiled ones.
+    for name in names:
+        if name in skipped or learners.learner(name).population:
+            continue
+        sizes = workload.agents if name in FAMILY else (reference,)
+        for index, agents in enumerate(sizes):
+            m = measure_here(name, agents, workload, args.seconds, warm_up=index == 0)
+            measured[(name, agents, "one", False)] = m
+            print(f"deep_speed: {name} x {agents} {1e6 * m.cpu_per_step:,.1f} us CPU per "
+                  "agent-step", file=sys.stderr, flush=True)
+        measured[(name, reference, "one", True)] = measure_here(
+            name, reference, workload, args.seconds, greedy=True, warm_up=True)
+
+    get = lambda *key: measured.get(key)
+    print("\n".join(header))
+    print(f"\nWorkload: {TASK}, analytic plant, time_limit {workload.time_limit:g} s "
+          f"({episode_steps(workload)} steps an episode, no terminal state), "
+          f"{workload.episodes} episodes per agent, agent b with seed b. Settings of both "
+          "twins:")
+    for sb3, twin in PAIRS.items():
+        settings = learners.learner(sb3).settings(**workload.settings[sb3])
+        print(f"- {sb3} and {twin}: {settings.describe(2)}")
+    for name, reason in skipped.items():
+        print(f"- {name}: skipped: {reason}")
+
+    print("\n## CPU per agent-step\n")
+    print("Median over the timed runs of CPU time (all threads) per agent-step, in µs, wall "
+          "time in parentheses; SB3's learners are one thread by construction (torch on one "
+          "thread), so one measurement stands for both conditions.\n")
+    for sb3, twin in PAIRS.items():
+        print(f"| agents | {sb3} (SB3, one thread) | {twin}, one thread | {twin}, both cores "
+              f"| {sb3} / {twin} CPU, one thread | {sb3} / {twin} CPU, both cores |")
+        print("|---:|---:|---:|---:|---:|---:|")
+        for agents in workload.agents:
+            a, one, both = (get(sb3, agents, "one", False), get(twin, agents, "one", False),
+                            get(twin, agents, "both", False))
+            print(f"| {agents} | {cell(a)} | {cell(one)} | {cell(both)} | {ratio(a, one)} | "
+                  f"{ratio(a, both)} |")
+        print()
+
+    print(f"## Aims, at {reference} agents (CPU per agent-step)\n")
+    for sb3, twin, aim in (("ppo", "ppo_jax", 20), ("dqn", "dqn_jax", 4)):
+        for condition, label in (("one", "one thread"), ("both", "both cores")):
+            a, b = get(sb3, reference, "one", False), get(twin, reference, condition, False)
+            if a is None or b is None:
+                print(f"- {twin} at most 1/{aim} of {sb3}'s, {label}: not measured "
+                      f"({skipped.get(sb3) or skipped.get(twin) or 'missing'})")
+                continue
+            factor = a.cpu_per_step / b.cpu_per_step
+            verdict = "met" if factor >= aim else "not met"
+            print(f"- {twin} at most 1/{aim} of {sb3}'s, {label}: {us(b.cpu_per_step)} µs "
+                  f"against {us(a.cpu_per_step)} µs, 1/{factor:,.1f}: **{verdict}**")
+
+    jax_runs = [m for m in measured.values() if learners.learner(m.learner).population]
+    if jax_runs:
+        print("\n## One thread against both cores (JAX)\n")
+        for condition in CONDITIONS:
+            runs = [m for m in jax_runs if m.condition == condition]
+            if not runs:
+                continue
+            sampled = [m for m in runs if m.concurrent is not None]
+            setting = (f"XLA_FLAGS=\"{ONE_THREAD_FLAGS}\", pinned to core {runs[0].pinned}"
+                       if condition == "one" else "XLA_FLAGS unset, not pinned")
+            busiest = [m.busiest for m in runs if m.busiest is not None]
+            print(f"- {'one thread' if condition == 'one' else 'both cores'} ({setting}): "
+                  f"{plural(max(m.xla_threads or 0 for m in runs), 'XLA thread')} in the "
+                  f"process; the busiest thread's share of the CPU "
+                  f"{share(min(busiest) if busiest else None)} to "
+                  f"{share(max(busiest) if busiest else None)} over the measurements; "
+                  + "; ".join(f"two XLA threads running at once in {share(m.concurrent)} of "
+                              f"the samples of a run of {m.agents} {m.learner} agents"
+                              for m in sampled))
+        wall_cpu = [f"{m.learner} x {m.agents} {m.condition}: CPU / wall "
+                    f"{m.cpu_per_step / m.wall_per_step:.2f}"
+                    for m in jax_runs if not m.greedy and m.agents == max(workload.agents)]
+        if wall_cpu:
+            print(f"- CPU time over wall time: {'; '.join(wall_cpu)} (above 1 only where "
+                  "threads overlap; other jobs' load pulls it down)")
+
+        print("\n## Compile time (JAX)\n")
+        print("| learner | agents | condition | mode | first run, wall s | second run, wall s | "
+              "compile = first - second, s | XLA programs in the first run (from the disk "
+              "cache), their s | population programs added to `_CHUNKS` | XLA programs compiled "
+              "in the later runs |")
+        print("|---|---:|---|---|---:|---:|---:|---:|---:|---:|")
+        for m in sorted(jax_runs, key=lambda m: (m.learner, m.greedy, m.condition, m.agents)):
+            print(f"| {m.learner} | {m.agents} | {m.condition} | "
+                  f"{'greedy' if m.greedy else 'learning'} | {m.first_wall:.2f} | "
+                  f"{m.walls[0]:.2f} | {m.first_wall - m.walls[0]:.2f} | {m.compiles} "
+                  f"({m.cache_hits}), {m.compile_seconds:.1f} | {m.chunks_added} | "
+                  f"{m.recompiles} |")
+
+    print(f"\n## Counted arithmetic per agent-step, beside the time measured ({reference} "
+          "agents, one thread)\n")
+    print("MACs: multiply-adds; exp: exponentials (exp, tanh, log, cos). A learning agent-step "
+          "is its action and its share of the updates, amortised over the measured run; ns "
+          "per MAC is the measured CPU time over the counted MACs (the plant's step and the "
+          "loop are in the time, not in the count).\n")
+    print("| learner | task | greedy decision: MACs | exp | learning agent-step: MACs | exp | "
+          "of which updates: MACs | learning: CPU µs per agent-step | ns per MAC | greedy: "
+          "CPU µs per agent-step | ns per MAC |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    sources = []
+    for name in names:
+        task = home_task(name) or TASK
+        config = None if name in skipped else config_of(name, reference, workload)
+        steps_per_agent = episode_steps(workload) * workload.episodes if task == TASK else None
+        counts = counted(config.agent, config.task_info, steps_per_agent) if config else \
+            f"not counted ({skipped[name]})"
+        learning, greedy = get(name, reference, "one", False), get(name, reference, "one", True)
+        if isinstance(counts, str):
+            print(f"| {name} | {task} | {counts} | | | | | {cell(learning)} | | {cell(greedy)} | |")
+            continue
+        sources.append(f"- {name}: {counts.source}")
+
+        def per_mac(m, count):
+            if m is None or not count.macs:
+                return "—"
+            return f"{1e9 * m.cpu_per_step / count.macs:.3g}"
+        print(f"| {name} | {task} | {counts.decision.macs:,.0f} | {counts.decision.exps:,.0f} | "
+              f"{counts.step.macs:,.0f} | {counts.step.exps:,.0f} | {counts.update.macs:,.0f} | "
+              f"{cell(learning)} | {per_mac(learning, counts.step)} | {cell(greedy)} | "
+              f"{per_mac(greedy, counts.decision)} |")
+    print("\nWhere the counts come from (functions of this module, from the settings):")
+    print("\n".join(sources))
+
+    print("\nRuns measured (each from new agents; the busiest thread's share of the process's "
+          "CPU time over them, from /proc/self/task):")
+    print("\n".join(run_line(m) for m in measured.values()))
+    print(f"\nLoad average at the end {' '.join(f'{x:.2f}' for x in os.getloadavg())}; total "
+          f"{time.perf_counter() - script_start:.0f} s.")
+
+
+if __name__ == "__main__":
+    main()
