@@ -29,13 +29,13 @@ function the command runs. Bad input ends with one line on standard error and ex
 import sys
 
 from lwrl import outputs
-from lwrl.cli import (bench, compare, device, evaluate, export, learner, reproduce, robustness,
-                      rollout, tasks, train, view)
+from lwrl.cli import (bench, compare, device, evaluate, export, implementations, learner,
+                      reproduce, robustness, rollout, tasks, train, view)
 from lwrl.cli import output
 from lwrl.cli.output import Parser
 
-SUBCOMMANDS = (tasks, rollout, train, evaluate, reproduce, bench, compare, robustness, export,
-               learner, device, view)
+SUBCOMMANDS = (tasks, rollout, train, evaluate, reproduce, bench, implementations, compare,
+               robustness, export, learner, device, view)
 
 
 def build_parser() -> Parser:

@@ -1,0 +1,268 @@
+"""`lwrl implementations`' plan: the pairs of implementations, each task's measure and
+protocol, the runs, and the translation of the tuned settings.
+
+No learner and no task is named here: the pairs come from the registry (`pairs`), the
+tasks from the command line, each task's measure from its definition (`measure`).
+"""
+
+import ast
+import dataclasses
+import functools
+import importlib
+import inspect
+import textwrap
+
+import numpy as np
+
+from lwrl import agent as learners
+from lwrl import tasks
+from lwrl.runners.config import RunConfig, task_defaults, tuned_settings
+
+PLANT = "analytic"
+"""The plant of every run: the population learners train on the JAX ports of the analytic
+plants (`lwrl.jax`) only, so the reference learners run on the same plant."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Pair:
+    """A reference learner and its population twin (registry names)."""
+
+    reference: str
+    twin: str
+
+    @property
+    def names(self) -> tuple:
+        return self.reference, self.twin
+
+    @property
+    def slug(self) -> str:
+        return f"{self.reference}-{self.twin}"
+
+
+def pairs(registry=None) -> list:
+    """Every population learner of `registry` (`{name: Learner}`, default the registry) with
+    the learner whose settings class its own subclasses, the closest where several do
+    (e.g. a population learner over `X`'s settings and `X`); a population learner with
+    none has no pair."""
+    registry = learners.LEARNERS if registry is None else registry
+    found = []
+    for name, twin in registry.items():
+        if not twin.population:
+            continue
+        parents = [other for other, learner in registry.items()
+                   if not learner.population and issubclass(twin.settings, learner.settings)]
+        if parents:
+            closest = max(parents, key=lambda other: len(registry[other].settings.__mro__))
+            found.append(Pair(closest, name))
+    return found
+
+
+@dataclasses.dataclass(frozen=True)
+class Measure:
+    """A task's measure: a column of the results averaged over an agent's episodes."""
+
+    column: str
+    label: str
+    higher_is_better: bool
+    unit: str = ""
+
+    @property
+    def better(self) -> str:
+        return "higher is better" if self.higher_is_better else "lower is better"
+
+
+STEPS = Measure("steps", "mean steps per episode", False)
+UPTIME = Measure("uptime_s", "mean up-time per episode", True, "s")
+
+
+def measure(task: str) -> Measure:
+    """The paper's measure of `task` (DOMAIN.TASK): the up-time where the task keeps one (the
+    swing-ups and the balancing, Fig. 5, 6 and 8), else the steps per episode (to the goal,
+    Fig. 2 and 3)."""
+    return UPTIME if tasks.definition(*tasks.split_name(task)).has_uptime else STEPS
+
+
+@dataclasses.dataclass(frozen=True)
+class Cell:
+    """One task and one pair: the protocol and the settings both implementations take."""
+
+    task: str
+    pair: Pair
+    agents: int
+    episodes: int
+    task_options: dict
+    settings: dict
+    """The settings given to both (the tuned set, and the study's overrides)."""
+    sources: dict
+    """`{field: where its value comes from}` for the fields of `settings`."""
+
+    @property
+    def measure(self) -> Measure:
+        return measure(self.task)
+
+    def config(self, name: str, seed: int, agents: int = 1, **protocol) -> RunConfig:
+        """The run of learner `name` (one of the pair) for `agents` agents from `seed`."""
+        values = dict(task=self.task, plant=PLANT, learner=name, agents=agents, seed=seed,
+                      episodes=self.episodes, task_options=dict(self.task_options))
+        values.update(protocol)
+        return RunConfig(**values, **self.settings)
+
+    def configs(self, name: str) -> list:
+        """One run per agent (seeds 0 to agents - 1): a finished agent is never computed
+        again, and a larger study keeps the smaller one's agents. A sweep joins the runs of
+        a population learner into one population again (they differ in their seeds only)."""
+        return [self.config(name, seed) for seed in range(self.agents)]
+
+    @property
+    def key(self) -> str:
+        return f"{self.task}-{self.pair.slug}"
+
+
+def tuned_as(task: str) -> str:
+    """The Gymnasium environment whose tuned sets the task's domain takes (`Domain.tuned_as`)."""
+    return tasks.domain(tasks.split_name(task)[0]).tuned_as
+
+
+def protocol(task: str, budgets: dict, episodes: int | None, time_limit: float | None) -> tuple:
+    """`(episodes, task options)` of `task`: `budgets[task]` (the command's default per
+    task) or the task's own episodes, then the study's overrides."""
+    default, options = budgets.get(task, (task_defaults(task)["episodes"], {}))
+    options = dict(options)
+    if time_limit is not None:
+        options["time_limit"] = float(time_limit)
+    return (episodes or default), options
+
+
+def cells(task_names, agents: int, budgets=None, episodes=None, timesteps=None,
+          time_limit=None, registry_pairs=None) -> list:
+    """Every `Cell` of the study: each task (in the order given, once) and each pair; the
+    settings the reference's tuned set for the task, `timesteps` replacing its horizon.
+    A one-line ValueError for an unknown task, a task no pair runs on, or no pair."""
+    budgets = budgets or {}
+    found = pairs() if registry_pairs is None else registry_pairs
+    if not found:
+        raise ValueError("no population learner in the registry has a reference learner "
+                         "(a learner whose settings class its own subclasses)")
+    result = []
+    for task in dict.fromkeys(task_names):
+        task_defaults(task)  # a one-line error for an unknown task
+        count, options = protocol(task, budgets, episodes, time_limit)
+        for pair in found:
+            settings = tuned_settings(task, pair.reference)
+            sources = {name: f"the zoo's {tuned_as(task)} set" for name in settings}
+            if timesteps is not None:
+                settings["timesteps"] = int(timesteps)
+                sources["timesteps"] = "this study (--timesteps)"
+            cell = Cell(task, pair, agents, count, options, settings, sources)
+            for name in pair.names:  # a one-line error for what either does not run
+                cell.config(name, 0)
+            result.append(cell)
+    return result
+
+
+@dataclasses.dataclass(frozen=True)
+class Row:
+    """One setting of the translation: its value for each implementation and its source."""
+
+    name: str
+    reference: object
+    twin: object
+    source: str
+    help: str
+
+    @property
+    def same(self) -> bool:
+        return self.reference == self.twin
+
+
+def translation(cell: Cell) -> list:
+    """The settings of both implementations, field by field in the reference's order, then
+    any field the twin has beyond them."""
+    reference, twin = (cell.config(name, 0).agent for name in cell.pair.names)
+    names = [field.name for field in dataclasses.fields(reference)]
+    names += [field.name for field in dataclasses.fields(twin) if field.name not in names]
+    missing = object()
+    rows = []
+    for name in names:
+        source = cell.sources.get(name, "the learner's default")
+        rows.append(Row(name, getattr(reference, name, missing), getattr(twin, name, missing),
+                        source, _field_help(type(reference), name) or _field_help(type(twin), name)))
+    return [dataclasses.replace(row, reference="—" if row.reference is missing else row.reference,
+                                twin="—" if row.twin is missing else row.twin) for row in rows]
+
+
+@functools.lru_cache(maxsize=None)
+def _field_docs(cls) -> dict:
+    """`{field: docstring}` of a settings dataclass and its bases (the string after each
+    field, as the command line's help reads it)."""
+    docs = {}
+    for klass in reversed(cls.__mro__):
+        if not dataclasses.is_dataclass(klass):
+            continue
+        node = ast.parse(textwrap.dedent(inspect.getsource(klass))).body[0]
+        if not isinstance(node, ast.ClassDef):
+            continue
+        body = node.body
+        for statement, following in zip(body, body[1:]):
+            if (isinstance(statement, ast.AnnAssign) and isinstance(following, ast.Expr)
+                    and isinstance(following.value, ast.Constant)):
+                docs[statement.target.id] = " ".join(str(following.value.value).split())
+    return docs
+
+
+def _field_help(cls, name: str) -> str:
+    """A settings field's docstring, "" where it has none."""
+    try:
+        return _field_docs(cls).get(name, "")
+    except (OSError, TypeError):  # no source to read
+        return ""
+
+
+def known_differences(name: str) -> str:
+    """What the learner's own module says differs from the learner it re-implements: the
+    paragraph of its docstring that starts "What differs" (empty where there is none)."""
+    module = importlib.import_module(learners.learner(name).settings.__module__)
+    paragraphs = [" ".join(part.split()) for part in (module.__doc__ or "").split("\n\n")]
+    return "\n\n".join(part for part in paragraphs if part.startswith("What differs"))
+
+
+def title(name: str) -> str:
+    return learners.learner(name).title
+
+
+def starts_box(cell: Cell, count: int = 256, seed: int = 0) -> np.ndarray:
+    """`count` states drawn uniformly over the task's ranges (`TaskInfo.low`, `high`), where
+    the initial networks are compared."""
+    info = cell.config(cell.pair.reference, 0).task_info
+    low, high = np.asarray(info.low, dtype=float), np.asarray(info.high, dtype=float)
+    return np.random.default_rng(seed).uniform(low, high, size=(count, len(low)))
+
+
+INIT_AGENTS = 100
+"""Untrained agents per implementation whose networks are compared (`initialisation`): the
+spread of the initial outputs across agents needs more than the study's ten to be told
+from its sampling error."""
+
+
+def initialisation(cell: Cell, agents: int | None = None) -> dict:
+    """Per implementation, its `agents` (default `INIT_AGENTS`) untrained agents (seeds 0
+    on) summed up: the parameter count, the spread of the initial parameters, and of the
+    network's outputs (`Agents.action_values`) over states across the task's ranges: the
+    initialisation compared by what it does, whatever order each flattens its layers in."""
+    from lwrl.runners.run import make_agent
+    agents = agents or INIT_AGENTS
+    states = starts_box(cell)
+    summary = {}
+    for name in cell.pair.names:
+        made = make_agent(cell.config(name, 0, agents=agents))
+        weights = np.asarray(made.arrays.weights, dtype=float)
+        outputs = np.asarray(made.action_values(states), dtype=float)  # (B, n, A)
+        spread = outputs - outputs.mean(axis=-1, keepdims=True)  # what ranks the actions
+        summary[name] = {"agents": agents, "parameters": int(weights.shape[1]),
+                         "weight_std": float(weights.std()),
+                         "weight_abs_max": float(np.abs(weights).max()),
+                         "zero_fraction": float(np.mean(weights == 0.0)),
+                         "output_mean": float(outputs.mean()),
+                         "output_std_over_agents": float(outputs.mean(axis=1).std(axis=0).mean()),
+                         "action_spread": float(np.abs(spread).mean())}
+    return summary
