@@ -128,7 +128,7 @@ def _use_disk_cache() -> None:
         directory.mkdir(parents=True, exist_ok=True)
     except OSError:
         return
-    if jax.config.jax_compilation_cache_dir is None:
+    if getattr(jax.config, "jax_compilation_cache_dir", None) is None:
         jax.config.update("jax_compilation_cache_dir", str(directory))
         jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 
