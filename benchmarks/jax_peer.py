@@ -1,107 +1,132 @@
 """lwrl's learner against the same algorithm written as JAX code (the PureJaxRL style).
 
 The peer (written here, not project code) is lwrl's Sarsa(lambda) with NRBF features as a
-JAX program: one agent's step is a pure function, `jax.vmap` maps it over agents (each with
-its own PRNG key and hyper-parameters) and `jax.lax.scan` runs it over a fixed number of
-steps, all under one `jax.jit`, in float64 (`jax_enable_x64`). It follows lwrl's
-definitions, not its code:
+JAX program: one agent's step is a pure function, `jax.vmap` maps it over a group of agents
+(each with its own PRNG key and hyper-parameters), `jax.lax.scan` runs it over a fixed
+number of steps and `jax.lax.map` runs the groups one after another, all under one
+`jax.jit`, in float64 (`jax_enable_x64`). It follows lwrl's definitions, not its code:
 
 - features: NRBF eq. 8 and 9 factorised per dimension as `agent/nrbf.py` computes them
   (each dimension's Gaussians normalised, then their outer product in C order, the last
-  state variable fastest), with its underflow guard (the smallest squared distance
-  subtracted in the exponent, the normalised state clamped to [-400 n r^2, 1 + 400 n r^2]);
+  state variable fastest, each feature the very product lwrl forms), with its underflow
+  guard (the smallest squared distance subtracted in the exponent, the normalised state
+  clamped to [-400 n r^2, 1 + 400 n r^2]);
 - Q(s, a) = w_a . phibar(s) with weights zero at the start; epsilon-greedy with ties broken
   uniformly at random; delta = r + gamma d Q(s', a') - Q(s, a), with d = 0 at a terminal
   state (no action drawn there) and every term from the weights before the update;
 - traces as `agent/traces.py`: replacing (eq. 6) or accumulating (eq. 2), decayed by
-  gamma lambda, values below 1e-100 flushed to 0, reset to 0 at each episode's start; a
-  delta that is not finite marks the agent diverged and freezes its weights;
+  gamma lambda, values below 1e-100 flushed to 0, 0 at each episode's start; a delta that
+  is not finite marks the agent diverged and freezes its weights;
 - the tasks: `tasks/mountain_car.py`'s difference equation and `tasks/cartpole.py`'s
   equations with semi-implicit Euler (MuJoCo's; lwrl's default), their rewards, terminal
   states and starts, the time limit as a truncation (the agent bootstraps from the last
   state), and auto-reset inside the scan: the step that ends an episode also starts the
   next one, so every scanned step of every agent is one real plant transition.
 
-Its design, for speed (`learner_step`, `make_block`):
+Its design, for speed (`feature_factors`, `update`, `learner_step`, `make_block`):
 
-- the features are kept as their per-dimension factors `(d, n)`: Q is contracted factor by
-  factor (`action_values`, W viewed as `(A, N / n, n)` times the last factor, and so on),
-  and the full feature vector is formed only inside the fused trace-and-weight update;
-- the exploration noise is drawn once per block of steps: each agent's key is split once
-  per block and the block's uniforms drawn in one vectorised call;
-- the auto-reset after a terminal state is branch-free: a start state is drawn every step,
-  and the state observed next is the start where the step was terminal, else s' (Q at a
-  terminal state is never needed: its bootstrap is 0), so one set of features and one Q
-  serve both cases; only the rare steps where some agent's episode is truncated (it needs
-  both s' and a start) run a batch-level `lax.cond` (`restart`);
+- the features are kept as two factors whose outer product they are (`feature_factors`):
+  the first dimension's normalised Gaussians, `head` `(n,)`, and the product of the others,
+  `tail` `(n^(d-1),)` (6 and 216 for the cart-pole's 6^4 grid, 8 and 8 for Mountain-Car's
+  8^2). Weights and traces are `(A, n, n^(d-1))`: Q is two matrix-vector products
+  (`action_values`, W viewed as `(A n, n^(d-1))` times the tail, then `(A, n)` times the
+  head), and the trace-and-weight update is elementwise over `(A, n, n^(d-1))` and forms
+  each feature as `head[i] * tail[j]` on the way (`update`): the innermost loop of XLA's
+  loops over the traces and the weights runs over the contiguous tail, which XLA
+  vectorises, and no feature's index is taken apart into its d digits;
+- the traces' reset at an episode's start is a flag applied in the next update's pass, not
+  a pass of its own;
+- epsilon-greedy is written out over the A actions (`epsilon_greedy`), a few scalar
+  operations XLA fuses, where the maximum, count and cumulative sum of the ties are
+  reductions;
+- the random numbers come from JAX's `rbg` PRNG (`PRNG`, XLA's random-bit generator), which
+  costs a fraction of the default threefry per uniform: each agent's key is split once per
+  block and the block's uniforms drawn in one call for all the agents (so that an agent's
+  numbers do not depend on its group), six a step for the actions and the start's own (none
+  for the cart-pole's fixed start);
+- the auto-reset after a terminal state is branch-free: the state observed next is the
+  start where the step was terminal, else s' (Q at a terminal state is never needed: its
+  bootstrap is 0), so one set of features and one Q serve both cases; only the rare steps
+  where some agent's episode is truncated (it needs both s' and a start) run a group-level
+  `lax.cond` (`agent_restart`);
 - Q(s', a') under the updated weights is carried to the next step, where it is Q(s, a) of
   the TD error: each step evaluates Q twice (before the update at s' for the choice and the
   bootstrap, after it for the carried value and, after a terminal state, the next episode's
-  first action, chosen from the updated weights as lwrl's learner does).
+  first action, chosen from the updated weights as lwrl's learner does);
+- a call runs `BLOCK_AGENT_STEPS` agent-steps (`block_length`: 30,000 steps of one agent,
+  1,000 of each of 30 or 300), the carry donated, so that the call's fixed cost is no
+  part of the rate;
+- the agents run side by side (`vmap`) in groups whose weights and traces fit in
+  `GROUP_BYTES` (`group_size`: one cart-pole agent, 15 or 20 Mountain-Car agents), the
+  groups one after another (`lax.map`), so that a group's arrays stay in cache over the
+  block, as lwrl runs each agent's episodes one after another; vmapped over the whole
+  batch, every step streams all the agents' arrays through memory;
+- `main` compiles the scans with XLA:CPU's `xla_cpu_small_while_loop_byte_threshold` raised
+  (`XLA_SMALL_LOOPS`, in `XLA_FLAGS`), so that XLA compiles each loop as one function:
+  otherwise its runtime dispatches a step's dozens of kernels one by one, with their
+  bookkeeping and hand-offs between its threads, a fixed cost per kernel that one agent
+  pays alone. The script prints the flags and whether they took effect.
+
+What made the design before this one slow for one agent (the design it replaces: the
+features kept as their d per-dimension factors, Q contracted factor by factor, the whole
+batch vmapped, blocks of 1,000 steps, threefry): the fused trace-and-weight update formed
+each feature from its index taken apart into d digits by integer divisions, scalar code
+that ran twice a step (once for the weights' pass, once for the traces' with their reset)
+over the A n^d entries; XLA turned the reshapes between the factor-by-factor contractions
+into copy kernels; each scanned step ran dozens of kernels through the runtime, with ten
+threefry uniforms drawn for it; and a call of 1,000 steps of one agent is short beside
+its fixed cost. The design here serves every batch size, and raises the peer's rates at
+30 and 300 agents too.
 
 The peer draws its random numbers from JAX's PRNG, so its numbers differ from lwrl's; it
 must learn the same, which `learning_check` measures on the paper's Mountain-Car protocol.
 `tests/test_jax_peer.py` also checks its features and plant steps against lwrl's, and its
 learner step on a fixed trajectory with fixed actions: features, Q, TD errors and weights
-after every transition equal lwrl's learner's to round-off (measured: within 3e-15 of the
-largest weight on both tasks, the test allows 1e-12; the factor-by-factor Q adds in
-another order than lwrl's dot products).
+after every transition equal lwrl's learner's to round-off (the test allows 1e-12 of the
+largest weight; the two-factor Q adds in another order than lwrl's dot products).
 
 One run of this script measures, on Mountain-Car and Cart-Pole with the paper's agent of
-each task (`TaskDefinition.defaults`), for 1, 30 and 300 agents:
+each task (`TaskDefinition.defaults`), for 1, 30 and 300 agents (`--tasks`, `--agents`
+choose others):
 
 1. **lwrl**: `runners.compiled.run_compiled`, as `benchmarks.agent_speed` measures it
    (episodes grown until a run lasts about `--seconds`; the default thread pool);
-2. **JAX peer**: blocks of `BLOCK` scanned steps from zero weights, called until
-   `--seconds` have passed (XLA decides how many threads it uses);
+2. **JAX peer**: blocks of `block_length` scanned steps from zero weights, called until
+   `--seconds` have passed (with its loops compiled as single functions, XLA runs a block
+   on one thread);
 
 and prints agent-steps per second of each (wall time), the ratio lwrl / JAX, the CPU time
 per agent-step of each (all threads) and their ratio, and each one's compile time, which no
-rate includes
-(lwrl's kernels are compiled in a fresh cache directory unless `--cached`, so that the time
-is a compile and not a load from `~/.cache/lwrl`). An agent-step is one plant transition:
-for the peer, the scanned steps of all agents. Ratios compare rates measured in the same run.
-On a machine that other jobs keep busy the wall-time ratio understates lwrl, whose threads
-find no free core, and the CPU-time ratio is the fairer one.
+rate includes (lwrl's kernels are compiled in a fresh cache directory unless `--cached`, so
+that the time is a compile and not a load from `~/.cache/lwrl`), with the block length and
+group size of each peer, the machine and its load average at the end. An agent-step is one
+plant transition: for the peer, the scanned steps of all agents. Ratios compare rates
+measured in the same run. On a machine that other jobs keep busy the wall-time ratio
+understates lwrl, whose threads find no free core, and the CPU-time ratio is the fairer
+one; `docs/guide/speed.md` quotes one run's table with the host, its load and the command.
 
-Where the peer's time goes (XLA's optimised HLO, `jax.jit(...).lower(...).compile()
-.as_text()`): XLA runs the scan on about one core (its CPU time per agent-step is about its
-wall time on an idle machine), where lwrl spreads a batch over the cores; each scanned step
-runs some 40 kernels (41 at 30 cart-pole agents), a fixed cost of a few microseconds that
-one agent pays alone; and the
-vmapped design updates every agent's weights and traces at every step, streaming them all
-through memory (41 KB per cart-pole agent, 12 MB for 300), where lwrl runs each agent's
-episodes one after another with its arrays in cache.
+Where the peer's time goes now: one agent-step of one agent is the work lwrl's is, in
+float64 (two passes of Q over the weights, one over weights and traces together, the
+features' exponentials, the plant), in one compiled function; XLA runs a block on one
+core, where lwrl spreads a batch over the cores.
 
-Tried (CPU ns per agent-step, the fastest of 5 blocks, every variant in one process, the
-machine loaded, load average 9 on 2 cores; 1 / 30 / 300 agents):
-
-| Q(s, .) as | cart-pole | Mountain-Car |
-|---|---:|---:|
-| `(A, N/n, n) @ g_j`, factor by factor (kept) | 14.1k / 21.9k / 21.6k | 3.9k / 1.05k / 1.73k |
-| `(A, n, N/n)` times g_j summed over the middle axis | 13.4k / 22.1k / 28.7k | 3.9k / 1.41k / 2.80k |
-| `(A, N/n, n)` times g_j summed over the last axis | 13.2k / 28.5k / 33.3k | 3.6k / 1.47k / 2.67k |
-| `weights @ phi`, phi formed | 16.3k / 21.7k / 28.2k | 3.6k / 0.95k / 1.69k |
-| `(weights * phi).sum(1)`, phi formed | 31.5k / 37.7k / 33.6k | 4.5k / 1.29k / 2.26k |
-
-Against the design before this one (phi formed for every state, Q(s, .) recomputed at
-every step for the TD error, the resets under a `lax.cond` on any episode's end), measured
-in one process on the loaded machine with the middle-axis contraction: cart-pole 1 agent
-14.5k against 28.5k ns of CPU per agent-step, Mountain-Car 30 and 300 agents 1.5k and 2.2k
-against 1.6k and 2.8k; cart-pole 30 and 300 agents 34.5k and 31.1k against 30.8k and 30.7k,
-within the noise. With the middle-axis sums XLA wrote the broadcast factor of the first
-contraction out as a full-size array; with the kept `@` it does not, and a step's full-size
-passes are the weights' update, the traces' update with their reset (each forming the
-features again) and a copy of the traces around the `lax.cond` (the optimised HLO at 30
-cart-pole agents). Also tried, no difference beyond the noise (kept: neither): the scan unrolled 2 or 4
-steps (Mountain-Car 1 agent 5.6k / 4.6k / 5.1k ns, cart-pole 1 agent 15.6k / 15.7k /
-21.8k), and XLA's own emitters in place of its YNNPACK fusions
-(`--xla_cpu_experimental_ynn_fusion_type=`).
+Also tried, and not kept: Q as a dot with the feature vector formed (XLA computed the
+features twice, once into a copy for the dot with their index taken apart), or as an
+elementwise product summed (XLA's reductions add one element after another); the features
+split after two dimensions (36 x 36 for the cart-pole: XLA unrolled the update's 36-long
+inner loop and did not vectorise it); `jnp.einsum` for the contractions (the same dot in
+XLA's optimised HLO); a specialised path for one agent without `vmap` (no faster than a
+group of one); the whole batch vmapped as one group, or groups of other sizes; the scan's
+restart under a `lax.cond` that also passes the weights or traces (XLA copies them around
+it every step); and, with the loops compiled as single functions,
+`--xla_cpu_multi_thread_eigen=false` (no difference beyond the noise). float64 is kept:
+it is lwrl's precision, and the step-by-step check needs it.
 
 Run from the repository root (needs the `jax` extra, `pip install -e .[jax]`; CPU only):
 
     python -m benchmarks.jax_peer              # about 3 s per measurement, a few minutes
     python -m benchmarks.jax_peer --quick      # smoke test
+    python -m benchmarks.jax_peer --tasks cartpole.balance --agents 1 --no-learning-check
 """
 
 import argparse
@@ -135,8 +160,21 @@ jax.config.update("jax_enable_x64", True)
 
 AGENTS = (1, 30, 300)
 """The batch sizes measured."""
-BLOCK = 1000
-"""Scanned steps per jitted call of the peer."""
+BLOCK_AGENT_STEPS = 30_000
+"""Agent-steps per jitted call of the peer: each agent scans `block_length(B)` steps."""
+MIN_BLOCK = 1000
+"""The fewest scanned steps per call."""
+GROUP_BYTES = 64 * 1024
+"""A group of agents run side by side (`vmap`) holds at most this many bytes of weights and
+traces, so that they stay in a core's caches over a block (`group_size`)."""
+PRNG = "rbg"
+"""The peer's PRNG (`jax.random.key(..., impl=PRNG)`): XLA's random-bit generator for the
+bits, a fraction of the default threefry's cost per float64 uniform on CPU."""
+XLA_SMALL_LOOPS = "xla_cpu_small_while_loop_byte_threshold=1000000000"
+"""The XLA:CPU backend option that compiles every while loop (the block's `lax.scan`) as one
+function (`SmallWhileLoopHoistingPass`; its default limit is 1 KB of buffers an iteration
+accesses) rather than as a sequence of thunks that XLA's runtime dispatches one by one:
+`main` puts it in `XLA_FLAGS` (`--xla_backend_extra_options`) unless that is set."""
 QUICK_SECONDS = 0.1
 """Time budget per measurement with `--quick`."""
 QUICK_AGENTS = (3,)
@@ -200,8 +238,8 @@ def cartpole_outcome(state):
 
 
 def cartpole_start(uniforms):
-    """All zeros (the paper's start is deterministic)."""
-    return jnp.zeros(4) * uniforms
+    """All zeros (the paper's start is deterministic: it draws no uniforms)."""
+    return jnp.zeros(4)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -215,15 +253,17 @@ class PeerTask:
     controls: tuple
     step_limit: int
     dim: int
+    start_draws: int
+    """Uniforms in [0, 1) a start draws (`start` maps them to a state)."""
 
 
 TASKS = {
     "mountain_car.cost_to_go": PeerTask(
         "mountain_car.cost_to_go", mountain_car_step, mountain_car_outcome, mountain_car_start,
-        mountain_car.THRUSTS, mountain_car.STEP_LIMIT, 2),
+        mountain_car.THRUSTS, mountain_car.STEP_LIMIT, 2, 2),
     "cartpole.balance": PeerTask(
         "cartpole.balance", cartpole_step, cartpole_outcome, cartpole_start, cartpole.FORCES,
-        round(cartpole.TIME_LIMIT / cartpole.TIMESTEP), 4),
+        round(cartpole.TIME_LIMIT / cartpole.TIMESTEP), 4, 0),
 }
 """The benchmarked tasks in JAX."""
 
@@ -274,65 +314,87 @@ def features(agent: Agent, state):
     return outer(factors(agent, state))
 
 
-def action_values(weights, g):
-    """Q(s, .) = w phibar(s) (eq. 9) for weights `(A, N)` and the factors `g` `(d, n)` of
-    phibar(s), contracted factor by factor without forming phibar: W viewed as
-    `(A, N / n, n)` times g_{d-1} (a matrix-vector product), the result `(A, N / n)` viewed
-    as `(A, N / n^2, n)` times g_{d-2}, and so on to `(A,)`: A N (1 + 1/n + ...)
-    multiply-adds."""
-    num_actions = weights.shape[0]
-    d, n = g.shape
-    q = weights
-    for j in range(d - 1, -1, -1):
-        q = q.reshape(num_actions, -1, n) @ g[j]
-    return q.reshape(num_actions)
+def feature_factors(agent: Agent, state):
+    """The features of one state as two factors whose outer product they are, `(head,
+    tail)`: the first dimension's factor `(n,)` and the outer product of the others
+    `(n^(d-1),)` (`outer`), so that `head[i] * tail[j]` is feature `i n^(d-1) + j`, the
+    very product `outer` forms."""
+    g = factors(agent, state)
+    return g[0], outer(g[1:]) if g.shape[0] > 1 else jnp.ones(1)
+
+
+def joined(head, tail):
+    """The feature vector `(n^d,)` of `feature_factors`' two factors."""
+    return (head[:, None] * tail[None, :]).reshape(-1)
+
+
+def action_values(weights, head, tail):
+    """Q(s, .) = w phibar(s) (eq. 9) for weights `(A, n, n^(d-1))` and the features' two
+    factors, without forming phibar: W viewed as `(A n, n^(d-1))` times the tail (a
+    matrix-vector product), then the result `(A, n)` times the head."""
+    num_actions, n, rest = weights.shape
+    return (weights.reshape(num_actions * n, rest) @ tail).reshape(num_actions, n) @ head
 
 
 def epsilon_greedy(q, epsilon, uniforms):
     """An action for Q `(A,)` from three uniforms: the exploration test, the random action,
-    the tie-break among the greedy actions (NaN in Q: action 0, as lwrl)."""
+    the tie-break among the greedy actions (NaN in Q: action 0, as lwrl). Written out over
+    the A actions (a few scalar operations XLA fuses): the greedy action is the
+    `floor(u * ties)`-th of the actions whose Q equals the largest."""
     num_actions = q.shape[0]
-    random_action = jnp.minimum((uniforms[1] * num_actions).astype(jnp.int32), num_actions - 1)
-    ties = q == q.max()
-    count = ties.sum()
+    values = [q[a] for a in range(num_actions)]
+    best = values[0]
+    for value in values[1:]:
+        best = jnp.maximum(best, value)  # NaN if any is
+    ties = [value == best for value in values]
+    count = sum(tie.astype(jnp.int32) for tie in ties)
     pick = jnp.minimum((uniforms[2] * count).astype(jnp.int32), count - 1)
-    greedy = jnp.argmax(ties & (jnp.cumsum(ties) == pick + 1))
+    greedy, rank = jnp.int32(0), jnp.int32(0)
+    for a, tie in enumerate(ties):
+        greedy = jnp.where(tie & (rank == pick), a, greedy)
+        rank = rank + tie.astype(jnp.int32)
+    random_action = jnp.minimum((uniforms[1] * num_actions).astype(jnp.int32), num_actions - 1)
     return jnp.where(uniforms[0] < epsilon, random_action, greedy).astype(jnp.int32)
 
 
-UNIFORMS_PER_STEP = 6
-"""Uniforms an agent-step draws for its actions (3 for the next state's or, at a terminal
-state, the next episode's first; 3 for the next episode's first after a truncation), plus
-the task's dimension for the next episode's start."""
+ACTION_UNIFORMS = 3
+"""Uniforms an action draws (`epsilon_greedy`). A step draws twice as many (the next
+state's action, or the next episode's first after a terminal state; the next episode's first
+after a truncation) and the task's `start_draws` for the next episode's start."""
 
 
 class Carry(typing.NamedTuple):
-    """One agent between two plant transitions (each field gains a leading axis B under
-    `vmap`): its weights and traces `(A, N)`, the state and its features' factors `(d, n)`,
-    the action taken there and its value Q(s, a) under the current weights, the steps of the
-    episode so far and whether the agent diverged."""
+    """One agent between two plant transitions (each field gains a leading axis B for a
+    batch): its weights and traces `(A, n, n^(d-1))`, the state and its features' two
+    factors (`feature_factors`), the action taken there and its value Q(s, a) under the
+    current weights, the steps of the episode so far, whether the agent diverged, and
+    whether the state starts an episode (the traces then count as 0: `update` applies the
+    reset in its pass)."""
 
     weights: jax.Array
     traces: jax.Array
     state: jax.Array
-    g: jax.Array
+    head: jax.Array
+    tail: jax.Array
     action: jax.Array
     q_taken: jax.Array
     steps: jax.Array
     diverged: jax.Array
+    reset: jax.Array
 
 
-def update(agent: Agent, weights, traces, g, action, gamma_lambda, step):
-    """The trace rule (eq. 6 or 2, from `gamma_lambda` times the traces, `agent/traces.py`'s
-    flush below 1e-100) and `w <- w + step e` (eq. 1) for the features of factors `g` in the
-    taken action's row, in one elementwise pass that XLA fuses: the feature vector is formed
-    only here. Returns `(weights, traces)`."""
-    taken = (jnp.arange(agent.num_actions) == action)[:, None]
-    decayed = gamma_lambda * traces
-    gradient = jnp.where(taken, outer(g)[None, :], 0.0)
+def update(agent: Agent, carry: Carry, gamma_lambda, step):
+    """The trace rule (eq. 6 or 2, from `gamma_lambda` times the traces, or 0 after an
+    episode's start, `agent/traces.py`'s flush below 1e-100) and `w <- w + step e` (eq. 1)
+    for the carry's features in the taken action's row: elementwise over `(A, n, n^(d-1))`,
+    the features formed in the pass as `head[i] * tail[j]`, so that the innermost loop runs
+    over the contiguous `n^(d-1)` and vectorises. Returns `(weights, traces)`."""
+    taken = (jnp.arange(agent.num_actions) == carry.action)[:, None, None]
+    decayed = jnp.where(carry.reset, 0.0, gamma_lambda * carry.traces)
+    gradient = jnp.where(taken, carry.head[None, :, None] * carry.tail[None, None, :], 0.0)
     updated = decayed + gradient if agent.accumulating else jnp.maximum(decayed, gradient)
     updated = jnp.where(jnp.abs(updated) >= FLUSH_THRESHOLD, updated, 0.0)
-    return weights + step * updated, updated
+    return carry.weights + step * updated, updated
 
 
 def learner_step(agent: Agent, carry: Carry, hyper, next_state, reward, terminal, truncated,
@@ -341,44 +403,43 @@ def learner_step(agent: Agent, carry: Carry, hyper, next_state, reward, terminal
     `next_state` (s'), branch-free: where s' is `terminal` the next episode begins at
     `start` in the same pass. `choose(q)` is the policy (the benchmark: epsilon-greedy on
     the step's uniforms). Returns the carry at the next observed state (s', or `start`
-    after a terminal; `restart` moves it to a start after a truncation, where the traces are
-    reset here) and what lwrl's learner exposes after the same transition (`diagnostics`)."""
+    after a terminal; `restart` moves it to a start after a truncation; the traces are
+    reset in the next update) and what lwrl's learner exposes after the same transition
+    (`diagnostics`)."""
     alpha, gamma, lam, _ = hyper
     observed = jnp.where(terminal, start, next_state)
-    g = factors(agent, observed)
-    q = action_values(carry.weights, g)  # Q(s', .) before the update
+    head, tail = feature_factors(agent, observed)
+    q = action_values(carry.weights, head, tail)  # Q(s', .) before the update
     action = choose(q)
     bootstrap = jnp.where(terminal, 0.0, gamma * q[action])
     delta = reward - carry.q_taken + bootstrap
     finite = jnp.isfinite(delta)
     step = jnp.where(~carry.diverged & finite, alpha * delta, 0.0)
-    weights, traces = update(agent, carry.weights, carry.traces, carry.g, carry.action,
-                             gamma * lam, step)
-    q_after = action_values(weights, g)  # Q(observed, .) after the update
+    weights, traces = update(agent, carry, gamma * lam, step)
+    q_after = action_values(weights, head, tail)  # Q(observed, .) after the update
     # after a terminal state the next episode's first action is chosen from the updated
     # weights, as lwrl's learner does when it starts an episode
-    first_action = choose(q_after)
-    action = jnp.where(terminal, first_action, action)
-    carry = carry._replace(weights=weights,
-                           traces=jnp.where(terminal | truncated, 0.0, traces),
-                           state=observed, g=g, action=action, q_taken=q_after[action],
-                           diverged=carry.diverged | ~finite)
+    action = jnp.where(terminal, choose(q_after), action)
+    carry = carry._replace(weights=weights, traces=traces, state=observed, head=head,
+                           tail=tail, action=action, q_taken=q_after[action],
+                           diverged=carry.diverged | ~finite, reset=terminal | truncated)
     return carry, {"delta": delta, "q": jnp.where(terminal, q_after, q)}
 
 
 def restart(agent: Agent, carry: Carry, start, choose) -> tuple[Carry, jax.Array]:
     """The next episode's start for one agent whose last episode was truncated: its
     features, and its first action from the current weights. Returns the carry and Q there."""
-    g = factors(agent, start)
-    q = action_values(carry.weights, g)
+    head, tail = feature_factors(agent, start)
+    q = action_values(carry.weights, head, tail)
     action = choose(q)
-    return carry._replace(state=start, g=g, action=action, q_taken=q[action]), q
+    return carry._replace(state=start, head=head, tail=tail, action=action,
+                          q_taken=q[action]), q
 
 
 def agent_transition(task: PeerTask, agent: Agent, carry: Carry, hyper, uniforms):
-    """One plant transition of one agent and its update (`learner_step`). Returns the new
-    carry, whether the episode was truncated (its restart is `make_block`'s) and the steps
-    of the episode if it ended (else 0)."""
+    """One plant transition of one agent and its update (`learner_step`), on the step's
+    uniforms (`ACTION_UNIFORMS`). Returns the new carry, whether the episode was truncated
+    (its restart is `make_block`'s) and the steps of the episode if it ended (else 0)."""
     epsilon = hyper[3]
     controls = jnp.array(task.controls)
     next_state = task.step(carry.state, controls[carry.action])
@@ -386,17 +447,19 @@ def agent_transition(task: PeerTask, agent: Agent, carry: Carry, hyper, uniforms
     steps = carry.steps + 1
     truncated = ~terminal & (steps >= task.step_limit)
     last = terminal | truncated
-    start = task.start(uniforms[UNIFORMS_PER_STEP:UNIFORMS_PER_STEP + task.dim])
+    start = task.start(uniforms[2 * ACTION_UNIFORMS:])
     carry, _ = learner_step(agent, carry, hyper, next_state, reward, terminal, truncated,
-                            start, lambda q: epsilon_greedy(q, epsilon, uniforms[0:3]))
+                            start, lambda q: epsilon_greedy(q, epsilon, uniforms))
     return carry._replace(steps=jnp.where(last, 0, steps)), truncated, jnp.where(last, steps, 0)
 
 
 def agent_restart(task: PeerTask, agent: Agent, carry: Carry, hyper, uniforms, truncated):
-    """Where `truncated`, the next episode's start (`restart`); elsewhere the carry as is."""
-    start = task.start(uniforms[UNIFORMS_PER_STEP:UNIFORMS_PER_STEP + task.dim])
-    restarted, _ = restart(agent, carry, start,
-                           lambda q: epsilon_greedy(q, hyper[3], uniforms[3:6]))
+    """Where `truncated`, the next episode's start (`restart`, on the step's start uniforms,
+    which a truncated step did not use, and its restart's action uniforms); elsewhere the
+    carry as is."""
+    start = task.start(uniforms[2 * ACTION_UNIFORMS:])
+    restarted, _ = restart(agent, carry, start, lambda q: epsilon_greedy(
+        q, hyper[3], uniforms[ACTION_UNIFORMS:2 * ACTION_UNIFORMS]))
     return jax.tree.map(lambda new, old: jnp.where(truncated, new, old), restarted, carry)
 
 
@@ -406,47 +469,82 @@ def initial_carry(task: PeerTask, agent: Agent, keys):
     first action is uniform whatever epsilon (drawn here as the greedy tie-break)."""
     batch = keys.shape[0]
     keys, draw = jax.vmap(lambda key: tuple(jax.random.split(key)))(keys)
-    uniforms = jax.vmap(lambda key: jax.random.uniform(key, (UNIFORMS_PER_STEP + task.dim,)))(draw)
-    shape = (batch, agent.num_actions, agent.n ** task.dim)
-    states = jax.vmap(task.start)(uniforms[:, UNIFORMS_PER_STEP:])
-    g = jax.vmap(lambda s: factors(agent, s))(states)
+    uniforms = jax.vmap(
+        lambda key: jax.random.uniform(key, (2 * ACTION_UNIFORMS + task.start_draws,)))(draw)
+    shape = (batch, agent.num_actions, agent.n, agent.n ** (task.dim - 1))
+    states = jax.vmap(task.start)(uniforms[:, 2 * ACTION_UNIFORMS:])
+    head, tail = jax.vmap(lambda s: feature_factors(agent, s))(states)
     zeros = jnp.zeros(agent.num_actions)
-    actions = jax.vmap(lambda u: epsilon_greedy(zeros, 0.0, u))(uniforms[:, 3:6])
-    carry = Carry(jnp.zeros(shape), jnp.zeros(shape), states, g, actions, jnp.zeros(batch),
-                  jnp.zeros(batch, dtype=jnp.int32), jnp.zeros(batch, dtype=bool))
+    actions = jax.vmap(lambda u: epsilon_greedy(zeros, 0.0, u))(uniforms)
+    carry = Carry(jnp.zeros(shape), jnp.zeros(shape), states, head, tail, actions,
+                  jnp.zeros(batch), jnp.zeros(batch, dtype=jnp.int32),
+                  jnp.zeros(batch, dtype=bool), jnp.zeros(batch, dtype=bool))
     return carry, keys
 
 
-def make_block(task: PeerTask, agent: Agent, length: int = BLOCK):
-    """`block(carry, keys, hyper) -> (carry, keys, episode_steps)`: `length` steps of every
-    agent, `episode_steps` `(length, B)` the steps of each episode finished (0 elsewhere).
-    Each agent's key is split once per block and the block's uniforms drawn in one call."""
+def block_length(agents: int) -> int:
+    """Scanned steps per call for `agents` agents: `BLOCK_AGENT_STEPS` agent-steps, at least
+    `MIN_BLOCK` steps, so that a call's fixed cost is no part of the rate."""
+    return max(MIN_BLOCK, math.ceil(BLOCK_AGENT_STEPS / agents))
+
+
+def group_size(agent: Agent, dim: int, agents: int) -> int:
+    """Agents run side by side in a group: the largest divisor of `agents` whose weights and
+    traces fit in `GROUP_BYTES` (one cart-pole agent, 41 KB; 15 of 30 or 20 of 300
+    Mountain-Car agents, 3 KB each)."""
+    per_agent = 2 * 8 * agent.num_actions * agent.n ** dim
+    fits = max(1, GROUP_BYTES // per_agent)
+    return max(size for size in range(1, min(fits, agents) + 1) if agents % size == 0)
+
+
+def make_block(task: PeerTask, agent: Agent, agents: int, length: int | None = None,
+               group: int | None = None):
+    """`block(carry, keys, hyper) -> (carry, keys, episode_steps)`: `length` steps
+    (`block_length`) of every agent, `episode_steps` `(length, B)` the steps of each
+    episode finished (0 elsewhere). The agents run in groups of `group` (`group_size`) one
+    group after another (`lax.map`), each group a `lax.scan` of its steps over the agents
+    side by side (`vmap`), so that a group's weights and traces stay in cache over the
+    block. Each agent's key is split once per block and the block's uniforms drawn in one
+    call for all the agents, so that an agent's numbers do not depend on its group."""
+    length = block_length(agents) if length is None else length
+    group = group_size(agent, task.dim, agents) if group is None else group
+    if agents % group:
+        raise ValueError(f"{agents} agents do not split into groups of {group}")
+    width = 2 * ACTION_UNIFORMS + task.start_draws
     transition = jax.vmap(functools.partial(agent_transition, task, agent))
     restart_truncated = jax.vmap(functools.partial(agent_restart, task, agent))
 
-    def block(carry, keys, hyper):
-        keys, draw = jax.vmap(lambda key: tuple(jax.random.split(key)))(keys)
-        width = UNIFORMS_PER_STEP + task.dim
-        uniforms = jax.vmap(lambda key: jax.random.uniform(key, (length, width)))(draw)
-
+    def run_group(carry, hyper, uniforms):
         def body(carry, uniforms_t):
             carry, truncated, finished = transition(carry, hyper, uniforms_t)
             # a truncation is rare (at most one in `step_limit` steps of an agent): only on
-            # those steps does the batch compute a second start's features and values
+            # those steps does the group compute a second start's features and values
             carry = jax.lax.cond(truncated.any(),
                                  lambda c: restart_truncated(c, hyper, uniforms_t, truncated),
                                  lambda c: c, carry)
             return carry, finished
 
-        carry, episode_steps = jax.lax.scan(body, carry, jnp.swapaxes(uniforms, 0, 1))
-        return carry, keys, episode_steps
+        return jax.lax.scan(body, carry, jnp.swapaxes(uniforms, 0, 1))
+
+    def block(carry, keys, hyper):
+        keys, draw = jax.vmap(lambda key: tuple(jax.random.split(key)))(keys)
+        uniforms = jax.vmap(lambda key: jax.random.uniform(key, (length, width)))(draw)
+        if group == agents:
+            carry, episode_steps = run_group(carry, hyper, uniforms)
+            return carry, keys, episode_steps
+        split = lambda x: x.reshape((agents // group, group) + x.shape[1:])  # noqa: E731
+        carry, episode_steps = jax.lax.map(
+            lambda args: run_group(*args), jax.tree.map(split, (carry, hyper, uniforms)))
+        merge = lambda x: x.reshape((agents,) + x.shape[2:])  # noqa: E731
+        return (jax.tree.map(merge, carry), keys,
+                jnp.swapaxes(episode_steps, 0, 1).reshape(length, agents))
 
     return jax.jit(block, donate_argnums=(0, 1))
 
 
 def peer_agents(task_name: str, agents: int, seed: int = 0):
     """The task's paper agent (`RunConfig` defaults) for the peer: `(Agent, hyper, keys)`,
-    agent b keyed with `seed + b`."""
+    agent b keyed with `seed + b` (`PRNG` keys)."""
     config = RunConfig(task=task_name, agents=agents, seed=seed)
     settings, info = config.agent, config.task_info
     features_map = settings.feature_map(info.low, info.high)
@@ -456,7 +554,7 @@ def peer_agents(task_name: str, agents: int, seed: int = 0):
         raise ValueError(f"the peer has replacing and accumulating traces; got {settings.trace}")
     hyper = tuple(jnp.full(agents, value, dtype=jnp.float64)
                   for value in (settings.alpha, settings.gamma, settings.lam, settings.epsilon))
-    keys = jax.vmap(jax.random.key)(jnp.asarray(config.seeds))
+    keys = jax.vmap(lambda seed: jax.random.key(seed, impl=PRNG))(jnp.asarray(config.seeds))
     return agent, hyper, keys
 
 
@@ -465,13 +563,14 @@ def episodes_of(episode_steps: np.ndarray) -> list:
     return [column[column > 0] for column in episode_steps.T]
 
 
-def learn_peer(task_name: str, agents: int, episodes: int, seed: int = 0, length: int = BLOCK):
+def learn_peer(task_name: str, agents: int, episodes: int, seed: int = 0,
+               length: int = MIN_BLOCK):
     """The peer's agents for at least `episodes` episodes each: `(agents, episodes)` steps
     per episode (blocks of `length` steps until every agent has finished `episodes`)."""
     task = TASKS[task_name]
     agent, hyper, keys = peer_agents(task_name, agents, seed)
     carry, keys = initial_carry(task, agent, keys)
-    block = make_block(task, agent, length)
+    block = make_block(task, agent, agents, length)
     finished = [[] for _ in range(agents)]
     while min(len(f) for f in finished) < episodes:
         carry, keys, episode_steps = block(carry, keys, hyper)
@@ -520,25 +619,27 @@ def compile_peer(task_name: str, agents: int, seed: int = 0):
     carry, keys = initial_carry(task, agent, keys)
     jax.block_until_ready((carry, keys))
     start = time.perf_counter()
-    block = make_block(task, agent).lower(carry, keys, hyper).compile()
+    block = make_block(task, agent, agents).lower(carry, keys, hyper).compile()
     return block, carry, keys, hyper, time.perf_counter() - start
 
 
 def measure_peer(compiled, seconds: float) -> Measurement:
-    """The peer's agents from zero weights: blocks of `BLOCK` steps until `seconds` have
-    passed (at least one block)."""
+    """The peer's agents from zero weights: blocks of `block_length` steps until `seconds`
+    have passed (at least one block)."""
     block, carry, keys, hyper, _ = compiled
     agents = keys.shape[0]
-    calls = episodes = 0
+    calls = episodes = steps = 0
     start, cpu_start = time.perf_counter(), time.process_time()
     while True:
         carry, keys, episode_steps = block(carry, keys, hyper)
+        episode_steps = np.asarray(episode_steps)  # waits for the block
         calls += 1
-        episodes += int(np.count_nonzero(np.asarray(episode_steps)))  # waits for the block
+        steps += episode_steps.size
+        episodes += int(np.count_nonzero(episode_steps))
         if time.perf_counter() - start >= seconds:
             break
     elapsed, cpu = time.perf_counter() - start, time.process_time() - cpu_start
-    return Measurement(calls * BLOCK * agents, elapsed, cpu, agents, episodes)
+    return Measurement(steps, elapsed, cpu, agents, episodes)
 
 
 def run_lwrl(task_name: str, agents: int, episodes: int) -> Measurement:
@@ -601,8 +702,8 @@ def fresh_kernel_cache(enabled: bool):
 def parse_args(argv=None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
         description="Agent-steps/s of lwrl's compiled learner against the same algorithm "
-                    "written in JAX (jit, vmap over agents, lax.scan over steps), for "
-                    f"{', '.join(map(str, AGENTS))} agents on Mountain-Car and Cart-Pole; "
+                    "written in JAX (jit, lax.scan over steps, vmap over a group of agents), "
+                    f"for {', '.join(map(str, AGENTS))} agents on Mountain-Car and Cart-Pole; "
                     "prints Markdown tables.")
     parser.add_argument("--seconds", type=float, default=3.0,
                         help="time budget per measurement, in seconds (default: 3)")
@@ -610,6 +711,15 @@ def parse_args(argv=None) -> argparse.Namespace:
                         help=f"smoke test: {QUICK_SECONDS} s per measurement, "
                              f"{' and '.join(map(str, QUICK_AGENTS))} agents, a short "
                              "learning check")
+    parser.add_argument("--tasks", nargs="+", choices=list(TASKS), default=list(TASKS),
+                        metavar="TASK", help="the tasks measured (default: both, "
+                                             f"{' '.join(TASKS)})")
+    parser.add_argument("--agents", nargs="+", type=int, metavar="B",
+                        help="the batch sizes measured (default: "
+                             f"{' '.join(map(str, AGENTS))}; with --quick, "
+                             f"{' '.join(map(str, QUICK_AGENTS))})")
+    parser.add_argument("--no-learning-check", dest="learning_check", action="store_false",
+                        help="skip the learning check (default: run it)")
     parser.add_argument("--cached", action="store_true",
                         help="let lwrl load its kernels from its cache (default: compile them "
                              "in a fresh temporary cache, so that both compile times are "
@@ -617,9 +727,26 @@ def parse_args(argv=None) -> argparse.Namespace:
     args = parser.parse_args(argv)
     if not args.seconds > 0:
         parser.error(f"--seconds must be positive; got {args.seconds}")
+    if args.agents is not None and min(args.agents) < 1:
+        parser.error(f"--agents must be positive; got {args.agents}")
     if args.quick:
         args.seconds = QUICK_SECONDS
     return args
+
+
+def use_small_loops() -> str:
+    """`XLA_SMALL_LOOPS` in `XLA_FLAGS`, unless they already pass backend options; it takes
+    effect if JAX has not started its CPU backend yet. Returns `XLA_FLAGS`."""
+    flags = os.environ.get("XLA_FLAGS", "")
+    if "xla_backend_extra_options" not in flags:
+        flags = f"{flags} --xla_backend_extra_options={XLA_SMALL_LOOPS}".strip()
+        os.environ["XLA_FLAGS"] = flags
+    return flags
+
+
+def single_function_loops(compiled_block) -> bool:
+    """Whether XLA compiled the block's loops as single functions (`XLA_SMALL_LOOPS`)."""
+    return "xla_cpu_small_call" in compiled_block.as_text()
 
 
 def steps_cell(steps: np.ndarray) -> str:
@@ -631,20 +758,26 @@ def steps_cell(steps: np.ndarray) -> str:
 
 def main(argv=None) -> None:
     args = parse_args(argv)
+    xla_flags = use_small_loops()
     script_start = time.perf_counter()
-    agent_counts = QUICK_AGENTS if args.quick else AGENTS
+    agent_counts = args.agents or (QUICK_AGENTS if args.quick else AGENTS)
     check_agents, check_episodes = (3, 4) if args.quick else (CHECK_AGENTS, CHECK_EPISODES)
-    rows, compiles, runs = [], [], []
+    rows, compiles, runs, designs = [], [], [], set()
     with fresh_kernel_cache(not args.cached):
-        for task_name in TASKS:
+        for task_name in args.tasks:
             seconds, how = compile_lwrl(task_name)
             compiles.append(f"- {task_name}, lwrl: {seconds:.1f} s ({how}; one loop for every "
                             "batch size)")
-        for task_name in TASKS:
+        for task_name in args.tasks:
             for agents in agent_counts:
                 compiled = compile_peer(task_name, agents)
+                designs.add(single_function_loops(compiled[0]))
+                agent = peer_agents(task_name, 1)[0]
+                group = group_size(agent, TASKS[task_name].dim, agents)
                 compiles.append(f"- {task_name}, JAX peer, {plural(agents, 'agent')}: "
-                                f"{compiled[-1]:.1f} s (jit: one compile per batch size)")
+                                f"{compiled[-1]:.1f} s (jit: one compile per batch size; "
+                                f"{block_length(agents):,} steps a call, groups of "
+                                f"{plural(group, 'agent')})")
                 lwrl = measure_lwrl(task_name, agents, args.seconds)
                 peer = measure_peer(compiled, args.seconds)
                 rows.append(f"| {task_name} | {agents} | {lwrl.rate:,.0f} | {peer.rate:,.0f} | "
@@ -656,22 +789,26 @@ def main(argv=None) -> None:
                             f"{lwrl.seconds:.2f} s; JAX peer {agents} x {peer.steps // agents:,} "
                             f"steps ({peer.episodes:,} episodes finished) in {peer.seconds:.2f} s")
         check_start = time.perf_counter()
-        check = learning_check(check_agents, check_episodes)
+        check = learning_check(check_agents, check_episodes) if args.learning_check else {}
         check_seconds = time.perf_counter() - check_start
     window = slice(max(0, check_episodes - 10), check_episodes)
     print("| task | agents | lwrl (agent-steps/s) | JAX peer (agent-steps/s) | lwrl / JAX "
           "| lwrl CPU ns per agent-step | JAX CPU ns per agent-step | JAX CPU / lwrl CPU |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|")
     print("\n".join(rows))
-    print(f"\nLearning check, the paper's best Mountain-Car agent ({check_agents} agents x "
-          f"{check_episodes} episodes), mean ± standard error over agents of the steps per "
-          f"episode:\n")
-    print(f"| | episode 1 | episodes {window.start + 1}-{window.stop} |")
-    print("|---|---:|---:|")
-    for name, steps in check.items():
-        print(f"| {name} | {steps_cell(steps[:, :1])} | {steps_cell(steps[:, window])} |")
+    if check:
+        print(f"\nLearning check, the paper's best Mountain-Car agent ({check_agents} agents x "
+              f"{check_episodes} episodes), mean ± standard error over agents of the steps per "
+              f"episode:\n")
+        print(f"| | episode 1 | episodes {window.start + 1}-{window.stop} |")
+        print("|---|---:|---:|")
+        for name, steps in check.items():
+            print(f"| {name} | {steps_cell(steps[:, :1])} | {steps_cell(steps[:, window])} |")
     print("\n" + machine(f"{workers()} cores (lwrl's threads, agent.threads.workers()), JAX "
                          f"on {jax.default_backend()}", np, numba, jax))
+    single = {True: "yes", False: "no (JAX had started before main set XLA_FLAGS)"}
+    print(f"\nJAX peer: XLA_FLAGS={xla_flags!r}; its scans compiled as single functions: "
+          f"{', '.join(single[d] for d in sorted(designs, reverse=True)) or '-'}.")
     print("\nCompile times (in no rate):")
     print("\n".join(compiles))
     print("\nRuns measured (each from zero weights):")

@@ -1,5 +1,7 @@
 """Smoke tests of the speed benchmarks (they measure; they assert no speed)."""
 
+import os
+
 import pytest
 
 from benchmarks import agent_speed
@@ -36,11 +38,13 @@ def test_logging_overhead_is_never_negative():
     assert overhead(10.0, 8.65, 0.3) == "within noise (spread 3.0 %)"
 
 
-def test_jax_peer_quick_prints_its_tables(capsys):
-    """The JAX peer's benchmark in its smoke mode (skipped where JAX is not installed; CI
-    does not install it)."""
+def test_jax_peer_quick_prints_its_tables(capsys, monkeypatch):
+    """The JAX peer's benchmark in its smoke mode (skipped where JAX is not installed). Its
+    `main` sets `XLA_FLAGS`; the test's processes after this one get theirs back."""
     pytest.importorskip("jax", reason="the JAX peer needs JAX (the jax extra)")
     from benchmarks import jax_peer
+
+    monkeypatch.setenv("XLA_FLAGS", os.environ.get("XLA_FLAGS", ""))
 
     jax_peer.main(["--quick", "--cached"])
     out = capsys.readouterr().out

@@ -2,6 +2,8 @@
 the same features and plant steps, and its agents learn as lwrl's do. It measures no speed
 here. CI does not install JAX; these tests run where it is (the `jax` extra)."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -32,6 +34,10 @@ def test_the_peer_computes_lwrls_features(task):
     ours = np.asarray(jax.vmap(lambda s: jax_peer.features(agent, s))(states))
     np.testing.assert_allclose(ours, features.features(states), rtol=1e-12, atol=1e-300)
     np.testing.assert_allclose(ours.sum(axis=1), 1.0, rtol=1e-12)
+    # the two factors the learner keeps (`feature_factors`) form the very same products
+    two = np.asarray(jax.vmap(lambda s: jax_peer.joined(*jax_peer.feature_factors(agent, s)))(
+        states))
+    np.testing.assert_array_equal(two, ours)
 
 
 def test_the_peer_steps_the_tasks_plants():
@@ -62,7 +68,7 @@ def test_the_peer_learns_mountain_car_as_lwrl_does():
     """The paper's best Mountain-Car agent (replacing traces, alpha 3.9, lambda 0.9,
     epsilon 0, NRBF 8 x 8), 30 agents x 40 episodes, in the peer and in lwrl's compiled
     loop: both about 60 steps per episode over episodes 31 to 40 (the paper's Fig. 3), from
-    hundreds in the first. Measured: the peer 62.7 ± 2.3, lwrl 60.8 ± 2.3 (means ± standard
+    hundreds in the first. Measured: the peer 60.1 ± 1.9, lwrl 60.8 ± 2.3 (means ± standard
     errors over agents); their random streams differ, so their numbers do too."""
     steps = jax_peer.learning_check(agents=30, episodes=40)
     peer, ours = np.mean(steps["JAX peer"][:, 30:40]), np.mean(steps["lwrl"][:, 30:40])
@@ -132,8 +138,8 @@ def test_the_peer_updates_as_lwrls_learner_step_by_step(task):
     episodes ending at terminal states and by truncation), the peer's learner step
     (`learner_step`, and `restart` after a truncation: the code its benchmark scans) gives
     after every transition lwrl's features of the next observed state, Q there, TD error and
-    weights, to round-off (the peer contracts Q factor by factor, lwrl sums features times
-    weights in another order)."""
+    weights, to round-off (the peer contracts Q with the features' two factors, lwrl sums
+    features times weights in another order)."""
     agent, hyper, keys = jax_peer.peer_agents(task, 1)
     hyper = tuple(h[0] for h in hyper)
     first, rows = lwrl_trajectory(task)
@@ -156,12 +162,34 @@ def test_the_peer_updates_as_lwrls_learner_step_by_step(task):
                                row["truncated"], row["start"], row["action"],
                                row["restart_action"])
         where = f"{task}, transition {t}"
-        np.testing.assert_allclose(np.asarray(jax_peer.outer(carry.g)), row["phi"], rtol=1e-12,
-                                   atol=1e-300, err_msg=where)
+        np.testing.assert_allclose(np.asarray(jax_peer.joined(carry.head, carry.tail)),
+                                   row["phi"], rtol=1e-12, atol=1e-300, err_msg=where)
         np.testing.assert_allclose(float(delta), row["delta"], rtol=0, atol=1e-12 * scale,
                                    err_msg=where)
         np.testing.assert_allclose(np.asarray(q), row["q"], rtol=0, atol=1e-12 * scale,
                                    err_msg=where)
-        np.testing.assert_allclose(np.asarray(carry.weights), row["weights"], rtol=0,
-                                   atol=1e-12 * scale, err_msg=where)
+        np.testing.assert_allclose(np.asarray(carry.weights).reshape(row["weights"].shape),
+                                   row["weights"], rtol=0, atol=1e-12 * scale, err_msg=where)
         assert int(carry.action) == row["restart_action"]
+
+
+def test_the_peers_groups_run_the_agents_each_as_alone():
+    """The benchmark's block runs the agents in groups (`vmap` within a group, `lax.map` over
+    groups): every grouping gives each agent the same episodes and weights, truncations
+    (the time limit cut to 30 steps) and terminal states included."""
+    task = dataclasses.replace(jax_peer.TASKS["cartpole.balance"], step_limit=30)
+    agent, hyper, keys = jax_peer.peer_agents(task.name, 4)
+    results = []
+    for group in (4, 1):
+        carry, block_keys = jax_peer.initial_carry(task, agent, keys)
+        block = jax_peer.make_block(task, agent, 4, length=200, group=group)
+        steps = []
+        for _ in range(2):
+            carry, block_keys, episode_steps = block(carry, block_keys, hyper)
+            steps.append(np.asarray(episode_steps))
+        results.append((np.concatenate(steps), np.asarray(carry.weights)))
+    episodes, weights = results[0]
+    assert (episodes == 30).any() and ((episodes > 0) & (episodes < 30)).any()
+    for other_episodes, other_weights in results[1:]:
+        np.testing.assert_array_equal(other_episodes, episodes)
+        np.testing.assert_allclose(other_weights, weights, rtol=1e-12, atol=1e-15)
