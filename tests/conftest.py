@@ -90,67 +90,162 @@ def one_line_error(call, *fragments):
 
 
 # The quick loop -------------------------------------------------------------------------
-# `pytest -m "not slow"` leaves out the tests below and runs in well under a minute on a
-# 2-core machine once the compiled kernels are cached (~/.cache/lwrl/kernels; a first run
-# compiles them); plain `pytest`, the README's command and CI's, runs every test. Each key
-# is a regular expression matched from the start of a test's id below tests/
-# ("test_file.py::test_name[parameters]"); its value says why those tests are slow. Every
-# module these leave out is still exercised by faster tests of the loop.
+# `pytest -m "not slow"` leaves out the tests SLOW names, which take nearly all of the
+# suite's time, and keeps a fast test of every module: a case or two of each check that runs
+# over every task, plant or learner, and the checks that need no JIT compiling, no child
+# process, no tool outside Python and no long run. Plain `pytest`, the README's command and
+# CI's, runs every test. The loop's time assumes the learning loops' kernels are cached (in
+# ~/.cache/lwrl/kernels, keyed by their sources: a first run, or the first after a kernel's
+# source changed, compiles them again, for a minute or more). Each key of SLOW is a regular
+# expression matched from the start of a test's id below tests/
+# ("test_file.py::test_name[parameters]"); its value says why those tests are slow. A test
+# may also carry `@pytest.mark.slow` itself.
 
 DEEP = r"(dqn|ppo|dqn_jax|ppo_jax)"
 """The learners of neural networks (PyTorch, JAX): seconds a run where the others take
 milliseconds."""
 
+OTHER_TASKS = r"(pendulum|acrobot)"
+"""Where a check runs on every task, the mountain car and the cart-pole (the cheapest) stay
+in the quick loop and these leave it."""
+
+CONTRACT = (r"test_learners\.py::(test_every_run_path|test_an_agent_is_the_same_alone|test_the_"
+            r"arrays_the_loops_read|test_acting_greedily|test_saved_agents_load|test_values_over_"
+            r"a_grid|test_a_learner_learns_in_c)[^\[]*")
+"""The learner contract's checks that train agents, over every learner and task."""
+
 SLOW = {
     # Tools outside Python.
     r"test_wheel\.py::": "builds the wheel and installs it into a fresh virtual environment",
     r"test_web_viewer\.py::": "starts headless Chromium",
-    r"[^:]*::[^\[]*chromium": "starts headless Chromium",
-    r"test_docs_site\.py::test_the_site_builds_strictly": "builds the documentation site (mkdocs)",
+    r"[^:]+::[^\[]*chromium": "starts headless Chromium",
     r"test_typing\.py::test_mypy_": "runs mypy on the package",
     r"test_device\.py::(test_the_emulated_cortex_m4_|test_costs_are_measured_on_both_"
     r"|test_libm_agreement)": "cross-compiles for the Cortex-M4 and runs it under QEMU",
+    r"test_bench\.py::test_callgrind_": "runs the exported controller under valgrind",
     r"test_reproduce\.py::test_ray_backend": "starts a local Ray instance",
     r"test_robustness\.py::test_a_study_on_ray": "starts a local Ray instance",
-    # Compiling afresh, in fresh processes (the quick loop keeps one damaged-cache case).
-    r"test_kernels\.py::(test_a_second_process_compiles_nothing|test_cached_kernels_compute_)":
-        "three processes compile the learning loops into empty caches",
-    r"test_kernel_cache\.py::test_a_damaged_cache_file_is_compiled_again_and_replaced"
-    r"\[(?!index-garbage\])": "two processes each; index-garbage stays in the quick loop",
-    r"test_kernel_cache\.py::(test_a_process_killed_while_writing|test_training_heals)":
-        "processes compiling into empty caches; `lwrl train` compiling its loop",
-    # JIT-compiling MJX and JAX programs.
-    r"test_mjx_plant\.py::test_mjx_agrees_with_the_c_engine_from_the_tasks_starts":
-        "compiles MJX's step for each model",
+    r"test_conventions\.py::test_physics_renders_pixels_headless"
+    r"|test_gymnasium_render\.py::(test_models_are_drawn_from_their_first_camera|test_record_"
+    r"video|test_human_rendering)": "a child process renders with OpenGL; a video is encoded "
+        "(moviepy); a window opens (pygame, where there is a display)",
+    r"test_viz\.py::(test_headless_render_is_not_blank|test_a_recording_opens_on_its_last_logged)":
+        "starts the Rerun viewer, rendering through Vulkan (skipped where there is no driver)",
+    r"test_nominal\.py::": "computes every plant and run path afresh, numba compiling the "
+        "transitions and the engine step (skipped off the recording platform)",
+    # Child processes, each importing lwrl.
+    r"test_kernels\.py::": "processes compile the learning loops into empty caches; numba "
+        "compiles a probe",
+    r"test_kernel_cache\.py::": "two or more processes a case, compiling into fresh caches",
+    r"test_cli\.py::(test_bad_input_is_one_line_and_status_2|test_mjx_without_jax)":
+        "a process a case",
+    r"test_compare\.py::test_bad_task_is_one_line_and_status_2": "a process a case",
+    r"test_typing\.py::test_lwrl_tasks_imports_from_the_repository_root": "a process",
+    r"test_gymnasium_envs\.py::test_registration_from_a_fresh_interpreter": "a process",
+    r"test_store\.py::test_a_batch_claimed_by_a_live_process": "a process holds a claim",
+    r"test_outputs\.py::test_ctrl_c_stops_the_work": "trains in a process for seconds",
+    r"test_claims\.py::(test_two_trainings_aimed_at_one_directory|test_a_reader_never_sees_one_"
+    r"runs_file_beside_anothers)": "trainings in processes; runs written while read",
+    # JIT compiling: MJX's and JAX's programs, numba's functions of a test's own (the learning
+    # loops' kernels are cached; these are not).
+    r"test_mjx_plant\.py::(?!test_every_model_has_an_mjx_plant)": "compiles MJX's step",
     r"test_parameters\.py::test_the_mjx_plant_takes_one_set_of_values": "compiles MJX's step",
-    r"test_population\.py::test_one_(ppo|dqn)_update_is_sb3s_train":
-        "compiles a JAX update and trains SB3's model beside it",
-    r"test_jax_peer\.py::(test_the_peer_learns_mountain_car|test_the_peer_updates_as_lwrls_"
-    r"learner_step_by_step\[cartpole)": "compiles and runs the JAX peer's learning",
-    # The learner contract for the network learners: each keeps its cheapest task,
-    # cartpole.balance (its episodes end soonest), in the quick loop; dqn_jax none.
-    rf"test_learners\.py::[^\[]*\[{DEEP}-(?!cartpole)": "trains networks over long episodes",
-    r"test_learners\.py::[^\[]*\[dqn_jax-": "compiles and trains a JAX population of networks",
-    rf"test_robustness\.py::test_every_learner_goes_on_with_its_kept_agents[^\[]*\[{DEEP}_jax":
-        "compiles and trains a JAX population of networks",
-    # Learning runs and whole commands.
-    r"test_acrobot\.py::(test_train_command_smoke|test_agents_learn_to_swing_up)":
-        "trains agents on the acrobot",
-    r"test_ase_ace\.py::test_it_learns_to_balance": "trains agents on the cart-pole",
-    r"test_learner_c\.py::(test_float_learner_learns_within|test_double_learner_is_the_python_"
-    r"learner_bit_for_bit\[(pendulum|cartpole))": "trains agents in C and in Python",
-    r"test_outputs\.py::test_ctrl_c_stops_the_work": "trains in a child process for seconds",
-    r"test_claims\.py::test_two_trainings_aimed_at_one_directory": "two trainings in processes",
+    r"test_population\.py::(?!test_a_batch_of_settings_that_cannot_be_batched)":
+        "compiles JAX programs of networks",
+    r"test_jax_peer\.py::": "compiles and runs the JAX peer (a benchmark, not the package)",
+    r"test_jax_tasks\.py::(test_every_step_of_an_episode_is_the_analytic_plants\[(?!nominal-"
+    r"cartpole)|test_float32_steps_stay_within_float32_rounding\[(?!mountain_car)|test_starts_"
+    r"follow_the_tasks_distribution|test_params_batch_over_vmap|test_a_time_limit_is_a_"
+    r"truncation|test_an_episode_ends_in_a_new_start|test_action_delay_and_sensor)":
+        "compiles a JAX program a case; one case of two checks stays",
+    r"test_suite\.py::test_transition_is_the_plant_step_and_the_task": "numba compiles the "
+        "transition afresh a case (the learning loops' cached kernels hold it)",
+    r"test_disturbances\.py::test_a_compiled_loop_calling_the_pieces"
+    r"|test_engine\.py::test_a_compiled_step_is_rollouts_step"
+    r"|test_nrbf\.py::test_single_state_function_equals_the_batch_method"
+    r"|test_traces\.py::test_rules_compiled_in_numba"
+    r"|test_policy\.py::(test_greedy_picks_the_best_action|test_ties_are_broken|test_epsilon_"
+    r"explores)"
+    r"|test_parameters\.py::test_the_compiled_loops_engine_steps_the_model":
+        "numba compiles a loop of the test's own",
+    r"test_learner_c\.py::(?!test_double_learner_is_the_python_learner_bit_for_bit\[mountain_car\]"
+    r"|test_bad_inputs)": "compiles the C learner and trains in C and in Python",
+    r"test_export_c\.py::(test_measure_reports|test_c_controller_picks_the_python_agents_greedy_"
+    r"action\[(?!mountain_car)|test_double_precision_controller_agrees_too\[(?!mountain_car))":
+        "compiles and runs C controllers",
+    r"test_robustness\.py::test_the_c_controller_acts": "compiles a C controller",
+    r"test_device\.py::test_host_build_in_double_is_the_python_learner_on_the_python_plant"
+    r"\[(?!paper)": "compiles and runs the device program on the host",
+    # The network learners (their modules stay in the quick loop through the settings
+    # checks of test_stable_baselines.py and test_population.py).
+    rf"{CONTRACT}\[{DEEP}-": "trains networks",
+    rf"test_robustness\.py::test_every_learner_goes_on_with_its_kept_agents[^\[]*\[{DEEP}\]":
+        "trains networks",
+    r"test_stable_baselines\.py::(?!test_bad_settings)":
+        "builds and trains SB3's networks (PyTorch); exports a network and compiles it",
+    # Learning runs, whole commands and long rollouts.
+    r"test_learners\.py::test_every_run_path_gives_the_same_numbers\[(?!ase_ace)[^-]+-(?!"
+    r"mountain_car)": "every run path over whole episodes; the mountain car stays",
+    r"test_acrobot\.py::(test_train_command_smoke|test_agents_learn_to_swing_up)": "trains agents",
+    r"test_ase_ace\.py::test_it_learns_to_balance": "trains agents",
+    r"test_external\.py::test_mountain_car_agents_learn": "trains agents",
+    r"test_external\.py::(test_dm_control_episodes_end_at_the_time_limit|test_bad_input_is_one_"
+    r"line_and_exit_2\[argv\d+-dmc)": "runs dm_control's tasks (one flattening check stays)",
+    r"test_run\.py::test_pendulum_agents_balance_within": "trains agents",
+    r"test_viz\.py::test_episodes_recorded_by_training": "trains agents",
+    r"test_verdicts\.py::test_probability_of_improvement": "bootstraps",
     r"test_robustness\.py::test_lwrl_robustness_writes_its_report": "a robustness study",
-    r"test_reproduce\.py::(test_a_killed_sweep_resumes|test_quick_reproduction_writes)":
-        "a reproduction sweep",
+    r"test_reproduce\.py::(test_a_killed_sweep_resumes|test_quick_reproduction_writes|test_fig3_"
+    r"verdict_counts_both_conditions\[(?!60\.0-40-))": "a reproduction sweep; fig. 3's "
+        "verdict drawn for each case (one stays)",
     r"test_config\.py::test_reproduce_sets_readings_from_the_command_line": "a reproduction sweep",
-    r"test_compare\.py::(test_quick_cli_run_writes|test_recording_holds_an_entity)":
-        "`lwrl compare --quick`",
+    r"test_compare\.py::(test_quick_cli_run_writes|test_recording_holds_an_entity|test_replay_on_"
+    r"mujoco)": "`lwrl compare --quick`; an episode replayed on MuJoCo",
     r"test_bench\.py::test_lwrl_bench_writes_its_report": "a benchmark study",
     r"test_benchmarks\.py::test_\w+_quick_prints_its_table": "a quick benchmark",
-    r"test_gymnasium_envs\.py::test_observations_stay_inside_the_box\[lwrl/cartpole-":
-        "rolls out ten policies over long cart-pole episodes",
+    r"test_implementations\.py::test_the_report_is_written": "draws the report's figures",
+    r"test_verdicts\.py::test_the_claims_figure_draws": "draws the claims' figure",
+    r"test_gymnasium_envs\.py::test_observations_stay_inside_the_box": "rolls out several "
+        "policies over long episodes (test_observation_bounds stays)",
+    r"test_gymnasium_vector\.py::test_the_same_transitions_as_the_single_environments":
+        "long episodes through both (the vector wrapper's episode count stays)",
+    r"test_plant_check\.py::(test_(acrobot|pendulum)_plants_agree_over_50_and_200|test_cartpole_"
+    r"plants_agree_over_whole|test_explicit_euler_departs_from_both\[acrobot)":
+        "steps the plants over long episodes",
+    r"test_classical\.py::(test_cartpole_balances_for_the_full_episode|test_pendulum_swings_up_"
+    r"and_holds_from_random_starts|test_pendulum_swings_up_away)":
+        "long episodes under the classical controllers",
+    r"test_disturbances\.py::(test_observation_noise_is_gaussian|test_action_noise_is_added)":
+        "thousands of steps of dm_env environments",
+    r"test_robustness\.py::(test_the_compiled_loop_gives_each_agent|test_randomised_physics_is_"
+    r"the_same_on_every_path)[^\[]*\[mujoco": "runs the loops on MuJoCo (the analytic plant stays)",
+    r"test_parameters\.py::test_the_run_paths_give_one_set_of_numbers_at_other_values"
+    r"|test_run\.py::test_mujoco_dm_env_and_compiled_paths_agree": "runs every path",
+    # Checks over every task or plant: the cheapest cases stay.
+    rf"test_viz\.py::\w+\[({OTHER_TASKS}\.\w+|cartpole\.balance)-(mujoco|analytic)\]"
+    rf"(?<!cartpole\.balance-mujoco\])"
+    rf"|test_batched\.py::test_batched_equals_single_environments\[(?!mountain_car)"
+    rf"|test_viz\.py::test_q_on_grid_equals_the_feature_maps\[\w+-(?!mountain_car)"
+    rf"|test_gymnasium_envs\.py::test_trajectories_equal_the_dm_env\[(?!mountain_car)"
+    rf"|test_gymnasium_vector\.py::test_make_vec_gives_the_batched_vector_environment"
+    rf"\[lwrl/(?!mountain_car)"
+    rf"|test_claims\.py::test_a_command_aimed_at_a_claimed_output_stops_at_once\[(?!0\])"
+    rf"|test_nrbf\.py::test_factorised_equals_direct_evaluation\[[^\]]*-4-6\]"
+    rf"|test_suite\.py::test_deterministic_for_a_seed\[{OTHER_TASKS}"
+    rf"|test_compare\.py::\w+\[{OTHER_TASKS}"
+    rf"|{CONTRACT}\[[^-]+-{OTHER_TASKS}"
+    rf"|test_run\.py::\w+\[{OTHER_TASKS}"
+    rf"|test_gymnasium_envs\.py::test_same_seed_same_trajectory\[lwrl/(?!mountain_car)"
+    rf"|test_disturbances\.py::test_a_batch_is_its_single_environments_with_every_option"
+    rf"\[(?!mountain_car)"
+    rf"|test_parameters\.py::test_a_batch_spans_a_grid_of_values\[(?!mountain_car)"
+    rf"|test_parameters\.py::test_the_plants_agree_away_from_the_papers_values\[\w+-200-":
+        "the same check on the other cases (or over longer runs)",
+    # Many generated cases (Hypothesis), each a command or a batch.
+    r"test_bad_input\.py::"
+    r"|test_disturbances\.py::test_bad_options_are_one_line"
+    r"|test_parameters\.py::test_bad_parameter_values_are_one_line":
+        "Hypothesis: a command or a batch for each of many generated inputs",
 }
 SLOW_TESTS = re.compile("|".join(f"(?:{pattern})" for pattern in SLOW))
 
@@ -159,6 +254,5 @@ def pytest_collection_modifyitems(config, items):
     """Mark `slow` the tests that SLOW names."""
     root = config.rootpath / "tests"
     for item in items:
-        name = item.path.relative_to(root).as_posix() + "::" + item.name
-        if SLOW_TESTS.match(name):
+        if SLOW_TESTS.match(item.path.relative_to(root).as_posix() + "::" + item.name):
             item.add_marker(pytest.mark.slow)
