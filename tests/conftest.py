@@ -132,7 +132,7 @@ SLOW = {
     r"test_viz\.py::(test_headless_render_is_not_blank|test_a_recording_opens_on_its_last_logged)":
         "starts the Rerun viewer, rendering through Vulkan (skipped where there is no driver)",
     r"test_nominal\.py::": "computes every plant and run path afresh, numba compiling the "
-        "transitions and the engine step (skipped off the recording platform)",
+        "transitions and the engine step",
     # Child processes, each importing lwrl.
     r"test_kernels\.py::": "processes compile the learning loops into empty caches; numba "
         "compiles a probe",
