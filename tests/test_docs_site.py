@@ -30,7 +30,7 @@ README = ROOT / "README.md"
 FIRST_COMMAND = ("python3.11 -m venv .venv && .venv/bin/pip install -e . && "
                  ".venv/bin/lwrl train mountain_car.cost_to_go")
 TEST_COMMAND = ("python3.11 -m venv .venv && .venv/bin/pip install -e '.[dev]' && "
-                ".venv/bin/python -m pytest")
+                ".venv/bin/python -m pytest -n auto --dist loadfile")
 LINK = re.compile(r"!?\[(?:[^\[\]]|\[[^\]]*\])*\]\(([^()\s]+)\)")
 WAIT = 60.0
 """Seconds a page may take to load, and its search to answer."""
