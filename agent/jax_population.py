@@ -175,8 +175,8 @@ class PopulationAgents(Agents):
         self.dim = len(task.state_names)
         keys = self.jax.vmap(self.jax.random.PRNGKey)(self.jnp.asarray(self.seeds, self.jnp.uint32))
         # one program, the agents one after another: vmapped, the orthogonal initialisation's
-        # batched QR hangs XLA's CPU runtime in some processes (jaxlib 0.10.2: 2 of 8 fresh
-        # processes making 100 agents never returned); mapped, it gives the same bits
+        # batched QR hangs XLA's CPU runtime in some processes (jaxlib 0.10.2: 5 of 6 fresh
+        # processes making 100 ppo_jax agents never returned); mapped, it gives the same bits
         self.state = self.jax.jit(lambda keys: self.jax.lax.map(self.initial_state, keys))(keys)
         self.clocks = np.zeros(len(self.seeds), dtype=np.int64)
         batch = len(self.seeds)
