@@ -11,9 +11,14 @@ import pandas as pd
 import pytest
 
 from conftest import run_cli
+from lwrl.agent import jax_population, stable_baselines
 from lwrl.studies.implementations import plan, report
 
 TASKS = ("mountain_car.cost_to_go", "pendulum.swingup")
+needs_both = pytest.mark.skipif(
+    jax_population.missing_jax() or bool(stable_baselines.missing_libraries()),
+    reason="both implementations: the jax and baselines extras "
+           "(pip install 'lwrl[jax,baselines]')")
 
 
 def test_the_pairs_come_from_the_registry():
@@ -54,6 +59,7 @@ def test_each_task_takes_the_papers_measure():
     assert not plan.STEPS.higher_is_better and plan.UPTIME.higher_is_better
 
 
+@needs_both
 def test_both_implementations_take_the_same_zoo_settings():
     """The translation: every field the same for both, the tuned ones from the zoo's set."""
     cells = plan.cells(TASKS, 3)
@@ -72,6 +78,7 @@ def test_both_implementations_take_the_same_zoo_settings():
     assert pendulum_ppo.settings["n_steps"] == 4096  # Acrobot-v1's set: the zoo's only swing-up
 
 
+@needs_both
 def test_the_study_runs_one_agent_per_run_on_the_same_seeds():
     cell = plan.cells(["pendulum.swingup"], 4, budgets={"pendulum.swingup": (30, {})})[0]
     for name in cell.pair.names:
@@ -82,6 +89,7 @@ def test_the_study_runs_one_agent_per_run_on_the_same_seeds():
     assert len(keys) == 8
 
 
+@needs_both
 def test_overrides_replace_the_protocol_and_say_so():
     cell = plan.cells(["mountain_car.cost_to_go"], 2, episodes=3, timesteps=500, time_limit=40)[0]
     assert cell.episodes == 3 and cell.task_options == {"time_limit": 40.0}
@@ -134,6 +142,7 @@ def synthetic_results(cell, draw) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+@needs_both
 def test_the_comparison_pairs_each_implementations_agents():
     """Two identical result sets: the same estimates, P = 0.5, no difference found; the
     agents counted per implementation from their own runs."""
@@ -148,6 +157,7 @@ def test_the_comparison_pairs_each_implementations_agents():
     assert comparison.tables[twin].shape == (6, 4)
 
 
+@needs_both
 def test_the_report_is_written_from_synthetic_results(tmp_path):
     """The report: the command at the top, a row per cell, the translation, a figure per
     cell, the verdicts; here the twin of the first pair is better by far."""
@@ -191,6 +201,7 @@ def test_a_time_limit_that_is_no_whole_number_of_steps_is_one_line(capsys, tmp_p
     assert status == 2 and len(err) == 1 and "whole number of control steps" in err[0], err
 
 
+@needs_both
 @pytest.mark.slow
 def test_a_tiny_study_runs_end_to_end_and_resumes(tmp_path, capsys):
     """1 task, 2 agents, 2 episodes of 30 steps, 100 steps of learning: the runs, the costs,

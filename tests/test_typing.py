@@ -4,6 +4,7 @@ configuration (pyproject.toml), no function hiding a submodule of its own packag
 `import lwrl.tasks` working from the repository's root without an install."""
 
 import importlib
+import importlib.util
 import inspect
 import pathlib
 import pkgutil
@@ -47,6 +48,8 @@ def packages():
     """Every package of lwrl, imported."""
     found = [lwrl]
     for info in pkgutil.walk_packages(lwrl.__path__, "lwrl."):
+        if info.name == "lwrl.jax" and importlib.util.find_spec("jax") is None:
+            continue  # the tasks in JAX come with the jax extra
         if info.ispkg and not info.name.startswith(("lwrl.studies", "lwrl.cli")):
             found.append(importlib.import_module(info.name))
     return found + [importlib.import_module(name) for name in ("lwrl.studies", "lwrl.cli")]
