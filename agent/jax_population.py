@@ -179,6 +179,7 @@ class PopulationAgents(Agents):
         # processes making 100 ppo_jax agents never returned); mapped, it gives the same bits
         self.state = self.jax.jit(lambda keys: self.jax.lax.map(self.initial_state, keys))(keys)
         self.clocks = np.zeros(len(self.seeds), dtype=np.int64)
+        self._greedy = None  # the jitted greedy act of `step`, made at its first call
         batch = len(self.seeds)
         self.arrays = PopulationArrays(q=np.zeros((batch, task.num_actions)),
                                        delta=np.full(batch, np.nan),
@@ -240,9 +241,28 @@ class PopulationAgents(Agents):
             return one(self.unflatten(weights))
         return np.stack([one(self.unflatten(w)) for w in self.arrays.weights])
 
-    def step(self, *args, **kwargs):
-        raise ValueError(f"{self.learner.name} trains as one JAX program (runners.population): "
-                         "it has no step-by-step loop")
+    def step(self, first, reward, discount, observation, active=None, learn=True,
+             greedy=False) -> np.ndarray:
+        """Greedy decisions without learning (`learn=False, greedy=True`), one jitted call of
+        the program's `act` over the batch: what a study times and an exported controller
+        does. The agents learn only as the whole program (`runners.population`), so anything
+        else is a one-line ValueError."""
+        if learn or not greedy:
+            raise ValueError(f"{self.learner.name} trains as one JAX program "
+                             "(runners.population): step by step it only acts greedily "
+                             "(learn=False, greedy=True)")
+        observation = self.check_observation(observation)
+        if self._greedy is None:
+            program, jax = self.program(), self.jax
+            key = jax.random.PRNGKey(0)  # unused: a greedy act draws nothing
+            self._hyper = program.hyper
+            self._greedy = jax.jit(jax.vmap(
+                lambda state, obs, hyper, clock: program.act(state, obs, key, hyper, True,
+                                                             clock)[0]))
+        actions = np.asarray(self._greedy(self.state, observation, self._hyper,
+                                          self.jnp.asarray(self.clocks)), dtype=np.int64)
+        active = np.ones(self.batch_size, dtype=bool) if active is None else np.asarray(active, bool)
+        return np.where(active, actions, 0)
 
     def saved(self) -> tuple[dict, dict]:
         """Every leaf of the state, by position in the pytree, and the clocks."""

@@ -20,7 +20,7 @@ def add_parser(commands) -> None:
     bench.add_argument("--learners", metavar="L,L,...", type=lambda text: text.split(","),
                        help="learner rows to run (default: all of each task's): paper, "
                             "sarsa-accumulating, sarsa-replacing, true_online_sarsa, cmac, "
-                            "ase_ace, dqn, ppo")
+                            "ase_ace, dqn, ppo, dqn_jax, ppo_jax")
     bench.add_argument("--plant", choices=("analytic", "mujoco"), default="analytic",
                        help="plant of the tasks that have both")
     bench.add_argument("--agents-per-cell", metavar="N", type=reproduce.agents_per_cell, default=5,

@@ -8,18 +8,21 @@ import shutil
 import numpy as np
 import pytest
 
-from lwrl.agent import stable_baselines
+from lwrl.agent import jax_population, stable_baselines
 from lwrl.export.c import export_c
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent
 from lwrl.studies.paper import bench_costs, bench_protocol, bench_report
-from tests.conftest import run_cli
+from tests.conftest import one_line_error, run_cli
 
 BASELINES = pytest.mark.skipif(bool(stable_baselines.missing_libraries()),
                                reason="the baselines extra is not installed (pip install 'lwrl[baselines]')")
+JAX = pytest.mark.skipif(jax_population.missing_jax(),
+                         reason=f"JAX is not installed ({jax_population.EXTRA})")
 
 
 @BASELINES
+@JAX
 def test_every_cell_of_the_protocol_is_a_valid_run():
     tasks = list(bench_protocol.TASKS)
     labels = bench_protocol.check_learners(None, tasks)
@@ -32,8 +35,9 @@ def test_every_cell_of_the_protocol_is_a_valid_run():
         options = {tuple(sorted(config.task_options.items())) for _, config in mine}
         assert len(episodes) == 1 and len(options) == 1  # one protocol for every learner
         assert len({config.seeds[0] for _, config in mine}) == 1
-    dqn = [config for task, label, config in cells if label == "dqn" and task == "mountain_car.cost_to_go"][0]
-    assert dqn.agent.net_arch == "256,256" and dqn.agent.timesteps == 120_000  # the zoo's set
+    for label in ("dqn", "dqn_jax"):
+        dqn = [config for task, l, config in cells if l == label and task == "mountain_car.cost_to_go"][0]
+        assert dqn.agent.net_arch == "256,256" and dqn.agent.timesteps == 120_000  # the zoo's set
 
 
 def test_the_rule_is_findings():
@@ -78,16 +82,16 @@ def test_the_search_tries_the_zoos_set_first_and_keeps_the_best_on_seeds_of_its_
     from lwrl.studies.paper import bench_search
 
     tasks = ["mountain_car.cost_to_go", "pendulum.swingup"]
-    cells = bench_protocol.configs(tasks, ["paper", "dqn", "ppo"], "analytic", 5)
+    cells = bench_protocol.configs(tasks, ["paper", *bench_protocol.DEEP], "analytic", 5)
     found = bench_search.candidates(cells)
-    assert set(found) == {(task, label) for task in tasks for label in ("dqn", "ppo")}
+    assert set(found) == {(task, label) for task in tasks for label in bench_protocol.DEEP}
     for (task, label), configs in found.items():
         row = next(config for t, l, config in cells if (t, l) == (task, label))
         rates = [config.agent.learning_rate / row.agent.learning_rate for config in configs]
         np.testing.assert_allclose(rates, (1.0, *bench_search.FACTORS, 1.0))
         shorter = configs[-1].agent
         assert shorter.timesteps == row.agent.timesteps // bench_search.SHORTER
-        if label == "dqn":
+        if label.startswith("dqn"):
             assert shorter.learning_starts == row.agent.learning_starts // bench_search.SHORTER
         assert all(min(config.seeds) >= row.agents for config in configs)
         assert dataclasses.replace(configs[0], agents=row.agents, seed=row.seed).key == row.key
@@ -97,6 +101,7 @@ def test_the_search_tries_the_zoos_set_first_and_keeps_the_best_on_seeds_of_its_
                              for configs in found.values()
                              for config, value in zip(configs, scores) for seed in config.seeds])
     chosen = bench_search.choose(found, results([50.0, 20.0, 80.0, 50.0]))
+    assert chosen["mountain_car.cost_to_go", "dqn_jax"] is found["mountain_car.cost_to_go", "dqn_jax"][1]
     assert chosen["mountain_car.cost_to_go", "dqn"] is found["mountain_car.cost_to_go", "dqn"][1]
     assert chosen["pendulum.swingup", "ppo"] is found["pendulum.swingup", "ppo"][2]
     tie = bench_search.choose(found, results([30.0, 30.0, 30.0, 30.0]))
@@ -115,3 +120,20 @@ def test_lwrl_bench_writes_its_report_and_resumes(tmp_path, capsys):
     assert "computed 1 of the 1 runs" in report and "\n| paper | " in report
     assert run_cli(argv, capsys)[0] == 0
     assert "computed 0 of the 1 runs" in (out / "README.md").read_text()
+
+
+@JAX
+def test_population_agents_act_greedily_step_by_step_and_learn_only_as_a_program():
+    """`Agents.step` of a population learner (what the costs time): each agent's greedy
+    action is the argmax of its own action values; learning step by step is one line."""
+    config = RunConfig(task="mountain_car.cost_to_go", learner="dqn_jax", agents=3, seed=0,
+                       timesteps=400, buffer_size=1000)
+    agent = make_agent(config)
+    states = np.array([[-0.5, 0.0], [0.3, 0.01], [-1.0, -0.02]])
+    actions = agent.step(np.ones(3, bool), np.zeros(3), np.ones(3), states, learn=False,
+                         greedy=True)
+    values = agent.action_values(states)  # (agent, state, action)
+    np.testing.assert_array_equal(actions, values[np.arange(3), np.arange(3)].argmax(axis=-1))
+    assert len(set(map(tuple, values[:, 0].round(6)))) == 3  # three agents, three networks
+    one_line_error(lambda: agent.step(np.ones(3, bool), np.zeros(3), np.ones(3), states),
+                   "only acts greedily")

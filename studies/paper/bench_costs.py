@@ -3,10 +3,11 @@
 
 - CPU time per learning step: one agent learning on the task, one thread, each learner's own
   fast path (`runners.run.run`: the compiled loop for lwrl's learners, the stepped loop with
-  torch for SB3's), agent and plant together, `time.process_time` over a step budget after
-  a warm-up (compilation, imports) on another agent. The budget covers the start of
-  learning (DQN's `learning_starts` plus 2000 steps, two of PPO's rollouts, at least 3000
-  steps; 20 000 for lwrl's learners).
+  torch for SB3's, the jitted JAX program for the population learners), agent and plant
+  together, `time.process_time` over a step budget after a warm-up (compilation, imports)
+  on another agent. The budget covers the start of learning (DQN's `learning_starts` plus
+  2000 steps, two of PPO's rollouts, at least 3000 steps; 20 000 for lwrl's learners); a
+  population learner's is one call of 20 episodes (`_learn`).
 - CPU time per greedy decision: `Agents.step` of that agent with `learn=False, greedy=True`,
   one state at a time, over 2000 states drawn in the task's ranges.
 - Parameters in bytes: what the learner learns (`arrays.weights` of one agent, float64 for
@@ -78,9 +79,14 @@ def step_budget(config, quick: bool) -> int:
 def _learn(config, agent, steps: int) -> int:
     """Run `agent` for about `steps` steps of learning, `EPISODES_PER_CALL` episodes a call
     (each at most the steps left), so that a call's setup is spread over many steps; the
-    steps it took."""
+    steps it took. A population learner runs one call of `EPISODES_PER_CALL` episodes of
+    the task's own length whatever `steps`: its program is compiled for the episodes' shape,
+    so the warm-up's call, of the same shape, leaves the timed one nothing to compile."""
     from lwrl import tasks
     from lwrl.runners.run import run
+    if agent.learner.population:
+        _, results = run(dataclasses.replace(config, episodes=EPISODES_PER_CALL), agent=agent)
+        return int(results.steps.sum())
     definition = tasks.definition(*tasks.split_name(config.task))
     taken = 0
     limit = config.task_options.get("time_limit", definition.step_limit * definition.control_timestep)

@@ -87,11 +87,14 @@ def learners(task: str) -> list:
     bench = TASKS[task]
     return [("paper", "sarsa", {}), ("sarsa-" + other_trace(task), "sarsa", {"trace": other_trace(task)}),
             ("true_online_sarsa", "true_online_sarsa", {}), *bench.extra,
-            ("dqn", "dqn", tuned_settings(task, "dqn")), ("ppo", "ppo", tuned_settings(task, "ppo"))]
+            *((name, name, tuned_settings(task, name)) for name in DEEP)]
 
 
+DEEP = ("dqn", "ppo", "dqn_jax", "ppo_jax")
+"""The deep learners: Stable-Baselines3's DQN and PPO and the same learners trained as JAX
+populations (`agent.dqn_jax`, `agent.ppo_jax`), with the zoo's settings."""
 LABELS = ("paper", "sarsa-accumulating", "sarsa-replacing", "true_online_sarsa", "cmac",
-          "ase_ace", "dqn", "ppo")
+          "ase_ace", *DEEP)
 
 
 def check_tasks(names) -> list:
@@ -137,11 +140,11 @@ def configs(tasks, labels, plant: str, agents: int, quick: bool = False) -> list
 
 def quick_settings(learner: str, settings: dict) -> dict:
     """A learner's settings cut for a smoke test: DQN's and PPO's horizons, buffers and
-    rollouts a few hundred steps (the others are cheap as they are)."""
-    if learner == "dqn":
+    rollouts (both implementations') a few hundred steps (the others are cheap as they are)."""
+    if learner in ("dqn", "dqn_jax"):
         return dict(settings, timesteps=min(settings.get("timesteps", 10**6), 400),
                     buffer_size=min(settings.get("buffer_size", 10**6), 1000))
-    if learner == "ppo":
+    if learner in ("ppo", "ppo_jax"):
         return dict(settings, n_steps=64, batch_size=64, timesteps=400)
     return settings
 

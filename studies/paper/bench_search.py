@@ -26,7 +26,7 @@ import numpy as np
 from lwrl.analysis import statistics as st
 from lwrl.studies.paper import bench_protocol as protocol
 
-SEARCHED = ("dqn", "ppo")
+SEARCHED = protocol.DEEP
 """The rows that are searched: the baselines, whose settings were tuned elsewhere."""
 FACTORS = (0.3, 3.0)
 """The learning rates tried beside the zoo's, as factors of it."""
@@ -49,7 +49,7 @@ def candidates(cells) -> dict:
         rate = config.agent.learning_rate
         base = dataclasses.replace(config, agents=AGENTS, seed=SEED)
         shorter = {"timesteps": max(1, config.agent.timesteps // SHORTER)}
-        if label == "dqn":
+        if hasattr(config.agent, "learning_starts"):
             shorter["learning_starts"] = config.agent.learning_starts // SHORTER
         found[task, label] = [base] + [dataclasses.replace(base, learning_rate=factor * rate)
                                        for factor in FACTORS] + [dataclasses.replace(base, **shorter)]
