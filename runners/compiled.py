@@ -26,7 +26,7 @@ from lwrl import kernels, tasks
 from lwrl.kernels import copy_into
 from lwrl.agent.learner_contract import Agents
 from lwrl.agent.threads import run_in_chunks
-from lwrl.runners.episodes import EpisodeResults, episode_starts, finish_episode
+from lwrl.runners.episodes import EpisodeResults, episode_starts, finish_episode, step_budget
 from lwrl.runners.recording import (make_tape, record_end, record_state, record_transition,
                                     recordings)
 from lwrl.settings import check_count
@@ -115,10 +115,12 @@ WITHOUT_RUNTIME = ("analytic",)
 
 def _loop(start, stop, first, count, starts, start_observations, controls, dt, plant, models,
           task_params, physical, sigma_observation, delays, sigma_action, keys, step_limit,
-          learn, greedy, arrays, steps, returns, uptime, truncated, diverged_episode, done,
-          tape, cancel, scratch):
+          budget, spent, learn, greedy, arrays, steps, returns, uptime, truncated,
+          diverged_episode, done, tape, cancel, scratch):
     """The whole learning loop around the plant's transition: agents `start..stop-1` run
-    episodes `first..first+count-1` (their starts given) unless diverged; once `cancel[0]`
+    episodes `first..first+count-1` (their starts given) unless diverged or out of their
+    `budget` of steps (`spent[b]` so far; the episode that spends it is cut there, a
+    truncation); once `cancel[0]`
     is set (Ctrl-C), each agent stops after the episode it is in (at most tens of ms).
     `dt`: seconds of up-time per step up. Agent b's episode k has the controls
     `controls[b, k]` `(A,)`, the parameter values `physical[b, k]` `(P,)` and the MuJoCo
@@ -131,8 +133,9 @@ def _loop(start, stop, first, count, starts, start_observations, controls, dt, p
                                           scratch.states[b, 2])
         buffer = scratch.buffers[b, :delays[b]]
         for k in range(first, first + count):
-            if arrays.diverged[b] or cancel[0]:
+            if arrays.diverged[b] or cancel[0] or spent[b] >= budget:
                 break
+            limit = min(step_limit, budget - spent[b])
             copy_into(state, starts[b, k])
             copy_into(observation, start_observations[b, k])
             noisy_observation(observation, sigma_observation[b], keys[b], k, 0)
@@ -153,7 +156,7 @@ def _loop(start, stop, first, count, starts, start_observations, controls, dt, p
                 reward, terminal, is_up = plant_transition(state, control, next_state,
                                                            observation, plant, models[b, k],
                                                            workspace, arguments)
-                n, up, last = advance_episode(n, up, is_up, terminal, dt, step_limit)
+                n, up, last = advance_episode(n, up, is_up, terminal, dt, limit)
                 noisy_observation(observation, sigma_observation[b], keys[b], k, n)
                 total += reward
                 copy_into(state, next_state)
@@ -166,7 +169,8 @@ def _loop(start, stop, first, count, starts, start_observations, controls, dt, p
                 last = last or arrays.diverged[b]
             if r >= 0:
                 record_end(tape, r, n, arrays.weights[b])
-            finish_episode(b, k, n, total, up, not terminal and n >= step_limit,
+            spent[b] += n
+            finish_episode(b, k, n, total, up, not terminal and n >= limit,
                            arrays.diverged[b], steps, returns, uptime, truncated,
                            diverged_episode, done)
     close_plant(plant, workspace)
@@ -220,7 +224,7 @@ def model_addresses(domain: str, plant: str, physical: np.ndarray) -> np.ndarray
 def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
                  learn: bool = True, integrator: str = "semi_implicit", equations: str = "paper",
                  progress=None, record=(), plant: str = "analytic", greedy: bool = False,
-                 params=None, randomise=None, **options) -> EpisodeResults:
+                 params=None, randomise=None, budget=None, **options) -> EpisodeResults:
     """B agents of a compiled learner (`Learner.compiles`) on `plant` (analytic or mujoco)
     of `domain.task`, in one compiled loop; environment b is seeded with `seeds[b]` as in
     `BatchedEnv`; `learn` and `greedy` as for `Learner.step`. Episodes run
@@ -229,7 +233,8 @@ def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
     As in `BatchedEnv`, `params` (the physical parameters) and the sensor and actuator
     options (`tasks.disturbances.OPTIONS`) take one value for every agent or one per
     agent; `randomise={name: (low, high)}` draws those parameters anew for each episode
-    (`tasks.randomisation`)."""
+    (`tasks.randomisation`). `budget`: environment steps per agent at most (`RunConfig.budget`;
+    None: no budget)."""
     episodes = check_count("episodes", episodes, 1)
     seeds = list(seeds)
     if len(seeds) != agent.batch_size:
@@ -257,6 +262,7 @@ def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
     tape = make_tape(record, batch, episodes, definition.step_limit, starts.shape[2],
                      agent.num_actions, agent.arrays.weights.shape[1:])
     done = np.zeros(batch, dtype=np.int64)  # episodes each agent has finished
+    spent = np.zeros(batch, dtype=np.int64)  # steps each agent has taken
     cancel = np.zeros(1, dtype=bool)  # set on Ctrl-C: the loops stop after their episode
     block = max(1, episodes // 20)
     models = model_addresses(domain, plant, physical)
@@ -269,7 +275,7 @@ def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
                 definition.control_timestep, stepped, models,
                 definition.loop_arguments()[0], physical, sensors.sigma_observation,
                 sensors.delay, sensors.sigma_action, sensors.keys, int(step_limit),
-                bool(learn), bool(greedy), agent.arrays, steps, results.returns,
+                step_budget(budget), spent, bool(learn), bool(greedy), agent.arrays, steps, results.returns,
                 results.uptime, results.truncated, results.diverged_episode, done, tape,
                 cancel, scratch, min_chunk=1, chunks_per_worker=8, cancel=cancel)
             if progress is not None:

@@ -145,11 +145,17 @@ class ProtocolSettings:
     """Agents B; agent b is seeded with `seed + b` (its starts and its random stream)."""
     seed: int = setting(0, per_agent=True)
     """Seed of the first agent."""
+    budget: int | None = setting(None, key=WHEN_SET)
+    """Environment steps per agent at most (none: no budget): an agent stops once it has
+    taken them, the episode it is in cut there as at a time limit (truncated), so that
+    `episodes` is then the most it runs and every learner gets the same experience."""
 
     def check_protocol(self) -> None:
         for name in ("episodes", "agents"):
             check_count(name, getattr(self, name), 1)
         check_count("seed", self.seed, 0)
+        if self.budget is not None:
+            check_count("budget", self.budget, 1)
 
     @property
     def seeds(self) -> list:

@@ -64,6 +64,12 @@ class EpisodeResults:
                 **{name: values.ravel() for name, values in self.physical.items()}}
 
 
+def step_budget(budget) -> int:
+    """A run's budget of steps per agent (`RunConfig.budget`) as the loops take it: the
+    largest int64 for none."""
+    return np.iinfo(np.int64).max if budget is None else int(budget)
+
+
 @register_jitable
 def finish_episode(b, k, steps, total, uptime, truncated, diverged, out_steps, out_returns,
                    out_uptime, out_truncated, diverged_episode, done):

@@ -113,6 +113,9 @@ def run(config, agent: Agents | None = None, learn: bool = True, greedy: bool = 
     domain, task = config.domain, config.task_name
     options = environment_options(batch or [config])
     if agent.learner.population:
+        if config.budget is not None:
+            raise ValueError(f"{agent.learner.name} runs whole episodes: its path takes no "
+                             "budget of steps yet")
         results = run_population(domain, task, agent, config.episodes, seeds, learn=learn,
                                  greedy=greedy, progress=progress, record=record,
                                  plant=config.plant_name, **config.plant_options,
@@ -120,12 +123,14 @@ def run(config, agent: Agents | None = None, learn: bool = True, greedy: bool = 
     elif agent.learner.compiles and compiles(domain, config.plant_name):
         results = run_compiled(domain, task, agent, config.episodes, seeds, learn=learn,
                                greedy=greedy, progress=progress, record=record,
+                               budget=config.budget,
                                plant=config.plant_name, **config.plant_options,
                                **config.task_options, **options)
     else:
         env = BatchedEnv(domain, task, config.plant_name, seeds, **config.plant_options,
                          **config.task_options, **options)
         results = run_batched(env, agent, config.episodes, learn=learn, greedy=greedy,
+                              budget=config.budget,
                               progress=progress, record=record)
     results.physical = drawn_values(config, options, seeds, results)
     return agent, results

@@ -6,7 +6,7 @@ same bookkeeping (`runners.episodes.finish_episode`, `runners.recording`) and nu
 import numpy as np
 
 from lwrl.agent.learner_contract import Agents
-from lwrl.runners.episodes import EpisodeResults, finish_episode
+from lwrl.runners.episodes import EpisodeResults, finish_episode, step_budget
 from lwrl.runners.recording import (make_tape, record_end, record_state, record_transition,
                                     recordings)
 from lwrl.settings import check_count
@@ -24,10 +24,12 @@ def run_dm_env(env, agent: Agents, episodes: int, learn: bool = True,
 
 
 def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = True,
-                progress=None, record=(), greedy: bool = False) -> EpisodeResults:
+                progress=None, record=(), greedy: bool = False, budget=None) -> EpisodeResults:
     """B agents of any learner on a batched environment of B copies (a `BatchedEnv`, or
     `SteppedEnvs` of B dm_env environments); `learn` and `greedy` as for `Agents.step`;
-    `progress(done_episodes)` is called as episodes finish. The
+    `progress(done_episodes)` is called as episodes finish; `budget`: environment steps per
+    agent at most (None: no budget), the episode that spends them cut there, truncated, as
+    `run_compiled` cuts it. The
     `(agent, episode)` pairs in `record` are recorded step by step (`results.recordings`), as
     `run_compiled` records them; recording needs a `BatchedEnv`."""
     episodes = check_count("episodes", episodes, 1)
@@ -38,6 +40,8 @@ def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = Tru
     results = EpisodeResults.empty(batch, episodes)
     done = np.zeros(batch, dtype=np.int64)  # finished episodes per agent
     running = np.ones(batch, dtype=bool)
+    budget = step_budget(budget)
+    spent = np.zeros(batch, dtype=np.int64)  # transitions each agent has taken
     returns = np.zeros(batch)
     recording = bool(len(record))  # else the step loop skips the tape entirely
     if recording:
@@ -62,20 +66,23 @@ def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = Tru
                         record_transition(tape, rows[b], n, previous[b], ts.reward[b],
                                           agent.arrays.delta[b])
             newly_diverged = running & agent.diverged
-            ended = running & (ts.last() | newly_diverged)
+            cut = running & (spent >= budget) & ~ts.first()
+            ended = running & (ts.last() | newly_diverged | cut)
             for b in np.flatnonzero(ended):
                 finish_episode(b, done[b], env.steps[b], returns[b], env.uptime[b],
-                               ts.last()[b] and ts.discount[b] == 1.0, newly_diverged[b],
+                               (ts.last()[b] and ts.discount[b] == 1.0) or
+                               (cut[b] and not ts.last()[b]), newly_diverged[b],
                                results.steps, results.returns, results.uptime, results.truncated,
                                results.diverged_episode, done)
                 if rows[b] >= 0:
                     record_end(tape, rows[b], env.steps[b], agent.arrays.weights[b])
-            running &= (done < episodes) & ~agent.diverged
+            running &= (done < episodes) & ~agent.diverged & (spent < budget)
             if progress is not None and ended.any():
                 progress(int(ended.sum()))
             if not running.any():
                 break
             ts = env.step(actions)
+            spent += running & ~ts.first()
             returns = np.where(ts.first(), 0.0, returns + ts.reward)
     except KeyboardInterrupt:
         results.interrupted = True

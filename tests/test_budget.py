@@ -1,0 +1,56 @@
+"""A run's budget of environment steps per agent (`RunConfig.budget`, `lwrl train
+--budget`): every agent takes exactly the budget (unless its episodes end first), the
+episode that spends it is cut there and recorded as truncated, what came before is the run
+without a budget (so a shorter budget's run is the start of a longer one's), and the
+compiled and stepped loops agree on it."""
+
+import numpy as np
+import pytest
+from conftest import one_line_error
+
+from lwrl.runners.config import RunConfig
+from lwrl.runners.run import make_agent, run
+from lwrl.runners.stepped import run_batched
+from lwrl.tasks.batched import BatchedEnv
+
+
+@pytest.mark.parametrize("task", ["mountain_car.cost_to_go", "cartpole.balance"])
+def test_a_budget_cuts_the_run_it_would_have_been(task):
+    config = RunConfig(task=task, agents=3, episodes=8, seed=0)
+    _, free = run(config)
+    budget = int(np.nansum(free.steps, axis=1).min() * 0.6)
+    _, cut = run(RunConfig(task=task, agents=3, episodes=8, seed=0, budget=budget))
+    np.testing.assert_array_equal(np.nansum(cut.steps, axis=1), budget)
+    for b in range(3):
+        last = int(np.flatnonzero(np.isfinite(cut.steps[b]))[-1])
+        assert last < 7 and np.isnan(cut.steps[b, last + 1:]).all()
+        np.testing.assert_array_equal(cut.steps[b, :last], free.steps[b, :last])
+        np.testing.assert_array_equal(cut.returns[b, :last], free.returns[b, :last])
+        assert cut.steps[b, last] <= free.steps[b, last]
+        assert cut.truncated[b, last] == (cut.steps[b, last] < free.steps[b, last]
+                                          or free.truncated[b, last])
+
+
+def test_the_stepped_loop_spends_a_budget_as_the_compiled_loop_does():
+    config = RunConfig(task="mountain_car.cost_to_go", agents=3, episodes=8, seed=4, budget=700)
+    _, compiled = run(config)
+    env = BatchedEnv(config.domain, config.task_name, config.plant_name, config.seeds)
+    stepped = run_batched(env, make_agent(config), config.episodes, budget=config.budget)
+    for field in ("steps", "returns", "truncated"):
+        np.testing.assert_array_equal(getattr(stepped, field), getattr(compiled, field))
+
+
+def test_a_budget_larger_than_the_run_changes_nothing_and_no_budget_keeps_the_key():
+    config = RunConfig(task="mountain_car.cost_to_go", agents=2, episodes=3, seed=0)
+    _, free = run(config)
+    _, large = run(RunConfig(task="mountain_car.cost_to_go", agents=2, episodes=3, seed=0,
+                             budget=10**9))
+    np.testing.assert_array_equal(large.steps, free.steps)
+    assert RunConfig(task="mountain_car.cost_to_go", budget=None).key == \
+        RunConfig(task="mountain_car.cost_to_go").key
+
+
+@pytest.mark.parametrize("budget", [0, -5, 2.5, True])
+def test_a_budget_is_a_whole_number_of_steps(budget):
+    one_line_error(lambda: RunConfig(task="mountain_car.cost_to_go", budget=budget),
+                   "budget must be an integer >= 1")
