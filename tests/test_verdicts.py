@@ -1,5 +1,9 @@
 """The reproduction's rules on hand-made tables whose verdict is known, and the statistics
-they rest on: intervals, the probability of improvement, the half-split choice of alpha."""
+they rest on: intervals, the probability of improvement, the half-split choice of alpha; and
+the comparison's statistics (`analysis.verdicts`) on cases whose answer is known by hand."""
+
+import itertools
+import sys
 
 import numpy as np
 import pandas as pd
@@ -7,6 +11,7 @@ import pytest
 
 from lwrl.analysis import plots
 from lwrl.analysis import statistics as st
+from lwrl.analysis import verdicts
 from lwrl.studies.paper import judging
 from lwrl.studies.paper.items import fig5, table1, traces
 
@@ -144,3 +149,243 @@ def test_the_claims_figure_draws_each_judged_quantity_beside_the_claim(tmp_path)
     assert len(figure.axes) == 1
     assert [label.get_text() for label in figure.axes[0].get_yticklabels()] == [
         item.label for item in section.evidence]
+
+
+def test_normalised_scores_put_random_at_0_and_classical_at_1_either_way():
+    """Up-time (higher is better) and steps per episode (lower is better): the same formula."""
+    uptime = verdicts.normalised_score([10.0, 60.0, 110.0, 160.0], random=[5.0, 15.0],
+                                       classical=[100.0, 120.0], higher_is_better=True)
+    np.testing.assert_allclose(uptime, [0.0, 0.5, 1.0, 1.5])
+    steps = verdicts.normalised_score([500.0, 300.0, 100.0, 50.0], random=[450.0, 550.0],
+                                      classical=[100.0], higher_is_better=False)
+    np.testing.assert_allclose(steps, [0.0, 0.5, 1.0, 1.125])
+    with pytest.raises(ValueError, match="classical and random means to differ"):
+        verdicts.normalised_score([1.0], random=[2.0], classical=[2.0], higher_is_better=True)
+    with pytest.raises(ValueError, match=r"classical mean \(100\) better than the random one"):
+        verdicts.normalised_score([1.0], random=[500.0], classical=[100.0], higher_is_better=True)
+
+
+def exact_two_sided_p(x, y):
+    """By hand: every split of the pooled values into len(x) and len(y); twice the smaller
+    one-sided share of splits at least as extreme as the observed difference of means."""
+    pooled, observed = x + y, np.mean(x) - np.mean(y)
+    differences = [np.mean([pooled[i] for i in chosen])
+                   - np.mean([pooled[i] for i in range(len(pooled)) if i not in chosen])
+                   for chosen in itertools.combinations(range(len(pooled)), len(x))]
+    below = np.mean([d <= observed + 1e-12 for d in differences])
+    above = np.mean([d >= observed - 1e-12 for d in differences])
+    return min(1.0, 2 * min(below, above))
+
+
+def test_the_permutation_test_is_exact_on_small_samples():
+    assert verdicts.permutation_p_value([1, 2, 3], [4, 5, 6]) == pytest.approx(2 / 20)
+    assert exact_two_sided_p([1, 2, 3], [4, 5, 6]) == pytest.approx(2 / 20)
+    x, y = [1.0, 2.0, 4.0], [3.0, 5.0, 6.0, 7.0]  # 35 splits
+    assert verdicts.permutation_p_value(x, y) == pytest.approx(exact_two_sided_p(x, y))
+
+
+def test_the_permutation_test_rejects_separated_samples_with_a_fixed_seed():
+    """C(60, 30) splits: Monte Carlo, 10 000 of them; none as extreme gives a one-sided
+    1 / 10 001, two-sided twice that."""
+    rng = np.random.default_rng(0)
+    low, high = rng.normal(0.0, 1.0, 30), rng.normal(3.0, 1.0, 30)
+    p = verdicts.permutation_p_value(low, high)
+    assert p == pytest.approx(2 / (st.RESAMPLES + 1)) and p < 0.001
+    assert verdicts.permutation_p_value(low, high) == p
+    assert verdicts.permutation_p_value(low, rng.normal(0.0, 1.0, 30)) > 0.05
+    with pytest.raises(ValueError, match="two one-dimensional samples"):
+        verdicts.permutation_p_value([np.nan], [1.0])
+
+
+def test_holm_on_the_textbook_case():
+    corrected = verdicts.holm([0.01, 0.04, 0.03, 0.005])
+    np.testing.assert_allclose(corrected.adjusted, [0.03, 0.06, 0.06, 0.02])
+    assert corrected.rejected.tolist() == [True, False, False, True]
+    np.testing.assert_allclose(verdicts.holm([0.5, 0.4]).adjusted, [0.8, 0.8])
+    np.testing.assert_allclose(verdicts.holm([0.3, 0.9, 0.6]).adjusted, [0.9, 1.0, 1.0])  # capped
+    with pytest.raises(ValueError, match=r"p-values in \[0, 1\]"):
+        verdicts.holm([0.5, 1.5])
+
+
+def test_holm_agrees_with_statsmodels():
+    multitest = pytest.importorskip("statsmodels.stats.multitest",
+                                    reason="the cross-check needs statsmodels, not a dependency")
+    p = np.random.default_rng(1).uniform(0.0, 0.08, 12)
+    rejected, adjusted, _, _ = multitest.multipletests(p, alpha=0.05, method="holm")
+    corrected = verdicts.holm(p)
+    np.testing.assert_allclose(corrected.adjusted, adjusted)
+    assert corrected.rejected.tolist() == rejected.tolist()
+
+
+def agents(mean, seed, count=20):
+    """`count` agents' normalised scores around `mean`."""
+    return np.random.default_rng(seed).normal(mean, 0.1, count)
+
+
+def test_learners_drawn_like_the_random_row_are_not_judged():
+    verdict = verdicts.above_random_gate(agents(0.0, 1), agents(0.0, 2), agents(0.0, 0))
+    assert not verdict.judged
+    assert verdict.reason.startswith("not judged: ") and "A's interval" in verdict.reason
+    assert "B's interval" in verdict.reason
+
+
+def test_a_learner_beside_a_random_one_is_not_judged_naming_the_random_side():
+    verdict = verdicts.above_random_gate(agents(1.0, 1), agents(0.0, 2), agents(0.0, 0),
+                                         names=("nrbf", "dqn"))
+    assert not verdict.judged
+    assert "dqn's interval" in verdict.reason and "nrbf" not in verdict.reason
+    assert verdict.a.low > verdict.random.high >= verdict.b.low
+
+
+def test_learners_well_above_random_are_judged():
+    verdict = verdicts.above_random_gate(agents(0.8, 1), agents(1.0, 2), agents(0.0, 0))
+    assert verdict.judged and verdict.reason.startswith("judged: ")
+    one_agent = verdicts.above_random_gate(agents(0.8, 1), agents(1.0, 2), [0.0])
+    assert not one_agent.judged and "the random row has no interval" in one_agent.reason
+
+
+def test_aggregates_of_known_matrices():
+    """Task means 0, 1 and 5: median 1, mean 2; the IQM drops the lowest and the highest of
+    the six scores (a quarter of six, rounded down, at each end): (0 + 1 + 1 + 4) / 4; the
+    optimality gap 1 - mean(min(x, 1)) = 1 - 4/6. One outlier among eight scores moves the
+    mean (and the median of two task means) and not the IQM, the middle four, all 1."""
+    known = np.array([[0.0, 1.0, 4.0], [0.0, 1.0, 6.0]])
+    outlier = np.array([[0.0, 1.0], [1.0, 1.0], [1.0, 1.0], [1.0, 10.0]])
+    estimates = verdicts.aggregate_estimates({"known": known, "outlier": outlier}, resamples=200)
+    assert list(estimates["known"]) == list(verdicts.AGGREGATES)
+    assert [e.value for e in estimates["known"].values()] == pytest.approx([1.5, 1.0, 2.0, 1 / 3])
+    assert [e.value for e in estimates["outlier"].values()] == pytest.approx([1.0, 2.0, 2.0, 0.125])
+    for estimate in [*estimates["known"].values(), *estimates["outlier"].values()]:
+        assert estimate.low <= estimate.value <= estimate.high
+    assert estimates["outlier"]["IQM"].value == 1.0 and estimates["outlier"]["mean"].value == 2.0
+
+
+def test_equal_scores_give_degenerate_intervals_and_one_run_none():
+    half = np.full((10, 3), 0.5)
+    for estimate in verdicts.aggregate_estimates({"half": half}, resamples=200)["half"].values():
+        assert estimate.value == estimate.low == estimate.high == 0.5
+    profile = verdicts.performance_profiles({"half": half}, [0.0, 0.5], resamples=200)["half"]
+    assert profile.low.tolist() == profile.high.tolist() == profile.fraction.tolist() == [1.0, 0.0]
+    improvement = verdicts.improvement_across_tasks(half, half, resamples=200)
+    assert improvement.value == improvement.low == improvement.high == 0.5
+    one_run = verdicts.aggregate_estimates({"one": np.array([[0.2, 0.4]])})["one"]["mean"]
+    assert one_run.value == pytest.approx(0.3) and np.isnan(one_run.low) and np.isnan(one_run.high)
+
+
+def test_intervals_are_reproducible_and_each_learner_s_own():
+    rng = np.random.default_rng(5)
+    scores = {"a": rng.normal(0.6, 0.3, (8, 3)), "b": rng.normal(0.9, 0.3, (8, 3))}
+    state = np.random.get_state()
+    estimates = verdicts.aggregate_estimates(scores, resamples=500)
+    assert verdicts.aggregate_estimates(scores, resamples=500) == estimates  # the same numbers
+    assert verdicts.aggregate_estimates({"b": scores["b"]}, resamples=500) == {"b": estimates["b"]}
+    assert estimates["a"]["IQM"].low < estimates["a"]["IQM"].value < estimates["a"]["IQM"].high
+    profiles = [verdicts.performance_profiles(scores, [0.5, 1.0], resamples=500)["a"]
+                for _ in range(2)]
+    assert all(np.array_equal(getattr(profiles[0], side), getattr(profiles[1], side))
+               for side in ("fraction", "low", "high"))
+    assert verdicts.improvement_across_tasks(scores["a"], scores["b"], resamples=500) == \
+        verdicts.improvement_across_tasks(scores["a"], scores["b"], resamples=500)
+    assert all(a == b for a, b in zip(np.random.get_state()[1], state[1]))  # global untouched
+
+
+def test_performance_profiles_count_scores_strictly_above_each_threshold():
+    half, thresholds = np.full((10, 3), 0.5), np.linspace(0.0, 1.0, 11)
+    profiles = verdicts.performance_profiles({"half": half, "one": half + 0.5}, thresholds,
+                                             resamples=200)
+    assert profiles["half"].fraction.tolist() == [1.0] * 5 + [0.0] * 6  # above tau <= 0.4
+    assert profiles["one"].fraction.tolist() == [1.0] * 10 + [0.0]
+    mixed = np.array([[0.2, 0.8], [0.6, 1.2]])  # any order of thresholds; a score at tau: not above
+    profile = verdicts.performance_profiles({"mixed": mixed}, [1.0, 0.0, 0.5, 0.2, 0.8],
+                                            resamples=200)["mixed"]
+    assert profile.fraction.tolist() == [0.25, 1.0, 0.75, 0.75, 0.25]
+    assert np.all(profile.low <= profile.fraction) and np.all(profile.fraction <= profile.high)
+
+
+def test_improvement_across_tasks_of_known_matrices():
+    """Task 1: x {1, 2} against y {2, 2, 2}, the three pairs with x = 2 tied (1/2 each), the
+    others below: 1.5 / 6; task 2: x {2, 3} above y {0, 0, 0}: 1; the mean over tasks 0.625."""
+    x, y = np.array([[1.0, 2.0], [2.0, 3.0]]), np.array([[2.0, 0.0], [2.0, 0.0], [2.0, 0.0]])
+    assert verdicts.improvement_across_tasks(x, y, resamples=200).value == 0.625
+    half = np.full((10, 3), 0.5)
+    improvement = verdicts.improvement_across_tasks(half + 0.5, half, resamples=200)
+    assert (improvement.value, improvement.low, improvement.high) == (1.0, 1.0, 1.0)
+    rng = np.random.default_rng(2)
+    same = rng.normal(0.5, 0.2, (10, 3))
+    level = verdicts.improvement_across_tasks(same, same, resamples=500)
+    assert level.value == 0.5 and level.low < 0.5 < level.high
+    with pytest.raises(ValueError, match="the same tasks"):
+        verdicts.improvement_across_tasks(half, half[:, :2])
+    with pytest.raises(ValueError, match="a score is NaN"):
+        verdicts.aggregate_estimates({"diverged": np.array([[0.5, np.nan], [0.5, 0.5]])})
+
+
+def test_aggregates_need_no_rliable(monkeypatch):
+    for module in ("rliable", "rliable.library", "rliable.metrics", "rliable.plot_utils"):
+        monkeypatch.setitem(sys.modules, module, None)  # an import of it fails
+    assert verdicts.aggregate_estimates({"a": np.full((4, 2), 0.5)}, resamples=100)["a"][
+        "IQM"].value == 0.5
+    assert not hasattr(verdicts, "RLIABLE_NEEDED")
+
+
+def test_aggregate_and_profile_figures_are_written(tmp_path):
+    rng = np.random.default_rng(4)
+    scores = {"half": rng.normal(0.5, 0.2, (10, 3)), "one": rng.normal(1.0, 0.2, (10, 3)),
+              "single run": np.array([[0.7, 0.8, 0.9]])}  # no interval: a tick, no bar
+    estimates = verdicts.aggregate_estimates(scores, resamples=200)
+    profiles = verdicts.performance_profiles(scores, np.linspace(0.0, 1.5, 31), resamples=200)
+    written = (verdicts.plot_aggregates(estimates, str(tmp_path), "aggregates")
+               + verdicts.plot_profiles(profiles, str(tmp_path), "profiles"))
+    assert [path.rsplit("/", 1)[1] for path in written] == [
+        "aggregates.png", "aggregates.svg", "profiles.png", "profiles.svg"]
+    assert all((tmp_path / name).stat().st_size > 1000 for name in
+               ("aggregates.png", "aggregates.svg", "profiles.png", "profiles.svg"))
+
+
+@pytest.fixture
+def rliable():
+    """rliable's library and metrics, where they import; rliable 1.2.0 needs arch < 8, which
+    does not import with pandas 3 (and arch 8 refuses rliable's `random_state`)."""
+    try:
+        from rliable import library, metrics
+    except Exception as error:  # arch 7 with pandas 3 fails with a TypeError, not an ImportError
+        pytest.skip(f"the cross-check needs rliable, which does not import here "
+                    f"({type(error).__name__}: {error}); rliable 1.2.0 needs arch < 8, which "
+                    f"does not import with pandas 3: run this file in a venv with rliable==1.2.0 "
+                    f"and pandas < 3")
+    state = np.random.get_state()  # rliable draws from numpy's global generator
+    np.random.seed(0)
+    yield library, metrics
+    np.random.set_state(state)
+
+
+def test_the_estimates_are_rliable_s(rliable):
+    """The same point estimates as rliable's to rounding, and intervals within a quarter of
+    their width of rliable's (500 resamples, rliable's loop over them being slow; other
+    resamples, drawn by another generator: the two differ by Monte Carlo error only)."""
+    library, metrics = rliable
+    rng = np.random.default_rng(7)
+    a, b = rng.gamma(2.0, 0.4, (20, 4)), rng.normal(0.8, 0.4, (15, 4))
+
+    def aggregates(scores):
+        return np.array([metrics.aggregate_iqm(scores), metrics.aggregate_median(scores),
+                         metrics.aggregate_mean(scores), metrics.aggregate_optimality_gap(scores)])
+    values, intervals = library.get_interval_estimates({"a": a, "b": b}, aggregates, reps=500)
+    ours = verdicts.aggregate_estimates({"a": a, "b": b}, resamples=500)
+    for learner in ("a", "b"):
+        for i, estimate in enumerate(ours[learner].values()):
+            assert estimate.value == pytest.approx(values[learner][i], rel=1e-12, abs=1e-12)
+            low, high = intervals[learner][:, i]
+            assert abs(estimate.low - low) < 0.25 * (high - low)
+            assert abs(estimate.high - high) < 0.25 * (high - low)
+    thresholds = np.linspace(-0.5, 2.5, 31)
+    profiles, _ = library.create_performance_profile({"a": a}, thresholds, reps=200)
+    assert verdicts.performance_profiles({"a": a}, thresholds, resamples=200)[
+        "a"].fraction.tolist() == list(profiles["a"])
+    values, intervals = library.get_interval_estimates(
+        {"a,b": [a, b]}, metrics.probability_of_improvement, reps=500)
+    improvement = verdicts.improvement_across_tasks(a, b, resamples=500)
+    low, high = np.ravel(intervals["a,b"])
+    assert improvement.value == pytest.approx(values["a,b"], rel=1e-12)
+    assert abs(improvement.low - low) < 0.25 * (high - low)
+    assert abs(improvement.high - high) < 0.25 * (high - low)
