@@ -10,11 +10,22 @@ or, without the import, `gymnasium.make("lwrl.gym:lwrl/cartpole-balance-mujoco-v
 (Gymnasium 1.x imports the module named before the colon; it no longer loads plugins from
 entry points). Every `(domain, task, plant)` of the suite's dm_env environments
 (`tasks.ENVIRONMENT_PLANTS`) is registered as `lwrl/{domain}-{task}-{plant}-v0`
-(`ENV_IDS`); `register_envs()` registers them again if needed and is idempotent.
+(`ENV_IDS`), and beside it with continuous actions as
+`lwrl/{domain}-{task}-{plant}-continuous-v0` (`CONTINUOUS_ENV_IDS`); `register_envs()`
+registers them again if needed and is idempotent.
 
 `SuiteEnv` wraps the suite's dm_env environment (`tasks.load`):
 
-- **Actions**: `Discrete(n)`, the task's action indices (action i applies `controls[i]`).
+- **Actions**: `Discrete(n)`, the task's action indices (action i applies `controls[i]`);
+  with continuous actions (the `-continuous` ids, `actions="continuous"`) a float64
+  `Box(low, high, (1,))`, the actuator's range (`TaskDefinition.control_range`: the
+  pendulum's torque in [-5, 5] N m, the cart-pole's force in [-10, 10] N, Mountain-Car's
+  thrust in [-1, 1], the acrobot's elbow torque in [-1, 1] N m, at the paper's values),
+  whose action is the control itself. Shape (1,), as dm_control's and Gymnasium's own
+  one-actuator tasks (Pendulum-v1) have it; float64, the plants' type, so that an action
+  reaches the plant unrounded, as the dm_env environment's does (the Box takes float32
+  arrays too). An action outside the range is clipped to it, as an actuator saturates
+  (Pendulum-v1 clips too); NaN or an infinity raises a `ValueError`.
 - **Observations**: a float64 `Box` of shape `(d,)` in the order of the task's state names
   (`observation_names`), within the task's `bounds` (`TaskDefinition.bounds`, stated and
   argued in each domain's module), which hold the terminal observation too.
@@ -57,7 +68,7 @@ entry points). Every `(domain, task, plant)` of the suite's dm_env environments
   as `tasks.load(seed=s)` does) as in `tasks.load`; unknown ones raise a `ValueError`
   naming the allowed. A variable with observation noise is unbounded in the Box.
   `seed` is not one (use `reset(seed=...)`), and kwargs cannot change the id's domain,
-  task or plant.
+  task, plant or kind of action (`actions`).
 """
 
 try:
@@ -90,16 +101,32 @@ NO_OPENGL = ("disable", "disabled", "off", "false", "0")
 there is no display and the variable is unset)."""
 
 
-def env_id(domain: str, task: str, plant: str) -> str:
-    """The Gymnasium id of `domain.task` on `plant`, e.g. `lwrl/cartpole-balance-mujoco-v0`."""
-    return f"{NAMESPACE}/{domain}-{task}-{plant}-v{VERSION}"
+def env_id(domain: str, task: str, plant: str, actions: str = "discrete") -> str:
+    """The Gymnasium id of `domain.task` on `plant`, e.g. `lwrl/cartpole-balance-mujoco-v0`;
+    with continuous actions `lwrl/cartpole-balance-mujoco-continuous-v0`."""
+    kind = "" if actions == "discrete" else f"-{actions}"
+    return f"{NAMESPACE}/{domain}-{task}-{plant}{kind}-v{VERSION}"
 
 
-ENVIRONMENTS = {env_id(domain, task, plant): (domain, task, plant)
-             for domain, task in tasks.ALL_TASKS for plant in tasks.ENVIRONMENT_PLANTS[domain]}
-"""`(domain, task, plant)` of each registered id."""
+def _environments(actions: str) -> dict:
+    """`{id: (domain, task, plant)}` of every task on every plant of a dm_env environment,
+    with `actions`."""
+    return {env_id(domain, task, plant, actions): (domain, task, plant)
+            for domain, task in tasks.ALL_TASKS for plant in tasks.ENVIRONMENT_PLANTS[domain]}
+
+
+ENVIRONMENTS = _environments("discrete")
+"""`(domain, task, plant)` of each registered id of discrete actions."""
 ENV_IDS = tuple(ENVIRONMENTS)
-"""The registered ids, every task on every plant of a dm_env environment."""
+"""The registered ids of discrete actions, every task on every plant of a dm_env
+environment."""
+CONTINUOUS_ENVIRONMENTS = _environments("continuous")
+"""`(domain, task, plant)` of each registered id of continuous actions."""
+CONTINUOUS_ENV_IDS = tuple(CONTINUOUS_ENVIRONMENTS)
+"""The registered ids of continuous actions, one beside each of `ENV_IDS`."""
+_REGISTERED = {**{id_: (*names, "discrete") for id_, names in ENVIRONMENTS.items()},
+               **{id_: (*names, "continuous") for id_, names in CONTINUOUS_ENVIRONMENTS.items()}}
+"""`(domain, task, plant, actions)` of every registered id."""
 
 
 def observation_bounds(definition) -> tuple:
@@ -107,6 +134,21 @@ def observation_bounds(definition) -> tuple:
     the terminal one included: the task's own `bounds`."""
     low, high = definition.bounds
     return np.array(low, dtype=np.float64), np.array(high, dtype=np.float64)
+
+
+def action_space(definition) -> spaces.Space:
+    """`Discrete(n)` of the task's action indices, or with continuous actions the float64
+    `Box` of shape (1,) of the actuator's range (`TaskDefinition.control_range`)."""
+    if definition.continuous:
+        low, high = definition.control_range
+        return spaces.Box(low, high, shape=(1,), dtype=np.float64)
+    return spaces.Discrete(definition.num_actions)
+
+
+def _describe(domain: str, task: str, plant: str, actions: str) -> str:
+    """E.g. `cartpole.balance on the mujoco plant`, `... with continuous actions`."""
+    kind = "" if actions == "discrete" else f" with {actions} actions"
+    return f"{domain}.{task} on the {plant} plant{kind}"
 
 
 def _options(domain: str, task: str, plant: str) -> list:
@@ -119,15 +161,17 @@ def _options(domain: str, task: str, plant: str) -> list:
 class SuiteEnv(gymnasium.Env):
     """One task of the suite on one plant, as a Gymnasium environment (see the module).
 
-    `SuiteEnv(domain, task, plant=None, **options)` takes the arguments of `tasks.load`
-    except `seed` (seed with `reset(seed=...)`). `dm_env` is the wrapped dm_env environment,
-    `definition` the task's `TaskDefinition`, `step_limit` its truncation step (`inf`
-    for none).
+    `SuiteEnv(domain, task, plant=None, render_mode=None, actions="discrete", **options)`
+    takes the arguments of `tasks.load` except `seed` (seed with `reset(seed=...)`).
+    `dm_env` is the wrapped dm_env environment, `definition` the task's `TaskDefinition`,
+    `actions` its kind of action (`discrete` or `continuous`), `step_limit` its truncation
+    step (`inf` for none).
     """
 
     metadata = {"render_modes": list(RENDER_MODES), "render_fps": None}
 
-    def __init__(self, domain: str, task: str, plant=None, render_mode=None, **options):
+    def __init__(self, domain: str, task: str, plant=None, render_mode=None,
+                 actions: str = "discrete", **options):
         if render_mode not in (None, *RENDER_MODES):
             raise ValueError(f"render_mode must be None, {' or '.join(map(repr, RENDER_MODES))}; "
                              f"got {render_mode!r}")
@@ -138,10 +182,12 @@ class SuiteEnv(gymnasium.Env):
             hint = "; seed the environment with reset(seed=...)" if "seed" in unknown else ""
             raise ValueError(f"unknown option {unknown[0]!r} for {domain}.{task} on the {plant} "
                              f"plant; allowed: {', '.join(allowed) or 'none'}{hint}")
-        definition, plant, _, _ = tasks.resolve_environment(domain, task, plant, **options)  # checks
+        definition, plant, _, _ = tasks.resolve_environment(domain, task, plant, actions=actions,
+                                                            **options)  # checks
         self.domain, self.task_name, self.plant = domain, task, plant
+        self.actions = definition.actions
         self.options = dict(options)
-        self.dm_env = tasks.load(domain, task, plant=plant, **options)
+        self.dm_env = tasks.load(domain, task, plant=plant, actions=actions, **options)
         self.definition = definition
         self.step_limit = definition.step_limit
         self.observation_names = tuple(definition.state_names)
@@ -151,7 +197,7 @@ class SuiteEnv(gymnasium.Env):
         self._painter = painter(domain, render_mode)
         self._window = _Window(f"lwrl {domain}.{task} ({plant})", self.metadata["render_fps"]) \
             if render_mode == "human" else None
-        self.action_space = spaces.Discrete(definition.num_actions)
+        self.action_space = action_space(definition)
         low, high = observation_bounds(definition)
         noisy = self.suite_task.disturbances.sigma_observation[0] > 0
         low[noisy], high[noisy] = -np.inf, np.inf
@@ -163,18 +209,16 @@ class SuiteEnv(gymnasium.Env):
     @property
     def spec(self):
         """The `EnvSpec` that `gymnasium.make` sets; an lwrl id must match the env's
-        domain, task and plant (make() kwargs cannot change them)."""
+        domain, task, plant and kind of action (make() kwargs cannot change them)."""
         return self._spec
 
     @spec.setter
     def spec(self, value):
-        expected = ENVIRONMENTS.get(getattr(value, "id", None))
-        actual = (self.domain, self.task_name, self.plant)
+        expected = _REGISTERED.get(getattr(value, "id", None))
+        actual = (self.domain, self.task_name, self.plant, self.actions)
         if expected is not None and expected != actual:
-            raise ValueError(
-                f"{value.id} is {expected[0]}.{expected[1]} on the {expected[2]} plant; make() "
-                f"kwargs asked for {actual[0]}.{actual[1]} on the {actual[2]} plant: use "
-                f"{env_id(*actual)} instead")
+            raise ValueError(f"{value.id} is {_describe(*expected)}; make() kwargs asked for "
+                             f"{_describe(*actual)}: use {env_id(*actual)} instead")
         self._spec = value
 
     @property
@@ -230,16 +274,24 @@ class SuiteEnv(gymnasium.Env):
             raise RuntimeError("call reset() before step()")
         if self._episode_over:
             raise RuntimeError("the episode has ended (terminated or truncated); call reset()")
-        if not self.action_space.contains(action):
-            raise ValueError(f"action must be an integer in 0..{self.action_space.n - 1}; "
-                             f"got {action!r}")
-        time_step = self.dm_env.step(int(action))
+        time_step = self.dm_env.step(self._command(action))
         terminated = bool(time_step.last() and time_step.discount == 0.0)
         truncated = bool(time_step.last() and not terminated)
         self._episode_over = terminated or truncated
         self._show()
         return (self._observation(time_step.observation), float(time_step.reward), terminated,
                 truncated, self._info())
+
+    def _command(self, action):
+        """What the dm_env environment takes for `action`: an action index as an int
+        (a one-line ValueError outside `action_space`), or a continuous action as it is
+        (the task checks it and clips it to the actuator's range)."""
+        if self.definition.continuous:
+            return action
+        if not self.action_space.contains(action):
+            raise ValueError(f"action must be an integer in 0..{self.action_space.n - 1}; "
+                             f"got {action!r}")
+        return int(action)
 
     def _frame(self) -> np.ndarray:
         assert self._painter is not None, "a render mode draws frames"
@@ -334,13 +386,15 @@ class _Window:
 class SuiteVectorEnv(VectorEnv):
     """`num_envs` copies of one task on one plant, stepped together (see the module):
     `gymnasium.make_vec(id, num_envs=B)`. Takes `SuiteEnv`'s arguments and `num_envs`;
+    with continuous actions, `step` takes them `(B, 1)` (the batched Box) or `(B,)`;
     `autoreset_mode` can only be Gymnasium's default, `NEXT_STEP`, which `BatchedEnv`
     implements."""
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
 
     def __init__(self, domain: str, task: str, plant=None, num_envs: int = 1,
-                 autoreset_mode=AutoresetMode.NEXT_STEP, render_mode=None, **options):
+                 autoreset_mode=AutoresetMode.NEXT_STEP, render_mode=None,
+                 actions: str = "discrete", **options):
         if render_mode is not None:
             raise ValueError(f"the vector environment does not render (render_mode must be None, "
                              f"got {render_mode!r}); gymnasium.make gives one environment that does")
@@ -349,13 +403,14 @@ class SuiteVectorEnv(VectorEnv):
                              f"default); got {autoreset_mode!r}")
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer; got {num_envs!r}")
-        single = SuiteEnv(domain, task, plant, **options)  # checks the names and options
+        single = SuiteEnv(domain, task, plant, actions=actions, **options)  # checks them
         self.domain, self.task_name, self.plant = single.domain, single.task_name, single.plant
+        self.actions = single.actions
         self.options, self.definition = single.options, single.definition
         single.close()
         self.num_envs = int(num_envs)
         self.render_mode = None
-        self.single_action_space = spaces.Discrete(self.definition.num_actions)
+        self.single_action_space = action_space(self.definition)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         low, high = observation_bounds(self.definition)
         self.single_observation_space = spaces.Box(low, high, dtype=np.float64)
@@ -382,7 +437,8 @@ class SuiteVectorEnv(VectorEnv):
         super().reset(seed=seed if isinstance(seed, (int, np.integer)) else None)
         if seed is not None or self._batched is None:  # new streams for the starts
             self._batched = BatchedEnv(self.domain, self.task_name, self.plant,
-                                       seeds=self._seeds(seed), **self.options)
+                                       seeds=self._seeds(seed), actions=self.actions,
+                                       **self.options)
         time_step = self._batched.reset()
         return np.array(time_step.observation, dtype=np.float64), self._infos(self._batched)
 
@@ -410,13 +466,15 @@ class SuiteVectorEnv(VectorEnv):
 
 
 def register_envs() -> tuple:
-    """Register every id of `ENV_IDS` with Gymnasium (those not registered yet); return
+    """Register every id of `ENV_IDS` and `CONTINUOUS_ENV_IDS` with Gymnasium (those not
+    registered yet), the latter with `actions="continuous"` among their kwargs; return
     `ENV_IDS`. Calling it again does nothing."""
-    for id_, (domain, task, plant) in ENVIRONMENTS.items():
+    for id_, (domain, task, plant, actions) in _REGISTERED.items():
         if id_ not in gymnasium.envs.registry:
+            kind = {} if actions == "discrete" else {"actions": actions}
             gymnasium.register(id=id_, entry_point=ENTRY_POINT,
                                vector_entry_point=VECTOR_ENTRY_POINT,
-                               kwargs={"domain": domain, "task": task, "plant": plant})
+                               kwargs={"domain": domain, "task": task, "plant": plant, **kind})
     return ENV_IDS
 
 

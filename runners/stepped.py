@@ -19,6 +19,8 @@ def run_dm_env(env, agent: Agents, episodes: int, learn: bool = True,
     step by step: `run_batched` on the environment alone."""
     if agent.batch_size != 1:
         raise ValueError(f"run_dm_env runs one agent; got a batch of {agent.batch_size}")
+    if hasattr(env.task, "definition"):  # the suite's: its learners choose discrete actions
+        env.task.definition.check_discrete("run_dm_env")
     return run_batched(SteppedEnvs([env], uptime=lambda single: single.task.uptime), agent,
                        episodes, learn=learn, greedy=greedy)
 
@@ -33,6 +35,8 @@ def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = Tru
     `(agent, episode)` pairs in `record` are recorded step by step (`results.recordings`), as
     `run_compiled` records them; recording needs a `BatchedEnv`."""
     episodes = check_count("episodes", episodes, 1)
+    if isinstance(env, BatchedEnv):  # its learners choose discrete actions
+        env.definition.check_discrete("run_batched")
     if env.batch_size != agent.batch_size:
         raise ValueError(f"environment batch {env.batch_size} and agent batch "
                          f"{agent.batch_size} differ")

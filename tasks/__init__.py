@@ -8,6 +8,8 @@
                      observation_noise={"pole_angle": 0.01}, action_delay=1)   # the sensors
     ts = env.reset()
     ts = env.step(1)            # a discrete action index
+    env = tasks.load("cartpole", "balance", actions="continuous")  # the force itself, in N
+    ts = env.reset(); ts = env.step([3.5])                          # clipped to [-10, 10]
 
 Each domain is one module, `tasks/<domain>.py`, ending with its `DOMAIN` (a
 `tasks.domain_contract.Domain`), and one line of `DOMAIN_MODULES` below. `DOMAINS[name]` is
@@ -16,8 +18,10 @@ of a domain, the default first, and `ENVIRONMENT_PLANTS[domain]` those of a sing
 environment. `definition(...)` gives a task's array functions (a
 `tasks.task_definition.TaskDefinition`) and `tasks.batched` steps many copies of a task at
 once. Every task takes its domain's physical parameters as the option `params`
-(`Domain.parameters`, `tasks.parameters`); an environment also takes the sensor and
-actuator options of `tasks.disturbances`.
+(`Domain.parameters`, `tasks.parameters`) and the option `actions`, `"discrete"` (the
+default: an index into the task's controls) or `"continuous"` (the control itself, clipped
+to the actuator's range, `TaskDefinition.control_range`); an environment also takes the
+sensor and actuator options of `tasks.disturbances`.
 """
 
 import importlib
@@ -34,7 +38,7 @@ from dm_control.rl import control  # noqa: E402
 
 from lwrl.tasks import disturbances  # noqa: E402
 from lwrl.tasks.base import SuiteTask  # noqa: E402
-from lwrl.tasks.task_definition import TaskDefinition  # noqa: E402
+from lwrl.tasks.task_definition import ACTIONS, TaskDefinition  # noqa: E402
 from lwrl.tasks.domain_contract import Domain  # noqa: E402
 
 DOMAIN_MODULES = ("mountain_car", "pendulum", "cartpole", "acrobot")
@@ -50,6 +54,9 @@ PLANTS = {name: domain.plants.names for name, domain in DOMAINS.items()}
 ENVIRONMENT_PLANTS = {name: domain.plants.environment_names for name, domain in DOMAINS.items()}
 """The plants of `load`'s dm_env environments per domain: `PLANTS` less the batched-only
 (`tasks.plants.BATCHED_ONLY`)."""
+ACTIONS_OPTION = "actions"
+"""The option every task takes, on every plant: its kind of action (`ACTIONS`,
+`TaskDefinition.with_actions`), `"discrete"` by default."""
 
 
 def domain(name: str) -> Domain:
@@ -86,9 +93,9 @@ def plant_option_names(domain_name: str, plant: str) -> list:
 def resolve(domain_name: str, task: str, plant=None, **options):
     """Check a task, a plant and options; return `(definition, plant, plant_options)`.
 
-    Options are the task's (e.g. `time_limit`, `track_limit`, `params`) and, for the
-    analytic plant of the domains integrated with Euler's method, `integrator` and
-    `equations` (`tasks.plants.EQUATIONS`).
+    Options are the task's (e.g. `time_limit`, `track_limit`, `params`), `actions`
+    (`ACTIONS_OPTION`) and, for the analytic plant of the domains integrated with Euler's
+    method, `integrator` and `equations` (`tasks.plants.EQUATIONS`).
     """
     return _resolve(domain_name, task, plant, (), options)[:3]
 
@@ -108,20 +115,22 @@ def _resolve(domain_name: str, task: str, plant, environment_options: tuple, opt
         raise ValueError(f"unknown plant {plant!r} for {domain_name}; available: {', '.join(plants)}")
     plant_options = plant_option_names(domain_name, plant)
     unknown = sorted(set(options) - set(task_option_names) - set(plant_options)
-                     - set(environment_options))
+                     - {ACTIONS_OPTION} - set(environment_options))
     if unknown:
         allowed = ", ".join(["plant", "seed"] + task_option_names + plant_options
-                            + list(environment_options))
+                            + [ACTIONS_OPTION] + list(environment_options))
         raise ValueError(f"unknown option {unknown[0]!r} for {domain_name}.{task} on the {plant} "
                          f"plant; allowed: {allowed}")
     definition = domain(domain_name).tasks[task](
-        **{k: v for k, v in options.items() if k in task_option_names})
+        **{k: v for k, v in options.items() if k in task_option_names}
+    ).with_actions(options.get(ACTIONS_OPTION, ACTIONS[0]))
     return (definition, plant, {k: v for k, v in options.items() if k in plant_options},
             {k: v for k, v in options.items() if k in environment_options})
 
 
 def definition(domain_name: str, task: str, **options) -> TaskDefinition:
-    """The array functions of a task (start, observation, reward, termination, up-time)."""
+    """The array functions of a task (start, observation, reward, termination, up-time), with
+    its kind of action (`actions`)."""
     return resolve(domain_name, task, None, **options)[0]
 
 
@@ -132,10 +141,12 @@ def load(domain_name: str, task: str, plant=None, seed=None, *, task_kwargs=None
     `seed` seeds the task's random starts (and the sensors' and actuator's noise). As in
     dm_control's `suite.load`, `task_kwargs` may hold the seed as `random` and the task's
     options (`params={name: value}`, the physical parameters), and `environment_kwargs` is
-    passed to `control.Environment` (e.g. `flat_observation=True`). The sensor and actuator
-    options (`tasks.disturbances`) and `randomise={name: (low, high)}`, parameters drawn
-    anew for each episode (`tasks.randomisation`), go in `task_kwargs` or as keywords, like
-    the task's.
+    passed to `control.Environment` (e.g. `flat_observation=True`). `actions="continuous"`
+    makes the action the control itself (`tasks.base.SuiteTask.action_spec`: a float64
+    `BoundedArray` of shape (1,), the actuator's range, which clips it). The sensor and
+    actuator options (`tasks.disturbances`) and `randomise={name: (low, high)}`, parameters
+    drawn anew for each episode (`tasks.randomisation`), go in `task_kwargs` or as keywords,
+    like the task's and `actions`.
     Unknown names or options raise a ValueError that names what is allowed.
     """
     task_kwargs = dict(task_kwargs or {})
@@ -153,6 +164,6 @@ def load(domain_name: str, task: str, plant=None, seed=None, *, task_kwargs=None
     physics = domain(domain_name).plants.physics(plant, **plant_options,
                                                  physical=task_definition.physical)
     task_object = SuiteTask(task_definition, seed, disturbances.Disturbances(
-        task_definition.state_names, task_definition.controls, **sensing),
+        task_definition.state_names, task_definition.control_range, **sensing),
         domain(domain_name).parameters, randomise)
     return control.Environment(physics, task_object, **(environment_kwargs or {}))

@@ -9,7 +9,10 @@ and `analytic` (the book's equations with Euler's method).
 Task `swingup`:
 
 - **Actions** (`DiscreteArray`, 3 values): index 0, 1, 2 apply the elbow torque
-  tau = -tau_max, 0, +tau_max, tau_max = 1 N m.
+  tau = -tau_max, 0, +tau_max, tau_max = 1 N m. With `actions="continuous"` (`BoundedArray`
+  of shape (1,), float64, named `torque`): the elbow torque itself, in [-tau_max,
+  tau_max], held over the four Euler steps; one outside is clipped to it, as the motor
+  saturates (the MJCF motor's control range is the same).
 - **Observations** (float64 scalars): `shoulder_angle` theta1 in rad, wrapped to
   [-pi, pi], 0 hanging straight down; `shoulder_angular_velocity` theta1_dot in rad/s,
   within [-4 pi, 4 pi]; `elbow_angle` theta2 in rad, link 2 relative to link 1, wrapped to
@@ -272,6 +275,7 @@ def swingup(time_limit: float = TIME_LIMIT, params=None) -> TaskDefinition:
     physical parameters' values `{name: value}` (`PARAMETERS`)."""
     return TaskDefinition(
         domain="acrobot", task="swingup", state_names=STATE_NAMES, controls_of=controls,
+        control_name="torque",
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
         initial_states=initial_states, observe=_observe, outcome=outcome, transition=transition,
         arrive=arrive,

@@ -19,7 +19,9 @@ class SuiteTask(control.Task):
     episode's steps (the time limit is a truncation with discount 1, decided here so that a
     terminal state on the last allowed step still ends with discount 0) and its up-time, and
     puts the sensors and the actuator (`disturbances`, `tasks.disturbances`) between the
-    plant and the agent.
+    plant and the agent. The agent's action becomes a control here: the discrete action's
+    control, or with continuous actions (`TaskDefinition.actions`) the action clipped to the
+    actuator's range, as a motor saturates; the delay and the noise then act on either.
     """
 
     def __init__(self, definition: TaskDefinition, seed=None, disturbances: Disturbances = None,
@@ -29,14 +31,14 @@ class SuiteTask(control.Task):
         self.definition = definition
         self.random = random_starts(seed)
         self.disturbances = disturbances or Disturbances(definition.state_names,
-                                                         definition.controls)
+                                                         definition.control_range)
         self.disturbances.seed([seed])
         self._parameters = parameters
         self._ranges = check_ranges(parameters, randomise) if randomise else {}
         self._seed, self._episode = seed, -1
         self.physical = np.asarray(definition.physical, dtype=np.float64)
         """The parameter values of the current episode `(P,)`."""
-        self._controls = definition.controls
+        self._set_actuator()
         self._steps = 0
         self._uptime = 0.0
 
@@ -62,19 +64,39 @@ class SuiteTask(control.Task):
             self.physical = episode_values(self._parameters, self._ranges,
                                            self.definition.physical, self._seed, self._episode)
             physics.set_physical(self.physical)
-            self._controls = tuple(self.definition.controls_at(self.physical).tolist())
-            self.disturbances.low[:], self.disturbances.high[:] = min(self._controls), max(self._controls)
+            self._set_actuator()
+            self.disturbances.low[:], self.disturbances.high[:] = self._range
         physics.set_state_vector(self.definition.initial_states(self.random, 1)[0])
         self._steps = 0
         self._uptime = 0.0 if self.definition.has_uptime else float("nan")
         self.disturbances.start(0)
 
-    def before_step(self, action, physics):
-        index = check_actions(action, self.definition.num_actions)
+    def _set_actuator(self) -> None:
+        """The actuator at the episode's parameter values: its range `(low, high)` and, for
+        discrete actions, each action's control."""
+        self._range = tuple(self.definition.control_range_at(self.physical).tolist())
+        if not self.definition.continuous:
+            self._controls = tuple(self.definition.controls_at(self.physical).tolist())
+
+    def _command(self, action) -> float:
+        """The control `action` commands: the discrete action's, or the continuous action (a
+        number or an array of shape (1,)) clipped to the actuator's range. A one-line
+        ValueError naming what is allowed otherwise."""
+        definition = self.definition
+        if definition.continuous:
+            control = definition.saturate(action, self._range)
+            if control.ndim > 1 or control.size != 1:
+                raise ValueError(f"action must be one {definition.control_name}, a number or an "
+                                 f"array of shape (1,); got shape {control.shape}")
+            return float(control.reshape(()))
+        index = check_actions(action, definition.num_actions)
         if index.ndim != 0:
-            raise ValueError(f"action must be one integer index in 0..{self.definition.num_actions - 1}; "
+            raise ValueError(f"action must be one integer index in 0..{definition.num_actions - 1}; "
                              f"got {action!r}")
-        control = self._controls[int(index)]
+        return self._controls[int(index)]
+
+    def before_step(self, action, physics):
+        control = self._command(action)
         if self.disturbances.active:
             control = float(self.disturbances.actuate([control], [0], [self._steps])[0])
         physics.set_control(control)
@@ -90,6 +112,13 @@ class SuiteTask(control.Task):
             self._uptime += self.definition.control_timestep * self._outcome(physics)[2]
 
     def action_spec(self, physics):
+        """A `DiscreteArray` of the action indices, or for continuous actions a float64
+        `BoundedArray` of shape (1,), the episode's actuator range, named after the control:
+        the shape dm_control's tasks give their n actuators, (n,)."""
+        if self.definition.continuous:
+            low, high = self._range
+            return specs.BoundedArray(shape=(1,), dtype=np.float64, minimum=[low],
+                                      maximum=[high], name=self.definition.control_name)
         return specs.DiscreteArray(num_values=self.definition.num_actions, dtype=np.int64,
                                    name="action")
 

@@ -9,7 +9,8 @@ The task's reward, termination and up-time are the same `TaskDefinition` functio
 single environments call. Each environment may have physical parameter values of its own
 (`params={name: one value or B values}`), so that one batch spans a grid, values drawn
 anew for each episode (`randomise={name: (low, high)}`, `tasks.randomisation`), and
-sensor and actuator options of its own (`tasks.disturbances`).
+sensor and actuator options of its own (`tasks.disturbances`). With `actions="continuous"`
+each environment's action is its control, clipped to its actuator's range.
 """
 
 from typing import NamedTuple, Sequence
@@ -53,10 +54,11 @@ class BatchedEnv:
 
     Options are those of `tasks.load`, where `params` (the physical parameters) and the
     sensor and actuator options may give one value per environment. `physical` `(B, P)`
-    holds each environment's parameter values and `controls` `(B, A)` its actions' controls;
-    `definition` is the task at the environments' values where they share them, else at
-    the paper's. `uptime` and `steps` hold each environment's current (or just finished)
-    episode's up-time in seconds and step count.
+    holds each environment's parameter values, `control_range` `(B, 2)` its actuator's range
+    `[low, high]` and `controls` `(B, A)` its discrete actions' controls (None with
+    continuous actions); `definition` is the task at the environments' values where they
+    share them, else at the paper's. `uptime` and `steps` hold each environment's current
+    (or just finished) episode's up-time in seconds and step count.
     """
 
     def __init__(self, domain: str, task: str, plant=None, seeds: Sequence[int] = (0,),
@@ -84,8 +86,10 @@ class BatchedEnv:
         if not (shared or self.plant.takes_rows):
             raise ValueError(f"the {self.plant_name} plant takes one set of parameter values for "
                              f"the whole batch; give every environment the same params")
-        self.controls = self.definition.controls_at(self.physical)
-        self.disturbances = Disturbances(self.definition.state_names, self.controls,
+        self.control_range = self.definition.control_range_at(self.physical)
+        self.controls = (None if self.definition.continuous
+                         else self.definition.controls_at(self.physical))
+        self.disturbances = Disturbances(self.definition.state_names, self.control_range,
                                          self.batch_size, **sensing)
         self.disturbances.seed(seeds)
         self.seeds = seeds
@@ -114,8 +118,10 @@ class BatchedEnv:
         self._episodes[i] += 1
         self.physical[i] = episode_values(self._parameters, self._ranges, self._base[i],
                                           self.seeds[i], self._episodes[i])
-        self.controls[i] = self.definition.controls_at(self.physical[i])
-        self.disturbances.low[i], self.disturbances.high[i] = self.controls[i].min(), self.controls[i].max()
+        self.control_range[i] = self.definition.control_range_at(self.physical[i])
+        if self.controls is not None:
+            self.controls[i] = self.definition.controls_at(self.physical[i])
+        self.disturbances.low[i], self.disturbances.high[i] = self.control_range[i]
 
     def _observation(self) -> np.ndarray:
         """What the agents observe of the states, through their sensors: an array of its own
@@ -139,19 +145,34 @@ class BatchedEnv:
         return BatchedTimeStep(np.full(self.batch_size, FIRST, dtype=np.int8), 0 * ones, ones,
                                self._observation())
 
-    def step(self, actions) -> BatchedTimeStep:
-        """Apply one action index per environment; environments whose episode ended reset."""
+    def _commands(self, actions) -> np.ndarray:
+        """The controls `(B,)` that the environments command with `actions`, one per
+        environment `(B,)` (continuous: also `(B, 1)`, Gymnasium's batched Box): each
+        action's control, or the continuous action clipped to its environment's range. A
+        one-line ValueError naming what is allowed otherwise."""
+        definition, batch = self.definition, self.batch_size
+        if self.controls is None:  # continuous actions
+            if np.shape(actions) not in ((batch,), (batch, 1)):
+                raise ValueError(f"actions must have shape ({batch},) or ({batch}, 1), one "
+                                 f"{definition.control_name} per environment; got shape "
+                                 f"{np.shape(actions)}")
+            return definition.saturate(np.reshape(actions, batch), self.control_range)
         actions = check_actions(actions, self.num_actions)
-        if actions.shape != (self.batch_size,):
-            raise ValueError(f"actions must have shape ({self.batch_size},), one per environment; "
+        if actions.shape != (batch,):
+            raise ValueError(f"actions must have shape ({batch},), one per environment; "
                              f"got shape {actions.shape}")
+        return self.controls[np.arange(batch), actions]
+
+    def step(self, actions) -> BatchedTimeStep:
+        """Apply one action per environment (an index, or with continuous actions the
+        control); environments whose episode ended reset."""
+        commands = self._commands(actions)
         starting = self._needs_reset.copy()
         self._start_episodes(starting)
         moving = ~starting
         definition = self.definition
         rows = np.flatnonzero(moving)
-        controls = self.disturbances.actuate(self.controls[rows, actions[moving]], rows,
-                                             self.steps[moving])
+        controls = self.disturbances.actuate(commands[moving], rows, self.steps[moving])
         physical = None if self._rows is None else self._rows[moving]
         moved = self.plant.step(self.state[moving], controls, physical)
         self.state[moving] = moved

@@ -6,7 +6,9 @@ A pole hinged on a cart must be kept upright by pushing the cart left or right. 
 Task `balance`:
 
 - **Actions** (`DiscreteArray`, 2 values): index 0, 1 apply the force -F, +F to the cart
-  (positive toward +x), F = 10 N.
+  (positive toward +x), F = 10 N. With `actions="continuous"` (`BoundedArray` of shape (1,),
+  float64, named `force`): the force itself, in [-F, F]; one outside is clipped to it, as
+  the motor saturates (the MJCF motor's control range is the same).
 - **Observations** (float64 scalars): `cart_position` x in m, within +-2.4 while the
   episode lasts (with the default track limit); `cart_velocity` x_dot in m/s;
   `pole_angle` theta in rad, 0 upright, within +-12 deg (0.2094 rad) while the episode
@@ -203,6 +205,7 @@ def balance(time_limit: float = TIME_LIMIT, track_limit=TRACK_LIMIT, params=None
              else positive_number("track_limit", track_limit, "number of metres or None"))
     return TaskDefinition(
         domain="cartpole", task="balance", state_names=STATE_NAMES, controls_of=controls,
+        control_name="force",
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
         initial_states=initial_states, observe=lambda state: state, outcome=outcome,
         transition=transition, arrive=arrive, bounds=bounds(limit), defaults=PAPER_AGENT,

@@ -12,7 +12,9 @@ applied between the agent and the plant in the same way whatever the plant:
   the agent chose at step n - k; before the first command arrives (steps 0 to k - 1) the
   actuator applies 0 (no force, torque or thrust).
 - `action_noise=sigma` (the control's units): the applied control is `u + sigma z`, clipped
-  to the actuator's range [min, max of the task's controls]. This is safe-control-gym's
+  to the actuator's range [min, max of the task's controls] (`TaskDefinition.control_range`,
+  which also clips a continuous action, `actions="continuous"`, before the delay and the
+  noise: they act on the control of either kind alike). This is safe-control-gym's
   action disturbance (`white_noise` added to the physical action, then clipped to the
   physical action bounds: `CartPole._preprocess_control`), kept for discrete actions because
   a discrete agent still drives a physical actuator: its choice becomes a force, and the
@@ -159,7 +161,9 @@ class Disturbances:
 
     def __init__(self, state_names: tuple, controls: np.ndarray, batch_size=None,
                  observation_noise=None, action_delay=0, action_noise=0.0):
-        """`controls` `(B, A)`: each environment's controls; with `batch_size` None one
+        """`controls` `(B, A)`: each environment's controls, or its actuator's range `[low,
+        high]` (`TaskDefinition.control_range_at`), which is their least and greatest, for
+        continuous actions too; with `batch_size` None one
         environment, whose options are numbers, else each option is one value for every
         environment or a sequence of B. A one-line ValueError on a bad option."""
         count = 1 if batch_size is None else batch_size

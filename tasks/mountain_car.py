@@ -7,7 +7,9 @@ dm_control Physics; there is no MuJoCo plant.
 Task `cost_to_go`:
 
 - **Actions** (`DiscreteArray`, 3 values): index 0, 1, 2 apply the thrust a = -1 (reverse),
-  0 (none), +1 (forward).
+  0 (none), +1 (forward). With `actions="continuous"` (`BoundedArray` of shape (1,),
+  float64, named `thrust`): the thrust a itself, in [-1, 1] (the velocity changes by k a);
+  one outside is clipped to it, as an engine saturates.
 - **Observations** (float64 scalars): `position` x in [-1.2, 0.5] (beyond 0.5 only in the
   terminal state); `velocity` v in [-0.07, 0.07]. The altitude is sin(3x).
 - **Dynamics** (one step): v' = clip(v + 0.001 a - 0.0025 cos(3x), -0.07, 0.07);
@@ -160,6 +162,7 @@ def cost_to_go(time_limit: float = STEP_LIMIT, params=None) -> TaskDefinition:
     physical parameters' values `{name: value}` (`PARAMETERS`)."""
     return TaskDefinition(
         domain="mountain_car", task="cost_to_go", state_names=STATE_NAMES, controls_of=controls,
+        control_name="thrust",
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
         initial_states=initial_states,
         observe=lambda state: state, outcome=outcome, transition=transition, arrive=arrive,

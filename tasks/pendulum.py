@@ -7,7 +7,9 @@ paper's equation with Euler's method).
 Task `swingup`:
 
 - **Actions** (`DiscreteArray`, 2 values): index 0, 1 apply the torque -tau_max, +tau_max,
-  tau_max = 5 N m.
+  tau_max = 5 N m. With `actions="continuous"` (`BoundedArray` of shape (1,), float64,
+  named `torque`): the torque tau itself, in [-tau_max, tau_max]; one outside is clipped to
+  it, as the motor saturates (the MJCF motor's control range is the same).
 - **Observations** (float64 scalars): `angle` theta in rad, wrapped to [-pi, pi], 0 upright,
   positive toward +x; `angular_velocity` theta_dot in rad/s (unbounded; about +-1.5 in
   practice near the top, more when swinging).
@@ -160,6 +162,7 @@ def swingup(time_limit: float = TIME_LIMIT, params=None) -> TaskDefinition:
     values `{name: value}` (`PARAMETERS`)."""
     return TaskDefinition(
         domain="pendulum", task="swingup", state_names=STATE_NAMES, controls_of=controls,
+        control_name="torque",
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
         initial_states=initial_states, observe=_observe, outcome=outcome, transition=transition,
         arrive=arrive,

@@ -8,6 +8,10 @@ the domain's `transition`, which compiled loops call, steps the analytic plant a
 calls the same `outcome` (through `arrive`, which compiled loops also call after a MuJoCo
 step).
 States are arrays of shape `(..., d)` in the order of `state_names`.
+
+An action is discrete, an index into the task's `controls` (the paper's tasks), or with
+`actions="continuous"` the control itself, a force, torque or thrust that the actuator clips
+to its range (`control_range`, from the lowest to the highest of the discrete controls).
 """
 
 import dataclasses
@@ -18,6 +22,10 @@ from typing import Callable
 
 import numpy as np
 from numba.extending import register_jitable
+
+ACTIONS = ("discrete", "continuous")
+"""The kinds of action of a task (the option `actions`): an index into the discrete
+controls, or the control itself within the actuator's range."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -100,10 +108,28 @@ class TaskDefinition:
     """The task options that `outcome` and `transition` read (e.g. the track limit)."""
     has_uptime: bool = True
     """False where the task has no up-time (Mountain-Car: reported as NaN)."""
+    control_name: str = "control"
+    """What the actuator applies (`force`, `torque`, `thrust`): the name of a continuous
+    action's spec and of its errors."""
+    actions: str = "discrete"
+    """`discrete`: an action is an index into `controls`; `continuous`: an action is the
+    control itself, clipped to `control_range` (`with_actions`)."""
 
     @property
     def name(self) -> str:
         return f"{self.domain}.{self.task}"
+
+    @property
+    def continuous(self) -> bool:
+        """True where an action is the control itself (`actions="continuous"`)."""
+        return self.actions == "continuous"
+
+    def with_actions(self, actions) -> "TaskDefinition":
+        """This task with `actions` (`ACTIONS`) its kind of action; a one-line ValueError
+        naming the kinds otherwise."""
+        if not (isinstance(actions, str) and actions in ACTIONS):
+            raise ValueError(f"actions must be one of: {', '.join(ACTIONS)}; got {actions!r}")
+        return dataclasses.replace(self, actions=actions)
 
     @functools.cached_property
     def controls(self) -> tuple:
@@ -113,13 +139,65 @@ class TaskDefinition:
 
     def controls_at(self, physical) -> np.ndarray:
         """`(..., A)`: each action's control at the parameter values `physical` `(..., P)`
-        (one row per environment or agent)."""
+        (one row per environment or agent). A one-line ValueError for a task with
+        continuous actions, which has no discrete ones: where a learner of discrete actions
+        meets such a task (`num_actions`, `check_fits`, the compiled loops)."""
+        self.check_discrete()
+        return self._every_control_at(physical)
+
+    def check_discrete(self, source: str = "") -> None:
+        """A one-line ValueError where the task's actions are continuous, naming what a
+        learner of discrete actions (from `source`, where given) can run: the task with
+        `actions='discrete'`."""
+        if self.continuous:
+            low, high = self.control_range
+            raise ValueError(
+                f"{source + ': ' if source else ''}{self.name} was made with "
+                f"actions='continuous' (the {self.control_name} itself, in [{low:g}, {high:g}]): "
+                f"it has no discrete actions for a learner to choose among; allowed for such "
+                f"learners: actions='discrete'")
+
+    def _every_control_at(self, physical) -> np.ndarray:
+        """`controls_of` at the parameter values `physical` `(..., P)`, as an array
+        `(..., A)`."""
         physical = np.asarray(physical, dtype=np.float64)
         return np.stack([np.broadcast_to(control, physical.shape[:-1]) for control in
                          self.controls_of(np.moveaxis(physical, -1, 0))], axis=-1)
 
+    @functools.cached_property
+    def control_range(self) -> tuple:
+        """`(low, high)`: the actuator's range at the definition's parameter values."""
+        return tuple(self.control_range_at(self.physical).tolist())
+
+    def control_range_at(self, physical) -> np.ndarray:
+        """`(..., 2)`: the actuator's range `[low, high]` at the parameter values `physical`
+        `(..., P)`: the lowest and the highest discrete action's control, `controls_of(p)[0]`
+        and `controls_of(p)[-1]` (ascending), so it moves with the parameters that set them
+        (the pendulum's torque in [-tau_max, tau_max], the cart-pole's force in [-F, F],
+        Mountain-Car's thrust in [-1, 1], the acrobot's elbow torque in [-tau_max,
+        tau_max]). Where a continuous action is clipped, and the action noise
+        (`tasks.disturbances`) in either kind."""
+        return self._every_control_at(physical)[..., [0, -1]]
+
+    def saturate(self, actions, control_range) -> np.ndarray:
+        """The controls that continuous `actions` (a number or an array) command: each
+        clipped to its actuator's range `control_range` `(..., 2)` (`control_range_at`,
+        broadcast against the actions), as an actuator saturates; float64. A one-line
+        ValueError unless every action is a finite real number (not NaN, an infinity, a
+        bool or a string)."""
+        values = np.asarray(actions)
+        ranges = np.asarray(control_range, dtype=np.float64)
+        if values.dtype.kind not in "iuf" or not np.all(np.isfinite(values)):
+            given = actions.tolist() if isinstance(actions, np.ndarray) else actions  # one line
+            raise ValueError(
+                f"action must be a finite {self.control_name} (clipped to the actuator's range, "
+                f"[{ranges[..., 0].min():g}, {ranges[..., 1].max():g}]); got {given!r}")
+        return np.clip(values.astype(np.float64), ranges[..., 0], ranges[..., 1])
+
     @property
     def num_actions(self) -> int:
+        """The number of discrete actions (a one-line ValueError for a task with continuous
+        actions, `controls_at`)."""
         return len(self.controls)
 
     def nearest_action(self, control, physical=None):
@@ -173,6 +251,7 @@ class TaskDefinition:
     def check_fits(self, dim: int, num_actions: int, source: str) -> None:
         """A one-line ValueError unless agents that observe `dim` variables and choose among
         `num_actions` actions can run this task: the check for agents read from `source`."""
+        self.check_discrete(source)
         if dim != len(self.state_names) or num_actions != self.num_actions:
             raise ValueError(
                 f"{source}: its agents observe {dim} variables and choose among {num_actions} "

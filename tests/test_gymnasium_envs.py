@@ -16,7 +16,8 @@ gymnasium = pytest.importorskip("gymnasium")
 from gymnasium.utils.env_checker import check_env  # noqa: E402
 
 from lwrl import tasks  # noqa: E402
-from lwrl.gym import ENV_IDS, SuiteEnv, env_id, register_envs, render_modes  # noqa: E402
+from lwrl.gym import (CONTINUOUS_ENV_IDS, ENV_IDS, SuiteEnv, SuiteVectorEnv, env_id,  # noqa: E402
+                      register_envs, render_modes)
 
 # Any warning (Gymnasium's checkers warn rather than raise) fails these tests, unless a test
 # expects it.
@@ -463,3 +464,113 @@ def test_reset_to_a_state():
     assert np.array_equal(after_state, env.reset()[0])
     observation, *_ = env.step(1)
     assert observation in env.observation_space
+
+
+# Continuous actions ---------------------------------------------------------------------
+
+def _expected_warnings(env) -> set:
+    """`check_env`'s warnings for an lwrl environment: an infinite bound of the observation
+    Box where a variable is unbounded, and for a Box of actions outside [-1, 1] its advice
+    to normalise (given for Gymnasium's own Pendulum-v1 too: lwrl's action is the control
+    in its units)."""
+    expected = set()
+    space = env.observation_space
+    if np.any(np.isneginf(space.low)):
+        expected.add("A Box observation space minimum value is -infinity. This is probably too low.")
+    if np.any(np.isposinf(space.high)):
+        expected.add("A Box observation space maximum value is infinity. This is probably too high.")
+    actions = env.action_space
+    if isinstance(actions, gymnasium.spaces.Box) and np.any(np.abs(actions.high) > 1):
+        expected.add("For Box action spaces, we recommend using a symmetric and normalized space "
+                     "(range=[-1, 1] or [0, 1]). See https://stable-baselines3.readthedocs.io/en/"
+                     "master/guide/rl_tips.html for more information.")
+    return expected
+
+
+def test_continuous_ids_are_registered_beside_the_discrete():
+    """lwrl/{domain}-{task}-{plant}-continuous-v0 for every id of discrete actions: SuiteEnv
+    with actions="continuous", a float64 Box of shape (1,) over the actuator's range."""
+    assert CONTINUOUS_ENV_IDS == tuple(id_.replace("-v0", "-continuous-v0") for id_ in ENV_IDS)
+    for (domain, task, plant), id_ in zip(TASK_PLANTS, CONTINUOUS_ENV_IDS):
+        assert id_ == env_id(domain, task, plant, "continuous")
+        spec = gymnasium.spec(id_)
+        assert spec.entry_point == "lwrl.gym:SuiteEnv" and spec.max_episode_steps is None
+        assert spec.kwargs == {"domain": domain, "task": task, "plant": plant,
+                               "actions": "continuous"}
+        low, high = tasks.definition(domain, task).control_range
+        env = gymnasium.make(id_)
+        assert env.action_space == gymnasium.spaces.Box(low, high, (1,), np.float64)
+        assert env.unwrapped.actions == "continuous"
+
+
+@pytest.mark.parametrize("id_", CONTINUOUS_ENV_IDS)
+def test_check_env_continuous(id_):
+    """Gymnasium's env checker passes on every continuous variant, with only the warnings
+    `_expected_warnings` names (the normalisation advice for the pendulum's and the
+    cart-pole's ranges)."""
+    env = gymnasium.make(id_).unwrapped
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(env)
+    messages = {str(w.message).removeprefix("\x1b[33mWARN: ").removesuffix("\x1b[0m")
+                for w in caught}
+    assert messages == _expected_warnings(env)
+
+
+@pytest.mark.parametrize("domain, task, plant, options", [
+    ("mountain_car", "cost_to_go", "analytic", {"time_limit": 300, "action_noise": 0.2}),
+    ("pendulum", "swingup", "mujoco", {"time_limit": 1.0, "action_delay": 2}),
+    ("cartpole", "balance", "analytic", {"track_limit": 0.5, "action_noise": 3.0}),
+    ("acrobot", "swingup", "mujoco", {"time_limit": 10.0}),
+])
+def test_continuous_trajectories_equal_the_dm_env(domain, task, plant, options):
+    """With the same seed and continuous actions inside and outside the range (float64 and
+    float32), the Gymnasium environment's episodes are the dm_env environment's exactly."""
+    seed = 21
+    gym_env = gymnasium.make(env_id(domain, task, plant, "continuous"), **options)
+    dm_env = tasks.load(domain, task, plant=plant, seed=seed, actions="continuous", **options)
+    rng = np.random.default_rng(3)
+    high = gym_env.action_space.high
+    observation, _ = gym_env.reset(seed=seed)
+    outside = 0
+    for _ in range(3):
+        time_step = dm_env.reset()
+        assert np.array_equal(observation, list(time_step.observation.values()))
+        while not time_step.last():
+            action = rng.uniform(-2 * high, 2 * high).astype(rng.choice([np.float64, np.float32]))
+            outside += int(action not in gym_env.action_space)
+            observation, reward, terminated, truncated, info = gym_env.step(action)
+            time_step = dm_env.step(action)
+            assert np.array_equal(observation, list(time_step.observation.values()))
+            assert reward == time_step.reward and info["steps"] == dm_env.task.steps
+            assert terminated == (time_step.last() and time_step.discount == 0.0)
+            assert truncated == (time_step.last() and time_step.discount == 1.0)
+        observation, _ = gym_env.reset()
+    assert outside > 10
+
+
+@pytest.mark.parametrize("action, message", [
+    (np.array([np.nan]), r"action must be a finite torque \(clipped to the actuator's range, "
+                         r"\[-5, 5\]\); got \[nan\]$"),
+    (np.array([np.inf]), "action must be a finite torque"),
+    (np.array([1.0, 2.0]), r"action must be one torque, a number or an array of shape \(1,\)"),
+    ("1", "action must be a finite torque"),
+])
+def test_bad_continuous_actions(action, message):
+    env = gymnasium.make("lwrl/pendulum-swingup-analytic-continuous-v0")
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=message):
+        env.step(action)
+    env.step(np.array([7.5]))  # outside: clipped to 5 N m
+
+
+def test_kwargs_cannot_change_the_kind_of_action():
+    with pytest.raises(ValueError, match="with continuous actions; make\\(\\) kwargs asked for "
+                                         "pendulum.swingup on the analytic plant: use "
+                                         "lwrl/pendulum-swingup-analytic-v0 instead"):
+        gymnasium.make("lwrl/pendulum-swingup-analytic-continuous-v0", actions="discrete")
+    with pytest.raises(ValueError, match="use lwrl/cartpole-balance-mujoco-continuous-v0"):
+        gymnasium.make("lwrl/cartpole-balance-mujoco-v0", actions="continuous")
+    with pytest.raises(ValueError, match="actions must be one of: discrete, continuous"):
+        SuiteVectorEnv("cartpole", "balance", "analytic", num_envs=2, actions="box")
+

@@ -14,13 +14,22 @@ from gymnasium.utils.env_checker import data_equivalence  # noqa: E402
 from gymnasium.utils.passive_env_checker import check_action_space, check_observation_space  # noqa: E402
 from gymnasium.vector import AutoresetMode, SyncVectorEnv  # noqa: E402
 
-from lwrl.gym import ENV_IDS, SuiteVectorEnv  # noqa: E402
+from lwrl.gym import CONTINUOUS_ENV_IDS, ENV_IDS, SuiteVectorEnv  # noqa: E402
 
 pytestmark = pytest.mark.filterwarnings("error")
 
 SHORT = {"mountain_car": 60, "pendulum": 0.4, "cartpole": 240.0, "acrobot": 6.0}
 """A time limit per domain short enough that random episodes end often (the cart-pole's
 fail on their own)."""
+
+
+def random_actions(env, rng):
+    """One random action per copy: an index, or a continuous control drawn over twice the
+    Box's range, about half of them outside it (clipped, in both environments alike)."""
+    space = env.single_action_space
+    if isinstance(space, gymnasium.spaces.Discrete):
+        return rng.integers(0, space.n, env.num_envs)
+    return rng.uniform(-2 * space.high, 2 * space.high, (env.num_envs, 1))
 
 
 def make_both(id_, num_envs=4, **kwargs):
@@ -33,7 +42,7 @@ def make_both(id_, num_envs=4, **kwargs):
     return ours, reference
 
 
-@pytest.mark.parametrize("id_", ENV_IDS)
+@pytest.mark.parametrize("id_", ENV_IDS + CONTINUOUS_ENV_IDS)
 def test_make_vec_gives_the_batched_vector_environment(id_):
     ours, reference = make_both(id_)
     assert isinstance(ours, SuiteVectorEnv) and isinstance(reference, SyncVectorEnv)
@@ -47,11 +56,12 @@ def test_make_vec_gives_the_batched_vector_environment(id_):
     assert ours.num_envs == 4 and ours.spec.id == id_
 
 
-@pytest.mark.parametrize("id_", ENV_IDS)
+@pytest.mark.parametrize("id_", ENV_IDS + CONTINUOUS_ENV_IDS)
 def test_the_same_transitions_as_the_single_environments(id_):
     """Random actions for 400 steps: every observation, reward, termination, truncation and
     info equals `SyncVectorEnv`'s over `SuiteEnv`, autoresets included (several episodes
-    end in each copy), after a seeded reset and after a reset that continues the streams."""
+    end in each copy), after a seeded reset and after a reset that continues the streams;
+    continuous actions inside and outside the range alike."""
     ours, reference = make_both(id_)
     actions = np.random.default_rng(0)
     ended = 0
@@ -60,7 +70,7 @@ def test_the_same_transitions_as_the_single_environments(id_):
         assert data_equivalence(*first, exact=True), first
         assert first[0][0] in ours.observation_space
         for _ in range(400):
-            action = actions.integers(0, ours.single_action_space.n, ours.num_envs)
+            action = random_actions(ours, actions)
             ours_step, reference_step = ours.step(action), reference.step(action)
             assert data_equivalence(ours_step, reference_step, exact=True), (ours_step, reference_step)
             assert ours_step[0] in ours.observation_space
@@ -120,3 +130,18 @@ def test_bad_vector_steps():
             env.step(actions)
     with pytest.raises(ValueError, match="seed must be an integer or 2 seeds"):
         env.reset(seed=[1, 2, 3])
+
+
+def test_continuous_actions_are_a_box_of_one_control_per_copy():
+    """`(B, 1)` float64 over the actuator's range; `(B,)` is taken too, and a NaN refused."""
+    env = gymnasium.make_vec("lwrl/cartpole-balance-analytic-continuous-v0", num_envs=3)
+    assert env.single_action_space == gymnasium.spaces.Box(-10.0, 10.0, (1,), np.float64)
+    assert env.action_space == gymnasium.spaces.Box(-10.0, 10.0, (3, 1), np.float64)
+    env.reset(seed=0)
+    flat = env.step(np.array([-20.0, 0.5, 20.0]))
+    again = gymnasium.make_vec("lwrl/cartpole-balance-analytic-continuous-v0", num_envs=3)
+    again.reset(seed=0)
+    assert data_equivalence(flat, again.step(np.array([[-10.0], [0.5], [10.0]])), exact=True)
+    with pytest.raises(ValueError, match=r"^action must be a finite force"):
+        env.step(np.array([[0.0], [np.nan], [0.0]]))
+
