@@ -1,0 +1,11 @@
+"""The second benchmark of the light-weight claim, by docs/FINDINGS.md's rule ("The
+light-weight claim judged again: the second benchmark's rule"): one budget of environment
+steps per task for every learner, greedy evaluations apart from training, a normalised score
+between a random row (0) and the domain's classical controller (1), and the same search for
+every learner.
+
+Modules: `protocol` (the budgets, the rows and their training runs), `search` (the same
+random search for every row), `references` (the random and classical rows as agents, in no
+registry), `evaluation` (the greedy evaluation of a trained run, the reference rows' runs
+and the per-agent measure). The statistics are `analysis.verdicts`'.
+"""

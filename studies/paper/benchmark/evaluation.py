@@ -1,0 +1,103 @@
+"""The benchmark's greedy evaluation (docs/FINDINGS.md, "The light-weight claim judged again:
+the second benchmark's rule", "Greedy evaluation, apart from training"): each agent runs
+`EPISODES` episodes without exploring or learning, from starts of its own (its seed +
+`EVALUATION_SEED`), without a budget, on the task's own episodes (the pendulum's 60 s, the
+cart-pole's 240 s) but for the tasks measured in steps (Mountain-Car, the acrobot), capped
+at `STEP_CAP` steps, so that an episode that does not reach the goal counts `STEP_CAP`. Its measure is the paper's, averaged over those episodes
+(`task_measure`, `measure`). The two reference rows (`references`) run on the same starts
+(`run_references`).
+
+The robustness study evaluates its trained agents alike in its nominal cell
+(studies/robustness/plan.py `evaluation`, the same 10 000 added to the seeds); one study
+does not import another (tests/test_architecture.py), so the replacement is written here.
+"""
+
+import dataclasses
+
+import numpy as np
+import pandas as pd
+
+from lwrl import tasks
+from lwrl.runners.config import RunConfig
+from lwrl.runners.stepped import run_batched
+from lwrl.studies.paper.bench_protocol import STEPS, UPTIME, Measure
+from lwrl.studies.paper.benchmark.references import ROWS
+from lwrl.tasks.batched import BatchedEnv
+from lwrl.tasks.task_definition import TaskDefinition
+
+EVALUATION_SEED = 10_000
+"""Added to an agent's seed for its evaluation episodes' starts (and sensor streams)."""
+EPISODES = 10
+"""Greedy episodes per agent and evaluation."""
+STEP_CAP = 1000
+"""The most steps of an evaluation episode of a task measured in steps; one that does not
+reach the goal counts this."""
+
+
+def task_definition(task: str) -> TaskDefinition:
+    """The definition of `task` (DOMAIN.TASK) at its defaults, or a one-line ValueError
+    naming the suite's tasks (`tasks.split_name`, `tasks.domain`, `tasks.task_options`)."""
+    return tasks.definition(*tasks.split_name(task))
+
+
+def task_measure(task: str) -> Measure:
+    """The up-time where the task keeps one (the pendulum, the cart-pole), else the steps
+    per episode (Mountain-Car, the acrobot): the measures of the first benchmark."""
+    return UPTIME if task_definition(task).has_uptime else STEPS
+
+
+def episode_options(task: str) -> dict:
+    """The task options of an evaluation episode: a `time_limit` of `STEP_CAP` steps, in the
+    task's unit of time, for a task measured in steps; none (the task's own episodes) for
+    the others."""
+    if task_measure(task) != STEPS:
+        return {}
+    return {"time_limit": STEP_CAP * task_definition(task).control_timestep}
+
+
+def evaluation(trained: RunConfig) -> RunConfig:
+    """The greedy evaluation of the agents of the run `trained` as they ended it
+    (`RunConfig.trained`, `Agents.take_over`), on its plant and environment: no learning,
+    greedy actions, `EPISODES` episodes, each agent's seed + `EVALUATION_SEED`, the
+    evaluation's episodes (`episode_options`, whatever the training's) and no budget."""
+    return dataclasses.replace(
+        trained, trained=trained.key, learn=False, greedy=True, episodes=EPISODES,
+        seed=trained.seed + EVALUATION_SEED, task_options=episode_options(trained.task),
+        budget=None)
+
+
+def evaluation_env(task: str, agents: int, plant: str) -> BatchedEnv:
+    """The environments of the evaluation of `agents` agents of seeds 0 up (`evaluation`'s
+    seeds, starts and episodes) of `task` on `plant`."""
+    domain, name = tasks.split_name(task)
+    return BatchedEnv(domain, name, plant, [EVALUATION_SEED + b for b in range(agents)],
+                      **episode_options(task))
+
+
+def run_references(task: str, agents: int = 20, plant: str = "analytic",
+                   episodes: int = EPISODES) -> dict:
+    """`{row: per-episode results}` of the reference rows (`references.ROWS`) on `task`:
+    `agents` agents each, on the starts of the evaluation of agents of seeds 0 up
+    (`evaluation_env`), `episodes` episodes each; the results as a table of
+    `EpisodeResults.columns` (`seed` the environment's)."""
+    tables = {}
+    for row, make in ROWS.items():
+        env = evaluation_env(task, agents, plant)
+        results = run_batched(env, make(env), episodes, learn=False, greedy=True)
+        tables[row] = pd.DataFrame(results.columns(env.seeds))
+    return tables
+
+
+def evaluate_references(task: str, agents: int = 20, plant: str = "analytic") -> dict:
+    """`{row: (agents,) measures}` of the reference rows on `task` (`run_references`,
+    `EPISODES` episodes, `measure`)."""
+    return {row: measure(table, task)
+            for row, table in run_references(task, agents, plant).items()}
+
+
+def measure(results: pd.DataFrame, task: str) -> np.ndarray:
+    """One number per agent, in seed order: the mean over its episodes of `task`'s measure
+    (`task_measure`) in `results`, one run's per-episode table with a `seed` column and the
+    measure's (`EpisodeResults.columns`, `runners.sweep.results_table`)."""
+    column = task_measure(task).column
+    return results.groupby("seed", sort=True)[column].mean().to_numpy()

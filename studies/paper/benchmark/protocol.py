@@ -1,0 +1,82 @@
+"""The second benchmark's protocol (docs/FINDINGS.md, "the second benchmark's rule"): per task
+one budget of environment steps that every learner gets, the rows, and the runs that train
+them.
+
+Every row trains on the task's own episodes (the paper's: the cart-pole's of 240 s), as many
+as its budget holds (`RunConfig.budget` cuts the episode that spends it). A greedy evaluation
+at a fraction f of the budget (`FRACTIONS`) evaluates the agents of a run given f times the
+budget: the budget cuts a run without changing what came before it (`tests/test_budget.py`),
+so that run's agents are the full run's as they were after f of it.
+
+The rows: the paper's agent (NRBF Sarsa(lambda) with the task's settings), its other trace,
+true online Sarsa(lambda), the CMAC on Mountain-Car and ASE/ACE on the cart-pole (the rows
+`lwrl bench`'s first protocol also has, `studies.paper.bench_protocol`), and DQN and PPO, each
+on its fastest implementation, the JAX populations `dqn_jax` and `ppo_jax` that
+docs/implementations holds to Stable-Baselines3's, starting from rl-baselines3-zoo's sets
+with their horizon the budget (so that DQN's exploration and the linear schedules run over
+it). Every row is searched the same way (`search`).
+"""
+
+import dataclasses
+
+from lwrl.runners.config import RunConfig, tuned_settings
+from lwrl.studies.paper import bench_protocol
+
+BUDGETS = {"mountain_car.cost_to_go": 100_000, "pendulum.swingup": 90_000,
+           "cartpole.balance": 250_000, "acrobot.swingup": 100_000}
+"""Environment steps per agent, per task, for every learner (FINDINGS says why these)."""
+FRACTIONS = (0.1, 0.25, 0.5, 1.0)
+"""The fractions of the budget after which the agents are evaluated greedily."""
+AGENTS = 20
+"""Agents per row, on seeds 0 to AGENTS - 1 (none of the search's)."""
+LEVEL = 0.5
+"""The normalised score whose first reaching the compute to a level counts to."""
+SHORTEST_EPISODE = 10
+"""Steps: fewer on average than the shortest a policy falls in from the cart-pole's start,
+or reaches a goal in from most of Mountain-Car's and the acrobot's starts."""
+DEEP = {"dqn": "dqn_jax", "ppo": "ppo_jax"}
+"""The deep rows and the implementation each runs on (the fastest, docs/guide/speed.md)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Row:
+    """One learner of a task's table: its label, the registry's learner and the settings the
+    search starts from (its first configuration)."""
+
+    label: str
+    learner: str
+    settings: dict
+
+
+def check_task(task: str) -> str:
+    if task not in BUDGETS:
+        raise ValueError(f"unknown benchmark task {task!r}; allowed: {', '.join(BUDGETS)}")
+    return task
+
+
+def rows(task: str) -> list:
+    """The task's rows, the paper's agent first: the first protocol's rows but DQN and PPO,
+    which run on their JAX populations with their horizon the budget."""
+    check_task(task)
+    linear = [Row(label, learner, dict(settings))
+              for label, learner, settings in bench_protocol.learners(task)
+              if label not in bench_protocol.DEEP]
+    deep = [Row(label, learner, dict(tuned_settings(task, learner), timesteps=BUDGETS[task]))
+            for label, learner in DEEP.items()]
+    return linear + deep
+
+
+def most_episodes(task: str) -> int:
+    """The episodes a run may hold: its budget over `SHORTEST_EPISODE`, so that the budget,
+    not the count, ends it (an agent whose episodes average fewer steps stops at the count;
+    its steps taken are in its table)."""
+    return -(-BUDGETS[check_task(task)] // SHORTEST_EPISODE)
+
+
+def training(task: str, row: Row, settings: dict, seed: int, agents: int,
+             fraction: float = 1.0, plant: str = "analytic") -> RunConfig:
+    """The run that trains `agents` agents of `row` with `settings` (seeds `seed`..) on the
+    task's own episodes for `fraction` of its budget."""
+    budget = round(fraction * BUDGETS[check_task(task)])
+    return RunConfig(task=task, plant=plant, learner=row.learner, agents=agents, seed=seed,
+                     episodes=most_episodes(task), budget=budget, **settings)

@@ -1,0 +1,123 @@
+"""The benchmark's two reference rows (docs/FINDINGS.md, "The light-weight claim judged again:
+the second benchmark's rule"): a random policy, the 0 of the normalised score, and the
+domain's classical controller (`Domain.classical`), its 1.
+
+Both are `Agents` (`agent.learner_contract`) that `runners.stepped.run_batched` runs as it
+runs a learner's, on the same environments, seeds and episodes; but they are no learner:
+nothing registers them, they never learn, and they ignore `learn` and `greedy` (a reference
+acts alike whatever it is told). Of an `Agents`, `run_batched` reads `step`, and through
+`arrays` the `batch_size` and `diverged`; recording an episode also reads `num_actions` and
+the `q`, `delta` and `weights` of `arrays`, which a reference fills with nothing learned
+(`ReferenceArrays`).
+
+The classical controllers take the plant's state (`Classical.control`), and the agents see
+the task's observation (`TaskDefinition.observe`). They agree on every task:
+- Mountain-Car and the cart-pole observe the state as it is;
+- the pendulum observes its angle wrapped to [-pi, pi]: its controller wraps the angle itself;
+- the acrobot observes both angles wrapped: its controller reads the shoulder's angle only
+  through sines and cosines (the energy, the accelerations) and wraps the elbow's itself.
+So the control at the observation is the control at the state, up to the round-off of a
+cosine 2 pi k away (tests/test_benchmark_evaluation.py checks it at random states).
+"""
+
+import collections
+
+import numpy as np
+
+from lwrl import tasks
+from lwrl.agent.learner_contract import Agents
+from lwrl.settings import check_count
+from lwrl.tasks.batched import BatchedEnv
+from lwrl.tasks.task_definition import TaskDefinition
+
+ReferenceArrays = collections.namedtuple("ReferenceArrays", "q delta diverged weights")
+"""What `run_batched` reads of a reference's `arrays`: `q` `(B, A)` zeros (no action
+values), `delta` `(B,)` NaN (no TD error), `diverged` `(B,)` False (nothing to diverge) and
+`weights` `(B, 0)` (nothing learned)."""
+
+
+class ReferencePolicy(Agents):
+    """B agents of a reference row on a task of `num_actions` discrete actions and `dim`
+    observed variables; a subclass chooses the actions (`step`)."""
+
+    def __init__(self, batch: int, num_actions: int, dim: int):
+        self.dim = dim
+        self.arrays = ReferenceArrays(np.zeros((batch, num_actions)), np.full(batch, np.nan),
+                                      np.zeros(batch, dtype=bool), np.zeros((batch, 0)))
+
+    def acting(self, active) -> np.ndarray:
+        """The indices of the agents that act this step: those `active` (None: all)."""
+        return np.arange(self.batch_size) if active is None else np.flatnonzero(active)
+
+
+class RandomPolicy(ReferencePolicy):
+    """Actions drawn uniformly among the task's `num_actions`, agent b from its own NumPy
+    stream seeded from `seeds[b]`: its draws depend on its seed alone, not on the batch it
+    runs in, so a row is reproducible. The stream is a child of the seed's `SeedSequence`
+    (`spawn`), not `default_rng(seed)` itself, from which an environment of the same seed
+    draws its starts (`tasks.task_definition.random_starts`): the actions are independent of
+    the starts."""
+
+    def __init__(self, num_actions: int, dim: int, seeds):
+        seeds = [check_count("seed", seed, 0) for seed in seeds]
+        super().__init__(len(seeds), num_actions, dim)
+        self.streams = [np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0])
+                        for seed in seeds]
+
+    @classmethod
+    def on(cls, env: BatchedEnv) -> "RandomPolicy":
+        """The row on `env`, agent b seeded as environment b is (`BatchedEnv.seeds`)."""
+        return cls(env.num_actions, len(env.definition.state_names), env.seeds)
+
+    def step(self, first, reward, discount, observation, active=None, learn=True,
+             greedy=False) -> np.ndarray:
+        """One uniform draw per acting agent (`Agents.step`'s arguments; the others act 0)."""
+        self.check_observation(observation)
+        actions = np.zeros(self.batch_size, dtype=np.int64)
+        for b in self.acting(active):
+            actions[b] = self.streams[b].integers(self.num_actions)
+        return actions
+
+
+class ClassicalPolicy(ReferencePolicy):
+    """The domain's classical controller (`Domain.classical`, its `source` says whose) on
+    `definition`'s discrete task: agent b takes the action nearest
+    (`TaskDefinition.nearest_action`) the control wanted at its observation and its
+    episode's physical parameter values, as tests/test_classical.py runs it.
+
+    It reads those values from `physical` `(B, P)` at every step: give it the environment's
+    own `BatchedEnv.physical`, which an environment redraws in place for each episode where
+    it randomises them, so that the gains follow the episode's plant. The model-based
+    reference knows the plant; a learner is not told."""
+
+    def __init__(self, definition: TaskDefinition, physical: np.ndarray):
+        classical = tasks.domain(definition.domain).classical
+        if classical is None:
+            raise ValueError(f"the {definition.domain} domain has no classical controller")
+        count = len(tasks.domain(definition.domain).parameters.items)
+        if np.ndim(physical) != 2 or np.shape(physical)[1] != count:
+            raise ValueError(f"physical must have shape (B, {count}), one row of parameter "
+                             f"values per agent; got shape {np.shape(physical)}")
+        super().__init__(len(physical), definition.num_actions, len(definition.state_names))
+        self.definition, self.physical, self.control = definition, physical, classical.control
+
+    @classmethod
+    def on(cls, env: BatchedEnv) -> "ClassicalPolicy":
+        """The row on `env`, reading its episodes' parameter values (`BatchedEnv.physical`)."""
+        return cls(env.definition, env.physical)
+
+    def step(self, first, reward, discount, observation, active=None, learn=True,
+             greedy=False) -> np.ndarray:
+        """The nearest action to the classical control of each acting agent (`Agents.step`'s
+        arguments; the others act 0)."""
+        observation = self.check_observation(observation)
+        actions = np.zeros(self.batch_size, dtype=np.int64)
+        acting = self.acting(active)
+        wanted = [self.control(observation[b], self.physical[b]) for b in acting]
+        actions[acting] = self.definition.nearest_action(np.array(wanted), self.physical[acting])
+        return actions
+
+
+ROWS = {"random": RandomPolicy.on, "classical": ClassicalPolicy.on}
+"""`{row: make(env)}`: the reference rows, the 0 and the 1 of the normalised score, each
+made for a `BatchedEnv`."""
