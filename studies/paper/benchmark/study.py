@@ -1,0 +1,122 @@
+"""The second benchmark's runs, in order, through the sweep runner (resumable, claimed in
+batches, Ray), into one directory `OUT`:
+
+1. the reference rows' greedy episodes (`references/<task>.csv.gz`: seconds);
+2. the search (`search.runs`): every configuration's training, its agents kept, then its
+   greedy evaluation; each configuration is scored by its agents' mean final normalised
+   score, and the row takes the best;
+3. the rows: the chosen configuration trained by `protocol.AGENTS` agents for each fraction of
+   the budget (`protocol.FRACTIONS`), each evaluated greedily.
+
+Every run's per-episode table is `OUT/runs/<key>.csv.gz`; the kept agents
+(`<key>.agents.npz`) are needed only until a run's evaluation is written: a training whose
+evaluation is finished is not run again, so the committed tables alone resume the study on
+a fresh clone.
+"""
+
+import dataclasses
+import os
+
+import numpy as np
+import pandas as pd
+
+from lwrl import outputs
+from lwrl.analysis import verdicts
+from lwrl.runners.store import RunStore
+from lwrl.runners.sweep import run_sweep
+from lwrl.studies.paper.benchmark import evaluation, protocol, search
+
+REFERENCES = "references"
+
+
+@dataclasses.dataclass
+class TaskRuns:
+    """What the study ran on one task: the reference rows' per-agent measures, every search
+    configuration's score, the chosen configurations, and the rows' per-agent normalised
+    scores at each fraction of the budget, with the runs' tables."""
+
+    task: str
+    references: dict
+    """`{"random" | "classical": (agents,) measures}`."""
+    search_scores: dict
+    """`{(label, i): (search agents,) normalised scores}` of every configuration."""
+    chosen: dict
+    """`{label: i}`: the configuration each row took."""
+    scores: dict
+    """`{(label, fraction): (agents,) normalised scores}` of the rows."""
+    trainings: dict
+    """`{(label, fraction): RunConfig}` of the rows' trainings."""
+    tables: pd.DataFrame
+    """Every training and evaluation table the study read, the rows' and the search's."""
+
+
+def references(task: str, out_dir: str, plant: str = "analytic", agents: int = protocol.AGENTS) -> dict:
+    """The reference rows' per-agent measures on `task`, from `OUT/references/<task>.csv.gz`
+    where an earlier call wrote it, else run (`evaluation.run_references`) and written."""
+    path = os.path.join(out_dir, REFERENCES, f"{task}-{plant}.csv.gz")
+    if not os.path.exists(path):
+        tables = evaluation.run_references(task, agents, plant)
+        table = pd.concat([t.assign(row=row) for row, t in tables.items()], ignore_index=True)
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        with outputs.atomic_path(path) as temporary:
+            table.to_csv(temporary, index=False, compression="gzip")
+    table = pd.read_csv(path)
+    return {row: evaluation.measure(part, task) for row, part in table.groupby("row")}
+
+
+def normalised(task: str, values, reference: dict) -> np.ndarray:
+    """`values` (the task's measure, per agent) as normalised scores: the random row 0, the
+    classical row 1 (`analysis.verdicts.normalised_score`)."""
+    return verdicts.normalised_score(values, reference["random"], reference["classical"],
+                                     evaluation.task_measure(task).higher_is_better)
+
+
+def train_and_evaluate(trainings: dict, out_dir: str, sweep: dict, description: str) -> tuple:
+    """Run the trainings `{name: RunConfig}` (agents kept) whose greedy evaluation is not
+    written yet, then every evaluation; return `({name: evaluation table}, every table)`."""
+    evaluations = {name: evaluation.evaluation(config) for name, config in trainings.items()}
+    store = RunStore(out_dir)
+    pending = [config for name, config in trainings.items() if not store.finished(evaluations[name])]
+    if pending:
+        run_sweep(pending, out_dir, **sweep, description=f"{description}: training",
+                  keep_agents=True)
+    table, _ = run_sweep(list(evaluations.values()), out_dir, **sweep,
+                         description=f"{description}: evaluation")
+    by_run = dict(iter(table.groupby("run")))
+    trained = [config for config in trainings.values() if store.path(config).exists()]
+    tables = pd.concat([table, store.read(trained)], ignore_index=True) if trained else table
+    return {name: by_run[config.key] for name, config in evaluations.items()}, tables
+
+
+def study_task(task: str, out_dir: str, plant: str = "analytic", sweep=None) -> TaskRuns:
+    """The search and the rows of `task` (see the module), resuming what `out_dir` holds."""
+    sweep = sweep or {}
+    reference = references(task, out_dir, plant)
+    runs = search.runs(task, plant)
+    evaluated, search_tables = train_and_evaluate(runs, out_dir, sweep, f"{task}: search")
+    search_scores = {name: normalised(task, evaluation.measure(table, task), reference)
+                     for name, table in evaluated.items()}
+    chosen = choose(search_scores)
+    trainings = {}
+    for row in protocol.rows(task):
+        settings = search.configurations(task, row)[chosen[row.label]]
+        for fraction in protocol.FRACTIONS:
+            trainings[row.label, fraction] = protocol.training(
+                task, row, settings, 0, protocol.AGENTS, fraction, plant)
+    evaluated, row_tables = train_and_evaluate(trainings, out_dir, sweep, f"{task}: rows")
+    scores = {name: normalised(task, evaluation.measure(table, task), reference)
+              for name, table in evaluated.items()}
+    return TaskRuns(task, reference, search_scores, chosen, scores, trainings,
+                    pd.concat([search_tables, row_tables], ignore_index=True))
+
+
+def choose(search_scores: dict) -> dict:
+    """`{label: i}`: each row's configuration with the best mean normalised score over its
+    agents (NaN, a diverged agent's, counting as the worst), the first (the row's own
+    settings) on a tie."""
+    best = {}
+    for (label, i), values in search_scores.items():
+        mean = float(np.mean(np.nan_to_num(values, nan=-np.inf)))
+        if label not in best or mean > best[label][1]:
+            best[label] = (i, mean)
+    return {label: i for label, (i, _) in best.items()}

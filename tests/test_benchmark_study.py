@@ -1,0 +1,54 @@
+"""The second benchmark's runs (studies/paper/benchmark/study.py) at a tiny scale, on
+Mountain-Car with lwrl's own rows (the deep rows compile JAX programs; their path is the
+same sweep): every row searched and chosen, every fraction of the budget trained and
+evaluated, the reference rows written once; a second call computes nothing and gives the
+same scores, and neither does a third once the kept agents are gone (a fresh clone has the
+committed tables only)."""
+
+import numpy as np
+import pytest
+
+from lwrl.studies.paper.benchmark import evaluation, protocol, search, study
+
+TASK = "mountain_car.cost_to_go"
+
+
+@pytest.fixture
+def tiny(monkeypatch):
+    monkeypatch.setitem(protocol.BUDGETS, TASK, 400)
+    monkeypatch.setattr(protocol, "DEEP", {})
+    monkeypatch.setattr(protocol, "AGENTS", 2)
+    monkeypatch.setattr(protocol, "SHORTEST_EPISODE", 100)
+    monkeypatch.setattr(search, "CONFIGURATIONS", 2)
+    monkeypatch.setattr(search, "SEEDS", (1000, 1001))
+    monkeypatch.setattr(search, "AGENTS", 2)
+    monkeypatch.setattr(evaluation, "EPISODES", 2)
+    monkeypatch.setattr(evaluation, "STEP_CAP", 200)
+
+
+def test_a_tiny_benchmark_runs_resumes_and_needs_no_kept_agents_once_evaluated(tiny, tmp_path):
+    first = study.study_task(TASK, str(tmp_path), sweep={"workers": 1})
+    labels = [row.label for row in protocol.rows(TASK)]
+    assert set(first.chosen) == set(labels) and len(first.search_scores) == 2 * len(labels)
+    assert set(first.scores) == {(label, f) for label in labels for f in protocol.FRACTIONS}
+    assert all(len(values) == 2 for values in first.scores.values())
+    assert all(np.isfinite(values).all() for values in first.references.values())
+    training = first.tables[first.tables["run"] == first.trainings["paper", 1.0].key]
+    assert training.groupby("seed")["steps"].sum().tolist() == [400, 400]
+    written = sorted(path.name for path in (tmp_path / "runs").iterdir())
+    again = study.study_task(TASK, str(tmp_path), sweep={"workers": 1})
+    assert sorted(path.name for path in (tmp_path / "runs").iterdir()) == written
+    for name, values in first.scores.items():
+        np.testing.assert_array_equal(again.scores[name], values)
+    for path in (tmp_path / "runs").glob("*.agents.npz"):
+        path.unlink()
+    third = study.study_task(TASK, str(tmp_path), sweep={"workers": 1})
+    assert not list((tmp_path / "runs").glob("*.agents.npz"))
+    assert third.chosen == first.chosen
+
+
+def test_the_best_mean_is_chosen_a_diverged_agent_the_worst_and_the_first_on_a_tie():
+    scores = {("a", 0): np.array([0.5, 0.5]), ("a", 1): np.array([0.9, 0.2]),
+              ("b", 0): np.array([0.1, 0.1]), ("b", 1): np.array([2.0, np.nan]),
+              ("c", 0): np.array([0.3]), ("c", 1): np.array([0.3])}
+    assert study.choose(scores) == {"a": 1, "b": 0, "c": 0}
