@@ -7,6 +7,7 @@ every learner.
 Modules: `protocol` (the budgets, the rows and their training runs), `search` (the same
 random search for every row), `references` (the random and classical rows as agents, in no
 registry), `evaluation` (the greedy evaluation of a trained run, the reference rows' runs
-and the per-agent measure), `study` (the runs in order, resumable from their tables alone).
+and the per-agent measure), `study` (the runs in order, resumable from their tables alone), `judging` (the gate, the
+tests, the compute to a level and the verdicts).
 The statistics are `analysis.verdicts`'.
 """

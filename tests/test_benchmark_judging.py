@@ -1,0 +1,78 @@
+"""The second benchmark's rule (studies/paper/benchmark/judging.py) on synthetic scores whose
+verdict is known: two learners no better than random are not judged; a clearly better and
+far cheaper paper's agent gets yes, a clearly worse one no, one better but not 100 times
+cheaper partly; Holm's correction runs across the whole family; the compute to the level
+counts the first evaluation that reaches it, and the whole budget where none does."""
+
+import numpy as np
+
+from lwrl.studies.paper.benchmark import judging, protocol
+
+BUDGET = 1000
+RNG = np.random.default_rng(0)
+
+
+def rows(**means):
+    """Normalised scores of 20 agents per row at every fraction, each row at its mean at the
+    end and a quarter of it before."""
+    scores = {}
+    for label, mean in means.items():
+        final = mean + 0.05 * RNG.standard_normal(20)
+        for fraction in protocol.FRACTIONS:
+            scores[label, fraction] = final if fraction == 1.0 else final * 0.25
+    return scores
+
+
+def judge(scores, cpu):
+    random_scores = 0.05 * RNG.standard_normal(20)
+    comparisons = judging.holm_family(
+        [judging.compare("task", scores, random_scores, rival) for rival in ("dqn", "ppo")])
+    computes = {label: judging.compute(scores, label, BUDGET, cpu[label])
+                for label in ("paper", "dqn", "ppo")}
+    return comparisons, judging.verdict(comparisons, scores, computes)
+
+
+def test_learners_no_better_than_random_are_not_judged():
+    comparisons, verdict = judge(rows(paper=0.0, dqn=0.0, ppo=0.0),
+                                 {"paper": 1e-6, "dqn": 1e-3, "ppo": 1e-3})
+    assert verdict == "not judged"
+    assert all(not c.gate.judged and "not judged" in c.gate.reason for c in comparisons)
+
+
+def test_a_random_rival_leaves_its_comparison_unjudged_naming_it():
+    comparisons, verdict = judge(rows(paper=0.9, dqn=0.0, ppo=0.8),
+                                 {"paper": 1e-6, "dqn": 1e-3, "ppo": 1e-3})
+    dqn, ppo = comparisons
+    assert not dqn.gate.judged and "dqn's interval" in dqn.gate.reason and ppo.gate.judged
+    assert verdict == "yes"  # against the one judged rival: better and 1/1000 of its compute
+
+
+def test_the_verdicts_yes_no_and_partly():
+    cpu = {"paper": 1e-6, "dqn": 1e-3, "ppo": 1e-3}
+    assert judge(rows(paper=0.9, dqn=0.6, ppo=0.6), cpu)[1] == "yes"
+    assert judge(rows(paper=0.6, dqn=0.9, ppo=0.6), cpu)[1] == "no"  # worse than DQN
+    dear = {"paper": 1e-4, "dqn": 1e-3, "ppo": 1e-3}  # 1/10 of theirs, not 1/100
+    assert judge(rows(paper=0.9, dqn=0.6, ppo=0.6), dear)[1] == "partly"
+    dearer = {"paper": 1e-2, "dqn": 1e-3, "ppo": 1e-3}
+    assert judge(rows(paper=0.9, dqn=0.6, ppo=0.6), dearer)[1] == "no"
+
+
+def test_holm_adjusts_across_the_family():
+    comparisons, _ = judge(rows(paper=0.9, dqn=0.6, ppo=0.9), {"paper": 1.0, "dqn": 1.0, "ppo": 1.0})
+    dqn, ppo = comparisons
+    assert dqn.significant and not ppo.significant
+    assert dqn.p_value < ppo.p_value  # Holm: 2 p(1), then max(2 p(1), p(2))
+    assert dqn.adjusted == min(1.0, 2 * dqn.p_value)
+    assert ppo.adjusted == min(1.0, max(dqn.adjusted, ppo.p_value))
+
+
+def test_the_compute_counts_the_first_evaluation_that_reaches_the_level():
+    scores = {("paper", f): np.array(values) for f, values in
+              zip(protocol.FRACTIONS, ([0.6, 0.1, 0.1], [0.2, 0.7, 0.1], [0.2, 0.7, 0.2],
+                                       [0.9, 0.9, 0.3]))}
+    steps, reached = judging.steps_to_level(scores, "paper", BUDGET)
+    np.testing.assert_array_equal(steps, [100, 250, 1000])
+    np.testing.assert_array_equal(reached, [True, True, False])
+    compute = judging.compute(scores, "paper", BUDGET, 2e-3)
+    assert (compute.reached, compute.agents) == (2, 3)
+    assert np.isclose(compute.cpu_s.value, np.mean([0.2, 0.5, 2.0]))
