@@ -8,6 +8,7 @@ Modules: `protocol` (the budgets, the rows and their training runs), `search` (t
 random search for every row), `references` (the random and classical rows as agents, in no
 registry), `evaluation` (the greedy evaluation of a trained run, the reference rows' runs
 and the per-agent measure), `study` (the runs in order, resumable from their tables alone), `judging` (the gate, the
-tests, the compute to a level and the verdicts).
+tests, the compute to a level and the verdicts), `outside` (an outside learner's results,
+checked against the protocol and scored).
 The statistics are `analysis.verdicts`'.
 """

@@ -1,0 +1,91 @@
+"""Results of a learner that is not in lwrl's registry, scored by the second benchmark's rule
+(`lwrl bench score RESULTS...`): any library's agents, trained on a task of the suite (for
+example through `lwrl.gym`) with the task's budget of steps and evaluated greedily as the
+protocol evaluates every row, placed beside the rows.
+
+A results file is a CSV (gzip-compressed or not), one row per greedy evaluation episode:
+
+| column | meaning |
+|---|---|
+| `learner` | the learner's name, one per file (the row's label in the tables) |
+| `task` | DOMAIN.TASK, one of the benchmark's (`protocol.BUDGETS`) |
+| `budget` | the environment steps its agents trained for: the task's budget |
+| `fraction` | after which fraction of the budget the agent was evaluated (`protocol.FRACTIONS`) |
+| `seed` | the agent's seed, 0 to `protocol.AGENTS` - 1 (its evaluation episodes start from the suite's starts of seed + `evaluation.EVALUATION_SEED`, e.g. `env.reset(seed=seed + 10000)` of `lwrl.gym`) |
+| `episode` | the evaluation episode, 1 to `evaluation.EPISODES` |
+| `steps` | the episode's steps (at most `evaluation.STEP_CAP` on the tasks measured in steps) |
+| `uptime_s` | its seconds up, on the tasks measured in up-time (the pendulum, the cart-pole) |
+
+Every agent of seeds 0 to 19 at every fraction with every episode must be there: a file that
+is not so is refused in one line naming what is wrong and what is allowed.
+"""
+
+import numpy as np
+import pandas as pd
+
+from lwrl.studies.paper.benchmark import evaluation, protocol, study
+
+COLUMNS = ("learner", "task", "budget", "fraction", "seed", "episode", "steps")
+
+
+def read(path: str) -> pd.DataFrame:
+    """The results file at `path`, checked (see the module); a one-line ValueError for a file
+    that cannot be read or does not follow the protocol."""
+    try:
+        table = pd.read_csv(path)
+    except (OSError, ValueError, UnicodeDecodeError) as error:
+        raise ValueError(f"{path}: not a readable CSV file ({type(error).__name__})") from None
+    check(table, path)
+    return table
+
+
+def check(table: pd.DataFrame, source: str) -> None:
+    """A one-line ValueError naming the first way `table` departs from the protocol."""
+    missing = [c for c in COLUMNS if c not in table.columns]
+    if missing:
+        raise ValueError(f"{source}: missing column {missing[0]!r}; the columns are "
+                         f"{', '.join(COLUMNS)} and, on the tasks measured in up-time, uptime_s")
+    if table.empty:
+        raise ValueError(f"{source}: no rows")
+    for column in ("learner", "task"):
+        if table[column].nunique() != 1:
+            raise ValueError(f"{source}: one {column} per file; got {sorted(map(str, table[column].unique()))}")
+    task = str(table["task"].iloc[0])
+    if task not in protocol.BUDGETS:
+        raise ValueError(f"{source}: unknown task {task!r}; allowed: {', '.join(protocol.BUDGETS)}")
+    column = evaluation.task_measure(task).column
+    if column not in table.columns:
+        raise ValueError(f"{source}: {task} is measured in {column}, a column the file lacks")
+    budgets = set(table["budget"].tolist())
+    if budgets != {protocol.BUDGETS[task]}:
+        raise ValueError(f"{source}: the budget of {task} is {protocol.BUDGETS[task]} steps; "
+                         f"got {sorted(budgets)}")
+    _check_values(table, "fraction", protocol.FRACTIONS, source)
+    _check_values(table, "seed", range(protocol.AGENTS), source)
+    _check_values(table, "episode", range(1, evaluation.EPISODES + 1), source)
+    if table.duplicated(["fraction", "seed", "episode"]).any():
+        raise ValueError(f"{source}: an episode is there twice (the same fraction, seed and episode)")
+    if len(table) != len(protocol.FRACTIONS) * protocol.AGENTS * evaluation.EPISODES:
+        raise ValueError(f"{source}: every seed needs every episode at every fraction; "
+                         f"{len(table)} rows of {len(protocol.FRACTIONS) * protocol.AGENTS * evaluation.EPISODES}")
+    values = pd.to_numeric(table[column], errors="coerce")
+    if not np.isfinite(values).all():
+        raise ValueError(f"{source}: every {column} must be a finite number")
+
+
+def _check_values(table: pd.DataFrame, column: str, allowed, source: str) -> None:
+    """Every value of `allowed` in `column`, and nothing else."""
+    allowed = list(allowed)
+    given = sorted(set(table[column].tolist()))
+    if given != sorted(allowed):
+        raise ValueError(f"{source}: {column} must take each of {allowed[0]}..{allowed[-1]} "
+                         f"({len(allowed)} values) and no other; got {len(given)} values from "
+                         f"{given[0]} to {given[-1]}")
+
+
+def scores(table: pd.DataFrame, reference: dict) -> dict:
+    """`{(learner, fraction): (agents,) normalised scores}` of a checked table, with the task's
+    reference rows' measures `reference` (`study.references`)."""
+    task, learner = str(table["task"].iloc[0]), str(table["learner"].iloc[0])
+    return {(learner, float(fraction)): study.normalised(task, evaluation.measure(part, task), reference)
+            for fraction, part in table.groupby("fraction")}
