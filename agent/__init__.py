@@ -4,8 +4,9 @@
 below is the registry, as `tasks.DOMAIN_MODULES` is the suite's. `LEARNERS[name]` is a
 learner's `Learner`, `learner(name)` the same with a one-line error naming the learners.
 Shared pieces: `features`, `nrbf` and `cmac` (feature maps), `linear` (what linear learners
-share), `stable_baselines` (what the Stable-Baselines3 learners share), `traces`, `policy`,
-`streams` and `threads`; `io` saves and loads agents.
+share), `stable_baselines` (what the Stable-Baselines3 learners share), `arithmetic` (what
+the learners' counted arithmetic shares), `traces`, `policy`, `streams` and `threads`; `io`
+saves and loads agents.
 """
 
 import importlib

@@ -39,6 +39,7 @@ import math
 import numpy as np
 from numba.extending import register_jitable
 
+from lwrl.agent.arithmetic import Count, Counts
 from lwrl.agent.learner_contract import Agents, Learner, LearnerSettings
 from lwrl.agent.linear import per_agent
 from lwrl.agent.streams import seed_streams, uniform
@@ -287,8 +288,21 @@ def memory(settings, task) -> int:
     return 8 * (4 * BOXES + 8)
 
 
+def arithmetic(settings, task, steps=None) -> Counts:
+    """Its counted arithmetic (`Learner.arithmetic`; the same on every step): a greedy
+    decision reads one weight of the state's box (no multiply-add); an agent-step of
+    learning updates the actor's and the critic's weights and decays both traces over the
+    162 boxes (4 x 162 multiply-adds) and draws its action's noise (Box-Muller, a log and a
+    cos; `pole.c`'s logistic policy: one exp)."""
+    noise = 1 if settings.policy == "logistic" else 2
+    update = Count(4 * BOXES, 0)
+    return Counts(Count(), update + Count(0, noise), update,
+                  f"{BOXES} boxes, {settings.policy} policy ({__name__}.arithmetic)")
+
+
 LEARNER = Learner(
     name="ase_ace", title="ASE/ACE actor-critic over 162 boxes (the cart-pole)",
     source="Barto, Sutton and Anderson (1983), IEEE SMC 13(5); Sutton and Anderson's pole.c",
-    settings=AseAceSettings, make=make, load=load, memory=memory, step=agent_step, fits=fits)
+    settings=AseAceSettings, make=make, load=load, memory=memory, step=agent_step, fits=fits,
+    arithmetic=arithmetic)
 AseAceAgents.learner = LEARNER

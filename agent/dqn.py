@@ -21,6 +21,8 @@ import dataclasses
 
 import numpy as np
 
+from lwrl.agent.arithmetic import (BACKWARD_MACS, OPTIMISER_MACS, Count, Counts, mlp_forward,
+                                   mlp_parameters)
 from lwrl.agent.learner_contract import ControllerForm, Learner
 from lwrl.agent.stable_baselines import (ModelAgents, ModelSettings, buffer_bytes,
                                          fits_when_installed, load_arrays, network_bytes,
@@ -227,6 +229,38 @@ def memory(settings, task) -> int:
             + network_bytes(dim, settings.layers(), task.num_actions, 4))
 
 
+def arithmetic(settings, task, steps: int | None = None) -> Counts:
+    """Its counted arithmetic (`Learner.arithmetic`; `dqn_jax`'s too): one Q MLP of
+    `net_arch`, ReLU (no exponential). A greedy decision is one forward pass of Q. An
+    agent-step of learning is that forward pass for the epsilon-greedy action and its share
+    of the updates: every `train_freq` steps past `learning_starts`, `gradient_steps`
+    gradient steps, each over `batch_size` transitions a forward and backward pass of the
+    online network (3 forward passes, `BACKWARD_MACS`) and a forward pass of the target
+    network, and `OPTIMISER_MACS` per parameter; every `target_update_interval` steps the
+    target's Polyak update (2 per parameter). Amortised over `steps` steps of learning from
+    an agent's first (the training calls in them), or per step of a long run where None."""
+    dim, actions, layers = len(task.state_names), task.num_actions, settings.layers()
+    sizes = [dim, *layers, actions]
+    q, parameters = mlp_forward(sizes, False), mlp_parameters(sizes)
+    gradient_steps = (settings.gradient_steps if settings.gradient_steps >= 0
+                      else settings.train_freq)
+    call = gradient_steps * (settings.batch_size * (1 + BACKWARD_MACS + 1) * q
+                             + Count(OPTIMISER_MACS * parameters))
+    interval = settings.target_update_interval
+    if steps:
+        calls = (steps // settings.train_freq
+                 - min(settings.learning_starts, steps) // settings.train_freq) / steps
+        targets = (steps // interval) / steps
+    else:
+        calls, targets = 1 / settings.train_freq, 1 / interval
+    update = call * calls + Count(2 * parameters * targets)
+    return Counts(q, q + update, update,
+                  f"Q {'-'.join(map(str, sizes))} ReLU ({parameters} parameters); "
+                  f"{gradient_steps} x {settings.batch_size} transitions every "
+                  f"{settings.train_freq} steps from step {settings.learning_starts} "
+                  f"({__name__}.arithmetic)")
+
+
 ZOO_SETS = {
     "MountainCar-v0": dict(timesteps=120_000, learning_rate=4e-3, batch_size=128, buffer_size=10_000,
                            learning_starts=1000, gamma=0.98, target_update_interval=600,
@@ -247,5 +281,5 @@ LEARNER = Learner(
     name="dqn", title="DQN (Stable-Baselines3): an MLP Q-network, replay and a target network",
     source="Mnih et al. (2015), Nature 518; Raffin et al. (2021), JMLR 22(268): stable_baselines3.DQN",
     settings=DqnSettings, make=make, load=load, memory=memory, fits=fits_when_installed("dqn"),
-    tuned=ZOO_SETS)
+    tuned=ZOO_SETS, arithmetic=arithmetic)
 DqnAgents.learner = LEARNER

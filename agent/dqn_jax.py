@@ -26,7 +26,7 @@ import dataclasses
 
 import numpy as np
 
-from lwrl.agent.dqn import ZOO_SETS, DqnSettings
+from lwrl.agent.dqn import ZOO_SETS, DqnSettings, arithmetic
 from lwrl.agent.jax_population import (PopulationAgents, Program, adam, adam_init,
                                        clip_by_norm, fits_with_jax, mlp, mlp_init)
 from lwrl.agent.learner_contract import Learner
@@ -201,5 +201,5 @@ LEARNER = Learner(
     source="Mnih et al. (2015), Nature 518; Raffin et al. (2021), JMLR 22(268): "
            "stable_baselines3.DQN, in JAX as PureJaxRL (Lu et al. 2022)",
     settings=DqnJaxSettings, make=make, load=load, memory=memory,
-    fits=fits_with_jax("dqn_jax"), tuned=ZOO_SETS, population=True)
+    fits=fits_with_jax("dqn_jax"), tuned=ZOO_SETS, population=True, arithmetic=arithmetic)
 DqnJaxAgents.learner = LEARNER

@@ -27,6 +27,11 @@ What a learner gives (`Learner`):
   on (rl-baselines3-zoo's, for DQN and PPO), which studies take on the domains tuned as it;
 - `population`: its agents train as one jitted JAX program (`runners.population`), the
   third run path beside the compiled and stepped loops, with the same per-episode records.
+- `arithmetic(settings, task, steps=None)`: its counted arithmetic (`agent.arithmetic`):
+  the multiply-adds and exponentials of one greedy decision and of one agent-step of
+  learning, its updates averaged per agent-step over a run of `steps` steps where its cost
+  depends on them (PPO's epochs per rollout, DQN's updates after its warm-up); None for a
+  learner without counts, `agent.arithmetic.NotCounted` for settings it does not count.
 
 What a batch of agents gives (`Agents`): `step` over the batch (the stepped loop), `arrays`
 (a namedtuple whose fields `q` `(B, A)`, `delta` `(B,)`, `diverged` `(B,)` and `weights`
@@ -109,6 +114,13 @@ class Learner:
     population: bool = False
     """True: its agents train as one jitted JAX program over the suite's JAX tasks
     (`runners.population`; `agent.jax_population.PopulationAgents`), not step by step."""
+    arithmetic: Callable | None = None
+    """`arithmetic(settings, task, steps=None) -> agent.arithmetic.Counts`: the multiply-adds
+    and exponentials of one greedy decision and of one agent-step of learning with
+    `settings` on `task` (`TaskInfo`), its updates averaged per agent-step over a run of
+    `steps` steps of learning, or of a long run where None (the same for a learner whose
+    every step costs the same); `agent.arithmetic.NotCounted` for settings it does not
+    count. None: a learner without counts."""
 
     @property
     def compiles(self) -> bool:

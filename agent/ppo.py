@@ -19,9 +19,12 @@ controller is the actor as C (`mlp_policy` in `export/templates`).
 """
 
 import dataclasses
+import math
 
 import numpy as np
 
+from lwrl.agent.arithmetic import (BACKWARD_MACS, OPTIMISER_MACS, Count, Counts, mlp_forward,
+                                   mlp_parameters)
 from lwrl.agent.dqn import mlp_form
 from lwrl.agent.learner_contract import ControllerForm, Learner
 from lwrl.agent.stable_baselines import (ModelAgents, ModelSettings, buffer_bytes,
@@ -232,6 +235,37 @@ def memory(settings, task) -> int:
             + network_bytes(dim, layers, task.num_actions, 4) + network_bytes(dim, layers, 1, 4))
 
 
+def arithmetic(settings, task, steps: int | None = None) -> Counts:
+    """Its counted arithmetic (`Learner.arithmetic`; `ppo_jax`'s too): separate actor and
+    critic MLPs of `net_arch`, tanh. A greedy decision is the actor's forward pass (the
+    argmax of its logits). An agent-step of learning is the actor's and the critic's forward
+    passes for the action (A exponentials for the log-softmax) and its share of the updates:
+    each rollout of `n_steps` transitions is learned `n_epochs` times, each transition in an
+    epoch a forward and a backward pass of both networks (3 forward passes' multiply-adds,
+    `BACKWARD_MACS`) with their tanh, the log-softmax's and the entropy's A exponentials
+    each and the probability ratio's one, and each minibatch of `batch_size` one gradient
+    step of `OPTIMISER_MACS` per parameter. Amortised over `steps` steps of learning (the
+    updates of whole rollouts in them), or per step of a long run where None. GAE's few
+    operations per transition are left out."""
+    dim, actions, layers = len(task.state_names), task.num_actions, settings.layers()
+    actor_sizes, critic_sizes = [dim, *layers, actions], [dim, *layers, 1]
+    actor, critic = mlp_forward(actor_sizes, True), mlp_forward(critic_sizes, True)
+    per_transition = Count((1 + BACKWARD_MACS) * (actor.macs + critic.macs),
+                           actor.exps + critic.exps + 2 * actions + 1)
+    minibatches = math.ceil(settings.n_steps / settings.batch_size)
+    parameters = mlp_parameters(actor_sizes) + mlp_parameters(critic_sizes)
+    rollout = settings.n_epochs * (settings.n_steps * per_transition
+                                   + Count(minibatches * OPTIMISER_MACS * parameters))
+    rollouts_per_step = (steps // settings.n_steps) / steps if steps else 1 / settings.n_steps
+    update = rollout * rollouts_per_step
+    return Counts(actor, actor + critic + Count(0, actions) + update, update,
+                  f"actor {'-'.join(map(str, actor_sizes))} and critic "
+                  f"{'-'.join(map(str, critic_sizes))} tanh ({parameters} parameters); "
+                  f"{settings.n_epochs} epochs x {minibatches} minibatches of "
+                  f"{settings.batch_size} per rollout of {settings.n_steps} "
+                  f"({__name__}.arithmetic)")
+
+
 ZOO_SETS = {
     "MountainCar-v0": dict(timesteps=1_000_000, n_steps=16 * 16, gae_lambda=0.98, gamma=0.99,
                            n_epochs=4, ent_coef=0.0),
@@ -250,5 +284,5 @@ LEARNER = Learner(
     source="Schulman et al. (2017), arXiv:1707.06347; Raffin et al. (2021), JMLR 22(268): "
            "stable_baselines3.PPO",
     settings=PpoSettings, make=make, load=load, memory=memory, fits=fits_when_installed("ppo"),
-    tuned=ZOO_SETS)
+    tuned=ZOO_SETS, arithmetic=arithmetic)
 PpoAgents.learner = LEARNER

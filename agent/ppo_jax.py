@@ -31,7 +31,7 @@ import numpy as np
 from lwrl.agent.jax_population import (PopulationAgents, Program, adam, adam_init,
                                        clip_by_norm, fits_with_jax, mlp, mlp_init)
 from lwrl.agent.learner_contract import Learner
-from lwrl.agent.ppo import ZOO_SETS, PpoSettings
+from lwrl.agent.ppo import ZOO_SETS, PpoSettings, arithmetic
 from lwrl.agent.stable_baselines import network_bytes
 from lwrl.settings import setting
 
@@ -221,5 +221,5 @@ LEARNER = Learner(
     source="Schulman et al. (2017), arXiv:1707.06347; Raffin et al. (2021), JMLR 22(268): "
            "stable_baselines3.PPO, in JAX as PureJaxRL (Lu et al. 2022)",
     settings=PpoJaxSettings, make=make, load=load, memory=memory,
-    fits=fits_with_jax("ppo_jax"), tuned=ZOO_SETS, population=True)
+    fits=fits_with_jax("ppo_jax"), tuned=ZOO_SETS, population=True, arithmetic=arithmetic)
 PpoJaxAgents.learner = LEARNER

@@ -31,6 +31,7 @@ import numpy as np
 from numba.extending import register_jitable
 
 from lwrl.agent import sarsa_c
+from lwrl.agent.arithmetic import Count, Counts, nrbf_counts
 from lwrl.agent.learner_contract import Learner, LearnerForm
 from lwrl.agent.linear import (LinearAgents, LinearSettings, action_value, advance, choose,
                                linear_arrays, linear_memory)
@@ -130,8 +131,22 @@ def load(document, arrays) -> BatchedSarsa:
     return BatchedSarsa.loaded(document, arrays, trace=document["trace"])
 
 
+def sarsa_update(dim: int, n: int, actions: int) -> Count:
+    """The multiply-adds of `agent_step`'s update of one transition over an NRBF grid of
+    N = n^d features and A actions (eq. 1 with the traces of eq. 2 or 6): N for Q(s, a)
+    under the current weights, A N for the traces' decay and A N for the weights' update."""
+    return Count((2 * actions + 1) * n ** dim)
+
+
+def arithmetic(settings, task, steps=None) -> Counts:
+    """Its counted arithmetic (`Learner.arithmetic`): an NRBF grid's greedy decision and, at
+    every step, `sarsa_update` (`agent.arithmetic.nrbf_counts`; CMAC features not counted)."""
+    return nrbf_counts(settings, task, sarsa_update)
+
+
 LEARNER = Learner(
     name="sarsa", title="gradient-descent Sarsa(lambda) over NRBF or CMAC features",
     source="Främling (2008), eq. 1, 2, 5, 6 and 9; Singh and Sutton (1996) for the CMAC",
-    settings=SarsaSettings, make=make, load=load, memory=linear_memory, step=agent_step)
+    settings=SarsaSettings, make=make, load=load, memory=linear_memory, step=agent_step,
+    arithmetic=arithmetic)
 BatchedSarsa.learner = LEARNER

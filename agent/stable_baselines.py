@@ -42,6 +42,7 @@ import random
 
 import numpy as np
 
+from lwrl.agent.arithmetic import mlp_parameters
 from lwrl.agent.learner_contract import Agents, LearnerSettings
 from lwrl.settings import check_count, check_positive, check_unit_interval, setting
 
@@ -341,8 +342,7 @@ def buffer_bytes(entries: int, dim: int, observations: int, scalars: int) -> int
 def network_bytes(dim: int, layers, outputs: int, copies: int) -> int:
     """Bytes of `copies` float32 copies of an MLP's parameters (the network, its target,
     Adam's two moments, ...)."""
-    sizes = [dim, *layers, outputs]
-    return copies * 4 * sum((a + 1) * b for a, b in zip(sizes[:-1], sizes[1:]))
+    return copies * 4 * mlp_parameters([dim, *layers, outputs])
 
 
 class ModelAgents(Agents):

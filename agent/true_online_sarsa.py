@@ -28,6 +28,7 @@ import dataclasses
 import numpy as np
 from numba.extending import register_jitable
 
+from lwrl.agent.arithmetic import Count, Counts, nrbf_counts
 from lwrl.agent.learner_contract import Learner
 from lwrl.agent.linear import (LinearAgents, LinearSettings, action_value, advance, choose,
                                linear_arrays, linear_memory)
@@ -139,8 +140,24 @@ def load(document, arrays) -> TrueOnlineAgents:
     return TrueOnlineAgents.loaded(document, arrays)
 
 
+def true_online_update(dim: int, n: int, actions: int) -> Count:
+    """The multiply-adds of `agent_step`'s update of one transition over an NRBF grid of
+    N = n^d features and A actions (`dutch_update_`): N for Q(s, a), N for z^T x, and over
+    the A N traces and weights two multiply-adds each in the action's row (z, w) and one
+    each elsewhere, plus N for the correction in the action's row: (2 A + 4) N."""
+    return Count((2 * actions + 4) * n ** dim)
+
+
+def arithmetic(settings, task, steps=None) -> Counts:
+    """Its counted arithmetic (`Learner.arithmetic`): an NRBF grid's greedy decision and, at
+    every step, `true_online_update` (`agent.arithmetic.nrbf_counts`; CMAC features not
+    counted)."""
+    return nrbf_counts(settings, task, true_online_update)
+
+
 LEARNER = Learner(
     name="true_online_sarsa", title="true online Sarsa(lambda) with dutch traces",
     source="van Seijen et al. (2016), JMLR 17(145); Sutton and Barto (2018), section 12.8",
-    settings=TrueOnlineSettings, make=make, load=load, memory=linear_memory, step=agent_step)
+    settings=TrueOnlineSettings, make=make, load=load, memory=linear_memory, step=agent_step,
+    arithmetic=arithmetic)
 TrueOnlineAgents.learner = LEARNER

@@ -9,7 +9,8 @@ n centroids per dimension, N = n^d features and A actions, costs at least:
   (the feature vector, eq. 9), A N for Q(s', .) (eq. 9, every action, for the epsilon-greedy
   choice), N for Q(s, a) under the current weights (the TD error, eq. 1), A N for the trace
   decay (gamma lambda e, eq. 2 or 6) and A N for the weight update (w + alpha delta e, eq. 1):
-  `sum_m n^m + (3 A + 1) N`;
+  `sum_m n^m + (3 A + 1) N` (these two are the learner's own counts of a learning step,
+  `agent.arithmetic.nrbf_decision` and `agent.sarsa.sarsa_update`);
 - **memory traffic** (bytes, float64): the weights read for Q(s', .) and Q(s, a) (A N + N)
   with the features (2 N), the traces and weights read and written by the update (4 A N) with
   the features (N), and the feature vector written (N): `8 (5 A N + 5 N)`.
@@ -40,6 +41,8 @@ import time
 import numba
 import numpy as np
 
+from lwrl.agent.arithmetic import nrbf_decision
+from lwrl.agent.sarsa import sarsa_update
 from lwrl.runners.config import RunConfig
 
 REPEATS = 25
@@ -67,11 +70,13 @@ class StepCounts:
 
 def step_counts(dim: int, n: int, actions: int) -> StepCounts:
     """The model's counts for NRBF features over `dim` variables with `n` centroids each
-    and `actions` actions."""
+    and `actions` actions: the exponentials and multiply-adds of the learner's own count of
+    a learning step (`agent.sarsa.arithmetic`: the greedy decision's, and the update's), and
+    the bytes of the memory traffic."""
     features = n ** dim
-    outer = sum(n ** m for m in range(1, dim + 1))
-    return StepCounts(dim, n, actions, exponentials=dim * n,
-                      multiply_adds=outer + (3 * actions + 1) * features,
+    count = nrbf_decision(dim, n, actions) + sarsa_update(dim, n, actions)
+    return StepCounts(dim, n, actions, exponentials=int(count.exps),
+                      multiply_adds=int(count.macs),
                       bytes=8 * (5 * actions * features + 5 * features))
 
 

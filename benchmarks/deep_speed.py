@@ -52,9 +52,11 @@ One run of this script measures:
    task where they fit it, else on the first task of the suite they fit): multiply-adds
    (MACs) and exponentials (exp, tanh, log and cos count one each) of one greedy decision
    and of one agent-step of learning (its action and its share of the updates, amortised
-   over the measured run), from the shapes (`counted` and the small functions it calls,
-   each citing what it counts): the NRBF grid, the MLPs' layers, the replay ratio, epochs
-   and minibatches. A learner whose settings they do not know is "not counted". Beside each
+   over the measured run), from the shapes, as each learner declares them
+   (`Learner.arithmetic`, in its module, from what `agent.arithmetic` shares, each
+   function citing what it counts): the NRBF grid, the MLPs' layers, the replay ratio,
+   epochs and minibatches. A learner that declares no counts (`arithmetic` None), or whose
+   settings its counts do not cover (CMAC features), is "not counted". Beside each
    count: the CPU time per agent-step measured at 16 agents on one thread and the ns per
    counted MAC (which includes the plant's step and the loop, not counted).
 
@@ -74,7 +76,6 @@ import argparse
 import contextlib
 import dataclasses
 import json
-import math
 import os
 import pathlib
 import platform
@@ -89,12 +90,8 @@ import numpy as np
 from benchmarks.agent_speed import cpu_model, plural
 from lwrl import agent as learners
 from lwrl import tasks
-from lwrl.agent.ase_ace import BOXES, AseAceSettings
-from lwrl.agent.dqn import DqnSettings
-from lwrl.agent.ppo import PpoSettings
-from lwrl.agent.sarsa import SarsaSettings
+from lwrl.agent.arithmetic import Counts, NotCounted
 from lwrl.agent.threads import set_workers, workers
-from lwrl.agent.true_online_sarsa import TrueOnlineSettings
 from lwrl.runners.config import RunConfig, task_info
 from lwrl.runners.run import run
 
@@ -114,14 +111,6 @@ MAX_RUNS = 40
 """Timed runs of a measurement at most."""
 SAMPLE_PERIOD = 0.002
 """Seconds between two samples of the running XLA threads."""
-OPTIMISER_MACS = 10
-"""Arithmetic per parameter of one gradient step beside the gradient, counted as
-multiply-adds: the global norm (1) and the clipping's scale (1), Adam's first moment (2),
-second moment (3) and step (3, with a square root and a division)
-(`agent.jax_population.clip_by_norm`, `adam`; PyTorch's `clip_grad_norm_` and Adam)."""
-BACKWARD_MACS = 2
-"""A backward pass in forward passes' multiply-adds (the gradients with respect to each
-layer's input and to its weights): forward and backward cost 3 forward passes."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -155,175 +144,17 @@ QUICK_SECONDS = 0.05
 
 # --- Counted arithmetic ----------------------------------------------------------------------
 
-@dataclasses.dataclass(frozen=True)
-class Count:
-    """Multiply-adds and exponentials (exp, tanh, log, cos: one each)."""
-
-    macs: float = 0.0
-    exps: float = 0.0
-
-    def __add__(self, other: "Count") -> "Count":
-        return Count(self.macs + other.macs, self.exps + other.exps)
-
-    def __mul__(self, factor: float) -> "Count":
-        return Count(self.macs * factor, self.exps * factor)
-
-    __rmul__ = __mul__
-
-
-@dataclasses.dataclass(frozen=True)
-class Counts:
-    """A learner's counts: one greedy decision, and one agent-step of learning (its action
-    and `update`, its share of the updates), with where they come from."""
-
-    decision: Count
-    step: Count
-    update: Count
-    source: str
-
-
-def mlp_forward(sizes, exponential_activation: bool) -> Count:
-    """One forward pass of an MLP with layer widths `sizes` (input, hidden..., output), SB3's
-    `create_mlp`: in x out multiply-adds per layer (the biases' additions not counted) and
-    one activation per hidden unit, an exponential where it is tanh (ReLU: none)."""
-    macs = sum(a * b for a, b in zip(sizes[:-1], sizes[1:]))
-    return Count(macs, sum(sizes[1:-1]) if exponential_activation else 0)
-
-
-def mlp_parameters(sizes) -> int:
-    """Weights and biases of an MLP with layer widths `sizes`."""
-    return sum(a * b + b for a, b in zip(sizes[:-1], sizes[1:]))
-
-
-def nrbf_decision(dim: int, n: int, actions: int) -> Count:
-    """One greedy decision over NRBF features (Främling 2008, eq. 8, 9) as `agent/nrbf.py`
-    computes them: d n exponentials (eq. 8 factorised per dimension; as written it takes one
-    per feature, n^d), n + n^2 + ... + n^d multiply-adds for the outer product of the
-    factors (`outer_product_into`), and A N for Q(s, .) over the A actions (N = n^d), as
-    `benchmarks.arithmetic_bound.step_counts` counts them."""
-    return Count(sum(n ** m for m in range(1, dim + 1)) + actions * n ** dim, dim * n)
-
-
-def sarsa_update(dim: int, n: int, actions: int) -> Count:
-    """Sarsa(lambda)'s update of one transition (eq. 1 with the traces of eq. 2 or 6,
-    `agent/sarsa.py`): N for Q(s, a) under the current weights, A N for the traces' decay
-    and A N for the weights' update."""
-    return Count((2 * actions + 1) * n ** dim)
-
-
-def true_online_update(dim: int, n: int, actions: int) -> Count:
-    """True online Sarsa(lambda)'s update of one transition (`agent/true_online_sarsa.py`,
-    `agent_step` and `dutch_update_`): N for Q(s, a), N for z^T x, and over the A N traces
-    and weights two multiply-adds each in the action's row (z, w) and one each elsewhere,
-    plus N for the correction in the action's row: (2 A + 4) N."""
-    return Count((2 * actions + 4) * n ** dim)
-
-
-def linear_counts(settings, task, update) -> Counts | str:
-    """A linear learner over NRBF features: its decision and `update`'s counts."""
-    if settings.features != "nrbf":
-        return f"not counted ({settings.features} features)"
-    dim, n, actions = len(task.state_names), settings.n, task.num_actions
-    decision = nrbf_decision(dim, n, actions)
-    learning = update(dim, n, actions)
-    return Counts(decision, decision + learning, learning,
-                  f"NRBF {' x '.join([str(n)] * dim)} grid (N = {n ** dim}, d n = {dim * n} "
-                  f"exponentials), {actions} actions ({update.__name__}, nrbf_decision)")
-
-
-def ase_ace_counts(settings, task) -> Counts:
-    """ASE/ACE (`agent/ase_ace.py`): a greedy decision reads one weight of the state's box
-    (no multiply-add); an agent-step of learning updates the actor's and the critic's
-    weights and decays both traces over the 162 boxes (4 x 162 multiply-adds) and draws its
-    action's noise (Box-Muller, a log and a cos; `pole.c`'s logistic policy: one exp)."""
-    noise = 1 if settings.policy == "logistic" else 2
-    update = Count(4 * BOXES, 0)
-    return Counts(Count(), update + Count(0, noise), update,
-                  f"{BOXES} boxes, {settings.policy} policy (ase_ace_counts)")
-
-
-def ppo_counts(settings, task, steps: int | None = None) -> Counts:
-    """PPO (`agent/ppo.py`, `agent/ppo_jax.py`): separate actor and critic MLPs of
-    `net_arch`, tanh. A greedy decision is the actor's forward pass (the argmax of its
-    logits). An agent-step of learning is the actor's and the critic's forward passes for
-    the action (A exponentials for the log-softmax) and its share of the updates: each
-    rollout of `n_steps` transitions is learned `n_epochs` times, each transition in an
-    epoch a forward and a backward pass of both networks (3 forward passes' multiply-adds,
-    `BACKWARD_MACS`) with their tanh, the log-softmax's and the entropy's A exponentials
-    each and the probability ratio's one, and each minibatch of `batch_size` one gradient
-    step of `OPTIMISER_MACS` per parameter. Amortised over `steps` steps of learning (the
-    updates of whole rollouts in them), or per step of a long run where None. GAE's few
-    operations per transition are left out."""
-    dim, actions, layers = len(task.state_names), task.num_actions, settings.layers()
-    actor_sizes, critic_sizes = [dim, *layers, actions], [dim, *layers, 1]
-    actor, critic = mlp_forward(actor_sizes, True), mlp_forward(critic_sizes, True)
-    per_transition = Count((1 + BACKWARD_MACS) * (actor.macs + critic.macs),
-                           actor.exps + critic.exps + 2 * actions + 1)
-    minibatches = math.ceil(settings.n_steps / settings.batch_size)
-    parameters = mlp_parameters(actor_sizes) + mlp_parameters(critic_sizes)
-    rollout = settings.n_epochs * (settings.n_steps * per_transition
-                                   + Count(minibatches * OPTIMISER_MACS * parameters))
-    rollouts_per_step = (steps // settings.n_steps) / steps if steps else 1 / settings.n_steps
-    update = rollout * rollouts_per_step
-    return Counts(actor, actor + critic + Count(0, actions) + update, update,
-                  f"actor {'-'.join(map(str, actor_sizes))} and critic "
-                  f"{'-'.join(map(str, critic_sizes))} tanh ({parameters} parameters); "
-                  f"{settings.n_epochs} epochs x {minibatches} minibatches of "
-                  f"{settings.batch_size} per rollout of {settings.n_steps} (ppo_counts)")
-
-
-def dqn_counts(settings, task, steps: int | None = None) -> Counts:
-    """DQN (`agent/dqn.py`, `agent/dqn_jax.py`): one Q MLP of `net_arch`, ReLU (no
-    exponential). A greedy decision is one forward pass of Q. An agent-step of learning is
-    that forward pass for the epsilon-greedy action and its share of the updates: every
-    `train_freq` steps past `learning_starts`, `gradient_steps` gradient steps, each over
-    `batch_size` transitions a forward and backward pass of the online network (3 forward
-    passes, `BACKWARD_MACS`) and a forward pass of the target network, and
-    `OPTIMISER_MACS` per parameter; every `target_update_interval` steps the target's
-    Polyak update (2 per parameter). Amortised over `steps` steps of learning from an
-    agent's first (the training calls in them), or per step of a long run where None."""
-    dim, actions, layers = len(task.state_names), task.num_actions, settings.layers()
-    sizes = [dim, *layers, actions]
-    q, parameters = mlp_forward(sizes, False), mlp_parameters(sizes)
-    gradient_steps = (settings.gradient_steps if settings.gradient_steps >= 0
-                      else settings.train_freq)
-    call = gradient_steps * (settings.batch_size * (1 + BACKWARD_MACS + 1) * q
-                             + Count(OPTIMISER_MACS * parameters))
-    interval = settings.target_update_interval
-    if steps:
-        calls = (steps // settings.train_freq
-                 - min(settings.learning_starts, steps) // settings.train_freq) / steps
-        targets = (steps // interval) / steps
-    else:
-        calls, targets = 1 / settings.train_freq, 1 / interval
-    update = call * calls + Count(2 * parameters * targets)
-    return Counts(q, q + update, update,
-                  f"Q {'-'.join(map(str, sizes))} ReLU ({parameters} parameters); "
-                  f"{gradient_steps} x {settings.batch_size} transitions every "
-                  f"{settings.train_freq} steps from step {settings.learning_starts} (dqn_counts)")
-
-
-COUNTERS = (
-    (PpoSettings, ppo_counts),
-    (DqnSettings, dqn_counts),
-    (SarsaSettings, lambda settings, task, steps: linear_counts(settings, task, sarsa_update)),
-    (TrueOnlineSettings,
-     lambda settings, task, steps: linear_counts(settings, task, true_online_update)),
-    (AseAceSettings, lambda settings, task, steps: ase_ace_counts(settings, task)),
-)
-"""The settings classes the counts know (a learner's settings or their base), each with
-its counting function `(settings, task, steps)` (the linear learners update at every step:
-their counts do not depend on the steps)."""
-
-
-def counted(settings, task, steps: int | None = None) -> Counts | str:
-    """The counts of a learner with `settings` on `task` (`TaskInfo`), its updates amortised
-    over `steps` steps of learning per agent; "not counted" for settings none of
-    `COUNTERS` knows."""
-    for kind, count in COUNTERS:
-        if isinstance(settings, kind):
-            return count(settings, task, steps)
-    return f"not counted (no count knows {type(settings).__name__})"
+def counted(learner, settings, task, steps: int | None = None) -> Counts | str:
+    """The counts `learner` declares (`Learner.arithmetic`) with `settings` on `task`
+    (`TaskInfo`), its updates amortised over `steps` steps of learning per agent; "not
+    counted" with the reason for a learner without counts (its `arithmetic` None) or
+    settings it does not count (`NotCounted`)."""
+    if learner.arithmetic is None:
+        return f"not counted ({learner.name} declares no counts)"
+    try:
+        return learner.arithmetic(settings, task, steps)
+    except NotCounted as reason:
+        return f"not counted ({reason})"
 
 
 # --- Configurations --------------------------------------------------------------------------
@@ -789,8 +620,8 @@ def main(argv=None) -> None:
         task = home_task(name) or TASK
         config = None if name in skipped else config_of(name, reference, workload)
         steps_per_agent = episode_steps(workload) * workload.episodes if task == TASK else None
-        counts = counted(config.agent, config.task_info, steps_per_agent) if config else \
-            f"not counted ({skipped[name]})"
+        counts = (counted(learners.learner(name), config.agent, config.task_info,
+                          steps_per_agent) if config else f"not counted ({skipped[name]})")
         learning, greedy = get(name, reference, "one", False), get(name, reference, "one", True)
         if isinstance(counts, str):
             print(f"| {name} | {task} | {counts} | | | | | {cell(learning)} | | {cell(greedy)} | |")
@@ -805,7 +636,7 @@ def main(argv=None) -> None:
               f"{counts.step.macs:,.0f} | {counts.step.exps:,.0f} | {counts.update.macs:,.0f} | "
               f"{cell(learning)} | {per_mac(learning, counts.step)} | {cell(greedy)} | "
               f"{per_mac(greedy, counts.decision)} |")
-    print("\nWhere the counts come from (functions of this module, from the settings):")
+    print("\nWhere the counts come from (each learner's `arithmetic`, from the settings):")
     print("\n".join(sources))
 
     print("\nRuns measured (each from new agents; the busiest thread's share of the process's "

@@ -94,3 +94,23 @@ def test_deep_speed_quick_prints_its_tables(capsys):
     assert ("- ppo: skipped:" in out) == bool(missing_libraries())
     if not missing_jax():
         assert "## Compile time (JAX)" in out and "XLA thread" in out
+
+
+def test_deep_speed_counts_what_each_learner_declares():
+    """The counted-arithmetic table reads `Learner.arithmetic`: a learner's own counts, and
+    "not counted" with the reason for a learner that declares none (None) or settings its
+    counts do not cover (CMAC features)."""
+    import dataclasses
+
+    from benchmarks import deep_speed
+    from lwrl import agent as learners
+    from lwrl.runners.config import RunConfig
+
+    config = RunConfig(task="mountain_car.cost_to_go")
+    sarsa = learners.learner(config.learner)
+    assert deep_speed.counted(sarsa, config.agent, config.task_info) == sarsa.arithmetic(
+        config.agent, config.task_info)
+    assert deep_speed.counted(dataclasses.replace(sarsa, arithmetic=None), config.agent,
+                              config.task_info) == f"not counted ({sarsa.name} declares no counts)"
+    cmac = dataclasses.replace(config.agent, features="cmac")
+    assert deep_speed.counted(sarsa, cmac, config.task_info) == "not counted (cmac features)"
