@@ -76,3 +76,33 @@ def test_the_compute_counts_the_first_evaluation_that_reaches_the_level():
     compute = judging.compute(scores, "paper", BUDGET, 2e-3)
     assert (compute.reached, compute.agents) == (2, 3)
     assert np.isclose(compute.cpu_s.value, np.mean([0.2, 0.5, 2.0]))
+
+
+def test_the_report_judges_every_task_with_holm_across_them_and_aggregates(tmp_path):
+    """Two tasks of synthetic rows: four comparisons in one Holm family, the verdicts and
+    the aggregates across tasks in the document, its figures written."""
+    import pandas as pd
+
+    from lwrl.studies.paper.benchmark import report, study
+
+    def task_runs(task, random, classical):
+        scores = rows(paper=0.9, dqn=0.5, ppo=0.1)
+        return study.TaskRuns(task, {"random": random, "classical": classical},
+                              {(label, 0): scores[label, 1.0] for label in ("paper", "dqn", "ppo")},
+                              {"paper": 0, "dqn": 0, "ppo": 0}, scores, {}, pd.DataFrame())
+    runs = [task_runs("mountain_car.cost_to_go", 900 + RNG.standard_normal(20),
+                      50 + RNG.standard_normal(20)),
+            task_runs("pendulum.swingup", 10 + RNG.standard_normal(20),
+                      59 + 0.1 * RNG.standard_normal(20))]
+    cpu = {(r.task, label): seconds for r in runs
+           for label, seconds in (("paper", 1e-6), ("dqn", 1e-3), ("ppo", 1e-3))}
+    judged = report.judge(runs, cpu)
+    assert [len(j.comparisons) for j in judged] == [2, 2]
+    ps = [c.p_value for j in judged for c in j.comparisons]
+    adjusted = [c.adjusted for j in judged for c in j.comparisons]
+    np.testing.assert_allclose(adjusted, judging.verdicts.holm(ps).adjusted)
+    assert [j.verdict for j in judged] == ["yes", "yes"]  # PPO at 0.1 is above random: judged
+    text = report.document(judged, "lwrl bench ...", 60.0, str(tmp_path / "figures"), str(tmp_path))
+    assert "## Across tasks" in text and "| paper | " in text and "IQM" in text
+    assert (tmp_path / "figures" / "aggregates.png").exists()
+    assert (tmp_path / "figures" / "profiles.png").exists()

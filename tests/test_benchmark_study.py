@@ -8,7 +8,7 @@ committed tables only)."""
 import numpy as np
 import pytest
 
-from lwrl.studies.paper.benchmark import evaluation, protocol, search, study
+from lwrl.studies.paper.benchmark import evaluation, protocol, report, search, study
 
 TASK = "mountain_car.cost_to_go"
 
@@ -45,6 +45,13 @@ def test_a_tiny_benchmark_runs_resumes_and_needs_no_kept_agents_once_evaluated(t
     third = study.study_task(TASK, str(tmp_path), sweep={"workers": 1})
     assert not list((tmp_path / "runs").glob("*.agents.npz"))
     assert third.chosen == first.chosen
+    judged = report.judge([first], {(TASK, "paper"): 1e-6})
+    assert judged[0].verdict == "not judged"  # no rival row ran
+    text = report.document(judged, "lwrl bench ...", 60.0, str(tmp_path / "figures"), str(tmp_path))
+    assert "| mountain_car.cost_to_go | **not judged** |" in text
+    assert all(f"\n| {label} | " in text for label in labels)
+    assert text.count("| **yes** |") == len(labels)  # one chosen configuration per row
+    assert report.curves(judged, str(tmp_path / "figures"))
 
 
 def test_the_best_mean_is_chosen_a_diverged_agent_the_worst_and_the_first_on_a_tie():

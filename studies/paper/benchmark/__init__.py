@@ -9,6 +9,7 @@ random search for every row), `references` (the random and classical rows as age
 registry), `evaluation` (the greedy evaluation of a trained run, the reference rows' runs
 and the per-agent measure), `study` (the runs in order, resumable from their tables alone), `judging` (the gate, the
 tests, the compute to a level and the verdicts), `outside` (an outside learner's results,
-checked against the protocol and scored).
+checked against the protocol and scored), `report` (the verdicts across tasks, Holm's
+family whole, and the document with the aggregates and figures).
 The statistics are `analysis.verdicts`'.
 """

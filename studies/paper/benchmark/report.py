@@ -1,0 +1,158 @@
+"""The second benchmark's report: the verdicts by docs/FINDINGS.md's rule across every task
+(`judge`), and the document (`document`) with the aggregates across tasks and their figures,
+per task the reference rows, each row's normalised scores at each fraction of the budget, its
+compute to the level, the comparisons with the paper's agent and every search configuration's
+score beside the chosen one."""
+
+import dataclasses
+import math
+import os
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from lwrl.analysis import statistics, verdicts
+from lwrl.analysis.plots import save_figure
+from lwrl.studies.paper.benchmark import evaluation, judging, protocol, search, study
+
+THRESHOLDS = np.linspace(-0.25, 1.5, 71)
+"""The performance profiles' normalised scores."""
+
+
+@dataclasses.dataclass
+class Judged:
+    """One task's comparisons (Holm-corrected across every task), computes and verdict."""
+
+    runs: object
+    """The task's `study.TaskRuns`."""
+    comparisons: list
+    computes: dict
+    verdict: str
+
+
+def judge(task_runs: list, cpu_s_per_step: dict) -> list:
+    """`Judged` of every task of `task_runs` (`study.TaskRuns`), with the CPU seconds of a
+    learning step `{(task, label): seconds}` (absent: not measured); Holm's correction runs
+    across every task and rival."""
+    comparisons = []
+    for runs in task_runs:
+        random_scores = _random_scores(runs)
+        comparisons += [judging.compare(runs.task, runs.scores, random_scores, rival)
+                        for rival in protocol.DEEP if (rival, 1.0) in runs.scores]
+    comparisons = judging.holm_family(comparisons) if comparisons else []
+    judged = []
+    for runs in task_runs:
+        mine = [c for c in comparisons if c.task == runs.task]
+        computes = {label: judging.compute(runs.scores, label, protocol.BUDGETS[runs.task],
+                                           cpu_s_per_step.get((runs.task, label)))
+                    for label, fraction in runs.scores if fraction == protocol.FRACTIONS[-1]}
+        judged.append(Judged(runs, mine, computes, judging.verdict(mine, runs.scores, computes)))
+    return judged
+
+
+def _random_scores(runs) -> np.ndarray:
+    """The random row's own agents' normalised scores (about 0)."""
+    return study.normalised(runs.task, runs.references["random"], runs.references)
+
+
+def aggregate_matrix(judged: list) -> dict:
+    """`{label: agents x tasks}` final normalised scores of the rows every task has."""
+    final = protocol.FRACTIONS[-1]
+    labels = [label for label, fraction in judged[0].runs.scores if fraction == final
+              and all((label, final) in j.runs.scores for j in judged)]
+    return {label: np.stack([j.runs.scores[label, final] for j in judged], axis=1)
+            for label in labels}
+
+
+def document(judged: list, command: str, seconds: float, figure_dir: str, out_dir: str) -> str:
+    """The report's Markdown, its figures written to `figure_dir`."""
+    lines = ["# The second benchmark: the light-weight claim by a reviewer's rule", "",
+             f"Written by `{command}`; the calls that computed its runs took {seconds / 60:.1f} "
+             "min of wall time. The rule is docs/FINDINGS.md's (\"The light-weight claim judged "
+             "again\"), written before the runs.", "",
+             "| task | verdict | " + " | ".join(f"against {rival}" for rival in protocol.DEEP) + " |",
+             "|---|---|" + "---|" * len(protocol.DEEP)]
+    for j in judged:
+        against = {c.rival: c.gate.reason.split(":")[0] for c in j.comparisons}
+        lines.append(f"| {j.runs.task} | **{j.verdict}** | "
+                     + " | ".join(against.get(rival, "—") for rival in protocol.DEEP) + " |")
+    lines += ["", *aggregates_section(judged, figure_dir, out_dir)]
+    for j in judged:
+        lines += task_section(j)
+    return "\n".join(lines) + "\n"
+
+
+def aggregates_section(judged: list, figure_dir: str, out_dir: str) -> list:
+    """Across tasks: IQM, median, mean and optimality gap with stratified bootstrap intervals,
+    and the performance profiles (Agarwal et al. 2021), of the rows every task has."""
+    scores = aggregate_matrix(judged)
+    if not scores or len(judged) < 2:
+        return ["Across tasks: one task only, no aggregate.", ""]
+    estimates = verdicts.aggregate_estimates(scores)
+    profiles = verdicts.performance_profiles(scores, THRESHOLDS)
+    paths = (verdicts.plot_aggregates(estimates, figure_dir, "aggregates")
+             + verdicts.plot_profiles(profiles, figure_dir, "profiles"))
+    lines = ["## Across tasks", "",
+             "| row | " + " | ".join(verdicts.AGGREGATES) + " |",
+             "|---|" + "---|" * len(verdicts.AGGREGATES)]
+    for label, values in estimates.items():
+        lines.append(f"| {label} | " + " | ".join(values[a].text(2) for a in verdicts.AGGREGATES) + " |")
+    lines += [""] + [f"![{os.path.basename(path)}]({os.path.relpath(path, out_dir)})"
+                     for path in paths if path.endswith(".png")] + [""]
+    return lines
+
+
+def task_section(j: Judged) -> list:
+    """One task's tables: the reference rows, the rows, the comparisons and the search."""
+    runs, measure = j.runs, evaluation.task_measure(j.runs.task)
+    lines = [f"## {runs.task}", "", f"Budget: {protocol.BUDGETS[runs.task]:,} steps per agent. "
+             f"Measure: {measure.label}; random row "
+             f"{statistics.mean_interval(runs.references['random']).text(1)}, classical row "
+             f"{statistics.mean_interval(runs.references['classical']).text(1)}.", "",
+             "| row | " + " | ".join(f"score at {f:g}" for f in protocol.FRACTIONS)
+             + f" | agents reaching {protocol.LEVEL:g} | steps to it | CPU s to it |",
+             "|---|" + "---|" * (len(protocol.FRACTIONS) + 3)]
+    for label, compute in j.computes.items():
+        cells = [statistics.mean_interval(runs.scores[label, f]).text(2) for f in protocol.FRACTIONS]
+        cpu = compute.cpu_s.text(3) if compute.cpu_s else "not measured"
+        lines.append(f"| {label} | " + " | ".join(cells)
+                     + f" | {compute.reached} of {compute.agents} | {compute.steps.text(0)} | {cpu} |")
+    lines += ["", f"**Verdict: {j.verdict}.**", ""]
+    for c in j.comparisons:
+        lines.append(f"- against {c.rival}: {c.gate.reason}; P(paper's agent better) "
+                     f"{c.improvement.text(2)}; permutation p {c.p_value:.3g}, Holm "
+                     f"{c.adjusted:.3g}{' (significant)' if c.significant else ''}.")
+    lines += ["", *search_lines(runs), ""]
+    return lines
+
+
+def search_lines(runs) -> list:
+    """Every configuration's score, the chosen one marked (`search`)."""
+    lines = [f"Search ({search.CONFIGURATIONS} configurations x {search.AGENTS} agents, seeds "
+             f"{search.SEEDS[0]} to {search.SEEDS[-1]}):", "",
+             "| row | configuration | normalised score | chosen |", "|---|---|---|---|"]
+    for (label, i), values in sorted(runs.search_scores.items()):
+        mark = "**yes**" if runs.chosen.get(label) == i else ""
+        lines.append(f"| {label} | {i} | {statistics.mean_interval(values).text(2)} | {mark} |")
+    return lines
+
+
+def curves(judged: list, figure_dir: str) -> list:
+    """Per task, each row's greedy normalised score against the fraction of the budget (mean
+    and interval over agents); the paths written."""
+    paths = []
+    for j in judged:
+        figure, axes = plt.subplots(figsize=(6, 4))
+        for label, compute in j.computes.items():
+            estimates = [statistics.mean_interval(j.runs.scores[label, f]) for f in protocol.FRACTIONS]
+            axes.plot(protocol.FRACTIONS, [e.value for e in estimates], marker="o", label=label)
+            if not any(math.isnan(e.low) for e in estimates):
+                axes.fill_between(protocol.FRACTIONS, [e.low for e in estimates],
+                                  [e.high for e in estimates], alpha=0.15)
+        axes.axhline(protocol.LEVEL, color="grey", linewidth=0.8, linestyle="--")
+        axes.set_xlabel("fraction of the budget")
+        axes.set_ylabel("greedy normalised score")
+        axes.set_title(j.runs.task)
+        axes.legend(fontsize="small")
+        paths += save_figure(figure, figure_dir, f"{j.runs.task}-curves")
+    return paths
