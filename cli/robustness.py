@@ -30,6 +30,9 @@ def add_parser(commands) -> None:
     study.add_argument("--evaluation-episodes", type=fields.positive_int,
                        help="greedy episodes per agent and cell (default: the plant "
                             "comparison's transfer episodes, else 10)")
+    study.add_argument("--learners", metavar="L,L,...", type=lambda text: text.split(","),
+                       help="learners to train, by their registry names (default: every one "
+                            "that fits each task)")
     study.add_argument("--out", metavar="DIR", default=OUT,
                        help=f"output directory (default: {OUT})")
     reproduce.add_sweep_flags(study)
@@ -46,6 +49,8 @@ def command_line(args) -> str:
     for name in ("agents", "episodes", "evaluation_episodes"):
         if getattr(args, name) is not None:
             words += ["--" + name.replace("_", "-"), str(getattr(args, name))]
+    if args.learners is not None:
+        words += ["--learners", ",".join(args.learners)]
     if args.quick:
         words.append("--quick")
     if args.out != OUT:
@@ -62,7 +67,7 @@ def study_robustness(args) -> int:
     outputs.check_directory(args.out, "--out")  # a study resumes in its directory
     path = module.robustness(args.task, args.out, command_line(args), plant=args.plant, quick=args.quick,
                              agents=args.agents, episodes=args.episodes,
-                             evaluation_episodes=args.evaluation_episodes,
+                             evaluation_episodes=args.evaluation_episodes, learners=args.learners,
                              sweep={"backend": args.backend, "workers": args.workers,
                                     "address": args.address},
                              stepped=bench.episode_budgets())  # DQN and PPO: the benchmark's

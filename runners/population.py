@@ -12,11 +12,21 @@ learning) and the learner's `update` runs as one branch of the program where `up
 says for some agent, applied to those agents only: the batch's agents start together and
 step together, so the branch runs once per rollout, not at every step to be discarded.
 
+Agent b's episode k runs at the physical parameter values the other loops give it: row b
+of `params`, with the parameters `randomise` names drawn from its seed and k
+(`tasks.randomisation.draws`, computed on the host before the program starts, `(B, K, P)`,
+and read by each agent at its current episode, as it reads its starts). Its sensors and
+actuator are its own (`lwrl.jax.environment.Sensors`, one row per agent: the noise levels
+and delays of a batch joining several runs may differ), with the noise drawn from the
+agent's JAX stream, not the numba loops' counter-based streams (`tasks.disturbances`): the
+same distributions, other numbers.
+
 The program runs in chunks of `CHUNK` steps, so that progress is reported and a Ctrl-C
 stops the run between two chunks with every finished episode kept (`interrupted`). A chunk
-is compiled once per process for what shapes it (the task and its options, the learner's
-batch-wide settings, the batch's size, the episodes, learning or not), the per-agent settings
-being its arguments; XLA's compiled code is also kept on disk beside lwrl's numba kernels
+is compiled once per process for what shapes it (the task and its options, the longest
+action delay of the batch, the learner's batch-wide settings, the batch's size, the
+episodes, learning or not), the per-agent settings, physics, noise levels and delays being
+its arguments; XLA's compiled code is also kept on disk beside lwrl's numba kernels
 (`lwrl.kernels.cache_root`, JAX's persistent compilation cache), so a later process loads it.
 """
 
@@ -25,8 +35,9 @@ import dataclasses
 import numpy as np
 
 from lwrl import kernels, tasks
-from lwrl.runners.episodes import EpisodeResults, episode_starts
+from lwrl.runners.episodes import EpisodeResults, episode_starts, step_budget
 from lwrl.settings import check_count
+from lwrl.tasks.randomisation import check_ranges, draws
 
 CHUNK = 1024
 """Steps of the batch per call of the compiled program."""
@@ -39,13 +50,17 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
                    greedy: bool = False, progress=None, record=(), plant: str = "analytic",
                    integrator: str = "semi_implicit", equations: str = "paper", params=None,
                    observation_noise=None, action_delay=0, action_noise=0.0, randomise=None,
-                   **task_options) -> EpisodeResults:
+                   budget=None, **task_options) -> EpisodeResults:
     """Run `agent` (a population learner's agents, `agent.jax_population.PopulationAgents`)
     for `episodes` episodes each on `domain.task`'s JAX plant, agent b from `seeds[b]`'s
     starts with the physical parameter values of row b of `params` (`{name: value or B
-    values}`); `learn` and `greedy` as for `Agents.step`. A one-line ValueError for what
-    the path does not run: a plant but the analytic one, recordings, randomised physics,
-    per-agent sensor or actuator options."""
+    values}`), those `randomise` names drawn anew for each episode, and the sensor and
+    actuator options (`tasks.disturbances.OPTIONS`) of one value for every agent or one per
+    agent, as `runners.compiled.run_compiled` takes them; `learn` and `greedy` as for
+    `Agents.step`; `budget`: environment steps per agent at most (None: no budget), the
+    episode that spends them cut there, truncated, as `run_compiled` cuts it (the learner
+    sees that step as it would without the budget, so what came before is the same). A one-line ValueError for a bad option and for what the path does not
+    run: a plant but the analytic one, recordings."""
     import jax.numpy as jnp
     import lwrl.jax as jax_tasks
 
@@ -56,33 +71,31 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
                          f"got plant {plant!r}")
     if len(record):
         raise ValueError(f"{name} keeps no recordings: it trains as one JAX program")
-    if randomise:
-        raise ValueError(f"{name} does not draw physical parameters per episode (randomise)")
-    sensors = {name: {variable: _one(name, sigma) for variable, sigma in
-                      (observation_noise or {}).items()} for name in ["observation_noise"]}
-    env_options = dict(integrator=integrator, equations=equations,
-                       action_delay=_one("action_delay", action_delay),
-                       action_noise=_one("action_noise", action_noise), **sensors,
-                       **task_options)
+    env_options = dict(integrator=integrator, equations=equations, **task_options)
     env, _ = jax_tasks.make(f"{domain}.{task}", **env_options)
     batch = agent.batch_size
-    physical = jnp.asarray(tasks.domain(domain).parameters.values(params, batch))
+    sensors = env.sensors(batch, observation_noise=observation_noise, action_delay=action_delay,
+                          action_noise=action_noise)
+    parameters = tasks.domain(domain).parameters
+    physical = jnp.asarray(draws(parameters, check_ranges(parameters, randomise),
+                                 parameters.values(params, batch), seeds, episodes))
     starts = jnp.asarray(episode_starts(env.definition, seeds, episodes))
     program = agent.program()
-    shape = (env.name, repr(sorted(env_options.items())), type(agent), agent.dim,
-             agent.num_actions, repr(_shared_settings(agent.settings[0])), batch, episodes,
-             bool(learn), bool(greedy), CHUNK)
+    shape = (env.name, repr(sorted(env_options.items())), sensors.max_delay, type(agent),
+             agent.dim, agent.num_actions, repr(_shared_settings(agent.settings[0])), batch,
+             episodes, bool(learn), bool(greedy), CHUNK)
     if shape not in _CHUNKS:
         _use_disk_cache()
         _CHUNKS[shape] = _compiled_chunk(env, program, episodes, agent.weight_tree,
                                          bool(learn), bool(greedy))
     step = _CHUNKS[shape]
-    carry = _first_carry(env, agent, starts, episodes)
+    carry = _first_carry(env, agent, starts, sensors, episodes)
+    steps = jnp.asarray(min(step_budget(budget), np.iinfo(np.int32).max), jnp.int32)
     results = EpisodeResults.empty(batch, episodes)
     try:
         while bool(np.any(np.asarray(carry["active"]))):
             before = int(np.asarray(carry["done"]).sum())
-            carry = step(carry, program.hyper, physical, starts)
+            carry = step(carry, program.hyper, physical, starts, sensors, steps)
             if progress is not None:
                 progress(int(np.asarray(carry["done"]).sum()) - before)
     except KeyboardInterrupt:
@@ -96,17 +109,6 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
     results.diverged_episode[:] = np.asarray(carry["diverged_episode"])
     agent.arrays.diverged[:] |= results.diverged_episode >= 0
     return results
-
-
-def _one(name: str, value):
-    """An environment option the batch shares: a number, or B equal numbers (a batch joining
-    several runs, `runners.run.environment_options`); a one-line ValueError where its agents
-    differ in it (the JAX task takes its sensors and actuator for the whole batch)."""
-    values = np.unique(np.ravel(np.asarray(value, dtype=np.float64)))
-    if len(values) > 1:
-        raise ValueError(f"a population learner's batch takes one {name} for all its agents; "
-                         f"got {sorted(values.tolist())}")
-    return value if np.ndim(value) == 0 else type(np.ravel(value)[0].item())(values[0])
 
 
 _CHUNKS: dict = {}
@@ -133,7 +135,7 @@ def _use_disk_cache() -> None:
         jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 
 
-def _first_carry(env, agent, starts, episodes: int) -> dict:
+def _first_carry(env, agent, starts, sensors, episodes: int) -> dict:
     """Every agent at its first episode's start, nothing recorded."""
     import jax
     import jax.numpy as jnp
@@ -142,11 +144,11 @@ def _first_carry(env, agent, starts, episodes: int) -> dict:
     keys = jax.vmap(jax.random.fold_in)(  # each agent's stream, where its last run left it
         jax.vmap(jax.random.PRNGKey)(jnp.asarray(agent.seeds, jnp.uint32) + jnp.uint32(STREAM)),
         clocks)
-    observation, state = jax.vmap(env.start)(keys, starts[:, 0])
+    observation, state = jax.vmap(env.start)(keys, starts[:, 0], sensors)
     nan = jnp.full((batch, episodes), jnp.nan)
     return {"learner": agent.state, "env": state, "observation": observation,
             "start": jnp.ones(batch, bool), "total": jnp.zeros(batch), "key": keys,
-            "clock": clocks,
+            "clock": clocks, "spent": jnp.zeros(batch, jnp.int32),
             "done": jnp.zeros(batch, jnp.int32), "active": ~jnp.asarray(agent.arrays.diverged),
             "steps": nan, "returns": nan, "uptime": nan,
             "truncated": jnp.zeros((batch, episodes), bool),
@@ -159,36 +161,42 @@ def _compiled_chunk(env, program, episodes: int, weight_tree, learn: bool, greed
     import jax.numpy as jnp
 
     def finish(row, ended, steps, total, uptime, truncated):
-        """`finish_episode` of one agent where `ended`: its episode's record at `done`."""
+        """`finish_episode` of one agent where `ended`: its episode's record at `done`
+        (one element written, whatever the episodes)."""
         k = jnp.minimum(row["done"], episodes - 1)
-        put = lambda values, value: jnp.where(ended, values.at[k].set(value), values)
+        put = lambda values, value: values.at[k].set(jnp.where(ended, value, values[k]))
         return {**row, "steps": put(row["steps"], steps.astype(row["steps"].dtype)),
                 "returns": put(row["returns"], total), "uptime": put(row["uptime"], uptime),
                 "truncated": put(row["truncated"], truncated),
                 "done": row["done"] + ended.astype(jnp.int32)}
 
-    def agent_step(row, hyper, physical, starts):
+    def agent_step(row, hyper, physical, starts, sensors, budget):
+        """One step of one agent, in its episode's physics (`physical` `(K, P)`) with its
+        sensors; the step that spends its `budget` ends its episode, truncated, and it."""
         clock = row["clock"]
         learning = learn & (clock < hyper["learning_steps"])
         key, act_key, env_key, start_key = jax.random.split(row["key"], 4)
         action, extras = program.act(row["learner"], row["observation"], act_key, hyper,
                                      greedy | ~learning, clock)
         observation, state, reward, terminated, truncated, info = env.step_env(
-            env_key, row["env"], action, physical)
+            env_key, row["env"], action, physical[jnp.minimum(row["done"], episodes - 1)],
+            sensors)
         learner = program.record(row["learner"], extras, row["observation"], action, reward,
                                  terminated, truncated, observation, hyper, clock,
                                  learning & row["active"])
-        ended = terminated | truncated
+        spent = row["spent"] + 1
+        cut = (spent >= budget) & ~terminated
+        ended = terminated | truncated | cut
         total = row["total"] + reward
-        new = finish({**row, "learner": learner, "key": key}, ended, state.steps, total,
-                     state.uptime, truncated)
+        new = finish({**row, "learner": learner, "key": key, "spent": spent}, ended,
+                     state.steps, total, state.uptime, truncated | cut)
         start_observation, start = env.start(
-            start_key, starts[jnp.minimum(new["done"], episodes - 1)])
+            start_key, starts[jnp.minimum(new["done"], episodes - 1)], sensors)
         new = {**new, "env": jax.tree.map(lambda a, b: jnp.where(ended, a, b), start, state),
                "observation": jnp.where(ended, start_observation, observation),
                "start": ended, "total": jnp.where(ended, 0.0, total),
                "clock": clock + learn, "due": learning & program.update_due(hyper, clock)}
-        new["active"] = new["done"] < episodes
+        new["active"] = (new["done"] < episodes) & (spent < budget)
         rest = [name for name in new if name != "learner"]  # the learner masks its own writes
         kept = jax.tree.map(lambda a, b: jnp.where(row["active"], a, b),
                             {name: new[name] for name in rest}, {name: row[name] for name in rest})
@@ -210,17 +218,18 @@ def _compiled_chunk(env, program, episodes: int, weight_tree, learn: bool, greed
             carry["clock"] - 1, carry["due"])
         return jax.vmap(diverge)({**carry, "learner": learner})
 
-    def one(carry, _, hyper, physical, starts):
-        carry = jax.vmap(agent_step)(carry, hyper, physical, starts)
+    def one(carry, _, hyper, physical, starts, sensors, budget):
+        carry = jax.vmap(agent_step, in_axes=(0, 0, 0, 0, 0, None))(carry, hyper, physical,
+                                                                     starts, sensors, budget)
         carry = jax.lax.cond(jnp.any(carry["due"]), lambda c: update(c, hyper), lambda c: c,
                              carry)
         return carry, None
 
     @jax.jit
-    def chunk(carry, hyper, physical, starts):
+    def chunk(carry, hyper, physical, starts, sensors, budget):
         carry = {**carry, "due": jnp.zeros_like(carry["active"])}
-        carry = jax.lax.scan(lambda c, x: one(c, x, hyper, physical, starts), carry, None,
-                             length=CHUNK)[0]
+        carry = jax.lax.scan(lambda c, x: one(c, x, hyper, physical, starts, sensors, budget),
+                             carry, None, length=CHUNK)[0]
         return {name: value for name, value in carry.items() if name != "due"}
 
     return chunk

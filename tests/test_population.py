@@ -1,7 +1,8 @@
 """The JAX population learners (`ppo_jax`, `dqn_jax`) against Stable-Baselines3's own training
 step: from the same weights and the same data, one update of each gives SB3's weights (to
 float32 round-off); and what the population path promises beside the learner contract
-(`tests/test_learners.py`): the task's starts, refusals in one line, learning."""
+(`tests/test_learners.py`): the task's starts, the physics drawn per episode, each agent's
+own sensors and actuator, refusals in one line, learning."""
 
 import dataclasses
 
@@ -10,15 +11,28 @@ import pytest
 
 pytest.importorskip("jax", reason="the population learners need the jax extra: pip install 'lwrl[jax]'")
 
-from lwrl import agent as learners  # noqa: E402
+from lwrl import agent as learners, tasks  # noqa: E402
 from lwrl.agent.stable_baselines import missing_libraries, spaces_env  # noqa: E402
-from lwrl.runners import episodes as episode_records, population  # noqa: E402
+from lwrl.runners import episodes as episode_records, population, sweep  # noqa: E402
 from lwrl.runners.config import RunConfig, task_info  # noqa: E402
 from lwrl.runners.run import make_agent, run  # noqa: E402
+from lwrl.tasks.randomisation import check_ranges, draws  # noqa: E402
+from conftest import one_line_error  # noqa: E402
 
 TASK = task_info("cartpole.balance")
 needs_sb3 = pytest.mark.skipif(bool(missing_libraries()), reason="needs the baselines extra: "
                                "pip install 'lwrl[baselines]'")
+EVALUATED = RunConfig(task="pendulum.swingup", learner="dqn_jax", agents=1, episodes=3, seed=5,
+                      plant="analytic", task_options={"time_limit": 2.0}, timesteps=300,
+                      buffer_size=100, learning_starts=50, net_arch="16")
+"""A small dqn_jax run to evaluate (greedily, without learning): the tests of the physics and
+the sensors share its compiled programs (one per batch size and longest action delay)."""
+FIELDS = ("steps", "returns", "uptime", "truncated", "diverged_episode")
+
+
+def evaluated(config, **options):
+    """`(agents, results)` of `config`'s new agents run greedily without learning."""
+    return run(config, learn=False, greedy=True, **options)
 
 
 def sb3_model(kind, settings, seed=0):
@@ -197,9 +211,67 @@ def test_how_the_program_is_cut_into_chunks_changes_no_number(name, monkeypatch)
     np.testing.assert_array_equal(chunked_agent.arrays.weights, whole_agent.arrays.weights)
 
 
+def test_randomised_physics_runs_each_episode_at_the_compiled_loops_draws():
+    """`randomise`: `results.physical` holds the values the compiled loop draws for the same
+    seeds and episodes (`tasks.randomisation.draws`), and each greedy episode is the JAX
+    environment's stepped by hand at its episode's values, under the agent's greedy actions,
+    not the paper's plant's."""
+    import jax
+    import lwrl.jax
+
+    config = dataclasses.replace(EVALUATED, randomise={"mass": (0.5, 2.0), "torque": (1.0, 8.0)})
+    agent, results = evaluated(config)
+    parameters = tasks.domain("pendulum").parameters
+    drawn = draws(parameters, check_ranges(parameters, config.randomise),
+                  parameters.values(None, 1), config.seeds, 3)
+    assert set(results.physical) == {"mass", "torque"}
+    for name, values in results.physical.items():
+        np.testing.assert_array_equal(values, drawn[:, :, parameters.position(name)])
+    env, _ = lwrl.jax.make("pendulum.swingup", time_limit=2.0)
+    step = jax.jit(env.step_env)
+    starts = episode_records.episode_starts(env.definition, config.seeds, 3)
+    for k in range(3):
+        observation, state = env.start(jax.random.PRNGKey(0), starts[0, k])
+        steps, total, ended = 0, 0.0, False
+        while not ended:
+            action = int(np.argmax(agent.action_values(np.asarray(observation)[None])[0, 0]))
+            observation, state, reward, terminated, truncated, _ = step(
+                jax.random.PRNGKey(steps), state, action, drawn[0, k])
+            steps, total, ended = steps + 1, total + float(reward), bool(terminated | truncated)
+        assert steps == results.steps[0, k]
+        np.testing.assert_allclose(total, results.returns[0, k], rtol=1e-9)
+    _, nominal = evaluated(dataclasses.replace(config, randomise={}))
+    assert not np.any(np.isclose(nominal.returns, results.returns, rtol=1e-6))
+
+
+def test_each_agent_of_a_batch_senses_and_acts_with_its_own_options():
+    """Two runs that differ in their sensors and actuator, joined into one batch as the sweep
+    joins them (a robustness evaluation's cells): each agent's episodes are, bit for bit,
+    those it has alone with its own options; one compiled program serves every noise level
+    and delay (up to the longest, which shapes it); and the noise and the delay change the
+    episodes."""
+    noisy = dataclasses.replace(EVALUATED, observation_noise={"angle": 0.05,
+                                                              "angular_velocity": 0.2},
+                                action_noise=0.5)
+    late = dataclasses.replace(EVALUATED, seed=6, action_delay=2)
+    batch = [noisy, late]
+    assert len(sweep.batches(batch)) == 1
+    _, together = evaluated(noisy, agent=make_agent(*batch), seeds=[5, 6], batch=batch)
+    alone = [evaluated(config)[1] for config in batch]
+    for b, results in enumerate(alone):
+        for field in FIELDS:
+            np.testing.assert_array_equal(getattr(results, field)[0],
+                                          getattr(together, field)[b], err_msg=field)
+    programs = set(population._CHUNKS)
+    quiet = evaluated(dataclasses.replace(noisy, observation_noise={}, action_noise=0.0))[1]
+    prompt = evaluated(dataclasses.replace(late, action_delay=0))[1]
+    assert set(population._CHUNKS) == programs  # no new one: noise and delay are data
+    assert not np.any(quiet.returns == alone[0].returns)
+    assert not np.any(prompt.returns == alone[1].returns)
+
+
 @pytest.mark.parametrize("change, message", [
     (dict(plant="mujoco", task="cartpole.balance"), "runs on the analytic plant only"),
-    (dict(randomise={"pole_mass": (0.05, 0.2)}), "does not draw physical parameters"),
 ])
 def test_what_the_population_path_does_not_run_is_refused_in_one_line(change, message):
     config = RunConfig(**{**dict(task="cartpole.balance", learner="ppo_jax", agents=2,
@@ -207,6 +279,17 @@ def test_what_the_population_path_does_not_run_is_refused_in_one_line(change, me
     with pytest.raises(ValueError) as error:
         run(config)
     assert message in str(error.value) and "\n" not in str(error.value)
+
+
+def test_a_batchs_bad_sensor_options_are_refused_in_one_line():
+    agent = make_agent(dataclasses.replace(EVALUATED, agents=2))
+    for options, message in (({"action_delay": [1, 2, 3]}, "action_delay must be one whole "
+                              "number or 2, one per environment"),
+                             ({"observation_noise": {"angle": [0.1, -1.0]}},
+                              "observation_noise['angle'] must be a finite number"),
+                             ({"randomise": {"mass": (2.0, 1.0)}}, "randomise['mass'] must be")):
+        one_line_error(lambda: population.run_population("pendulum", "swingup", agent, 1, [0, 1],
+                                                         **options), message)
 
 
 def test_a_batch_of_settings_that_cannot_be_batched_is_refused_in_one_line():

@@ -19,6 +19,7 @@ import pytest
 from lwrl import agent as learners
 from lwrl import tasks
 from lwrl.agent import io as agent_io
+from lwrl.agent.jax_population import missing_jax
 from lwrl.runners import sweep
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import environment_options, make_agent, run, run_batched, run_compiled, run_dm_env
@@ -256,11 +257,15 @@ def test_each_domain_names_its_robustness_parameters():
 
 
 def test_the_plan_covers_every_learner_and_cell():
+    """Every learner that fits the task (the population learners where JAX is installed), but
+    the population learners on a plant other than the analytic one."""
     task = "cartpole.balance"
     trainings = plan.trainings(task, "analytic")
-    assert {learner for learner, _ in trainings} == {
-        name for name, learner in learners.LEARNERS.items()
-        if learner.fits(RunConfig(task=task).task_info) is None and not learner.population}
+    fitting = {name: learner for name, learner in learners.LEARNERS.items()
+               if learner.fits(RunConfig(task=task).task_info) is None}
+    assert {learner for learner, _ in trainings} == set(fitting)
+    assert set(plan.learners_for(task, "mujoco")) == {name for name, learner in fitting.items()
+                                                      if not learner.population}
     cells = plan.cells(task)
     assert len(cells) == len(plan.FACTORS) ** 2 + len(plan.NOISE_LEVELS) - 1 + len(plan.DELAYS) - 1
     assert len({plan.evaluation(task, trainings[next(iter(trainings))], cell, 1).key
@@ -270,15 +275,20 @@ def test_the_plan_covers_every_learner_and_cell():
 
 
 def test_lwrl_robustness_writes_its_report_and_resumes(tmp_path, capsys):
-    """`--quick` on Mountain-Car: the report names the command, every learner that fits,
-    the C controller's agreement; a second call computes nothing and writes it again."""
+    """`--quick` on Mountain-Car with every learner that fits but the JAX populations (whose
+    own study test compiles their programs): the report names the command, every learner
+    asked for, the C controller's agreement; a second call computes nothing and writes it
+    again."""
     out = tmp_path / "study"
-    argv = ["robustness", "mountain_car.cost_to_go", "--quick", "--out", str(out)]
+    names = [name for name in plan.learners_for("mountain_car.cost_to_go")
+             if not learners.learner(name).population]
+    argv = ["robustness", "mountain_car.cost_to_go", "--learners", ",".join(names), "--quick",
+            "--out", str(out)]
     status, _, _ = run_cli(argv, capsys)
     assert status == 0
     report = (out / "report.md").read_text()
-    assert "lwrl robustness mountain_car.cost_to_go --quick" in report
-    for name in plan.learners_for("mountain_car.cost_to_go"):
+    assert f"lwrl robustness mountain_car.cost_to_go --learners {','.join(names)} --quick" in report
+    for name in names:
         assert f"| {name} | nominal |" in report and f"| {name} | randomised |" in report
     cells = len(plan.cells("mountain_car.cost_to_go", quick=True))
     assert f"in {cells} of {cells} cells" in report
@@ -288,6 +298,7 @@ def test_lwrl_robustness_writes_its_report_and_resumes(tmp_path, capsys):
     assert status == 0 and ", 0 computed by this command" in again
     assert "in 1 invocation of the command" in again  # the first call's time, kept
     for bad in (["mountain_car.climb"], ["pendulum.swingup", "--agents", "1"],
+                ["pendulum.swingup", "--learners", "ase_ace"],
                 ["pendulum.swingup", "--evaluation-episodes", "0"]):
         status, _, err = run_cli(["robustness", *bad, "--out", str(tmp_path / "bad")], capsys)
         assert status == 2 and len(err) == 1, (bad, err)
@@ -303,8 +314,10 @@ def test_a_study_on_ray_gives_the_local_results(tmp_path):
     from lwrl.studies.robustness.study import study_task
 
     task = "mountain_car.cost_to_go"
-    local = study_task(task, str(tmp_path / "local"), quick=True)
-    on_ray = study_task(task, str(tmp_path / "ray"), quick=True, sweep={"backend": "ray"})
+    names = [name for name in plan.learners_for(task) if not learners.learner(name).population]
+    local = study_task(task, str(tmp_path / "local"), quick=True, learners=names)
+    on_ray = study_task(task, str(tmp_path / "ray"), quick=True, sweep={"backend": "ray"},
+                        learners=names)
     assert on_ray.computed == local.computed == local.runs
     assert on_ray.per_agent.keys() == local.per_agent.keys()
     for key, values in local.per_agent.items():
@@ -332,9 +345,10 @@ def test_the_wall_time_is_summed_over_the_invocations_that_computed_a_studys_run
 def test_a_learner_of_the_stepped_loop_trains_the_benchmarks_agents_with_its_tuned_settings():
     """DQN and PPO (where installed) take part with at most `STEPPED_AGENTS` agents,
     rl-baselines3-zoo's sets and the benchmark's episodes (the cart-pole's 30 of 60 s), and
-    are evaluated on the task's own episodes as every learner is; the compiled loop's
-    learners keep the count asked for, the paper's protocol and their defaults (their runs'
-    keys unchanged)."""
+    are evaluated on the task's own episodes as every learner is; their JAX ports (where
+    JAX is installed) with the same sets and episodes, but the count of agents asked for;
+    the compiled loop's learners keep the count asked for, the paper's protocol and their
+    defaults (their runs' keys unchanged)."""
     from lwrl.runners.config import tuned_settings
     from lwrl.studies.paper import bench_protocol
 
@@ -346,7 +360,10 @@ def test_a_learner_of_the_stepped_loop_trains_the_benchmarks_agents_with_its_tun
             assert config.agents == 30 and config == RunConfig(
                 task=task, learner=name, plant="analytic", agents=30, randomise=config.randomise)
         else:
-            assert config.agents == plan.STEPPED_AGENTS < 30
+            if learners.LEARNERS[name].population:
+                assert config.agents == 30
+            else:
+                assert config.agents == plan.STEPPED_AGENTS < 30
             assert (config.episodes, config.task_options) == (30, {"time_limit": 60.0}) == (
                 bench_protocol.TASKS[task].episodes, bench_protocol.TASKS[task].task_options)
             assert tuned_settings(task, name)
@@ -355,7 +372,11 @@ def test_a_learner_of_the_stepped_loop_trains_the_benchmarks_agents_with_its_tun
         evaluation = plan.evaluation(task, config, plan.cells(task)[0], 3)
         assert evaluation.task_options == {} and evaluation.episodes == 3
     assert plan.agents_for(task, "dqn", 2) == 2
+    assert plan.agents_for(task, "dqn_jax") is None  # the task's protocol: 10 agents
+    assert plan.agents_for(task, "dqn") == plan.STEPPED_AGENTS
     assert plan.stepped_protocol(task, "dqn", 7, quick=False, stepped=stepped) == (7, {})
+    assert plan.stepped_protocol(task, "ppo_jax", None, quick=False, stepped=stepped) == (
+        30, {"time_limit": 60.0})
 
 
 def test_lwrl_robustness_gives_the_stepped_learners_the_benchmarks_episodes(tmp_path, capsys,
@@ -400,6 +421,40 @@ def test_every_learner_goes_on_with_its_kept_agents_in_several_cells_at_once(nam
         np.testing.assert_array_equal(rows["return"], alone.returns.ravel())
     with pytest.raises(ValueError, match="whole multiple"):
         make_agent(dataclasses.replace(trained, agents=3)).take_over(kept)
+
+
+@pytest.mark.skipif(missing_jax(), reason="the population learners need the jax extra: "
+                    "pip install 'lwrl[jax]'")
+def test_a_quick_study_trains_evaluates_and_reports_a_population_learner(tmp_path, monkeypatch):
+    """`dqn_jax` in the cart-pole's quick study (alone, to keep it short: every learner is in
+    `test_lwrl_robustness_writes_its_report_and_resumes`'s): trained on the paper's plant
+    and with randomised physics (its draws in the table) and kept, then evaluated greedily
+    from the kept agents in every cell at once (one batch of cells of their own physics,
+    noise and delays: two compiled programs in all), measured and reported."""
+    from lwrl.studies.robustness import report
+    from lwrl.studies.robustness.study import study_task
+
+    task = "cartpole.balance"
+    assert "dqn_jax" in plan.learners_for(task)
+    monkeypatch.setattr(plan, "learners_for", lambda task, plant: ["dqn_jax"])
+    result = study_task(task, str(tmp_path), quick=True)
+    assert result.computed == result.runs == 2 * (1 + len(result.cells))
+    randomised = result.trainings["dqn_jax", "randomised"]
+    assert randomised.agents == plan.QUICK["agents"]
+    drawn = sweep.RunStore(tmp_path).read([randomised])
+    for name, (low, high) in randomised.randomise.items():
+        assert drawn[name].between(low, high).all() and drawn[name].nunique() == len(drawn)
+    kept, _ = agent_io.load(sweep.RunStore.agents_file(tmp_path, randomised.key))
+    assert kept.learner.name == "dqn_jax" and kept.batch_size == plan.QUICK["agents"]
+    uptime = {cell: result.per_agent["dqn_jax", "nominal", cell, "uptime_s"]
+              for cell in result.cells}
+    assert all(values.shape == (2,) and np.all(np.isfinite(values)) for values in uptime.values())
+    late = next(cell for cell in result.cells if cell.delay)
+    assert len({tuple(uptime[cell]) for cell in result.grid_cells()}) > 1  # each its physics
+    assert not np.array_equal(uptime[late], uptime[plan.Cell((1.0, 1.0))])  # and its delay
+    section = report.section(result, "figure.png")
+    assert "| dqn_jax | nominal |" in section and "| dqn_jax | randomised |" in section
+    assert report.figure(result, str(tmp_path / "figures"))
 
 
 def test_an_interrupted_study_that_finished_no_run_adds_no_time(tmp_path, monkeypatch):

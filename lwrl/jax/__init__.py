@@ -14,6 +14,10 @@ parameters `(P,)`, so randomised physics runs in one program). `tests/test_jax_t
 holds every domain's JAX step to the analytic plant (the numba functions the other loops
 call) within 1e-12 over whole random-action episodes, at the paper's parameter values and
 away from them.
+
+`make(name, actions="continuous")` makes the action the control itself, clipped to
+`env.action_range(params)` as the NumPy environments clip it; the tests hold its episodes
+to `tasks.batched.BatchedEnv`'s within the same 1e-12.
 """
 
 from lwrl.jax.environment import EnvState, Environment, make

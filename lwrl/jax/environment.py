@@ -8,6 +8,16 @@ program can `vmap` over agents and over parameter values (randomised physics). U
 < 1.0 (and rejax on it), `step` returns `terminated` and `truncated` apart: a time limit is
 not a terminal state, and a learner bootstraps from it.
 
+An action is the task's (`make(..., actions=...)`, `tasks.task_definition.ACTIONS`): an index
+into its discrete controls (the paper's tasks), or with `actions="continuous"` the control
+itself, clipped to the actuator's range at the step's `params` (`Environment.action_range`),
+as the NumPy environments clip it; the delay and the noise then act on either alike.
+
+The sensors and the actuator (`Sensors`: observation noise, action delay and action noise,
+`tasks.disturbances`) travel as arrays too, so that one program serves every noise level
+and every delay up to the longest its transit buffer holds, and a batch's agents may each
+have their own.
+
 Every function of the task is the suite's own (`lwrl.jax.translate`): the analytic plant's
 step of `tasks/<domain>.py` with its Euler scheme and equations, the start distribution,
 the observation, `outcome` (reward, termination, up-time) and `advance_episode` (the time
@@ -38,7 +48,45 @@ class EnvState(NamedTuple):
     uptime: Any
     """Seconds of up-time so far (NaN for a task without up-time)."""
     transit: Any
-    """`(k,)`: the controls commanded and not yet applied (`action_delay` k; 0 at a start)."""
+    """`(Sensors.max_delay,)`: the latest controls commanded, the newest first (0 at a
+    start); those of the last `action_delay` steps are in transit, not yet applied."""
+
+
+@jax.tree_util.register_dataclass
+@dataclasses.dataclass(frozen=True)
+class Sensors:
+    """An environment's sensors and actuator, the options of `tasks.disturbances`, as arrays
+    (a pytree, traced as `params` is, so that one compiled program serves every value; a
+    leading axis B for a batch whose environments each have their own). `Sensors.of` checks
+    and builds them."""
+
+    observation_noise: Any
+    """`(d,)`: per state variable, the standard deviation of the observation's Gaussian noise."""
+    action_delay: Any
+    """Control steps between a command and its application (0 applied before one arrives;
+    int32, at most `max_delay`)."""
+    action_noise: Any
+    """Standard deviation of the applied control's noise, clipped to the actuator's range
+    (`Environment.action_range`)."""
+    max_delay: int = dataclasses.field(default=0, metadata={"static": True})
+    """The longest delay of the batch: the length of the transit buffer (`EnvState.transit`),
+    which shapes the program (static), where the delays themselves are data."""
+
+    @classmethod
+    def of(cls, definition, dtype, batch_size=None, observation_noise=None, action_delay=0,
+           action_noise=0.0) -> "Sensors":
+        """The options as `tasks.disturbances.Disturbances` takes and checks them (a one-line
+        ValueError names a bad one): one environment's, or with `batch_size` B arrays with a
+        leading axis B, each option one value for every environment or B values."""
+        noise = tasks.disturbances.Disturbances(
+            definition.state_names, definition.control_range, batch_size,
+            observation_noise=observation_noise, action_delay=action_delay,
+            action_noise=action_noise)
+        rows = slice(None) if batch_size is not None else 0
+        return cls(observation_noise=jnp.asarray(noise.sigma_observation[rows], dtype),
+                   action_delay=jnp.asarray(noise.delay[rows], jnp.int32),
+                   action_noise=jnp.asarray(noise.sigma_action[rows], dtype),
+                   max_delay=int(noise.delay.max()))
 
 
 class StartDraws:
@@ -68,7 +116,14 @@ class Environment:
     `discount` (0 at a terminal state), the ended episode's `steps` and `uptime`.
     `reset_env` and `step_env` are the same without the automatic reset. The action is an
     index into the task's discrete controls (`num_actions`); an index outside them takes
-    the nearest end, as JAX's indexing does, unchecked inside a traced program.
+    the nearest end, as JAX's indexing does, unchecked inside a traced program. With
+    `actions="continuous"` it is the control itself, a number or an array of shape (1,),
+    clipped to `action_range(params)` (`command`); `num_actions` then raises the task's
+    one-line ValueError.
+
+    Each function also takes `sensors` (`Sensors`, from `env.sensors(...)`; None: those of
+    `make`'s options, `default_sensors`); an episode keeps the sensors it started with, as
+    its transit buffer is as long as their `max_delay`.
     """
 
     name: str
@@ -79,15 +134,13 @@ class Environment:
     """The floating-point type of states, observations and rewards."""
     semi_implicit: bool
     slips: bool
-    observation_noise: tuple
-    """Per state variable: the standard deviation of the observation's Gaussian noise."""
-    action_delay: int
-    """Control steps between a command and its application (0 applied before one arrives)."""
-    action_noise: float
-    """Standard deviation of the applied control's noise, clipped to the controls' range."""
+    default_sensors: Sensors
+    """The sensors and actuator of `make`'s options, where a call is given none."""
 
     @property
     def num_actions(self) -> int:
+        """The number of discrete actions (a one-line ValueError with continuous actions,
+        `TaskDefinition.num_actions`)."""
         return self.definition.num_actions
 
     @property
@@ -100,6 +153,14 @@ class Environment:
         given to `make`)."""
         return jnp.asarray(self.definition.physical, dtype=self.dtype)
 
+    def sensors(self, batch_size=None, observation_noise=None, action_delay=0,
+                action_noise=0.0) -> Sensors:
+        """The sensor and actuator options as the functions take them (`Sensors.of`): one
+        environment's, or B environments' with `batch_size` B, each option one value or B
+        values, for a `vmap` over the batch."""
+        return Sensors.of(self.definition, self.dtype, batch_size, observation_noise,
+                          action_delay, action_noise)
+
     def check_params(self, params):
         """`params` as an array of the environment's type, or a one-line ValueError unless
         its last axis holds one value per parameter (checked when traced: shapes are
@@ -110,6 +171,22 @@ class Environment:
             raise ValueError(f"params must hold {len(names)} values ({', '.join(names)}) in its "
                              f"last axis; got shape {params.shape}")
         return params
+
+    def action_range(self, params=None):
+        """`(low, high)`: the actuator's range at the parameter values `params` `(P,)` (None:
+        `default_params`), `TaskDefinition.control_range_at` traced (the lowest and the
+        highest discrete control, so it moves with the parameters that set them). A
+        continuous action is clipped to it, and the action noise in either kind; gymnax's
+        `action_space(params)` would be a Box on it, of shape () (or (1,))."""
+        controls = self._controls_at(self.check_params(
+            self.default_params if params is None else params))
+        return controls[0], controls[-1]
+
+    def _controls_at(self, params):
+        """`(A,)`: each discrete action's control at the parameter values `params` `(P,)`,
+        ascending: the task's `controls_of`, traced by JAX (`as_jax`)."""
+        return jnp.stack([jnp.broadcast_to(jnp.asarray(c, self.dtype), ()) for c in
+                          as_jax(self.definition.controls_of, self.dtype)(params)])
 
     def plant(self, physics, control, params):
         """The analytic plant's next state `(d,)`: the domain's `step` with the Euler scheme
@@ -123,53 +200,89 @@ class Environment:
             columns = step(*physics, control, params)
         return jnp.stack(columns).astype(self.dtype)
 
-    def observe(self, key, physics):
-        """The agent's observation of `physics`: the task's, plus the sensors' noise."""
+    def observe(self, key, physics, sensors: Sensors):
+        """The agent's observation of `physics`: the task's, plus the sensors' noise sigma_j
+        z_j where sigma_j > 0 (z ~ N(0, 1) drawn from `key` for every variable, so that the
+        draws do not depend on the noise levels)."""
         observation = as_jax(self.definition.observe, self.dtype)(physics)
-        sigma = jnp.asarray(self.observation_noise, self.dtype)
-        if any(self.observation_noise):
-            observation = observation + sigma * jax.random.normal(key, observation.shape, self.dtype)
-        return observation
+        sigma = jnp.asarray(sensors.observation_noise, self.dtype)
+        noisy = observation + sigma * jax.random.normal(key, observation.shape, self.dtype)
+        return jnp.where(sigma > 0.0, noisy, observation)
 
-    def reset_env(self, key, params=None):
+    def reset_env(self, key, params=None, sensors=None):
         """`(observation, EnvState)` of a new episode from the task's start distribution."""
         self.check_params(self.default_params if params is None else params)
         start_key, noise_key = jax.random.split(key)
         draw = as_jax(self.definition.initial_states, self.dtype)
-        return self.start(noise_key, draw(StartDraws(start_key, self.dtype), 1)[0])
+        return self.start(noise_key, draw(StartDraws(start_key, self.dtype), 1)[0], sensors)
 
-    def start(self, key, physics):
+    def start(self, key, physics, sensors=None):
         """`(observation, EnvState)` of an episode starting in the plant state `physics`
         `(d,)` (a start drawn elsewhere, e.g. the protocol's from each agent's seed)."""
+        sensors = self.default_sensors if sensors is None else sensors
         physics = jnp.asarray(physics, self.dtype)
         state = EnvState(physics=physics, steps=jnp.int32(0),
                          uptime=jnp.asarray(self.definition.initial_uptime, self.dtype),
-                         transit=jnp.zeros(self.action_delay, self.dtype))
-        return self.observe(key, physics), state
+                         transit=jnp.zeros(sensors.max_delay, self.dtype))
+        return self.observe(key, physics, sensors), state
 
     reset = reset_env
     """`(observation, EnvState)` of a new episode: gymnax's `reset`."""
 
-    def control(self, key, state: EnvState, action, params):
-        """`(applied control, transit)`: the action's control, after the actuator's delay and
-        noise."""
-        controls = jnp.stack([jnp.broadcast_to(jnp.asarray(c, self.dtype), ()) for c in
-                              as_jax(self.definition.controls_of, self.dtype)(params)])
-        commanded = controls[action]
-        transit = state.transit
-        if self.action_delay:
-            commanded, transit = transit[0], jnp.concatenate([transit[1:], commanded[None]])
-        if self.action_noise > 0.0:
-            noisy = commanded + self.action_noise * jax.random.normal(key, (), self.dtype)
-            commanded = jnp.clip(noisy, controls.min(), controls.max())
-        return commanded, transit
+    def command(self, action, params):
+        """The control that `action` commands at the parameter values `params`, before the
+        actuator's delay and noise (`tasks.base.SuiteTask._command`): the discrete action's,
+        or the continuous action (`continuous_action`) clipped to `action_range(params)`, as
+        an actuator saturates."""
+        if self.definition.continuous:
+            return jnp.clip(self.continuous_action(action), *self.action_range(params))
+        return self._controls_at(params)[action]
 
-    def step_env(self, key, state: EnvState, action, params=None):
+    def continuous_action(self, action):
+        """A continuous `action` as the control it stands for, shape (), the environment's
+        type; a one-line ValueError unless it is one real number (shape () or (1,)), and,
+        where it is concrete (not traced by `jit` or `vmap`), a finite one, as
+        `TaskDefinition.saturate` refuses. Inside a traced program its value cannot be
+        refused: an infinity is clipped to the range's end and a NaN passes the clip and
+        propagates into the state, as in gymnax."""
+        traced = isinstance(action, jax.core.Tracer)
+        values = action if traced else np.asarray(action)
+        real = values.dtype.kind in "iuf" and values.shape in ((), (1,))
+        if not (real and (traced or np.all(np.isfinite(values)))):
+            given = f"a traced {values.dtype} of shape {values.shape}" if traced else repr(
+                values.tolist())
+            raise ValueError(f"action must be one finite {self.definition.control_name}, a "
+                             f"number or an array of shape (1,) (clipped to the actuator's "
+                             f"range, action_range(params)); got {given}")
+        return jnp.asarray(action, self.dtype).reshape(())
+
+    def control(self, key, state: EnvState, action, params, sensors: Sensors):
+        """`(applied control, transit)`: the action's control (`command`), after the
+        actuator's delay (the command of `action_delay` steps ago, 0 before it arrives) and
+        noise (sigma z clipped to the actuator's range where sigma > 0), as
+        `tasks.disturbances.applied_control`."""
+        commanded = self.command(action, params)
+        applied, transit = commanded, state.transit
+        if transit.shape[0] != sensors.max_delay:
+            raise ValueError(f"an episode whose transit buffer holds {transit.shape[0]} commands "
+                             f"stepped with sensors of delays up to {sensors.max_delay}: start "
+                             "the episode with the sensors it steps with")
+        if sensors.max_delay:
+            delay = sensors.action_delay
+            applied = jnp.where(delay > 0, transit[jnp.maximum(delay, 1) - 1], commanded)
+            transit = jnp.concatenate([commanded[None], transit[:-1]])
+        sigma = jnp.asarray(sensors.action_noise, self.dtype)
+        noisy = jnp.clip(applied + sigma * jax.random.normal(key, (), self.dtype),
+                         *self.action_range(params))
+        return jnp.where(sigma > 0.0, noisy, applied), transit
+
+    def step_env(self, key, state: EnvState, action, params=None, sensors=None):
         """One control step without the automatic reset: `(observation, EnvState, reward,
         terminated, truncated, info)`."""
         params = self.check_params(self.default_params if params is None else params)
+        sensors = self.default_sensors if sensors is None else sensors
         actuator_key, sensor_key = jax.random.split(key)
-        control, transit = self.control(actuator_key, state, action, params)
+        control, transit = self.control(actuator_key, state, action, params, sensors)
         definition = self.definition
         physics = self.plant(state.physics, control, params)
         reward, terminal, up = as_jax(definition.outcome, self.dtype)(
@@ -183,17 +296,17 @@ class Environment:
         truncated = last & ~terminal
         info = {"discount": jnp.where(terminal, 0.0, 1.0).astype(self.dtype),
                 "steps": steps, "uptime": state.uptime}
-        return (self.observe(sensor_key, physics), state,
+        return (self.observe(sensor_key, physics, sensors), state,
                 jnp.asarray(reward, self.dtype), terminal, truncated, info)
 
-    def step(self, key, state: EnvState, action, params=None):
+    def step(self, key, state: EnvState, action, params=None, sensors=None):
         """One control step, then a new episode where this one ended (gymnax's auto-reset):
         `(observation, EnvState, reward, terminated, truncated, info)`, the ended episode's
         last observation in `info["final_observation"]`."""
         step_key, reset_key = jax.random.split(key)
         observation, state, reward, terminated, truncated, info = self.step_env(
-            step_key, state, action, params)
-        start_observation, start = self.reset_env(reset_key, params)
+            step_key, state, action, params, sensors)
+        start_observation, start = self.reset_env(reset_key, params, sensors)
         ended = terminated | truncated
         info["final_observation"] = observation
         state = jax.tree.map(lambda new, old: jnp.where(ended, new, old), start, state)
@@ -206,12 +319,15 @@ def make(name: str, dtype=None, integrator: str = "semi_implicit", equations: st
     """`(Environment, params)`: the task `DOMAIN.TASK` (`lwrl.tasks.TASK_NAMES`) in JAX and
     its physical parameter values `(P,)`, gymnax's `make`.
 
-    `options` are the task's (`time_limit`, `track_limit`, `params={name: value}`, ...), the
-    analytic plant's `integrator` and `equations` as `lwrl train`'s; `dtype` is `float64`
+    `options` are the task's (`time_limit`, `track_limit`, `params={name: value}`, ...),
+    `actions` (`"discrete"`, the default, or `"continuous"`: the control itself, clipped to
+    `env.action_range(params)`), the analytic plant's `integrator` and `equations` as `lwrl
+    train`'s; `dtype` is `float64`
     (the default where JAX runs in 64 bits, `jax.config.update("jax_enable_x64", True)`: the
     analytic plant's numbers) or `float32` (the default otherwise). `observation_noise`
     `{state variable: sigma}`, `action_delay` and `action_noise` are the environment options
-    of `tasks.disturbances`, with the noise drawn from the step's JAX key. A one-line
+    of `tasks.disturbances` (`default_sensors`), with the noise drawn from the step's JAX
+    key; `env.sensors(...)` gives others, per environment of a batch. A one-line
     ValueError names what is allowed for an unknown task, option or value.
     """
     domain_name, task = tasks.split_name(name)
@@ -226,13 +342,10 @@ def make(name: str, dtype=None, integrator: str = "semi_implicit", equations: st
     if dtype == jnp.float64 and not x64:
         raise ValueError("dtype float64 needs JAX in 64 bits: call jax.config.update("
                          "'jax_enable_x64', True) first, or pass dtype='float32'")
-    noise = tasks.disturbances.Disturbances(definition.state_names, definition.controls,
-                                            observation_noise=observation_noise,
-                                            action_delay=action_delay, action_noise=action_noise)
+    sensors = Sensors.of(definition, dtype, observation_noise=observation_noise,
+                         action_delay=action_delay, action_noise=action_noise)
     env = Environment(name=f"{domain_name}.{task}", definition=definition, dtype=dtype,
-                      semi_implicit=semi_implicit, slips=slips,
-                      observation_noise=tuple(noise.sigma_observation[0].tolist()),
-                      action_delay=int(noise.delay[0]), action_noise=float(noise.sigma_action[0]))
+                      semi_implicit=semi_implicit, slips=slips, default_sensors=sensors)
     return env, env.default_params
 
 

@@ -9,7 +9,13 @@ uniformly for every episode between `TRAINING_FACTORS` times their paper values 
 randomisation). A learner that runs only in the stepped loop trains `STEPPED_AGENTS` agents
 at most, under the benchmark's protocol where the command sets no episodes
 (`stepped_protocol`: `lwrl bench`'s episodes and episode length, docs/benchmark, instead of
-the paper's, which would take DQN and PPO hours per agent on the cart-pole). Each trained
+the paper's, which would take DQN and PPO hours per agent on the cart-pole). The JAX
+population learners (`Learner.population`: `dqn_jax`, `ppo_jax`, SB3's DQN and PPO in one
+jitted program, `runners.population`) train under that same protocol with the same tuned
+settings as their Stable-Baselines3 counterparts, but with the task's full count of agents
+(`agents_for`): in a batch an agent-step costs them tens of microseconds of CPU, against
+SB3's milliseconds (docs/guide/jax.md). They run on the analytic plant only (its JAX port,
+`lwrl.jax`), so a study on another plant leaves them out (`learners_for`). Each trained
 batch is then evaluated greedily without learning (`RunConfig.trained`, `learn`, `greedy`;
 the agents go on as they ended, `Agents.take_over`) in every cell:
 
@@ -96,30 +102,31 @@ def values(task: str, cell: Cell) -> dict:
             for parameter, factor in zip(axes(task), cell.factors) if factor != 1.0}
 
 
-def learners_for(task: str) -> list:
-    """The learners of the registry that fit `task`, in the registry's order, but those
-    that train on the JAX tasks (`Learner.population`): their run path does not yet draw
-    parameters per episode nor take sensor and actuator options per agent, which the
-    study's trainings and cells need."""
+def learners_for(task: str, plant: str = "analytic") -> list:
+    """The learners of the registry that fit `task` on `plant`, in the registry's order: a
+    population learner (`Learner.population`) runs on the analytic plant only."""
     info = task_info(task)
     return [name for name, learner in learners.LEARNERS.items()
-            if learner.fits(info) is None and not learner.population]
+            if learner.fits(info) is None and (plant == "analytic" or not learner.population)]
 
 
 def agents_for(task: str, learner: str, agents=None):
     """Agents per trained batch of `learner` on `task`: `agents` (None: the task's
-    protocol), at most `STEPPED_AGENTS` for a learner that runs only in the stepped loop."""
-    if learners.learner(learner).compiles:
+    protocol), at most `STEPPED_AGENTS` for a learner that runs only in the stepped loop
+    (not a population learner, whose batch is one program)."""
+    chosen = learners.learner(learner)
+    if chosen.compiles or chosen.population:
         return agents
     return min(agents or task_defaults(task)["agents"], STEPPED_AGENTS)
 
 
 def stepped_protocol(task: str, learner: str, episodes, quick: bool, stepped=None) -> tuple:
     """`(episodes, task options)` of the training of `learner` on `task`: `episodes` (None:
-    the task's protocol) and `task_options`, or for a learner that runs only in the stepped
-    loop, where neither the command nor `quick` sets them, `stepped[task]` where given
-    (`{task: (episodes, task options)}`: `lwrl robustness` passes the benchmark's,
-    docs/benchmark, which says what each cuts from the paper's)."""
+    the task's protocol) and `task_options`, or for a learner that does not run in the
+    compiled loop (the stepped loop's, and the population learners, which train as their
+    stepped counterparts), where neither the command nor `quick` sets them, `stepped[task]`
+    where given (`{task: (episodes, task options)}`: `lwrl robustness` passes the
+    benchmark's, docs/benchmark, which says what each cuts from the paper's)."""
     stepped = stepped or {}
     if learners.learner(learner).compiles or episodes is not None or quick or task not in stepped:
         return episodes, task_options(task, quick)
@@ -136,18 +143,34 @@ def task_options(task: str, quick: bool) -> dict:
     return {"time_limit": steps * definition.control_timestep if math.isfinite(steps) else steps}
 
 
+def chosen_learners(task: str, plant: str, names=None) -> list:
+    """The learners a study of `task` on `plant` trains: `names` (None: every one that fits,
+    `learners_for`), each checked, in the registry's order; a one-line ValueError naming the
+    allowed ones otherwise."""
+    fitting = learners_for(task, plant)
+    if names is None:
+        return fitting
+    wrong = [name for name in names if name not in fitting]
+    if wrong or not names:
+        raise ValueError(f"learner {wrong[0] if wrong else ''!r} does not run in a robustness "
+                         f"study of {task} on the {plant} plant; allowed: {', '.join(fitting)}")
+    return [name for name in fitting if name in names]
+
+
 def trainings(task: str, plant: str, agents=None, episodes=None, quick: bool = False,
-              stepped=None) -> dict:
-    """`{(learner, training): RunConfig}`: each learner that fits `task`, trained on the
-    paper's plant and with randomisation, `agents_for(task, learner, agents)` agents (seeds 0..)
-    for `episodes` episodes each (None: the task's protocol; `stepped_protocol` with `stepped`)."""
+              stepped=None, learners=None) -> dict:
+    """`{(learner, training): RunConfig}`: each learner of `learners` (None: every one that
+    fits `task` on `plant`, `chosen_learners`), trained on the paper's plant and with randomisation, `agents_for(task,
+    learner, agents)` agents (seeds 0..) for `episodes` episodes each (None: the task's
+    protocol; `stepped_protocol` with `stepped`)."""
+    chosen = chosen_learners(task, plant, learners)  # checked before anything runs
     if quick:
         agents, episodes = agents or QUICK["agents"], episodes or QUICK["episodes"]
     ranges = {parameter.name: tuple(float(np.clip(factor * parameter.nominal, parameter.low,
                                                   parameter.high)) for factor in TRAINING_FACTORS)
               for parameter in axes(task)}
     configs = {}
-    for learner in learners_for(task):
+    for learner in chosen:
         count, options = stepped_protocol(task, learner, episodes, quick, stepped)
         for training in TRAININGS:
             configs[learner, training] = RunConfig(

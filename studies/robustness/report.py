@@ -199,7 +199,8 @@ def document(results, command: str, seconds: float, figure_paths: dict) -> str:
              f"this invocation took {seconds / 60:.1f} minutes.", "",
              "Agents of every learner of the registry that fits the task, each with the "
              "settings tuned for it elsewhere where it has them (rl-baselines3-zoo's sets for "
-             "DQN and PPO, where the benchmark's search starts), else the task's defaults, are trained on the paper's plant (*nominal*) and "
+             "DQN and PPO and their JAX ports, where the benchmark's search starts), else the "
+             "task's defaults, are trained on the paper's plant (*nominal*) and "
              "with the domain's robustness parameters drawn uniformly for every episode "
              f"between x{plan.TRAINING_FACTORS[0]:g} and x{plan.TRAINING_FACTORS[1]:g} their "
              "paper values (*randomised*, domain randomisation). Then they run greedily, "
@@ -223,7 +224,11 @@ def document(results, command: str, seconds: float, figure_paths: dict) -> str:
              "docs/benchmark), trained for the benchmark's episodes unless the command sets "
              "them (each task's section states them; the benchmark's cart-pole episodes last "
              "60 s, as the paper's 200 of 240 s would take such an agent hours), and "
-             "evaluated, as every learner, on the task's own episodes; the plant "
+             "evaluated, as every learner, on the task's own episodes; the JAX population "
+             "learners (`dqn_jax`, `ppo_jax`: DQN's and PPO's equations, a batch of agents in "
+             "one compiled program) trained as DQN and PPO but with the task's count of "
+             "agents, their sensors' noise drawn from JAX's random streams (the same "
+             "distributions as the other learners', other numbers); the plant "
              "comparison's evaluation episodes (fewer where the start is deterministic) unless "
              "the command sets them.", ""]
     for result in results:

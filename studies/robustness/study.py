@@ -136,12 +136,13 @@ def finished(out_dir: str, trained: dict, evaluations: dict) -> int:
 
 def study_task(task: str, out_dir: str, plant: str = "analytic", quick: bool = False,
                agents=None, episodes=None, evaluation_episodes=None, sweep=None,
-               stepped=None) -> TaskResult:
+               stepped=None, learners=None) -> TaskResult:
     """Train, evaluate and measure `task`; the runs in `out_dir/runs`, their batches run by
     `runners.sweep.run_sweep` with the options `sweep` (`backend`, `workers`, `address`);
-    `stepped`: the stepped loop's learners' training protocols (`plan.stepped_protocol`)."""
+    `stepped`: the stepped loop's learners' training protocols (`plan.stepped_protocol`);
+    `learners`: the learners trained (None: every one that fits, `plan.chosen_learners`)."""
     started = time.perf_counter()
-    trained = plan.trainings(task, plant, agents, episodes, quick, stepped)
+    trained = plan.trainings(task, plant, agents, episodes, quick, stepped, learners)
     count = evaluation_episodes or plan.evaluation_episodes(task, quick)
     cells = plan.cells(task, quick)
     evaluations = {(learner, training, cell): plan.evaluation(task, config, cell, count, quick)
