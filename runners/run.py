@@ -113,11 +113,9 @@ def run(config, agent: Agents | None = None, learn: bool = True, greedy: bool = 
     domain, task = config.domain, config.task_name
     options = environment_options(batch or [config])
     if agent.learner.population:
-        if config.budget is not None:
-            raise ValueError(f"{agent.learner.name} runs whole episodes: its path takes no "
-                             "budget of steps yet")
         results = run_population(domain, task, agent, config.episodes, seeds, learn=learn,
                                  greedy=greedy, progress=progress, record=record,
+                                 budget=config.budget,
                                  plant=config.plant_name, **config.plant_options,
                                  **config.task_options, **options)
     elif agent.learner.compiles and compiles(domain, config.plant_name):

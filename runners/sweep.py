@@ -103,8 +103,11 @@ def run_batch(configs, progress=None, directory=None, keep_agents: bool = False)
 
 
 def results_table(config: RunConfig, results) -> pd.DataFrame:
-    """A run's `EpisodeResults` as a tidy table with its configuration on every row."""
-    return pd.DataFrame({"run": config.key, **config.columns(), **results.columns(config.seeds)})
+    """A run's `EpisodeResults` as a tidy table with its configuration on every row; a run
+    with a budget of steps (`RunConfig.budget`) keeps the episodes it ran only, not the
+    many its episode count allowed and its budget ended before."""
+    table = pd.DataFrame({"run": config.key, **config.columns(), **results.columns(config.seeds)})
+    return table if config.budget is None else table[table["steps"].notna()].reset_index(drop=True)
 
 
 def _agent_episodes(configs) -> int:

@@ -2,12 +2,13 @@
 --budget`): every agent takes exactly the budget (unless its episodes end first), the
 episode that spends it is cut there and recorded as truncated, what came before is the run
 without a budget (so a shorter budget's run is the start of a longer one's), and the
-compiled and stepped loops agree on it."""
+compiled and stepped loops agree on it; the JAX populations' path spends it alike."""
 
 import numpy as np
 import pytest
 from conftest import one_line_error
 
+from lwrl.agent import jax_population
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent, run
 from lwrl.runners.stepped import run_batched
@@ -54,3 +55,31 @@ def test_a_budget_larger_than_the_run_changes_nothing_and_no_budget_keeps_the_ke
 def test_a_budget_is_a_whole_number_of_steps(budget):
     one_line_error(lambda: RunConfig(task="mountain_car.cost_to_go", budget=budget),
                    "budget must be an integer >= 1")
+
+
+@pytest.mark.skipif(jax_population.missing_jax(), reason=f"JAX is not installed ({jax_population.EXTRA})")
+def test_a_population_spends_a_budget_as_the_other_loops_do():
+    """The JAX path (one program whatever the budget: it is data): every agent takes exactly
+    the budget, its cut episode truncated, the episodes before it those of the run without."""
+    def config(budget=None):
+        return RunConfig(task="mountain_car.cost_to_go", learner="dqn_jax", agents=2, episodes=6,
+                         seed=0, timesteps=2000, buffer_size=1000, learning_starts=100,
+                         net_arch="16,16", task_options={"time_limit": 40.0}, budget=budget)
+    _, free = run(config())
+    budget = int(np.nansum(free.steps, axis=1).min() * 0.6)
+    _, cut = run(config(budget))
+    np.testing.assert_array_equal(np.nansum(cut.steps, axis=1), budget)
+    for b in range(2):
+        last = int(np.flatnonzero(np.isfinite(cut.steps[b]))[-1])
+        np.testing.assert_array_equal(cut.steps[b, :last], free.steps[b, :last])
+        np.testing.assert_array_equal(cut.returns[b, :last], free.returns[b, :last])
+        assert cut.truncated[b, last] and np.isnan(cut.steps[b, last + 1:]).all()
+
+
+def test_a_budgeted_runs_table_keeps_the_episodes_it_ran(tmp_path):
+    from lwrl.runners.sweep import run_sweep
+    config = RunConfig(task="mountain_car.cost_to_go", agents=2, episodes=500, seed=0, budget=900)
+    table, computed = run_sweep([config], str(tmp_path))
+    assert computed == 1 and table["steps"].notna().all()
+    assert table.groupby("seed")["steps"].sum().tolist() == [900, 900]
+    assert table["truncated"].groupby(table["seed"]).last().all()  # each cut at the budget
