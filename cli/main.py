@@ -12,6 +12,8 @@
                                                    the paper's figures and table, and a report
     lwrl compare DOMAIN.TASK [--seeds N] [--episodes K] [--out DIR] [--rrd PATH] [--quick]
                                                    the analytic and MuJoCo plants compared
+    lwrl bench run TASK... | score RESULTS... | first TASK...
+                                                   the light-weight claim's benchmark
     lwrl robustness DOMAIN.TASK... [--agents N] [--episodes K] [--out DIR] [--quick]
                                                    trained controllers away from the paper's plant
     lwrl export PATH --c OUT_DIR [--agent I]       a saved agent as a C99 controller
@@ -51,8 +53,9 @@ def main(argv=None) -> int:
     """Run one command: 0 when it succeeded, 2 for bad input (one line on standard error),
     1 when an output could not be written after the work, 130 when interrupted."""
     parser = build_parser()
-    args = parser.parse_args(argv)
-    args.argv = list(sys.argv[1:] if argv is None else argv)  # the command as it was given
+    given = list(sys.argv[1:] if argv is None else argv)
+    args = parser.parse_args(bench.legacy(given))
+    args.argv = given  # the command as it was given
     output.INTERRUPTS = output.Interrupts(args.command)
     with output.INTERRUPTS:
         try:

@@ -195,6 +195,13 @@ SLOW = {
     r"test_viz\.py::test_episodes_recorded_by_training": "trains agents",
     r"test_verdicts\.py::test_probability_of_improvement": "bootstraps",
     r"test_robustness\.py::test_lwrl_robustness_writes_its_report": "a robustness study",
+    r"test_robustness\.py::test_a_quick_study_trains_evaluates_and_reports_a_population":
+        "a robustness study of a JAX population learner: compiles its programs",
+    r"test_benchmark_study\.py::test_a_tiny_benchmark": "a tiny "
+        "benchmark: searches, trains and evaluates every linear row (and measures its costs)",
+    r"test_budget\.py::(test_a_population|test_a_budget_cuts_the_run_it_would_have_been\[cartpole)":
+        "compiles a JAX program; runs the cart-pole twice (Mountain-Car's case stays)",
+    r"test_bench\.py::test_population_agents_act": "compiles a JAX network",
     r"test_reproduce\.py::(test_a_killed_sweep_resumes|test_quick_reproduction_writes|test_fig3_"
     r"verdict_counts_both_conditions\[(?!60\.0-40-))": "a reproduction sweep; fig. 3's "
         "verdict drawn for each case (one stays)",

@@ -61,3 +61,20 @@ def test_a_missing_episode_is_one_line(tmp_path):
     table = results()
     table.drop(index=5).to_csv(path, index=False)
     one_line_error(lambda: outside.read(str(path)), "every seed needs every episode at every fraction")
+
+
+def test_lwrl_bench_score_prints_the_scores_keeps_the_file_and_refuses_a_bad_one(tmp_path, capsys):
+    from conftest import run_cli
+    good, bad = tmp_path / "toy.csv", tmp_path / "bad.csv"
+    results(steps=100).to_csv(good, index=False)
+    results().drop(columns="seed").to_csv(bad, index=False)
+    out = tmp_path / "bench"
+    status, printed, _ = run_cli(["bench", "score", str(good), "--out", str(out)], capsys)
+    lines = printed.splitlines()
+    assert status == 0 and len(lines) == len(protocol.FRACTIONS)
+    assert lines[-1].startswith("toy on mountain_car.cost_to_go after 1 of the budget: "
+                                "normalised score ")
+    assert (out / "outside" / "toy-mountain_car.cost_to_go.csv.gz").exists()
+    assert (out / "references" / "mountain_car.cost_to_go-analytic.csv.gz").exists()
+    status, _, err = run_cli(["bench", "score", str(bad), "--out", str(out)], capsys)
+    assert status == 2 and len(err) == 1 and "missing column 'seed'" in err[0]

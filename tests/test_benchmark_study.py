@@ -26,7 +26,17 @@ def tiny(monkeypatch):
     monkeypatch.setattr(evaluation, "STEP_CAP", 200)
 
 
-def test_a_tiny_benchmark_runs_resumes_and_needs_no_kept_agents_once_evaluated(tiny, tmp_path):
+def test_a_tiny_benchmark_runs_resumes_and_needs_no_kept_agents_once_evaluated(tiny, tmp_path,
+                                                                               capsys):
+    """`lwrl bench run` writes the report with its command; the study then resumes."""
+    from conftest import run_cli
+    status, _, err = run_cli(["bench", "run", TASK, "--out", str(tmp_path), "--workers", "1"],
+                             capsys)
+    assert status == 0, err
+    text = (tmp_path / "README.md").read_text()
+    assert f"`lwrl bench run {TASK} --out {tmp_path} --workers 1`" in text
+    assert (tmp_path / "figures" / f"{TASK}-curves.png").exists()
+    assert (tmp_path / "costs.json").exists()
     first = study.study_task(TASK, str(tmp_path), sweep={"workers": 1})
     labels = [row.label for row in protocol.rows(TASK)]
     assert set(first.chosen) == set(labels) and len(first.search_scores) == 2 * len(labels)
@@ -59,3 +69,4 @@ def test_the_best_mean_is_chosen_a_diverged_agent_the_worst_and_the_first_on_a_t
               ("b", 0): np.array([0.1, 0.1]), ("b", 1): np.array([2.0, np.nan]),
               ("c", 0): np.array([0.3]), ("c", 1): np.array([0.3])}
     assert study.choose(scores) == {"a": 1, "b": 0, "c": 0}
+

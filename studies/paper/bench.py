@@ -66,11 +66,11 @@ def bench(tasks, labels, out_dir: str, plant: str = "analytic", agents: int = 5,
     costs = bench_costs.measure_all(cells, out_dir, quick=quick)
     seconds = time.perf_counter() - started
     return bench_report.write(cells, results, costs, out_dir, command=command, seconds=seconds,
-                              total_seconds=_timed(out_dir, seconds), computed=computed,
+                              total_seconds=timed_calls(out_dir, seconds), computed=computed,
                               search=(found, chosen, searched))
 
 
-def _timed(out_dir: str, seconds: float) -> float:
+def timed_calls(out_dir: str, seconds: float) -> float:
     """The wall time of every call that got this far in `out_dir` (`timings.json`), this
     one's `seconds` added; an interrupted call's time is lost with it."""
     path = os.path.join(out_dir, "timings.json")

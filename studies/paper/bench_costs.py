@@ -86,7 +86,7 @@ def _learn(config, agent, steps: int) -> int:
     from lwrl.runners.run import run
     if agent.learner.population:
         _, results = run(dataclasses.replace(config, episodes=EPISODES_PER_CALL), agent=agent)
-        return int(results.steps.sum())
+        return int(np.nansum(results.steps))
     definition = tasks.definition(*tasks.split_name(config.task))
     taken = 0
     limit = config.task_options.get("time_limit", definition.step_limit * definition.control_timestep)
@@ -95,7 +95,7 @@ def _learn(config, agent, steps: int) -> int:
         episode = dataclasses.replace(config, episodes=EPISODES_PER_CALL, task_options={
             **config.task_options, "time_limit": min(limit, max(left, definition.control_timestep))})
         _, results = run(episode, agent=agent)
-        taken += int(results.steps.sum())
+        taken += int(np.nansum(results.steps))
     return taken
 
 
