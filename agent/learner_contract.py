@@ -2,8 +2,10 @@
 
 A learner is one module, `agent/<learner>.py`, ending with `LEARNER = Learner(...)` and one
 line of `LEARNER_MODULES` (`agent/__init__.py`), as a domain is one module of `tasks/`
-ending with its `DOMAIN`. Nothing outside `agent/` names a learner: the runners, the
-recordings, the value images, the C export and the studies look everything up here.
+ending with its `DOMAIN`; or a module of another installed package, whose entry point of the
+group `lwrl.learners` names its `LEARNER` (`agent.outside_learners`). Nothing outside
+`agent/` names a learner: the runners, the recordings, the value images, the C export and
+the studies look everything up here.
 
 What a learner gives (`Learner`):
 

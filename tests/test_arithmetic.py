@@ -14,8 +14,10 @@ from lwrl.agent.arithmetic import Count, NotCounted, mlp_forward, mlp_parameters
 from lwrl.runners.config import RunConfig, task_info
 
 FITS = [(name, task) for name, task in itertools.product(learners.LEARNER_NAMES, tasks.TASK_NAMES)
-        if learners.learner(name).fits(task_info(task)) is None]
-"""(learner, task) of every learner on every task it fits."""
+        if learners.learner(name).fits(task_info(task)) is None
+        and learners.learner(name).arithmetic is not None]
+"""(learner, task) of every learner that counts its arithmetic (an installed one need not) on
+every task it fits."""
 TWINS = {"ppo_jax": "ppo", "dqn_jax": "dqn"}
 """Each JAX learner and its Stable-Baselines3 counterpart."""
 
@@ -28,6 +30,12 @@ def counts_of(name: str, task: str, steps=None, settings: dict | None = None):
         return learner.arithmetic(learner.settings(**settings), task_info(task), steps)
     config = RunConfig(task=task, learner=name)
     return learner.arithmetic(config.agent, config.task_info, steps)
+
+
+def test_every_learner_of_lwrls_own_counts_its_arithmetic():
+    import importlib
+    for module in learners.LEARNER_MODULES:
+        assert importlib.import_module(f"lwrl.agent.{module}").LEARNER.arithmetic is not None, module
 
 
 @pytest.mark.parametrize("name, task", FITS)
