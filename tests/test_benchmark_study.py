@@ -1,9 +1,9 @@
 """The second benchmark's runs (studies/paper/benchmark/study.py) at a tiny scale, on
-Mountain-Car with lwrl's own rows (the deep rows compile JAX programs; their path is the
-same sweep): every row searched and chosen, every fraction of the budget trained and
-evaluated, the reference rows written once; a second call computes nothing and gives the
-same scores, and neither does a third once the kept agents are gone (a fresh clone has the
-committed tables only)."""
+Mountain-Car with the paper's agent and its other trace (the other rows, deep ones among
+them, take the same path through the sweep): every row searched and chosen, every fraction
+of the budget trained and evaluated, the reference rows written once; a second call
+computes nothing and gives the same scores, and neither does a third once the kept agents
+are gone (a fresh clone has the committed tables only)."""
 
 import numpy as np
 import pytest
@@ -17,6 +17,8 @@ TASK = "mountain_car.cost_to_go"
 def tiny(monkeypatch):
     monkeypatch.setitem(protocol.BUDGETS, TASK, 400)
     monkeypatch.setattr(protocol, "DEEP", {})
+    every_row = protocol.rows
+    monkeypatch.setattr(protocol, "rows", lambda task: every_row(task)[:2])  # paper's two traces
     monkeypatch.setattr(protocol, "AGENTS", 2)
     monkeypatch.setattr(protocol, "SHORTEST_EPISODE", 100)
     monkeypatch.setattr(search, "CONFIGURATIONS", 2)

@@ -23,7 +23,7 @@ THRESHOLDS = np.linspace(-0.25, 1.5, 71)
 class Judged:
     """One task's comparisons (Holm-corrected across every task), computes and verdict."""
 
-    runs: object
+    runs: study.TaskRuns
     """The task's `study.TaskRuns`."""
     comparisons: list
     computes: dict
