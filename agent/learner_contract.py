@@ -250,7 +250,8 @@ class Agents:
         _, target = self.saved()
         for name, values in kept.saved()[1].items():
             target[name][:] = np.concatenate([values] * copies)
-        if not all(np.array_equal(target[name], self.saved()[1][name]) for name in target):
+        if not all(np.array_equal(target[name], self.saved()[1][name], equal_nan=True)
+                   for name in target):
             raise ValueError(f"{self.learner.name}'s saved arrays are not its own: its agents "
                              "cannot take over kept ones")
 

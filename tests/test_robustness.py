@@ -423,6 +423,18 @@ def test_every_learner_goes_on_with_its_kept_agents_in_several_cells_at_once(nam
         make_agent(dataclasses.replace(trained, agents=3)).take_over(kept)
 
 
+def test_diverged_kept_agents_are_taken_over_as_they_ended():
+    """A kept agent whose weights diverged to NaN is taken over with its NaN (an evaluation
+    of a search's diverged configuration), not refused as a learner's foreign arrays."""
+    config = RunConfig(task="mountain_car.cost_to_go", agents=2, seed=3)
+    kept = make_agent(config)
+    kept.saved()[1]["weights"][0] = np.nan
+    agents = make_agent(dataclasses.replace(config, agents=4))
+    agents.take_over(kept)
+    weights = agents.saved()[1]["weights"]
+    assert np.isnan(weights[[0, 2]]).all() and not np.isnan(weights[[1, 3]]).any()
+
+
 @pytest.mark.skipif(missing_jax(), reason="the population learners need the jax extra: "
                     "pip install 'lwrl[jax]'")
 def test_a_quick_study_trains_evaluates_and_reports_a_population_learner(tmp_path, monkeypatch):
