@@ -96,7 +96,10 @@ choose others):
    on one thread);
 
 and prints agent-steps per second of each (wall time), the ratio lwrl / JAX, the CPU time
-per agent-step of each (all threads) and their ratio, and each one's compile time, which no
+per agent-step of each (all threads) and their ratio, the arithmetic bound of one agent-step
+on one core (`benchmarks.arithmetic_bound`, its rates measured in the same run) and the
+peer's CPU time over it (an implementation of the same arithmetic can be twice as fast as
+the peer only where that ratio is at least 2), and each one's compile time, which no
 rate includes (lwrl's kernels are compiled in a fresh cache directory unless `--cached`, so
 that the time is a compile and not a load from `~/.cache/lwrl`), with the block length and
 group size of each peer, the machine and its load average at the end. An agent-step is one
@@ -147,6 +150,7 @@ import numba
 import numpy as np
 
 from benchmarks.agent_speed import machine, plural
+from benchmarks.arithmetic_bound import bound_seconds, measure_rates, task_counts
 from lwrl import tasks
 from lwrl.agent.threads import workers
 from lwrl.agent.traces import FLUSH_THRESHOLD
@@ -769,6 +773,8 @@ def main(argv=None) -> None:
             compiles.append(f"- {task_name}, lwrl: {seconds:.1f} s ({how}; one loop for every "
                             "batch size)")
         for task_name in args.tasks:
+            counts = task_counts(task_name)
+            bound = bound_seconds(counts, measure_rates(counts))
             for agents in agent_counts:
                 compiled = compile_peer(task_name, agents)
                 designs.add(single_function_loops(compiled[0]))
@@ -783,7 +789,8 @@ def main(argv=None) -> None:
                 rows.append(f"| {task_name} | {agents} | {lwrl.rate:,.0f} | {peer.rate:,.0f} | "
                             f"x{lwrl.rate / peer.rate:.2f} | {1e9 * lwrl.cpu_per_step:,.0f} | "
                             f"{1e9 * peer.cpu_per_step:,.0f} | "
-                            f"x{peer.cpu_per_step / lwrl.cpu_per_step:.2f} |")
+                            f"x{peer.cpu_per_step / lwrl.cpu_per_step:.2f} | "
+                            f"{1e9 * bound:,.0f} | x{peer.cpu_per_step / bound:.2f} |")
                 runs.append(f"- {task_name}, {plural(agents, 'agent')}: lwrl {agents} x "
                             f"{plural(lwrl.episodes, 'episode')}, {lwrl.steps:,} agent-steps in "
                             f"{lwrl.seconds:.2f} s; JAX peer {agents} x {peer.steps // agents:,} "
@@ -793,9 +800,14 @@ def main(argv=None) -> None:
         check_seconds = time.perf_counter() - check_start
     window = slice(max(0, check_episodes - 10), check_episodes)
     print("| task | agents | lwrl (agent-steps/s) | JAX peer (agent-steps/s) | lwrl / JAX "
-          "| lwrl CPU ns per agent-step | JAX CPU ns per agent-step | JAX CPU / lwrl CPU |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+          "| lwrl CPU ns per agent-step | JAX CPU ns per agent-step | JAX CPU / lwrl CPU "
+          "| bound, ns per agent-step | JAX CPU / bound |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     print("\n".join(rows))
+    print("\nThe bound: one core's least time for the learner's arithmetic of one agent-step "
+          "(`benchmarks.arithmetic_bound`, its rates measured in this run). An implementation "
+          "of the same arithmetic twice as fast as the peer in CPU time is possible only "
+          "where the peer takes at least twice the bound (JAX CPU / bound >= x2).")
     if check:
         print(f"\nLearning check, the paper's best Mountain-Car agent ({check_agents} agents x "
               f"{check_episodes} episodes), mean ± standard error over agents of the steps per "
