@@ -42,8 +42,8 @@ from numba.extending import register_jitable
 from lwrl.agent.arithmetic import Count, Counts
 from lwrl.agent.learner_contract import Agents, Learner, LearnerSettings
 from lwrl.agent.linear import per_agent
-from lwrl.agent.streams import seed_streams, uniform
-from lwrl.settings import check_positive, check_unit_interval, setting
+from lwrl.agent.streams import gaussian, seed_streams, uniform
+from lwrl.settings import check_non_negative, check_positive, check_unit_interval, setting
 
 STATE = ("cart_position", "cart_velocity", "pole_angle", "pole_angular_velocity")
 """The state the boxes read, in this order (x in m, x_dot in m/s, theta and theta_dot in rad
@@ -93,8 +93,7 @@ class AseAceSettings(LearnerSettings):
         check_positive("beta", self.beta)
         for name in ("delta", "gamma", "lam"):
             check_unit_interval("lambda" if name == "lam" else name, getattr(self, name))
-        if not (isinstance(self.sigma, (int, float)) and 0 <= self.sigma < math.inf):
-            raise ValueError(f"sigma must be a finite number >= 0; got {self.sigma!r}")
+        check_non_negative("sigma", self.sigma)
 
     def label(self) -> str:
         return f"ase_ace-{self.policy}-a{self.alpha:g}-b{self.beta:g}"
@@ -131,14 +130,6 @@ def box_of(state, edges):
     x, x_dot, theta, theta_dot = edges
     return (_interval(state[0], x) + 3 * _interval(state[1], x_dot)
             + 9 * _interval(state[2], theta) + 54 * _interval(state[3], theta_dot))
-
-
-@register_jitable
-def gaussian(streams, b):
-    """A standard normal draw from stream b (Box-Muller: two uniforms)."""
-    u1 = 1.0 - uniform(streams, b)  # in (0, 1]
-    u2 = uniform(streams, b)
-    return math.sqrt(-2.0 * math.log(u1)) * math.cos(2.0 * math.pi * u2)
 
 
 @register_jitable

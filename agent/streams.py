@@ -6,6 +6,7 @@ seed, so its results are the same whether it runs alone or in any batch, in any 
 """
 
 import collections
+import math
 
 import numpy as np
 from numba.extending import register_jitable
@@ -42,3 +43,11 @@ def uniform(streams, i):
     z = (z ^ (z >> _SHIFTS[1])) * _MIX_2
     z = z ^ (z >> _SHIFTS[2])
     return (z >> _SHIFTS[3]) * _TO_UNIT
+
+
+@register_jitable
+def gaussian(streams, i):
+    """A standard normal draw from stream `i` (Box-Muller: two uniforms)."""
+    u1 = 1.0 - uniform(streams, i)  # in (0, 1]
+    u2 = uniform(streams, i)
+    return math.sqrt(-2.0 * math.log(u1)) * math.cos(2.0 * math.pi * u2)

@@ -120,6 +120,12 @@ def check_positive(name: str, value) -> None:
         raise ValueError(f"{name} must be a finite number > 0; got {value!r}")
 
 
+def check_non_negative(name: str, value) -> None:
+    """A finite number >= 0, or a one-line error."""
+    if not (_number(value) and 0 <= value < math.inf):
+        raise ValueError(f"{name} must be a finite number >= 0; got {value!r}")
+
+
 def applies(field: dataclasses.Field, settings) -> bool:
     """False where the field's `only_with` condition does not hold for `settings`."""
     condition = field.metadata.get("only_with")
