@@ -16,12 +16,15 @@ What a learner gives (`Learner`):
   `settings[b]` and its own random stream from `seeds[b]`;
 - `step`: its per-agent step, numba-jitable, which the compiled loop binds as it binds a
   domain's `transition` (`runners.compiled`):
-  `step(b, first, reward, discount, observation, learn, greedy, arrays) -> action`, where
+  `step(b, first, reward, discount, observation, learn, greedy, arrays) -> action` (an
+  index, or a number in [-1, 1] for a learner of continuous actions, `actions`), where
   `first` starts an episode (no update), `reward` and `discount` end the transition into
   `observation` (discount 0: a terminal state, where no action is chosen), `learn=False`
   makes no update and `greedy=True` acts greedily, both without touching the learner's
   settings; `arrays` is the batch's `Agents.arrays`. None for a learner that runs only in
   the stepped loop (its `Agents.step` does the work);
+- `actions`: the kind of action it takes, `discrete` or `continuous` (`runners.commands`:
+  how the loops turn it into the actuator's command);
 - `fits(task)`: None, or one line saying why the learner does not fit a task (`TaskInfo`);
 - `load(document, arrays)`: agents from a file written by `agent.io.save`;
 - `memory(settings, task)`: the bytes one agent needs, before any is made;
@@ -55,10 +58,12 @@ from lwrl.agent.threads import run_in_chunks
 from lwrl.kernels import kernel
 from lwrl.settings import check_choices
 
-TaskInfo = collections.namedtuple("TaskInfo", "name state_names num_actions low high")
+TaskInfo = collections.namedtuple("TaskInfo", "name state_names num_actions low high actions",
+                                  defaults=("discrete",))
 """What a learner may know of a task: its name (DOMAIN.TASK), the names of its state
-variables, its number of actions and the normalisation ranges of its run defaults
-(`TaskDefinition.defaults`)."""
+variables, its number of discrete actions (0 where its actions are continuous), the
+normalisation ranges of its run defaults (`TaskDefinition.defaults`) and the kind of its
+actions (`discrete` or `continuous`, `tasks.task_definition.ACTIONS`)."""
 
 
 class NoValues(ValueError):
@@ -113,6 +118,10 @@ class Learner:
     elsewhere (rl-baselines3-zoo's), which a study takes on the domains tuned as that
     environment (`Domain.tuned_as`); empty: the task's defaults are its own."""
 
+    actions: str = "discrete"
+    """The kind of action its step returns (`runners.commands`): `discrete`, an index into
+    the task's controls; `continuous`, a number in [-1, 1] that the loops scale to the
+    actuator's range. It runs the tasks made with that kind (`actions=`)."""
     population: bool = False
     """True: its agents train as one jitted JAX program over the suite's JAX tasks
     (`runners.population`; `agent.jax_population.PopulationAgents`), not step by step."""
@@ -152,6 +161,13 @@ class Agents:
         return self.arrays.q.shape[1]
 
     @property
+    def continuous(self) -> bool:
+        """True where its actions are numbers in [-1, 1] (`Learner.actions`); False for
+        agents of no learner (a benchmark's reference rows), which act by index."""
+        learner = getattr(self, "learner", None)
+        return learner is not None and learner.actions == "continuous"
+
+    @property
     def diverged(self) -> np.ndarray:
         """`(B,)` True for agents whose learning went NaN or infinite (frozen since)."""
         return self.arrays.diverged
@@ -175,7 +191,7 @@ class Agents:
         observation = self.check_observation(observation)
         batch = self.batch_size
         active = np.ones(batch, dtype=bool) if active is None else np.asarray(active, dtype=bool)
-        actions = np.zeros(batch, dtype=np.int64)
+        actions = np.zeros(batch, dtype=np.float64 if self.continuous else np.int64)
         run_in_chunks(batch_step(self.learner), batch, np.asarray(first, dtype=bool),
                       np.asarray(reward, dtype=np.float64),
                       np.asarray(discount, dtype=np.float64), observation, active, bool(learn),

@@ -533,8 +533,8 @@ class ModelAgents(Agents):
     def loaded(cls, document: dict, arrays: dict, settings_class):
         """The agents `saved` wrote; a ValueError where the parts do not fit."""
         from lwrl.agent.learner_contract import TaskInfo
-        name, state_names, num_actions, low, high = document["task"]
-        task = TaskInfo(name, tuple(state_names), num_actions, tuple(low), tuple(high))
+        name, state_names, num_actions, low, high, *kind = document["task"]  # files before
+        task = TaskInfo(name, tuple(state_names), num_actions, tuple(low), tuple(high), *kind)
         settings = [settings_class(**values) for values in document["settings"]]
         agents = cls(settings, task, document["seeds"])
         if len(document["agents"]) != agents.batch_size:

@@ -81,9 +81,9 @@ def train_agents(args) -> int:
     request (also after Ctrl-C, with what was complete)."""
     if external.is_external(args.task):
         return _train_external(args)
-    if args.actions is not None:
+    if isinstance(args.actions, tuple):  # `--actions`, not `--action-kind` (the same dest)
         raise ValueError(f"--actions applies to dmc: and gym: environments only; {args.task} "
-                         "has its own")
+                         "has its own (--action-kind discrete or continuous)")
     started = time.perf_counter()
     settings = {**fields.given(args, EnvironmentSettings, LearnerChoice, ProtocolSettings),
                 **fields.given_learner_settings(args, learners.LEARNERS.values())}
@@ -142,6 +142,9 @@ def _train_external(args) -> int:
     started = time.perf_counter()
     own = {**fields.given(args, EnvironmentSettings), "save": args.save, "rerun": args.rerun,
            "rrd": args.rrd}
+    kind = own.pop("actions", None)  # `--action-kind` (a word) and `--actions` share a dest
+    if isinstance(kind, str):
+        own["action-kind"] = kind
     for name, value in own.items():
         if value:
             raise ValueError(f"--{name} applies to lwrl's own tasks only, not to {args.task}")

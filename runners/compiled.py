@@ -26,6 +26,7 @@ from lwrl import kernels, tasks
 from lwrl.kernels import copy_into
 from lwrl.agent.learner_contract import Agents
 from lwrl.agent.threads import run_in_chunks
+from lwrl.runners.commands import COMMANDS, check_kinds, episode_controls
 from lwrl.runners.episodes import EpisodeResults, episode_starts, finish_episode, step_budget
 from lwrl.runners.recording import (make_tape, record_end, record_state, record_transition,
                                     recordings)
@@ -62,6 +63,12 @@ def limit_state(state):
 def agent_step(b, first, reward, discount, observation, learn, greedy, arrays):
     """The learner's `Learner.step`, bound by each kernel."""
     raise NotImplementedError("the compiled loop's kernel binds each learner's step")
+
+
+def command(controls, action):
+    """The command of the learner's kind of action (`runners.commands.COMMANDS`), bound by
+    each kernel."""
+    raise NotImplementedError("the compiled loop's kernel binds each learner's command")
 
 
 @register_jitable
@@ -124,7 +131,8 @@ def _loop(start, stop, first, count, starts, start_observations, controls, dt, p
     is set (Ctrl-C), each agent stops after the episode it is in (at most tens of ms).
     `dt`: seconds of up-time per step up. Agent b's episode k has the controls
     `controls[b, k]` `(A,)`, the parameter values `physical[b, k]` `(P,)` and the MuJoCo
-    model at `models[b, k]`; its sensors and actuator have the options `sigma_observation[b]`,
+    model at `models[b, k]` (continuous actions: `controls[b, k]` is the actuator's range,
+    `runners.commands`); its sensors and actuator have the options `sigma_observation[b]`,
     `delays[b]`, `sigma_action[b]` and the stream `keys[b]` (`tasks.disturbances`); it
     works in `scratch` (`Scratch`)."""
     workspace = open_plant(plant)
@@ -151,7 +159,7 @@ def _loop(start, stop, first, count, starts, start_observations, controls, dt, p
                 record_state(tape, r, 0, state, observation, arrays.q[b])
             n, total, up, terminal, last = 0, 0.0, 0.0, False, False
             while not last:
-                control = applied_control(buffer, n, episode_controls[action], sigma_action[b],
+                control = applied_control(buffer, n, command(episode_controls, action), sigma_action[b],
                                           low, high, keys[b], k)
                 reward, terminal, is_up = plant_transition(state, control, next_state,
                                                            observation, plant, models[b, k],
@@ -180,18 +188,20 @@ def compiled_loop(definition, learner, plant: str = "analytic") -> kernels.Kerne
     """The compiled loop's kernel for one task (`TaskDefinition`) and learner (`Learner`)
     on `plant`, cached on disk (`lwrl.kernels`): a second process compiles nothing."""
     limit = tasks.domain(definition.domain).plants.limit_state or no_limit
-    return _compiled_loop(definition.transition, definition.arrive, limit, learner.step, plant)
+    return _compiled_loop(definition.transition, definition.arrive, limit, learner.step,
+                          learner.actions, plant)
 
 
 @functools.lru_cache(maxsize=None)
-def _compiled_loop(task_transition, task_arrive, task_limit, learner_step,
+def _compiled_loop(task_transition, task_arrive, task_limit, learner_step, actions: str,
                    plant: str) -> kernels.Kernel:
     module = task_transition.__module__.replace(".", "_")
     learner = learner_step.__module__.replace(".", "_")
     bindings, helpers = PLANT_STEPS[plant]
     return kernels.kernel(f"loop_{plant}_{module}_{learner}", _loop,
                           {"transition": task_transition, "arrive": task_arrive,
-                           "limit_state": task_limit, "agent_step": learner_step, **bindings},
+                           "limit_state": task_limit, "agent_step": learner_step,
+                           "command": COMMANDS[actions], **bindings},
                           helpers, runtime=plant not in WITHOUT_RUNTIME)
 
 
@@ -249,9 +259,10 @@ def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
                      if name in tasks.plant_option_names(domain, plant)}
     definition, _, _, sensing = tasks.resolve_environment(domain, task, plant, **options,
                                                           **plant_options)
+    check_kinds(agent.learner.name, agent.learner.actions, definition, "run_compiled")
     stepped = plant_of(domain, plant, integrator, equations, definition.physical)
     physical = draws(parameters, ranges, rows, seeds, episodes)
-    controls = np.ascontiguousarray(definition.controls_at(physical))
+    controls = np.ascontiguousarray(episode_controls(definition, physical))
     sensors = Disturbances(definition.state_names, controls[:, 0], batch, **sensing)
     sensors.seed(seeds)
     results = EpisodeResults.empty(batch, episodes)
@@ -260,7 +271,7 @@ def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
     step_limit = definition.step_limit if np.isfinite(definition.step_limit) else np.iinfo(np.int64).max
     loop = compiled_loop(definition, agent.learner, plant)
     tape = make_tape(record, batch, episodes, definition.step_limit, starts.shape[2],
-                     agent.num_actions, agent.arrays.weights.shape[1:])
+                     agent.num_actions, agent.arrays.weights.shape[1:], agent.continuous)
     done = np.zeros(batch, dtype=np.int64)  # episodes each agent has finished
     spent = np.zeros(batch, dtype=np.int64)  # steps each agent has taken
     cancel = np.zeros(1, dtype=bool)  # set on Ctrl-C: the loops stop after their episode

@@ -22,12 +22,14 @@ import json
 
 from lwrl import agent, tasks
 from lwrl.agent.learner_contract import LearnerSettings, TaskInfo
+from lwrl.runners.commands import check_kinds
 from lwrl.settings import (LATE, SCALARS, WHEN_SET, base_type, check_choices, check_count,
                            default_of, fill, setting)
 from lwrl.tasks import disturbances
 from lwrl.tasks.integrators import INTEGRATORS
 from lwrl.tasks.randomisation import check_ranges
 from lwrl.tasks.plants import EQUATIONS
+from lwrl.tasks.task_definition import ACTIONS
 
 
 def task_defaults(task: str) -> dict:
@@ -46,11 +48,15 @@ def tuned_settings(task: str, learner: str) -> dict:
     return dict(agent.learner(learner).tuned.get(domain.tuned_as, {}))
 
 
-def task_info(task: str, task_options: dict | None = None) -> TaskInfo:
-    """What a learner may know of `task` (DOMAIN.TASK) with its options."""
-    definition = tasks.definition(*tasks.split_name(task), **(task_options or {}))
-    return TaskInfo(task, definition.state_names, definition.num_actions,
-                    tuple(definition.defaults.low), tuple(definition.defaults.high))
+def task_info(task: str, task_options: dict | None = None,
+              actions: str = ACTIONS[0]) -> TaskInfo:
+    """What a learner may know of `task` (DOMAIN.TASK) with its options and its kind of
+    `actions` (no discrete actions, 0, where they are continuous)."""
+    definition = tasks.definition(*tasks.split_name(task), **(task_options or {}),
+                                  actions=actions)
+    return TaskInfo(task, definition.state_names,
+                    0 if definition.continuous else definition.num_actions,
+                    tuple(definition.defaults.low), tuple(definition.defaults.high), actions)
 
 
 def with_defaults(settings, defaults: dict):
@@ -115,6 +121,10 @@ class EnvironmentSettings:
     action_noise: float = setting(0.0, key=WHEN_SET, per_agent=True)
     """Gaussian noise SIGMA added to the applied force or torque, in its units, clipped to
     the actuator's range."""
+    actions: str = setting(ACTIONS[0], choices=ACTIONS, key=WHEN_SET, flags=("--action-kind",))
+    """`discrete` (an index into the task's controls) or `continuous` (the force, torque or
+    thrust itself, in the actuator's range): the task's kind of action (`tasks.load`'s
+    `actions`), which must be the learner's (`Learner.actions`)."""
     randomise: dict[str, tuple] = setting(default_factory=dict, key=WHEN_SET,
                                           describe=parameters_help)
     """A physical parameter drawn anew for every episode of every agent, uniformly in
@@ -234,6 +244,13 @@ class RunConfig(LearnerChoice, ProtocolSettings, EnvironmentSettings):
         self.__post_init__()
 
     def __post_init__(self):
+        if "actions" in self.task_options:  # one spelling per run, so one key: `actions`
+            options = dict(self.task_options)
+            kind = options.pop("actions")
+            if self.actions not in (ACTIONS[0], kind):
+                raise ValueError(f"actions {self.actions!r} and task_options' actions {kind!r} "
+                                 "differ; give the kind of action once, as actions")
+            fill(self, task_options=options, actions=kind)
         defaults = task_defaults(self.task)
         fill(self, **{name: defaults[name] for name in ("episodes", "agents")
                       if getattr(self, name) is None})
@@ -246,6 +263,8 @@ class RunConfig(LearnerChoice, ProtocolSettings, EnvironmentSettings):
                                  f"{', '.join(self.plant_options) or 'no plant options'}")
         self.check_environment()
         learner = agent.learner(self.learner)
+        check_kinds(learner.name, learner.actions, tasks.definition(self.domain, self.task_name, **self.task_options,
+                                              actions=self.actions), "the run")
         fill(self, agent=with_defaults(self.agent, defaults))
         info = self.task_info
         reason = learner.fits(info)
@@ -297,7 +316,7 @@ class RunConfig(LearnerChoice, ProtocolSettings, EnvironmentSettings):
     @property
     def task_info(self) -> TaskInfo:
         """What the learner may know of the run's task."""
-        return task_info(self.task, self.task_options)
+        return task_info(self.task, self.task_options, self.actions)
 
     @property
     def name(self) -> str:

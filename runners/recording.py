@@ -34,13 +34,15 @@ class EpisodeRecording:
     state_names: tuple
     """Names of the state variables (the columns of `states` and `observations`)."""
     controls: tuple
-    """Force, torque or thrust of each action."""
+    """Force, torque or thrust of each action; with continuous actions the actuator's range
+    `(low, high)`."""
     states: np.ndarray
     """`(T + 1, d)` plant states, the start first (angles not wrapped)."""
     observations: np.ndarray
     """`(T + 1, d)` what the agent saw (the pendulum's angle wrapped)."""
     actions: np.ndarray
-    """`(T,)` action indices; action t moves `states[t]` to `states[t + 1]`."""
+    """`(T,)` action indices, or continuous actions in [-1, 1] (`runners.commands`); action
+    t moves `states[t]` to `states[t + 1]`."""
     rewards: np.ndarray
     """`(T,)` reward on entering `states[t + 1]`."""
     td_errors: np.ndarray
@@ -76,9 +78,10 @@ row of agent b's episode k (-1: not recorded); rows hold up to `L` steps."""
 
 
 def make_tape(record, agents: int, episodes: int, step_limit, dim: int, num_actions: int,
-              weights_shape: tuple) -> Tape:
+              weights_shape: tuple, continuous: bool = False) -> Tape:
     """Empty buffers for the `(agent, episode)` pairs in `record` (a tiny dummy if none);
-    `weights_shape`: one agent's `arrays.weights`."""
+    `weights_shape`: one agent's `arrays.weights`; `continuous`: the actions are numbers
+    (`Learner.actions`), not indices."""
     record = sorted(set(record))
     slot = np.full((agents, episodes), -1, dtype=np.int64)
     for row, (agent, episode) in enumerate(record):
@@ -90,7 +93,8 @@ def make_tape(record, agents: int, episodes: int, step_limit, dim: int, num_acti
         raise ValueError("recording episodes needs a finite time limit")
     rows, length = max(1, len(record)), int(step_limit) if record else 1
     return Tape(slot, np.zeros((rows, length + 1, dim)), np.zeros((rows, length + 1, dim)),
-                np.zeros((rows, length), dtype=np.int64), np.zeros((rows, length)),
+                np.zeros((rows, length), dtype=np.float64 if continuous else np.int64),
+                np.zeros((rows, length)),
                 np.zeros((rows, length)), np.zeros((rows, length + 1, num_actions)),
                 np.zeros(rows, dtype=np.int64), np.zeros((rows,) + tuple(weights_shape)))
 
@@ -135,7 +139,9 @@ def recordings(tape: Tape, definition, plant: str, seeds) -> list:
         found.append(EpisodeRecording(
             task=definition.name, plant=plant, agent=int(agent), seed=int(seeds[agent]),
             episode=int(episode), timestep=definition.control_timestep,
-            state_names=definition.state_names, controls=definition.controls, states=states,
+            state_names=definition.state_names,
+            controls=definition.control_range if definition.continuous else definition.controls,
+            states=states,
             observations=tape.observations[row, :steps + 1].copy(),
             actions=tape.actions[row, :steps].copy(), rewards=tape.rewards[row, :steps].copy(),
             td_errors=tape.td_errors[row, :steps].copy(),

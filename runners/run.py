@@ -42,7 +42,7 @@ def memory_needed(config, recorded_episodes: int = 0) -> int:
     definition = tasks.definition(config.domain, config.task_name, **config.task_options)
     info = config.task_info
     per_agent = learners.learner(config.learner).memory(config.agent, info)
-    actions, dim = definition.num_actions, len(definition.state_names)
+    actions, dim = max(info.num_actions, 1), len(definition.state_names)
     per_episode = 8 * (6 + dim)
     steps = definition.step_limit if recorded_episodes and math.isfinite(definition.step_limit) else 0
     tape = recorded_episodes * (8 * int(steps) * (2 * dim + actions + 3) + per_agent)
@@ -112,6 +112,8 @@ def run(config, agent: Agents | None = None, learn: bool = True, greedy: bool = 
     seeds = config.seeds if seeds is None else list(seeds)
     domain, task = config.domain, config.task_name
     options = environment_options(batch or [config])
+    if config.actions != "discrete":
+        options["actions"] = config.actions
     if agent.learner.population:
         results = run_population(domain, task, agent, config.episodes, seeds, learn=learn,
                                  greedy=greedy, progress=progress, record=record,

@@ -6,11 +6,20 @@ same bookkeeping (`runners.episodes.finish_episode`, `runners.recording`) and nu
 import numpy as np
 
 from lwrl.agent.learner_contract import Agents
+from lwrl.runners.commands import check_kinds, commands
 from lwrl.runners.episodes import EpisodeResults, finish_episode, step_budget
 from lwrl.runners.recording import (make_tape, record_end, record_state, record_transition,
                                     recordings)
 from lwrl.settings import check_count
 from lwrl.tasks.batched import BatchedEnv, SteppedEnvs
+
+
+def kind_of(agent) -> tuple[str, str]:
+    """`(name, actions)` of an `Agents`, or of another object with its stepped interface
+    (`step`, `diverged`, `batch_size`, `continuous`: `studies.robustness.controller`)."""
+    learner = getattr(agent, "learner", None)
+    name = type(agent).__name__ if learner is None else learner.name
+    return name, "continuous" if agent.continuous else "discrete"
 
 
 def run_dm_env(env, agent: Agents, episodes: int, learn: bool = True,
@@ -19,8 +28,8 @@ def run_dm_env(env, agent: Agents, episodes: int, learn: bool = True,
     step by step: `run_batched` on the environment alone."""
     if agent.batch_size != 1:
         raise ValueError(f"run_dm_env runs one agent; got a batch of {agent.batch_size}")
-    if hasattr(env.task, "definition"):  # the suite's: its learners choose discrete actions
-        env.task.definition.check_discrete("run_dm_env")
+    if hasattr(env.task, "definition"):  # the suite's
+        check_kinds(*kind_of(agent), env.task.definition, "run_dm_env")
     return run_batched(SteppedEnvs([env], uptime=lambda single: single.task.uptime), agent,
                        episodes, learn=learn, greedy=greedy)
 
@@ -35,8 +44,8 @@ def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = Tru
     `(agent, episode)` pairs in `record` are recorded step by step (`results.recordings`), as
     `run_compiled` records them; recording needs a `BatchedEnv`."""
     episodes = check_count("episodes", episodes, 1)
-    if isinstance(env, BatchedEnv):  # its learners choose discrete actions
-        env.definition.check_discrete("run_batched")
+    if isinstance(env, BatchedEnv):
+        check_kinds(*kind_of(agent), env.definition, "run_batched")
     if env.batch_size != agent.batch_size:
         raise ValueError(f"environment batch {env.batch_size} and agent batch "
                          f"{agent.batch_size} differ")
@@ -52,8 +61,8 @@ def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = Tru
         definition = env.definition
         tape = make_tape(record, batch, episodes, definition.step_limit,
                          len(definition.state_names), agent.num_actions,
-                         agent.arrays.weights.shape[1:])
-    actions = np.zeros(batch, dtype=np.int64)
+                         agent.arrays.weights.shape[1:], agent.continuous)
+    actions = np.zeros(batch, dtype=np.float64 if agent.continuous else np.int64)
     ts = env.reset()
     try:
         while True:
@@ -85,7 +94,7 @@ def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = Tru
                 progress(int(ended.sum()))
             if not running.any():
                 break
-            ts = env.step(actions)
+            ts = env.step(commands(env.control_range, actions) if agent.continuous else actions)
             spent += running & ~ts.first()
             returns = np.where(ts.first(), 0.0, returns + ts.reward)
     except KeyboardInterrupt:

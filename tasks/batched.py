@@ -218,6 +218,14 @@ class SteppedEnvs:
         self._ended = np.zeros(self.batch_size, dtype=bool)
 
     @property
+    def control_range(self) -> np.ndarray:
+        """`(B, 2)` each environment's bounds of a continuous action (its action spec's
+        minimum and maximum: the actuator's range of the suite's continuous tasks)."""
+        specs = [env.action_spec() for env in self.envs]
+        return np.array([[np.min(spec.minimum), np.max(spec.maximum)] for spec in specs],
+                        dtype=np.float64)
+
+    @property
     def uptime(self) -> np.ndarray:
         if self._read_uptime is None:
             return np.full(self.batch_size, np.nan)

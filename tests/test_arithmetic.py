@@ -14,7 +14,7 @@ from lwrl.agent.arithmetic import Count, NotCounted, mlp_forward, mlp_parameters
 from lwrl.runners.config import RunConfig, task_info
 
 FITS = [(name, task) for name, task in itertools.product(learners.LEARNER_NAMES, tasks.TASK_NAMES)
-        if learners.learner(name).fits(task_info(task)) is None
+        if learners.learner(name).fits(task_info(task, actions=learners.learner(name).actions)) is None
         and learners.learner(name).arithmetic is not None]
 """(learner, task) of every learner that counts its arithmetic (an installed one need not) on
 every task it fits."""
@@ -28,7 +28,7 @@ def counts_of(name: str, task: str, steps=None, settings: dict | None = None):
     learner = learners.learner(name)
     if settings is not None:
         return learner.arithmetic(learner.settings(**settings), task_info(task), steps)
-    config = RunConfig(task=task, learner=name)
+    config = RunConfig(task=task, learner=name, actions=learner.actions)
     return learner.arithmetic(config.agent, config.task_info, steps)
 
 

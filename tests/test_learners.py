@@ -18,8 +18,9 @@ from lwrl.settings import base_type
 from lwrl.tasks.batched import BatchedEnv
 
 PAIRS = [(learner, task) for learner, task in itertools.product(learners.LEARNER_NAMES, tasks.TASK_NAMES)
-         if learners.learner(learner).fits(task_info(task)) is None]
-"""(learner, task) of every learner on every task it fits."""
+         if learners.learner(learner).fits(task_info(task, actions=learners.learner(learner).actions)) is None]
+"""(learner, task) of every learner on every task it fits, made with the learner's kind of
+actions (`Learner.actions`)."""
 MISFITS = [(learner, task) for learner, task in itertools.product(learners.LEARNER_NAMES, tasks.TASK_NAMES)
            if (learner, task) not in PAIRS]
 
@@ -29,7 +30,8 @@ def config_of(learner, task, **settings) -> RunConfig:
     definition = tasks.definition(*tasks.split_name(task))
     limit = min(300, definition.step_limit) * definition.control_timestep
     return RunConfig(task=task, learner=learner, plant="analytic", agents=3, episodes=3, seed=5,
-                     task_options={"time_limit": limit}, **settings)
+                     task_options={"time_limit": limit},
+                     actions=learners.learner(learner).actions, **settings)
 
 
 def assert_same_results(a, b):
@@ -65,7 +67,7 @@ def test_every_run_path_gives_the_same_numbers(learner, task):
     chunks changes none either: `tests/test_population.py`)."""
     config = config_of(learner, task)
     domain, name = tasks.split_name(task)
-    options = config.task_options
+    options = {**config.task_options, "actions": config.actions}
     batched_agent = make_agent(config)
     if learners.learner(learner).population:
         with pytest.raises(ValueError, match="one JAX program"):
@@ -109,7 +111,7 @@ def test_the_arrays_the_loops_read(learner, task):
     config = config_of(learner, task)
     agent, _ = run(config)
     arrays = agent.arrays
-    actions = tasks.definition(*tasks.split_name(task)).num_actions
+    actions = config.task_info.num_actions or 1  # continuous: one output, the action
     assert arrays.q.shape == (3, actions) and arrays.delta.shape == (3,)
     assert arrays.diverged.shape == (3,) and arrays.diverged.dtype == bool
     assert arrays.weights.shape[0] == 3 and np.all(np.isfinite(arrays.weights))

@@ -37,7 +37,11 @@ def build(agent_path, out_dir: str, agent_index: int = 0, compiler=None) -> str:
 
 class CController:
     """B copies of one C controller (`lwrl_act`), acting greedily on B observations: the
-    interface of `Agents` that the stepped loop uses (`step`, `diverged`, `batch_size`)."""
+    interface of `Agents` that the stepped loop uses (`step`, `diverged`, `batch_size`,
+    `continuous`)."""
+
+    continuous = False
+    """It returns an action's index (`lwrl_act`'s int)."""
 
     def __init__(self, library: str, batch_size: int):
         self._act = ctypes.CDLL(os.path.abspath(library)).lwrl_act
