@@ -61,6 +61,12 @@ class EpisodeRecording:
         return len(self.actions)
 
     @property
+    def continuous(self) -> bool:
+        """True where the actions are continuous, numbers in [-1, 1] (`controls` the
+        actuator's range, `q_values` `(T + 1, 1)` the actor's mean)."""
+        return np.asarray(self.actions).dtype.kind == "f"
+
+    @property
     def returns(self) -> np.ndarray:
         """`(T,)` the return so far after each step."""
         return np.cumsum(self.rewards)

@@ -105,3 +105,27 @@ def test_lwrl_train_takes_the_kind_of_action(tmp_path, capsys):
     assert main(["train", TASK, "--learner", "actor_critic", "--agents", "2"]) == 2
     error = capsys.readouterr().err.strip().splitlines()
     assert len(error) == 1 and "--action-kind continuous" in error[0]
+
+
+def test_a_continuous_episode_goes_to_rerun_with_its_policy_over_the_plane(tmp_path):
+    """The timelines take the action in [-1, 1] and the torque it commands, Q's plot the
+    actor's mean; the value images the critic's V and, where a discrete learner's greedy
+    action is, the actor's mean over the state plane."""
+    from lwrl.viz import rerun as viz
+    from lwrl.viz.value import value_grid
+
+    config = RunConfig(task=TASK, learner="actor_critic", actions="continuous",
+                       plant="analytic", agents=1, episodes=2, seed=3,
+                       task_options={"time_limit": 4.0})
+    agents, results = run(config, record=[(0, 1)])
+    recording, = results.recordings
+    rec = viz.open_recording("lwrl-test", rrd_path=tmp_path / "run.rrd")
+    paths = viz.log_episode(rec, recording, value_ranges=agents.value_box())
+    images = viz.log_value_function(rec, TASK, agents, recording.weights, recording.episode)
+    viz.close_recording(rec)
+    assert {"action", "control", "q"} <= set(paths) and (tmp_path / "run.rrd").stat().st_size
+    grid = value_grid(TASK, *agents.value_box())
+    np.testing.assert_allclose(images["greedy"],
+                               np.clip(agents.policy_means(grid.states(), recording.weights), -1, 1))
+    np.testing.assert_allclose(images["max_q"], agents.state_values(grid.states(), recording.weights))
+    assert np.ptp(images["greedy"]) > 0

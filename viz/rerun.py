@@ -175,7 +175,7 @@ def recording_checks(recording) -> None:
     dim = len(recording.state_names)
     expected = {"states": (steps + 1, dim), "observations": (steps + 1, dim),
                 "rewards": (steps,), "td_errors": (steps,), "uptime": (steps,),
-                "q_values": (steps + 1, len(recording.controls))}
+                "q_values": (steps + 1, 1 if recording.continuous else len(recording.controls))}
     for field, shape in expected.items():
         actual = np.shape(getattr(recording, field))
         if actual != shape:

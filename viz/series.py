@@ -12,6 +12,7 @@ import warnings
 import numpy as np
 import rerun as rr
 
+from lwrl.runners.commands import commands
 from lwrl.viz import names
 from lwrl.viz.columns import episode_indexes, log_static, send
 
@@ -55,8 +56,10 @@ def signal_paths(recording) -> dict[str, str]:
 
 
 def log_signals(rec: rr.RecordingStream, recording) -> dict[str, str]:
-    """Send an `EpisodeRecording`'s scalars: states and Q at steps 0..T; action and control at
-    0..T-1 (the action taken in state t); reward, return, TD error and up-time at 1..T. Returns
+    """Send an `EpisodeRecording`'s scalars: states and Q (a continuous learner's: its
+    actor's mean) at steps 0..T; action and control at 0..T-1 (the action taken in state t,
+    and the force, torque or thrust it commands); reward, return, TD error and up-time at
+    1..T. Returns
     `signal_paths(recording)`. Only Q gets a static style (its series' names): each other
     series takes its entity's name, and the blueprint draws action and control as steps."""
     paths = signal_paths(recording)
@@ -66,15 +69,23 @@ def log_signals(rec: rr.RecordingStream, recording) -> dict[str, str]:
     states_at, actions_at, after = (episode_indexes(at, recording.timestep, recording.episode)
                                     for at in (np.arange(steps + 1), np.arange(steps),
                                                np.arange(1, steps + 1)))
-    actions = np.asarray(recording.actions, dtype=np.int64)
     for j, name in enumerate(recording.state_names):
         _send_scalars(rec, paths[f"state/{name}"], states_at, recording.states[:, j])
+    if recording.continuous:  # an action in [-1, 1], its command in the actuator's range
+        actions = np.asarray(recording.actions, dtype=np.float64)
+        controls = commands(np.broadcast_to(recording.controls, (steps, 2)), actions)
+        q_labels = [f"mu(s) {run}"]
+    else:
+        actions = np.asarray(recording.actions, dtype=np.int64)
+        controls = np.asarray(recording.controls)[actions]
+        q_labels = [f"Q(s, {a}) {run}" for a in action_labels(recording.controls)]
     _send_scalars(rec, paths["action"], actions_at, actions)
-    _send_scalars(rec, paths["control"], actions_at, np.asarray(recording.controls)[actions])
+    _send_scalars(rec, paths["control"], actions_at, controls)
     _send_scalars(rec, paths["reward"], after, recording.rewards)
     _send_scalars(rec, paths["return"], after, recording.returns)
-    # The series are named by their entity's leaf (agent<b>_ep<k>); Q's one per action.
-    _style(rec, paths["q"], [f"Q(s, {a}) {run}" for a in action_labels(recording.controls)])
+    # The series are named by their entity's leaf (agent<b>_ep<k>); Q's one per action (a
+    # continuous learner's: the actor's mean).
+    _style(rec, paths["q"], q_labels)
     _send_scalars(rec, paths["q"], states_at, np.asarray(recording.q_values, dtype=np.float64))
     if "td_error" in paths:
         _send_scalars(rec, paths["td_error"], after, recording.td_errors)

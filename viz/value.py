@@ -130,6 +130,16 @@ def viridis(values, low: float, high: float) -> np.ndarray:
     return np.round(rgb).astype(np.uint8)
 
 
+def signed_colors(values) -> np.ndarray:
+    """`values` in [-1, 1] as uint8 RGB: -1 the negative action's colour, 0 the zero
+    action's grey, +1 the positive action's, linear between (`action_colors`)."""
+    values = np.clip(np.asarray(values, dtype=np.float64), -1.0, 1.0)[..., None]
+    zero, negative, positive = (np.array(c, dtype=np.float64)
+                                for c in (ZERO_COLOR, NEGATIVE_COLOR, POSITIVE_COLOR))
+    rgb = np.where(values < 0, zero + (negative - zero) * -values, zero + (positive - zero) * values)
+    return np.round(rgb).astype(np.uint8)
+
+
 def greedy_classes(q) -> np.ndarray:
     """`(..., )` uint8: greedy action + 1, or 0 where several actions share the maximum."""
     q = np.asarray(q)
@@ -175,22 +185,33 @@ def log_value_function(rec: rr.RecordingStream, task: str, agents, weights, epis
                        size: int = GRID) -> dict:
     """Log the state value, the greedy action and the feature points of one agent of
     `agents` (any learner's `Agents`) with `weights` (its `arrays.weights[b]`, e.g. a
-    recording's) over the task's grid on the learner's value box, at `episode`. Returns
-    `{"max_q": (h, w) values, "greedy": (h, w) classes, "centroids": (n, 2) pixels or None}`;
-    a `NoValues` error where the learner has no values to show."""
+    recording's) over the task's grid on the learner's value box, at `episode`; for a
+    learner of continuous actions, in place of the greedy action, its actor's mean
+    (`policy_means`, in [-1, 1]) shaded from the negative action's colour through grey to
+    the positive one's (`signed_colors`). Returns `{"max_q": (h, w) values, "greedy": (h, w)
+    classes or means, "centroids": (n, 2) pixels or None}`; a `NoValues` error where the
+    learner has no values to show."""
     low, high = agents.value_box()
     grid = value_grid(task, low, high, size)
-    values, preferences = values_on_grid(grid, agents, weights)
-    low, high = float(values.min()), float(values.max())
-    classes = greedy_classes(preferences)
-    controls = names.task_definition(task).controls
-    if len(controls) != preferences.shape[-1]:
-        raise ValueError(f"weights have {preferences.shape[-1]} actions; {task} has {len(controls)}")
     times = _times(episode)
+    if agents.continuous:
+        values = grid.image(agents.state_values_on_grid(grid.axes_values(), weights))
+        classes = np.clip(agents.policy_means(grid.states(), weights), -1.0, 1.0)
+        send(rec, names.GREEDY_ACTION, times, one_row(rr.Image(signed_colors(classes)))
+             + one_row(rr.AnyValues(policy_mean_min=float(classes.min()),
+                                    policy_mean_max=float(classes.max()))))
+    else:
+        values, preferences = values_on_grid(grid, agents, weights)
+        classes = greedy_classes(preferences)
+        controls = names.task_definition(task).controls
+        if len(controls) != preferences.shape[-1]:
+            raise ValueError(f"weights have {preferences.shape[-1]} actions; {task} has "
+                             f"{len(controls)}")
+        log_static(rec, names.GREEDY_ACTION, greedy_annotations(controls))
+        send(rec, names.GREEDY_ACTION, times, one_row(rr.SegmentationImage(classes)))
+    low, high = float(values.min()), float(values.max())
     send(rec, names.MAX_Q, times, one_row(rr.Image(viridis(values, low, high)))
          + one_row(rr.AnyValues(max_q_min=low, max_q_max=high)))
-    log_static(rec, names.GREEDY_ACTION, greedy_annotations(controls))
-    send(rec, names.GREEDY_ACTION, times, one_row(rr.SegmentationImage(classes)))
     points = plane_points(agents.feature_points(), grid)
     pixels = None
     if points is not None:
