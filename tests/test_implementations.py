@@ -203,9 +203,11 @@ def test_a_time_limit_that_is_no_whole_number_of_steps_is_one_line(capsys, tmp_p
 
 @needs_both
 @pytest.mark.slow
-def test_a_tiny_study_runs_end_to_end_and_resumes(tmp_path, capsys):
-    """1 task, 2 agents, 2 episodes of 30 steps, 100 steps of learning: the runs, the costs,
-    the report and its figures; the same command again computes nothing."""
+def test_a_tiny_study_runs_end_to_end_and_resumes(tmp_path, capsys, monkeypatch):
+    """1 task, 2 agents, 2 episodes of 30 steps, 100 steps of learning, 4 untrained agents
+    at initialisation: the runs, the costs, the report and its figures; the same command
+    again computes nothing."""
+    monkeypatch.setattr(plan, "INIT_AGENTS", 4)
     out = tmp_path / "study"
     argv = ["implementations", "mountain_car.cost_to_go", "--agents", "2", "--episodes", "2",
             "--time-limit", "30", "--timesteps", "100", "--out", str(out)]
