@@ -137,3 +137,15 @@ def test_population_agents_act_greedily_step_by_step_and_learn_only_as_a_program
     assert len(set(map(tuple, values[:, 0].round(6)))) == 3  # three agents, three networks
     one_line_error(lambda: agent.step(np.ones(3, bool), np.zeros(3), np.ones(3), states),
                    "only acts greedily")
+
+
+@JAX
+def test_a_row_whose_agents_have_no_c_controller_is_costed_without_one(tmp_path):
+    """The second benchmark's DQN row runs on `dqn_jax`, whose agents have no C controller:
+    its costs are measured, and `c_controller` says why there are no C sizes."""
+    config = RunConfig(task="mountain_car.cost_to_go", learner="dqn_jax", net_arch="8",
+                       timesteps=200, learning_starts=10, batch_size=4, buffer_size=64,
+                       task_options={"time_limit": 2.0})
+    costs = bench_costs.measure_cell(config, "dqn", str(tmp_path / "c"), quick=True)
+    assert costs["cpu_s_per_learning_step"] > 0 and "c_code_bytes" not in costs
+    assert costs["c_controller"].startswith("none: ") and "no C controller" in costs["c_controller"]

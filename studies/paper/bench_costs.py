@@ -15,7 +15,8 @@
   memory (`Learner.memory`: buffers, target network and optimiser moments included).
 - Peak resident memory of the process (`getrusage`; Python, NumPy, torch and numba's
   compiler, which loads lwrl's kernels, included: the process's, not the learner's alone).
-- For the paper's agent, DQN and PPO: the greedy controller exported as C99
+- For the paper's agent, DQN and PPO where their agents have one (`Agents.controller`; the
+  JAX populations have none: `c_controller` says so): the greedy controller exported as C99
   (`lwrl.export.c`), its code and data bytes at `-Os`, and instructions per decision counted
   by `valgrind --tool=callgrind` over 1000 decisions (`-O2`; counts do not depend on the
   machine's load).
@@ -172,7 +173,12 @@ def measure_cell(config, label: str, c_dir: str | None, quick: bool) -> dict:
              "parameter_bytes": int(agent.arrays.weights[0].nbytes),
              "memory_bytes": int(agent.learner.memory(one.agent, one.task_info))}
     if c_dir is not None:
-        costs.update(_controller(agent, one, c_dir))
+        try:
+            agent.controller(0)
+        except ValueError as reason:  # a row on an implementation without one (dqn_jax)
+            costs["c_controller"] = f"none: {reason}"
+        else:
+            costs.update(_controller(agent, one, c_dir))
     costs["peak_rss_bytes"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     return costs
 
