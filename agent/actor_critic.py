@@ -12,7 +12,7 @@ the NRBF grid of the task's run defaults, or a CMAC):
   rules with one action (`agent.traces`: accumulating, eq. 2, or replacing, eq. 6):
   e <- rule(gamma lambda e, phibar(s)), v <- v + alpha delta e (Sutton 1988's TD(lambda));
 - actor mean mu(s) = sum_i w_i phibar_i(s), in the learner's action units [-1, 1]
-  (`runners.commands`: the loops scale it to the actuator's range); Gaussian exploration,
+  (`tasks.commands`: the loops scale it to the actuator's range); Gaussian exploration,
   the action u = clip(mu(s) + sigma n, -1, 1), n ~ N(0, 1) from the agent's stream;
 - CACLA's actor update (van Hasselt and Wiering 2007, section IV, their eq. 12): where
   delta > 0 the action did better than expected, and the mean moves toward it,

@@ -23,7 +23,7 @@ What a learner gives (`Learner`):
   makes no update and `greedy=True` acts greedily, both without touching the learner's
   settings; `arrays` is the batch's `Agents.arrays`. None for a learner that runs only in
   the stepped loop (its `Agents.step` does the work);
-- `actions`: the kind of action it takes, `discrete` or `continuous` (`runners.commands`:
+- `actions`: the kind of action it takes, `discrete` or `continuous` (`tasks.commands`:
   how the loops turn it into the actuator's command);
 - `fits(task)`: None, or one line saying why the learner does not fit a task (`TaskInfo`);
 - `load(document, arrays)`: agents from a file written by `agent.io.save`;
@@ -119,7 +119,7 @@ class Learner:
     environment (`Domain.tuned_as`); empty: the task's defaults are its own."""
 
     actions: str = "discrete"
-    """The kind of action its step returns (`runners.commands`): `discrete`, an index into
+    """The kind of action its step returns (`tasks.commands`): `discrete`, an index into
     the task's controls; `continuous`, a number in [-1, 1] that the loops scale to the
     actuator's range. It runs the tasks made with that kind (`actions=`)."""
     population: bool = False

@@ -26,12 +26,12 @@ from lwrl import kernels, tasks
 from lwrl.kernels import copy_into
 from lwrl.agent.learner_contract import Agents
 from lwrl.agent.threads import run_in_chunks
-from lwrl.runners.commands import COMMANDS, check_kinds, episode_controls
 from lwrl.runners.episodes import EpisodeResults, episode_starts, finish_episode, step_budget
 from lwrl.runners.recording import (make_tape, record_end, record_state, record_transition,
                                     recordings)
 from lwrl.settings import check_count
 from lwrl.tasks.task_definition import advance_episode
+from lwrl.tasks.commands import COMMANDS, check_kinds, episode_controls
 from lwrl.tasks.disturbances import Disturbances, applied_control, noisy_observation
 from lwrl.tasks.engine import close_workspace, engine_plant, open_workspace, step_model_state
 from lwrl.tasks.randomisation import check_ranges, draws
@@ -66,7 +66,7 @@ def agent_step(b, first, reward, discount, observation, learn, greedy, arrays):
 
 
 def command(controls, action):
-    """The command of the learner's kind of action (`runners.commands.COMMANDS`), bound by
+    """The command of the learner's kind of action (`tasks.commands.COMMANDS`), bound by
     each kernel."""
     raise NotImplementedError("the compiled loop's kernel binds each learner's command")
 
@@ -132,7 +132,7 @@ def _loop(start, stop, first, count, starts, start_observations, controls, dt, p
     `dt`: seconds of up-time per step up. Agent b's episode k has the controls
     `controls[b, k]` `(A,)`, the parameter values `physical[b, k]` `(P,)` and the MuJoCo
     model at `models[b, k]` (continuous actions: `controls[b, k]` is the actuator's range,
-    `runners.commands`); its sensors and actuator have the options `sigma_observation[b]`,
+    `tasks.commands`); its sensors and actuator have the options `sigma_observation[b]`,
     `delays[b]`, `sigma_action[b]` and the stream `keys[b]` (`tasks.disturbances`); it
     works in `scratch` (`Scratch`)."""
     workspace = open_plant(plant)

@@ -22,9 +22,9 @@ import json
 
 from lwrl import agent, tasks
 from lwrl.agent.learner_contract import LearnerSettings, TaskInfo
-from lwrl.runners.commands import check_kinds
 from lwrl.settings import (LATE, SCALARS, WHEN_SET, base_type, check_choices, check_count,
                            default_of, fill, setting)
+from lwrl.tasks.commands import check_kinds
 from lwrl.tasks import disturbances
 from lwrl.tasks.integrators import INTEGRATORS
 from lwrl.tasks.randomisation import check_ranges

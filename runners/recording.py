@@ -41,7 +41,7 @@ class EpisodeRecording:
     observations: np.ndarray
     """`(T + 1, d)` what the agent saw (the pendulum's angle wrapped)."""
     actions: np.ndarray
-    """`(T,)` action indices, or continuous actions in [-1, 1] (`runners.commands`); action
+    """`(T,)` action indices, or continuous actions in [-1, 1] (`tasks.commands`); action
     t moves `states[t]` to `states[t + 1]`."""
     rewards: np.ndarray
     """`(T,)` reward on entering `states[t + 1]`."""

@@ -6,11 +6,11 @@ same bookkeeping (`runners.episodes.finish_episode`, `runners.recording`) and nu
 import numpy as np
 
 from lwrl.agent.learner_contract import Agents
-from lwrl.runners.commands import check_kinds, commands
 from lwrl.runners.episodes import EpisodeResults, finish_episode, step_budget
 from lwrl.runners.recording import (make_tape, record_end, record_state, record_transition,
                                     recordings)
 from lwrl.settings import check_count
+from lwrl.tasks.commands import check_kinds, commands
 from lwrl.tasks.batched import BatchedEnv, SteppedEnvs
 
 

@@ -1,11 +1,11 @@
 """The continuous actor-critic (`agent.actor_critic`, CACLA over the NRBF features) and the
-continuous actions of the run loops (`runners.commands`)."""
+continuous actions of the run loops (`tasks.commands`)."""
 
 import numpy as np
 import pytest
 
 from lwrl.agent.actor_critic import ACTOR, CRITIC
-from lwrl.runners.commands import commands, continuous_command
+from lwrl.tasks.commands import commands, continuous_command
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent, run
 

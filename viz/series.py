@@ -12,7 +12,7 @@ import warnings
 import numpy as np
 import rerun as rr
 
-from lwrl.runners.commands import commands
+from lwrl.tasks.commands import commands
 from lwrl.viz import names
 from lwrl.viz.columns import episode_indexes, log_static, send
 
