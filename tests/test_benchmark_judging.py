@@ -76,6 +76,24 @@ def test_the_compute_counts_the_first_evaluation_that_reaches_the_level():
     compute = judging.compute(scores, "paper", BUDGET, 2e-3)
     assert (compute.reached, compute.agents) == (2, 3)
     assert np.isclose(compute.cpu_s.value, np.mean([0.2, 0.5, 2.0]))
+    assert compute.macs is None
+    amortised = judging.compute(scores, "paper", BUDGET, macs_per_step=lambda steps: 10 + 1000 / steps)
+    assert np.isclose(amortised.macs.value, np.mean([10 * 100 + 1000, 10 * 250 + 1000, 10 * 1000 + 1000]))
+
+
+def test_the_multiply_adds_of_a_row_are_its_learners_counts():
+    """A row's counted multiply-adds per step are its learner's (`Learner.arithmetic`, over
+    the steps of its run); none for the CMAC, which the counts do not cover."""
+    from lwrl import agent
+    from lwrl.runners.config import RunConfig
+    from lwrl.studies.paper.benchmark import report
+
+    config = RunConfig(task="mountain_car.cost_to_go")
+    per_step = report.macs_per_step(config)
+    counts = agent.learner("sarsa").arithmetic(config.agent, config.task_info, 500)
+    assert per_step(500) == counts.step.macs > 0
+    assert report.macs_per_step(RunConfig(task="mountain_car.cost_to_go", features="cmac")) is None
+    assert report.macs_per_step(None) is None
 
 
 def test_the_report_judges_every_task_with_holm_across_them_and_aggregates(tmp_path):

@@ -39,6 +39,9 @@ class Compute:
     """None where the row's CPU per learning step was not measured."""
     reached: int
     agents: int
+    macs: statistics.Estimate | None = None
+    """The counted multiply-adds until then (`Learner.arithmetic`); None where the row's
+    learner does not count them."""
 
 
 def steps_to_level(scores: dict, label: str, budget: int, level: float = protocol.LEVEL):
@@ -53,12 +56,18 @@ def steps_to_level(scores: dict, label: str, budget: int, level: float = protoco
     return steps, reached
 
 
-def compute(scores: dict, label: str, budget: int, cpu_s_per_step=None) -> Compute:
-    """`Compute` of `label` (see `steps_to_level`), in CPU seconds where `cpu_s_per_step`."""
+def compute(scores: dict, label: str, budget: int, cpu_s_per_step=None,
+            macs_per_step=None) -> Compute:
+    """`Compute` of `label` (see `steps_to_level`), in CPU seconds where `cpu_s_per_step`,
+    and in multiply-adds where `macs_per_step(steps)` gives the row's counted multiply-adds
+    per agent-step of a run of that many steps of learning (its updates amortised over
+    them, `Learner.arithmetic`)."""
     steps, reached = steps_to_level(scores, label, budget)
     seconds = (statistics.mean_interval(steps * cpu_s_per_step)
                if cpu_s_per_step is not None else None)
-    return Compute(statistics.mean_interval(steps), seconds, int(reached.sum()), len(steps))
+    macs = (statistics.mean_interval(np.array([macs_per_step(int(n)) * n for n in steps]))
+            if macs_per_step is not None else None)
+    return Compute(statistics.mean_interval(steps), seconds, int(reached.sum()), len(steps), macs)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -11,6 +11,8 @@ import os
 import matplotlib.pyplot as plt
 import numpy as np
 
+from lwrl import agent
+from lwrl.agent.arithmetic import NotCounted
 from lwrl.analysis import statistics, verdicts
 from lwrl.analysis.plots import save_figure
 from lwrl.studies.paper.benchmark import evaluation, judging, protocol, search, study
@@ -44,10 +46,27 @@ def judge(task_runs: list, cpu_s_per_step: dict) -> list:
     for runs in task_runs:
         mine = [c for c in comparisons if c.task == runs.task]
         computes = {label: judging.compute(runs.scores, label, protocol.BUDGETS[runs.task],
-                                           cpu_s_per_step.get((runs.task, label)))
+                                           cpu_s_per_step.get((runs.task, label)),
+                                           macs_per_step(runs.trainings.get((label, 1.0))))
                     for label, fraction in runs.scores if fraction == protocol.FRACTIONS[-1]}
         judged.append(Judged(runs, mine, computes, judging.verdict(mine, runs.scores, computes)))
     return judged
+
+
+def macs_per_step(config):
+    """`steps -> multiply-adds per agent-step` of a row's training `config` (its learner's
+    `arithmetic`, updates amortised over the steps), or None: no configuration (an outside
+    row), a learner without counts, or settings it does not count (CMAC features)."""
+    if config is None:
+        return None
+    learner = agent.learner(config.learner)
+    if learner.arithmetic is None:
+        return None
+    try:
+        learner.arithmetic(config.agent, config.task_info)
+    except NotCounted:
+        return None
+    return lambda steps: learner.arithmetic(config.agent, config.task_info, steps).step.macs
 
 
 def _random_scores(runs) -> np.ndarray:
@@ -110,13 +129,17 @@ def task_section(j: Judged) -> list:
              f"{statistics.mean_interval(runs.references['random']).text(1)}, classical row "
              f"{statistics.mean_interval(runs.references['classical']).text(1)}.", "",
              "| row | " + " | ".join(f"score at {f:g}" for f in protocol.FRACTIONS)
-             + f" | agents reaching {protocol.LEVEL:g} | steps to it | CPU s to it |",
-             "|---|" + "---|" * (len(protocol.FRACTIONS) + 3)]
+             + f" | agents reaching {protocol.LEVEL:g} | steps to it | CPU s to it "
+             "| multiply-adds to it |",
+             "|---|" + "---|" * (len(protocol.FRACTIONS) + 4)]
     for label, compute in j.computes.items():
         cells = [statistics.mean_interval(runs.scores[label, f]).text(2) for f in protocol.FRACTIONS]
         cpu = compute.cpu_s.text(3) if compute.cpu_s else "not measured"
+        macs = (f"{compute.macs.value:.3g} [{compute.macs.low:.3g}, {compute.macs.high:.3g}]"
+                if compute.macs else "not counted")
         lines.append(f"| {label} | " + " | ".join(cells)
-                     + f" | {compute.reached} of {compute.agents} | {compute.steps.text(0)} | {cpu} |")
+                     + f" | {compute.reached} of {compute.agents} | {compute.steps.text(0)} | {cpu} "
+                     f"| {macs} |")
     lines += ["", f"**Verdict: {j.verdict}.**", ""]
     for c in j.comparisons:
         lines.append(f"- against {c.rival}: {c.gate.reason}; P(paper's agent better) "
