@@ -248,15 +248,27 @@ class TaskDefinition:
             return np.full(np.shape(state)[:-1], np.nan)
         return self.control_timestep * self.outcomes(state)[2]
 
-    def check_fits(self, dim: int, num_actions: int, source: str) -> None:
+    def check_fits(self, dim: int, num_actions: int, source: str,
+                   continuous: bool = False) -> None:
         """A one-line ValueError unless agents that observe `dim` variables and choose among
-        `num_actions` actions can run this task: the check for agents read from `source`."""
-        self.check_discrete(source)
-        if dim != len(self.state_names) or num_actions != self.num_actions:
+        `num_actions` actions (or, `continuous`, take continuous actions) can run this task:
+        the check for agents read from `source`."""
+        if not continuous:
+            self.check_discrete(source)
+        elif not self.continuous:
+            raise ValueError(f"{source}: its agents take continuous actions; {self.name} was "
+                             "made with actions='discrete': allowed for them: "
+                             "actions='continuous'")
+        fits = dim == len(self.state_names) and (continuous or num_actions == self.num_actions)
+        if not fits:
+            actions = ("act continuously" if continuous
+                       else f"choose among {num_actions} actions")
+            task_actions = ("continuous actions" if continuous
+                            else f"{self.num_actions} actions")
             raise ValueError(
-                f"{source}: its agents observe {dim} variables and choose among {num_actions} "
-                f"actions, so they were not trained on {self.name} ({len(self.state_names)} "
-                f"variables: {', '.join(self.state_names)}; {self.num_actions} actions)")
+                f"{source}: its agents observe {dim} variables and {actions}, so they were not "
+                f"trained on {self.name} ({len(self.state_names)} variables: "
+                f"{', '.join(self.state_names)}; {task_actions})")
 
     @property
     def initial_uptime(self) -> float:

@@ -129,3 +129,19 @@ def test_a_continuous_episode_goes_to_rerun_with_its_policy_over_the_plane(tmp_p
                                np.clip(agents.policy_means(grid.states(), recording.weights), -1, 1))
     np.testing.assert_allclose(images["max_q"], agents.state_values(grid.states(), recording.weights))
     assert np.ptp(images["greedy"]) > 0
+
+
+def test_saved_agents_are_evaluated_on_their_kind_of_action(tmp_path, capsys):
+    """`lwrl eval` runs saved continuous agents on the task made with continuous actions,
+    and a discrete task refuses them in one line."""
+    from lwrl import tasks
+    from lwrl.cli.main import main
+
+    saved = tmp_path / "agents.npz"
+    assert main(["train", TASK, "--action-kind", "continuous", "--learner", "actor_critic",
+                 "--agents", "2", "--episodes", "1", "--save", str(saved)]) == 0
+    assert main(["eval", str(saved), "--episodes", "1"]) == 0
+    agents = make_agent(RunConfig(task=TASK, learner="actor_critic", actions="continuous"))
+    with pytest.raises(ValueError) as error:
+        tasks.definition("pendulum", "swingup").check_fits(2, 1, "agents.npz", agents.continuous)
+    assert "\n" not in str(error.value) and "actions='continuous'" in str(error.value)
