@@ -33,10 +33,18 @@ MAGIC from the byte after the bad frame's start: one corrupted frame costs that 
 never the stream. A frame cut short waits for its missing bytes; the host's timeout, not
 the reader, decides when they are not coming; a length that no frame of its kind has is
 refused at once.
+
+The device's side is C99 with static memory only, `lwrl_link.h` and `lwrl_link.c`
+(`write_c` copies them out; package data under `templates/link/`): the same layout, a
+reader fed one byte at a time that takes observations of at most `LWRL_LINK_MAX_DIM`
+variables (8 unless defined otherwise), and the action frames. Where resynchronising leaves
+a whole frame behind the refused one, the C reader gives it with the next byte.
 """
 
 import dataclasses
+import os
 import struct
+from importlib import resources
 
 MAGIC = 0xA5
 VERSION = 1
@@ -194,3 +202,20 @@ class FrameReader:
             self.errors.append(f"skipped {count} byte{'s' if count != 1 else ''}: {why}")
             self.skipped += count
             del self.buffer[:count]
+
+
+C_FILES = ("lwrl_link.h", "lwrl_link.c")
+"""The device's side of the link (the module's docstring)."""
+
+
+def write_c(out_dir) -> list:
+    """Copy the device's side of the link (`C_FILES`) into `out_dir` (created if needed);
+    the paths written."""
+    os.makedirs(out_dir, exist_ok=True)
+    paths = []
+    for name in C_FILES:
+        path = os.path.join(out_dir, name)
+        with open(path, "w") as file:
+            file.write(resources.files(__package__).joinpath("templates", "link", name).read_text())
+        paths.append(path)
+    return paths
