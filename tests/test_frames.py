@@ -140,6 +140,7 @@ int main(void)
         length = observation.dim ? lwrl_link_action_value(observation.step, observation.observation[0], frame)
                                  : lwrl_link_action_index(observation.step, observation.flags, frame);
         fwrite(frame, 1, (size_t)length, stdout);
+        fflush(stdout);
     }
     fprintf(stderr, "%lu\n", (unsigned long)reader.skipped);
     return 0;
