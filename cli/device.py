@@ -2,6 +2,12 @@
 
     lwrl device run DOMAIN.TASK [--episodes K] [--seed S] [--real R]
     lwrl device costs DOMAIN.TASK... [--real R] [--mhz F]
+    lwrl device hil DOMAIN.TASK [--plant P] [--episodes K] [--seed S] [--env-seed E]
+
+`hil` puts the learner in the loop over the device link (docs/guide/device-link.md): the
+host steps the task's plant (MuJoCo's where the task has it), the C learner, built for this
+machine and talking over its standard input and output, acts; it prints each episode and
+what the link carried.
 
 `run` builds the task's learner with its plant in C for the host and for a bare-metal
 Cortex-M4, runs both (the M4 under qemu-system-arm, mps2-an386) and prints the steps per
@@ -32,6 +38,19 @@ def add_parser(commands) -> None:
     costs.add_argument("--mhz", type=fields.finite_number, default=168.0,
                        help="clock of the time estimate (default 168, the STM32F405's)")
     costs.set_defaults(run=measure_costs)
+    hil = actions.add_parser("hil", help="the learner in the loop over the device link, the "
+                                         "host stepping the plant")
+    hil.add_argument("task", metavar="DOMAIN.TASK")
+    hil.add_argument("--plant", help="the plant the host steps (default: the domain's first, "
+                                     "MuJoCo where the task has it)")
+    hil.add_argument("--episodes", type=fields.positive_int, default=5)
+    hil.add_argument("--seed", type=fields.non_negative_int, default=0, help="the agent's seed")
+    hil.add_argument("--env-seed", type=fields.non_negative_int, default=0,
+                     help="the plant's seed (its episodes' starts)")
+    hil.add_argument("--timeout", type=fields.finite_number, default=1.0,
+                     help="seconds an answer may take before the step is a missed deadline "
+                          "(default 1)")
+    hil.set_defaults(run=run_hil)
 
 
 def run_device(args) -> int:
@@ -70,5 +89,47 @@ def measure_costs(args) -> int:
               f"{result['host_learn']:>9.0f} {result['m4_learn']:>8.0f} {result['host_decide']:>10.0f} "
               f"{result['m4_decide']:>9.0f} {device.estimate_us(result['m4_learn'], args.mhz):>8.1f}"
               f"  {result['summary']}")
+    output.done(started)
+    return 0
+
+
+def run_hil(args) -> int:
+    import subprocess
+    import tempfile
+
+    import numpy as np
+
+    from lwrl import tasks
+    from lwrl.export import hil
+    from lwrl.export.link import HostLink, PipePort
+
+    started = time.perf_counter()
+    domain, name = tasks.split_name(args.task)
+    definition, plant, _ = tasks.resolve(domain, name, args.plant)
+    if not args.timeout > 0:
+        raise ValueError(f"--timeout must be a positive number of seconds; got {args.timeout:g}")
+    with tempfile.TemporaryDirectory() as build:
+        program = hil.build_host_program(args.task, build, seed=args.seed)
+        device_process = subprocess.Popen([program], stdin=subprocess.PIPE, stdout=subprocess.PIPE)
+        try:
+            link = HostLink(PipePort(device_process), args.timeout)
+            session = hil.run_session(link, args.task, args.episodes, args.env_seed, plant)
+        finally:
+            device_process.kill()
+            device_process.wait()
+    print(f"{args.task} on the {plant} plant (seed {args.env_seed}): the C learner (double, "
+          f"agent seed {args.seed}) built for this machine, acting over the device link")
+    print("episode  steps      return  up-time (s)")
+    for k, (steps, total, up) in enumerate(zip(session.steps, session.returns, session.uptime), 1):
+        print(f"{k:>7} {steps:>6} {total:>11.2f} {up:>12.2f}")
+    counts = link.counts
+    trips = np.array(counts.round_trips) * 1e6
+    per_step = (counts.bytes_sent + counts.bytes_received) / max(counts.exchanges, 1)
+    period = definition.control_timestep
+    print(f"link: {counts.exchanges} exchanges, {counts.missed} missed deadlines (the action "
+          f"held), {counts.late} late and {counts.duplicates} duplicated answers; round trip "
+          f"median {np.median(trips):.0f} us, largest {trips.max():.0f} us; {per_step:.0f} bytes "
+          f"a step, {10 * per_step / period:,.0f} baud at one step per {period * 1000:g} ms "
+          "(8N1: 10 bits a byte)")
     output.done(started)
     return 0

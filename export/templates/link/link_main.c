@@ -1,0 +1,41 @@
+/* A device program that learns over the link: the C learner (lwrl_learner.h) answers each
+ * observation frame with its action (lwrl_link.h), reading the stream from standard input
+ * and writing its answers to standard output (a host build; on a board, the UART's bytes).
+ * A frame of the step it answered last (a duplicate) gets that answer again, and teaches
+ * the learner nothing twice. */
+#include <stdio.h>
+
+#include "lwrl_learner.h"
+#include "lwrl_link.h"
+
+int main(void)
+{
+    static lwrl_link_reader reader;
+    static uint8_t answer[LWRL_LINK_ACTION_FRAME];
+    lwrl_link_observation frame;
+    lwrl_real observation[LWRL_STATE_DIM];
+    int c, j, action, length = 0, answered = 0;
+    uint32_t last_step = 0;
+
+    lwrl_reset(LWRL_SEED);
+    lwrl_link_reader_init(&reader);
+    while ((c = getchar()) != EOF) {
+        if (!lwrl_link_feed(&reader, (uint8_t)c, &frame) || frame.dim != LWRL_STATE_DIM)
+            continue;
+        if (!(answered && frame.step == last_step)) {
+            for (j = 0; j < LWRL_STATE_DIM; j++)
+                observation[j] = (lwrl_real)frame.observation[j];
+            if (frame.flags & LWRL_LINK_START)
+                action = lwrl_begin(observation);
+            else
+                action = lwrl_learn(observation, (lwrl_real)frame.reward,
+                                    (frame.flags & LWRL_LINK_TERMINAL) != 0);
+            length = lwrl_link_action_index(frame.step, action, answer);
+            last_step = frame.step;
+            answered = 1;
+        }
+        fwrite(answer, 1, (size_t)length, stdout);
+        fflush(stdout);
+    }
+    return 0;
+}
