@@ -3,11 +3,12 @@
     lwrl device run DOMAIN.TASK [--episodes K] [--seed S] [--real R]
     lwrl device costs DOMAIN.TASK... [--real R] [--mhz F]
     lwrl device hil DOMAIN.TASK [--plant P] [--episodes K] [--seed S] [--env-seed E]
+                    [--emulated] [--real R] [--time-limit SECONDS] [--timeout T]
 
 `hil` puts the learner in the loop over the device link (docs/guide/device-link.md): the
-host steps the task's plant (MuJoCo's where the task has it), the C learner, built for this
-machine and talking over its standard input and output, acts; it prints each episode and
-what the link carried.
+host steps the task's plant (MuJoCo's where the task has it), the C learner acts, built for
+this machine or (`--emulated`) on the emulated Cortex-M4 with its UART as the link; it
+prints each episode and what the link carried.
 
 `run` builds the task's learner with its plant in C for the host and for a bare-metal
 Cortex-M4, runs both (the M4 under qemu-system-arm, mps2-an386) and prints the steps per
@@ -47,6 +48,14 @@ def add_parser(commands) -> None:
     hil.add_argument("--seed", type=fields.non_negative_int, default=0, help="the agent's seed")
     hil.add_argument("--env-seed", type=fields.non_negative_int, default=0,
                      help="the plant's seed (its episodes' starts)")
+    hil.add_argument("--emulated", action="store_true",
+                     help="the learner on the emulated Cortex-M4 (QEMU's mps2-an386, its UART "
+                          "the link) rather than built for this machine")
+    hil.add_argument("--real", choices=("float", "double"), default=None,
+                     help="the learner's arithmetic (default: float on the emulated board, "
+                          "double on this machine)")
+    hil.add_argument("--time-limit", type=fields.finite_number, default=None, metavar="SECONDS",
+                     help="episodes cut at this many seconds of the plant (default: the task's)")
     hil.add_argument("--timeout", type=fields.finite_number, default=1.0,
                      help="seconds an answer may take before the step is a missed deadline "
                           "(default 1)")
@@ -108,17 +117,26 @@ def run_hil(args) -> int:
     definition, plant, _ = tasks.resolve(domain, name, args.plant)
     if not args.timeout > 0:
         raise ValueError(f"--timeout must be a positive number of seconds; got {args.timeout:g}")
+    args.real = args.real or ("float" if args.emulated else "double")
     with tempfile.TemporaryDirectory() as build:
-        program = hil.build_host_program(args.task, build, seed=args.seed)
-        device_process = subprocess.Popen([program], stdin=subprocess.PIPE, stdout=subprocess.PIPE)
+        if args.emulated:
+            command = hil.build_emulated_program(args.task, build, seed=args.seed, dtype=args.real)
+        else:
+            command = hil.build_host_program(args.task, build, seed=args.seed, dtype=args.real)
+        device_process = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                          stderr=subprocess.DEVNULL)
         try:
             link = HostLink(PipePort(device_process), args.timeout)
-            session = hil.run_session(link, args.task, args.episodes, args.env_seed, plant)
+            options = {} if args.time_limit is None else {"time_limit": args.time_limit}
+            session = hil.run_session(link, args.task, args.episodes, args.env_seed, plant,
+                                      **options)
         finally:
             device_process.kill()
             device_process.wait()
-    print(f"{args.task} on the {plant} plant (seed {args.env_seed}): the C learner (double, "
-          f"agent seed {args.seed}) built for this machine, acting over the device link")
+    where = (f"on the emulated Cortex-M4 ({device.BOARD}, its UART the link)" if args.emulated
+             else "built for this machine")
+    print(f"{args.task} on the {plant} plant (seed {args.env_seed}): the C learner ({args.real}, "
+          f"agent seed {args.seed}) {where}, acting over the device link")
     print("episode  steps      return  up-time (s)")
     for k, (steps, total, up) in enumerate(zip(session.steps, session.returns, session.uptime), 1):
         print(f"{k:>7} {steps:>6} {total:>11.2f} {up:>12.2f}")

@@ -55,14 +55,16 @@ class HostLink:
         self._answered: set = set()
         self._frames: list = []
 
-    def exchange(self, observation: Observation) -> Action | None:
-        """Send `observation`; its answer, or None at the deadline (see the module)."""
+    def exchange(self, observation: Observation, timeout: float | None = None) -> Action | None:
+        """Send `observation`; its answer, or None at the deadline, `timeout` seconds (the
+        link's unless given: a device that is still starting up) after sending (see the
+        module)."""
         data = observation.frame().encode()
         sent = time.monotonic()
         self.port.write(data)
         self.counts.exchanges += 1
         self.counts.bytes_sent += len(data)
-        deadline = sent + self.timeout
+        deadline = sent + (self.timeout if timeout is None else timeout)
         while True:
             answer = self._take(observation.step)
             if answer is not None:

@@ -20,8 +20,8 @@ def test_the_device_learns_over_the_link_what_lwrl_learns(task, plant, episodes,
     """The same agent (seed 3) on the same episodes (environment seed 11): every episode's
     steps, return and up-time equal lwrl's learner's in its own loop (`run_dm_env`); no
     deadline was missed and every byte is counted."""
-    program = build_host_program(task, tmp_path, seed=3)
-    device = subprocess.Popen([program], stdin=subprocess.PIPE, stdout=subprocess.PIPE)
+    command = build_host_program(task, tmp_path, seed=3)
+    device = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE)
     try:
         link = HostLink(PipePort(device), timeout=5.0)
         session = run_session(link, task, episodes, seed=11, plant=plant)
@@ -45,8 +45,8 @@ def test_duplicated_observations_teach_the_device_nothing_twice(tmp_path):
     from tests.test_link import FaultyPort
 
     task = "mountain_car.cost_to_go"
-    program = build_host_program(task, tmp_path, seed=3)
-    device = subprocess.Popen([program], stdin=subprocess.PIPE, stdout=subprocess.PIPE)
+    command = build_host_program(task, tmp_path, seed=3)
+    device = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE)
     try:
         port = FaultyPort(PipePort(device), {step: "duplicate" for step in (0, 5, 77)})
         link = HostLink(port, timeout=5.0)
@@ -71,3 +71,36 @@ def test_lwrl_device_hil_prints_the_episodes_and_the_link(capsys):
     assert main(["device", "hil", "mountain_car.cost_to_go", "--timeout", "0"]) == 2
     error = capsys.readouterr().err.strip().splitlines()
     assert len(error) == 1 and "--timeout must be a positive number" in error[0]
+
+
+@pytest.mark.skipif(bool(__import__("lwrl.export.device", fromlist=["missing_tools"]).missing_tools()),
+                    reason="needs gcc-arm-none-eabi, libnewlib-arm-none-eabi and qemu-system-arm")
+@pytest.mark.parametrize("task, plant, options", [
+    ("mountain_car.cost_to_go", "analytic", {}),
+    ("pendulum.swingup", "mujoco", {"time_limit": 4.0})])
+def test_the_emulated_board_learns_over_its_uart_what_the_host_build_learns(task, plant,
+                                                                              options, tmp_path):
+    """The float learner on the emulated Cortex-M4, its UART the link, against the same
+    program built for the host, on the analytic Mountain-Car and on MuJoCo's pendulum (4-s
+    episodes: the emulated UART takes about 10 ms a round trip): the same steps, returns
+    and up-times in every episode (the device's expf is newlib's, the host's glibc's; they
+    agree on these episodes)."""
+    from lwrl.export.hil import build_emulated_program
+
+    sessions = []
+    for build, target in ((tmp_path / "host", build_host_program),
+                          (tmp_path / "m4", build_emulated_program)):
+        build.mkdir()
+        device = subprocess.Popen(target(task, build, seed=3, dtype="float"),
+                                  stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                  stderr=subprocess.DEVNULL)
+        try:
+            link = HostLink(PipePort(device), timeout=5.0)
+            sessions.append(run_session(link, task, 2, seed=11, plant=plant, **options))
+        finally:
+            device.kill()
+            device.wait()
+        assert link.counts.missed == 0 and link.counts.late == 0
+    host, emulated = sessions
+    assert emulated.steps == host.steps and emulated.returns == host.returns
+    np.testing.assert_array_equal(emulated.uptime, host.uptime)

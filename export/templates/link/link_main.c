@@ -1,14 +1,13 @@
 /* A device program that learns over the link: the C learner (lwrl_learner.h) answers each
- * observation frame with its action (lwrl_link.h), reading the stream from standard input
- * and writing its answers to standard output (a host build; on a board, the UART's bytes).
- * A frame of the step it answered last (a duplicate) gets that answer again, and teaches
- * the learner nothing twice. */
-#include <stdio.h>
-
+ * observation frame with its action (lwrl_link.h), the stream's bytes coming and going
+ * through link_io.h (standard input and output on the host, link_io_host.c; the UART on
+ * the emulated Cortex-M4, link_io_uart.c). A frame of the step it answered last (a
+ * duplicate) gets that answer again, and teaches the learner nothing twice. */
+#include "link_io.h"
 #include "lwrl_learner.h"
 #include "lwrl_link.h"
 
-int main(void)
+int lwrl_link_main(void)
 {
     static lwrl_link_reader reader;
     static uint8_t answer[LWRL_LINK_ACTION_FRAME];
@@ -19,7 +18,7 @@ int main(void)
 
     lwrl_reset(LWRL_SEED);
     lwrl_link_reader_init(&reader);
-    while ((c = getchar()) != EOF) {
+    while ((c = lwrl_link_getc()) >= 0) {
         if (!lwrl_link_feed(&reader, (uint8_t)c, &frame) || frame.dim != LWRL_STATE_DIM)
             continue;
         if (!(answered && frame.step == last_step)) {
@@ -34,8 +33,7 @@ int main(void)
             last_step = frame.step;
             answered = 1;
         }
-        fwrite(answer, 1, (size_t)length, stdout);
-        fflush(stdout);
+        lwrl_link_write(answer, length);
     }
     return 0;
 }
