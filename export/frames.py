@@ -159,7 +159,7 @@ def fits(kind: int, length: int) -> bool:
 class FrameReader:
     """Whole frames out of a byte stream fed in pieces (the module's docstring)."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.buffer = bytearray()
         self.errors: list[str] = []
         """One line per byte run skipped or frame refused, in order."""
