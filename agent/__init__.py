@@ -17,8 +17,8 @@ import warnings
 
 from lwrl.agent.learner_contract import Learner
 
-LEARNER_MODULES = ("sarsa", "true_online_sarsa", "ase_ace", "actor_critic", "dqn", "ppo", "ppo_jax",
-                   "dqn_jax")
+LEARNER_MODULES = ("sarsa", "true_online_sarsa", "ase_ace", "actor_critic", "dqn", "ppo", "sac", "td3",
+                   "ppo_jax", "dqn_jax")
 """lwrl's own learners: the modules of `agent/` that each define one learner, the default
 first."""
 

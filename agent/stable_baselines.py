@@ -1,5 +1,6 @@
-"""What lwrl's Stable-Baselines3 learners (`agent.dqn`, `agent.ppo`) share: B independent SB3
-models stepped by lwrl's loop, one time step at a time, through SB3's own components.
+"""What lwrl's Stable-Baselines3 learners (`agent.dqn`, `agent.ppo`, and through
+`agent.off_policy` `agent.sac` and `agent.td3`) share: B independent SB3 models stepped by
+lwrl's loop, one time step at a time, through SB3's own components.
 
 Raffin et al. (2021), "Stable-Baselines3: reliable reinforcement learning implementations",
 JMLR 22(268). PyTorch and Stable-Baselines3 are optional (the `baselines` extra: `pip install
@@ -7,11 +8,11 @@ JMLR 22(268). PyTorch and Stable-Baselines3 are optional (the `baselines` extra:
 the settings (the command line's flags) are there without them, and a run says in one line
 what to install.
 
-Each of the B agents is an SB3 model of its own (`DQN`, `PPO`) built with the agent's seed,
-as `DQN(..., seed=s)` builds it: SB3 seeds NumPy's global generator, PyTorch's and the action
-space from s and draws the networks' initial weights from them. SB3 draws its random numbers
-from those global generators (exploration, replay sampling, minibatch order, the policy's
-samples), so every agent keeps its own copies (`RandomStates`) and they are swapped in
+Each of the B agents is an SB3 model of its own (`DQN`, `PPO`, `SAC`, `TD3`) built with the
+agent's seed, as `DQN(..., seed=s)` builds it: SB3 seeds NumPy's global generator, PyTorch's
+and the action space from s and draws the networks' initial weights from them. SB3 draws its
+random numbers from those global generators (exploration, replay sampling, minibatch order, the
+policy's samples), so every agent keeps its own copies (`RandomStates`) and they are swapped in
 around each use: an agent's numbers depend on its own seed only, not on the batch it runs in.
 The model is set up as `learn(total_timesteps=timesteps)` sets it up (`_setup_learn`: the
 schedules' horizon, the logger); lwrl's loop then plays the part of SB3's `collect_rollouts`,
@@ -22,8 +23,8 @@ The learner's test replays `learn()` to the bit on the same environment and seed
 One thing lwrl's loop does not say at the time: whether an observation with discount 1 is the
 last of its episode (a truncation). It learns that at the next call, which starts an episode.
 Then (as SB3's loop, which knows it at once, would have done) the agent gives back the random
-draws it made choosing an action that is never taken, and marks the transition a time-out
-(DQN: `timeouts` in the replay buffer, `handle_timeout_termination`; PPO: the reward takes
+draws it made choosing an action that is never taken, and marks the transition a time-out (DQN,
+SAC, TD3: `timeouts` in the replay buffer, `handle_timeout_termination`; PPO: the reward takes
 gamma V(s_T), SB3's bootstrapping from a truncated state). Every target or advantage SB3
 computes before that mark is the same with or without it (a DQN target bootstraps from a
 time-out as from a non-terminal state; a rollout's last advantage is r + gamma V(s_T) - V
@@ -87,8 +88,8 @@ def check_layers(text) -> tuple:
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
-class ModelSettings(LearnerSettings):
-    """What both SB3 learners take: the learning horizon, the network and the optimiser's
+class NetworkSettings(LearnerSettings):
+    """What every SB3 learner takes: the learning horizon, the network and the optimiser's
     step size (SB3's names; defaults: SB3's, which rl-baselines3-zoo keeps for a task it
     has not tuned)."""
 
@@ -103,8 +104,6 @@ class ModelSettings(LearnerSettings):
     """`constant`, or `linear` to 0 over `timesteps` (rl-baselines3-zoo's `lin_`)."""
     gamma: float = setting(0.99, per_agent=True)
     """Discount factor gamma in [0, 1]."""
-    max_grad_norm: float = setting(10.0, per_agent=True)
-    """Gradients are clipped to this norm."""
 
     def layers(self) -> list:
         return list(check_layers(self.net_arch))
@@ -114,13 +113,25 @@ class ModelSettings(LearnerSettings):
         self.layers()
         check_positive("learning_rate", self.learning_rate)
         check_unit_interval("gamma", self.gamma)
-        check_positive("max_grad_norm", self.max_grad_norm)
 
     def schedule(self, value: float, schedules):
         """`value` as SB3 takes it: a float, or its linear schedule to 0."""
         if self.learning_rate_schedule == "linear":
             return schedules.LinearSchedule(value, 0.0, 1.0)
         return value
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class ModelSettings(NetworkSettings):
+    """What DQN and PPO take: `NetworkSettings` and the gradients' clipping (SAC and TD3
+    clip none)."""
+
+    max_grad_norm: float = setting(10.0, per_agent=True)
+    """Gradients are clipped to this norm."""
+
+    def check(self, task) -> None:
+        super().check(task)
+        check_positive("max_grad_norm", self.max_grad_norm)
 
 
 def torch_modules():
@@ -167,13 +178,17 @@ def sequential_forward(torch, modules, x):
 def spaces_env(dim: int, num_actions: int):
     """A Gymnasium environment that only carries the spaces SB3 builds a model for: float64
     observations of `dim` variables (as `lwrl.gym` gives them; SB3's MLP reads them as
-    float32) and `num_actions` discrete actions. lwrl's loop steps the task itself."""
+    float32) and `num_actions` discrete actions, or where that is 0 (continuous actions)
+    one action in `Box(-1, 1)`, float32, the range of lwrl's continuous learners
+    (`tasks.commands`), where SB3's own rescaling (`scale_action`, `unscale_action`)
+    maps [-1, 1] onto itself. lwrl's loop steps the task itself."""
     import gymnasium
     from gymnasium import spaces
 
     class Spaces(gymnasium.Env):
         observation_space = spaces.Box(-np.inf, np.inf, (dim,), dtype=np.float64)
-        action_space = spaces.Discrete(num_actions)
+        action_space = (spaces.Discrete(num_actions) if num_actions
+                        else spaces.Box(-1.0, 1.0, (1,), dtype=np.float32))
 
         def reset(self, *, seed=None, options=None):
             super().reset(seed=seed)
@@ -372,8 +387,9 @@ class ModelAgents(Agents):
         """Agent b's place in lwrl's loop before its first step (`own[b]`)."""
         raise NotImplementedError
 
-    def _step_one(self, b, first, reward, discount, observation, learn, greedy) -> int:
-        """One time step of agent b (`Agents.step`'s arguments for it); its action."""
+    def _step_one(self, b, first, reward, discount, observation, learn, greedy):
+        """One time step of agent b (`Agents.step`'s arguments for it); its action (an
+        index, or a number in [-1, 1] for continuous actions)."""
         raise NotImplementedError
 
     def _record(self, b, reward, discount, observation) -> None:
@@ -413,6 +429,18 @@ class ModelAgents(Agents):
     def _buffer_loaded(self, b: int, prefix: str, arrays: dict) -> None:
         raise NotImplementedError
 
+    @staticmethod
+    def _optimizers(model) -> dict:
+        """`{name: optimiser}` of the model, which `saved` keeps under each name: the
+        policy's one (DQN, PPO)."""
+        return {"optimizer": model.policy.optimizer}
+
+    @staticmethod
+    def _tensors(model) -> dict:
+        """`{name: tensor}`: what the model learns outside its policy (SAC's entropy
+        coefficient), which `saved` keeps too."""
+        return {}
+
     def __init__(self, settings, task, seeds):
         self.torch, self.sb3 = torch_modules()
         self.settings = tuple(settings)
@@ -433,7 +461,7 @@ class ModelAgents(Agents):
                 self.states.append(RandomStates(self.torch, model.action_space))
         batch = len(self.models)
         weights = np.stack([self._weights(b) for b in range(batch)])
-        self.arrays = self.Arrays(q=np.zeros((batch, actions)), delta=np.full(batch, np.nan),
+        self.arrays = self.Arrays(q=np.zeros((batch, actions or 1)), delta=np.full(batch, np.nan),
                                   diverged=np.zeros(batch, dtype=bool), weights=weights)
         self.own = [self._fresh(b) for b in range(batch)]
 
@@ -464,7 +492,7 @@ class ModelAgents(Agents):
         active = np.ones(batch, dtype=bool) if active is None else np.asarray(active, dtype=bool)
         first, reward = np.asarray(first, dtype=bool), np.asarray(reward, dtype=np.float64)
         discount = np.asarray(discount, dtype=np.float64)
-        actions = np.zeros(batch, dtype=np.int64)
+        actions = np.zeros(batch, dtype=np.float64 if self.continuous else np.int64)
         for b in np.flatnonzero(active):
             with self.states[b].used() if self._draws(b, learn, greedy) else contextlib.nullcontext():
                 actions[b] = self._step_one(b, bool(first[b]), float(reward[b]),
@@ -519,14 +547,19 @@ class ModelAgents(Agents):
                   "q": self.arrays.q, "delta": self.arrays.delta}
         for b, model in enumerate(self.models):
             prefix = f"agent{b}."
-            groups, optimiser = optimizer_state(prefix + "optimizer.", model.policy.optimizer)
+            entry = {}
+            for name, optimizer in self._optimizers(model).items():
+                entry[name], optimiser = optimizer_state(f"{prefix}{name}.", optimizer)
+                arrays.update(optimiser)
             rng_document, rng_arrays = self.states[b].saved(prefix + "rng.")
             own_document, own_arrays = self._own_saved(b, prefix + "own.")
             document["agents"].append({
-                "optimizer": groups, "rng": rng_document, "own": own_document,
+                **entry, "rng": rng_document, "own": own_document,
                 "model": {name: getattr(model, name) for name in self.COUNTERS}})
-            arrays.update(module_state(prefix + "policy.", model.policy), **optimiser, **rng_arrays,
-                          **own_arrays, **self._buffer_saved(b, prefix + "buffer."))
+            arrays.update(module_state(prefix + "policy.", model.policy), **rng_arrays,
+                          **own_arrays, **self._buffer_saved(b, prefix + "buffer."),
+                          **{f"{prefix}tensor.{name}": tensor.detach().cpu().numpy().copy()
+                             for name, tensor in self._tensors(model).items()})
         return document, arrays
 
     @classmethod
@@ -553,8 +586,11 @@ class ModelAgents(Agents):
         networks, optimiser, generators, counters, buffer and place in the loop."""
         kept, prefix, model = document["agents"][source], f"agent{source}.", self.models[b]
         load_module_state(self.torch, prefix + "policy.", model.policy, arrays)
-        load_optimizer_state(self.torch, prefix + "optimizer.", model.policy.optimizer,
-                             kept["optimizer"], arrays)
+        for name, optimizer in self._optimizers(model).items():
+            load_optimizer_state(self.torch, f"{prefix}{name}.", optimizer, kept[name], arrays)
+        with self.torch.no_grad():
+            for name, tensor in self._tensors(model).items():
+                tensor.copy_(self.torch.from_numpy(np.array(arrays[f"{prefix}tensor.{name}"])))
         self.states[b].load(prefix + "rng.", kept["rng"], arrays)
         for counter, value in kept["model"].items():
             setattr(model, counter, value)

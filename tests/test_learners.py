@@ -25,10 +25,27 @@ MISFITS = [(learner, task) for learner, task in itertools.product(learners.LEARN
            if (learner, task) not in PAIRS]
 
 
-def config_of(learner, task, **settings) -> RunConfig:
-    """Three agents, three episodes of at most 300 steps, on the analytic plant."""
+STEPPED_STEPS = 40
+"""Steps per episode of a contract run of a learner stepped in Python (no compiled step, no
+JAX program: Stable-Baselines3's, whose every step costs what a compiled episode does, and
+SAC's updates on minibatches of 256 far more), so that each contract test runs in seconds;
+three such episodes pass the off-policy learners' `learning_starts` of 100, so their saved
+agents carry updated networks, optimisers and replay buffers."""
+
+
+def steps_per_episode(learner, task) -> int:
+    """At most 300 steps, `STEPPED_STEPS` for a learner stepped in Python."""
     definition = tasks.definition(*tasks.split_name(task))
-    limit = min(300, definition.step_limit) * definition.control_timestep
+    declared = learners.learner(learner)
+    stepped = declared.step is None and not declared.population
+    return min(STEPPED_STEPS if stepped else 300, definition.step_limit)
+
+
+def config_of(learner, task, **settings) -> RunConfig:
+    """Three agents, three episodes of at most 300 steps (`steps_per_episode`), on the
+    analytic plant."""
+    definition = tasks.definition(*tasks.split_name(task))
+    limit = steps_per_episode(learner, task) * definition.control_timestep
     return RunConfig(task=task, learner=learner, plant="analytic", agents=3, episodes=3, seed=5,
                      task_options={"time_limit": limit},
                      actions=learners.learner(learner).actions, **settings)

@@ -1,7 +1,8 @@
-"""The Stable-Baselines3 learners (`agent.dqn`, `agent.ppo`): stepped by lwrl's loop they
-compute what SB3's own `learn()` computes, to the bit, on the same environment and seed,
-terminal states and truncations included; their settings are checked in one line; their
-greedy Q-network exports as C99 that picks torch's action. Tiny budgets (seconds); skipped,
+"""The Stable-Baselines3 learners (`agent.dqn`, `agent.ppo`, `agent.sac`, `agent.td3`):
+stepped by lwrl's loop they compute what SB3's own `learn()` computes, to the bit, on the same
+environment and seed, terminal states and truncations included, with discrete actions and
+continuous ones; their settings are checked in one line; the discrete learners' greedy
+networks export as C99 that picks torch's action. Tiny budgets (seconds); skipped,
 naming the extra, where PyTorch and Stable-Baselines3 are not installed."""
 
 import numpy as np
@@ -13,11 +14,14 @@ if stable_baselines.missing_libraries():
     pytest.skip("the baselines extra is not installed (pip install 'lwrl[baselines]')",
                 allow_module_level=True)
 
+import gymnasium  # noqa: E402
 import torch  # noqa: E402
-from stable_baselines3 import DQN, PPO  # noqa: E402
+from stable_baselines3 import DQN, PPO, SAC, TD3  # noqa: E402
+from stable_baselines3.common.noise import NormalActionNoise  # noqa: E402
 
-from lwrl.agent import dqn, ppo  # noqa: E402
+from lwrl.agent import dqn, ppo, sac, td3  # noqa: E402
 from lwrl.gym import SuiteEnv  # noqa: E402
+from lwrl.tasks.commands import commands  # noqa: E402
 from lwrl.runners.config import RunConfig, task_info  # noqa: E402
 
 TASK = "cartpole.balance"
@@ -27,8 +31,23 @@ truncations."""
 SEED = 3
 
 
-def environment():
-    return SuiteEnv("cartpole", "balance", plant="analytic", time_limit=TIME_LIMIT)
+class UnitActions(gymnasium.ActionWrapper):
+    """A task of continuous actions as lwrl's continuous learners see it: the action in
+    `Box(-1, 1)` becomes the actuator's command as every run loop makes it
+    (`tasks.commands`)."""
+
+    def __init__(self, env):
+        super().__init__(env)
+        self.action_space = gymnasium.spaces.Box(-1.0, 1.0, (1,), dtype=np.float32)
+
+    def action(self, action):
+        control_range = np.array([self.env.unwrapped.definition.control_range])
+        return commands(control_range, np.asarray(action, dtype=np.float64).reshape(1))
+
+
+def environment(actions: str = "discrete"):
+    env = SuiteEnv("cartpole", "balance", plant="analytic", time_limit=TIME_LIMIT, actions=actions)
+    return UnitActions(env) if actions == "continuous" else env
 
 
 def lwrl_loop(agents, seed: int, steps: int, calls: int = 10**9):
@@ -36,7 +55,7 @@ def lwrl_loop(agents, seed: int, steps: int, calls: int = 10**9):
     state gets no action; a truncated episode's last observation gets one, given back at
     the next episode's start) until it has learned for `steps` steps, or for `calls` time
     steps. Returns the episodes' ends seen: (terminal, truncated) counts."""
-    env = environment()
+    env = environment("continuous" if agents.continuous else "discrete")
     observation, _ = env.reset(seed=seed)
     first, reward, discount, truncated = True, 0.0, 1.0, False
     ends = [0, 0]
@@ -49,7 +68,8 @@ def lwrl_loop(agents, seed: int, steps: int, calls: int = 10**9):
             observation, _ = env.reset()
             first, reward, discount, truncated = True, 0.0, 1.0, False
             continue
-        observation, reward, terminated, truncated, _ = env.step(action)
+        observation, reward, terminated, truncated, _ = env.step(
+            np.array([action]) if agents.continuous else action)
         first, discount = False, 0.0 if terminated else 1.0
     return ends
 
@@ -99,6 +119,45 @@ def test_ppo_in_lwrls_loop_is_sb3s_learn_to_the_bit():
     model.learn(total_timesteps=steps)
     assert agents.models[0]._n_updates == model._n_updates > 0
     np.testing.assert_array_equal(parameters(agents.models[0].policy), parameters(model.policy))
+
+
+OFF_POLICY_SETTINGS = dict(net_arch="8", learning_rate=1e-3, buffer_size=200, learning_starts=20,
+                           batch_size=8, gamma=0.98)
+"""SAC's and TD3's tiny settings (the replay buffer wraps around within the runs)."""
+
+
+@pytest.mark.parametrize("learner, algorithm, extra", [
+    (sac, SAC, {}),
+    (td3, TD3, {"action_noise": NormalActionNoise(np.zeros(1), td3.Td3Settings().noise_std * np.ones(1))}),
+])
+def test_sac_and_td3_in_lwrls_loop_are_sb3s_learn_to_the_bit(learner, algorithm, extra):
+    """Continuous actions: the warm-up's uniform actions, SAC's samples, TD3's noise and the
+    updates, through pole falls and truncations (bootstrapped, as time-outs)."""
+    steps = 300
+    settings = learner.LEARNER.settings(timesteps=steps, **OFF_POLICY_SETTINGS)
+    agents = learner.make([settings], task_info(TASK, actions="continuous"), [SEED])
+    terminal, truncated = lwrl_loop(agents, SEED, steps)
+    assert terminal > 0 and truncated > 0
+    model = algorithm("MlpPolicy", environment("continuous"),
+                      replay_buffer_kwargs={"handle_timeout_termination": True}, **extra,
+                      **sb3_kwargs(OFF_POLICY_SETTINGS))
+    model.learn(total_timesteps=steps)
+    mine = agents.models[0]
+    assert mine._n_updates == model._n_updates > 0
+    np.testing.assert_array_equal(parameters(mine.policy), parameters(model.policy))
+    assert model.replay_buffer.full
+    for name in ("observations", "actions", "rewards", "dones", "timeouts"):
+        np.testing.assert_array_equal(getattr(mine.replay_buffer, name),
+                                      getattr(model.replay_buffer, name), err_msg=name)
+    assert model.replay_buffer.timeouts.sum() > 0
+    if learner is sac:
+        np.testing.assert_array_equal(mine.log_ent_coef.detach().numpy(), model.log_ent_coef.detach().numpy())
+
+
+def test_sac_refuses_a_task_of_discrete_actions_in_one_line():
+    with pytest.raises(ValueError, match="--action-kind continuous") as error:
+        RunConfig(task="pendulum.swingup", learner="sac")
+    assert "\n" not in str(error.value)
 
 
 def test_after_its_horizon_an_agent_acts_greedily_and_learns_no_more():
