@@ -29,8 +29,9 @@ STEPPED_STEPS = 40
 """Steps per episode of a contract run of a learner stepped in Python (no compiled step, no
 JAX program: Stable-Baselines3's, whose every step costs what a compiled episode does, and
 SAC's updates on minibatches of 256 far more), so that each contract test runs in seconds;
-three such episodes pass the off-policy learners' `learning_starts` of 100, so their saved
-agents carry updated networks, optimisers and replay buffers."""
+three such episodes pass SAC's `learning_starts` of 100, so its saved agents carry updated
+networks, optimisers and replay buffers (TD3's 10 000 and DQN's are held to SB3's updates by
+`tests/test_stable_baselines.py`)."""
 
 
 def steps_per_episode(learner, task) -> int:
