@@ -3,12 +3,17 @@
     lwrl device run DOMAIN.TASK [--episodes K] [--seed S] [--real R]
     lwrl device costs DOMAIN.TASK... [--real R] [--mhz F]
     lwrl device hil DOMAIN.TASK [--plant P] [--episodes K] [--seed S] [--env-seed E]
-                    [--emulated] [--real R] [--time-limit SECONDS] [--timeout T]
+                    [--emulated | --port PORT [--baud B]] [--realtime] [--real R]
+                    [--time-limit SECONDS] [--timeout T] [--out DIR] [--save PATH]
+                    [--rrd PATH [--log-episodes WHICH]] [--force]
 
 `hil` puts the learner in the loop over the device link (docs/guide/device-link.md): the
 host steps the task's plant (MuJoCo's where the task has it), the C learner acts, built for
-this machine or (`--emulated`) on the emulated Cortex-M4 with its UART as the link; it
-prints each episode and what the link carried.
+this machine, (`--emulated`) on the emulated Cortex-M4 with its UART as the link, or
+(`--port`) on a board behind a serial port that runs the device program; `--realtime`
+paces the plant at its control period. It prints each episode and what the link carried,
+and writes what `lwrl train` writes: `--out` config.json and episodes.csv, `--save` the
+device's weights (fetched by frames; they load in `lwrl eval`), `--rrd` a recording.
 
 `run` builds the task's learner with its plant in C for the host and for a bare-metal
 Cortex-M4, runs both (the M4 under qemu-system-arm, mps2-an386) and prints the steps per
@@ -19,6 +24,7 @@ qemu-system-arm and, for `costs`, valgrind.
 
 import time
 
+from lwrl import outputs
 from lwrl.cli import fields, output
 from lwrl.export import device
 
@@ -58,7 +64,22 @@ def add_parser(commands) -> None:
                      help="episodes cut at this many seconds of the plant (default: the task's)")
     hil.add_argument("--timeout", type=fields.finite_number, default=1.0,
                      help="seconds an answer may take before the step is a missed deadline "
-                          "(default 1)")
+                          "(default 1; with --realtime, the control period)")
+    hil.add_argument("--realtime", action="store_true",
+                     help="pace the plant at the task's control period; an answer that comes "
+                          "later is a missed deadline, the previous action held")
+    hil.add_argument("--port", help="the serial port of a board running the device program "
+                                    "(needs pyserial: the serial extra)")
+    hil.add_argument("--baud", type=fields.positive_int, default=115_200,
+                     help="the port's baud rate (default 115200)")
+    files = hil.add_argument_group("outputs")
+    files.add_argument("--out", metavar="DIR", help="write config.json and episodes.csv here")
+    files.add_argument("--save", metavar="PATH", help="save the device's weights as an agent (.npz)")
+    files.add_argument("--rrd", metavar="PATH", help="save episodes to a Rerun recording")
+    files.add_argument("--log-episodes", default="every:20", metavar="WHICH",
+                       help="episodes to record: every:K, last, all or numbers like 1,5,20 "
+                            "(default every:20)")
+    files.add_argument("--force", action="store_true", help="replace existing outputs")
     hil.set_defaults(run=run_hil)
 
 
@@ -102,13 +123,42 @@ def measure_costs(args) -> int:
     return 0
 
 
+BITS_PER_BYTE = 10
+"""A serial byte on the wire: 8N1, a start bit, 8 data bits and a stop bit."""
+
+
+def needed_baud(definition, continuous: bool) -> float:
+    """The baud rate the link needs for one observation and its answer per control period
+    (`export.frames`: 8 + 9 + 8 d + 2 bytes out, 8 + 5 or 9 + 2 back)."""
+    per_step = 8 + 9 + 8 * len(definition.state_names) + 2 + 8 + (9 if continuous else 5) + 2
+    return BITS_PER_BYTE * per_step / definition.control_timestep
+
+
+def open_port(args, definition):
+    """The serial port `--port` at `--baud`, opened for this command alone; one line if it
+    cannot be, or cannot carry the task's frames."""
+    needed = needed_baud(definition, False)
+    if args.baud < needed:
+        raise ValueError(f"--baud {args.baud} cannot carry {definition.name}'s frames at one step "
+                         f"per {definition.control_timestep * 1000:g} ms: they need at least "
+                         f"{needed:,.0f} baud")
+    try:
+        import serial
+    except ImportError:
+        raise ValueError("--port needs pyserial: pip install 'lwrl[serial]'") from None
+    try:
+        return serial.Serial(args.port, args.baud, timeout=args.timeout, exclusive=True)
+    except (serial.SerialException, OSError) as error:
+        raise ValueError(f"--port {args.port}: cannot open it ({error})") from None
+
+
 def run_hil(args) -> int:
     import subprocess
     import tempfile
 
-    import numpy as np
-
     from lwrl import tasks
+    from lwrl.cli import rerun_options
+    from lwrl.cli.train import check_outputs
     from lwrl.export import hil
     from lwrl.export.link import HostLink, PipePort
 
@@ -117,37 +167,73 @@ def run_hil(args) -> int:
     definition, plant, _ = tasks.resolve(domain, name, args.plant)
     if not args.timeout > 0:
         raise ValueError(f"--timeout must be a positive number of seconds; got {args.timeout:g}")
-    args.real = args.real or ("float" if args.emulated else "double")
+    if args.port and args.emulated:
+        raise ValueError("--port and --emulated name two devices; give one")
+    record = []
+    if args.rrd:
+        logged = rerun_options.episodes_to_log(args.log_episodes, args.episodes)
+        if logged == "best":
+            raise ValueError("--log-episodes best needs the run again; the device learns once: "
+                             "give every:K, last, all or numbers")
+        record = [(0, episode) for episode in logged]
+    check_outputs(args)
+    args.real = args.real or ("float" if args.emulated or args.port else "double")
+    options = {} if args.time_limit is None else {"time_limit": args.time_limit}
     with tempfile.TemporaryDirectory() as build:
-        if args.emulated:
-            command = hil.build_emulated_program(args.task, build, seed=args.seed, dtype=args.real)
+        if args.port:
+            port, device_process = open_port(args, definition), None
         else:
-            command = hil.build_host_program(args.task, build, seed=args.seed, dtype=args.real)
-        device_process = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                          stderr=subprocess.DEVNULL)
+            command = (hil.build_emulated_program if args.emulated else hil.build_host_program)(
+                args.task, build, seed=args.seed, dtype=args.real)
+            device_process = subprocess.Popen(command, stdin=subprocess.PIPE,
+                                              stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
+            port = PipePort(device_process)
         try:
-            link = HostLink(PipePort(device_process), args.timeout)
-            options = {} if args.time_limit is None else {"time_limit": args.time_limit}
-            session = hil.run_session(link, args.task, args.episodes, args.env_seed, plant,
-                                      **options)
+            link = HostLink(port, args.timeout)
+            results, device_agent, twin = hil.run_session(
+                link, args.task, args.episodes, seed=args.seed, plant=plant,
+                env_seed=args.env_seed, realtime=args.realtime, record=record, **options)
         finally:
-            device_process.kill()
-            device_process.wait()
+            if device_process is None:
+                port.close()
+            else:
+                device_process.kill()
+                device_process.wait()
+    config = hil.twin_of(args.task, args.seed, plant, **options)[0]
     where = (f"on the emulated Cortex-M4 ({device.BOARD}, its UART the link)" if args.emulated
+             else f"on the board at {args.port} ({args.baud} baud)" if args.port
              else "built for this machine")
     print(f"{args.task} on the {plant} plant (seed {args.env_seed}): the C learner ({args.real}, "
-          f"agent seed {args.seed}) {where}, acting over the device link")
-    print("episode  steps      return  up-time (s)")
-    for k, (steps, total, up) in enumerate(zip(session.steps, session.returns, session.uptime), 1):
-        print(f"{k:>7} {steps:>6} {total:>11.2f} {up:>12.2f}")
-    counts = link.counts
-    trips = np.array(counts.round_trips) * 1e6
+          f"agent seed {args.seed}) {where}, acting over the device link"
+          f"{', in real time' if args.realtime else ''}")
+    output.print_results(results, config.seeds, "", definition.has_uptime)
+    print(link_report(link.counts, device_agent, definition))
+    written = output.Outputs("device hil")
+    if args.rrd:
+        def record_run():
+            with outputs.atomic_path(args.rrd) as temporary:
+                rerun_options.send_run(config, results, twin, rrd_path=temporary)
+            return [f"the recording {args.rrd} ({len(results.recordings)} episodes)"]
+        written.write(f"--rrd {args.rrd}", record_run)
+    output.write_out_and_save(written, args, config, results, twin, "the device's weights as an agent")
+    output.done(started, written.written, results.interrupted)
+    return 130 if results.interrupted else written.report()
+
+
+def link_report(counts, device_agent, definition) -> str:
+    """What the link carried and how fast, in a few lines."""
+    import numpy as np
+
+    trips = np.array(counts.round_trips or [np.nan]) * 1e6
     per_step = (counts.bytes_sent + counts.bytes_received) / max(counts.exchanges, 1)
     period = definition.control_timestep
-    print(f"link: {counts.exchanges} exchanges, {counts.missed} missed deadlines (the action "
-          f"held), {counts.late} late and {counts.duplicates} duplicated answers; round trip "
-          f"median {np.median(trips):.0f} us, largest {trips.max():.0f} us; {per_step:.0f} bytes "
-          f"a step, {10 * per_step / period:,.0f} baud at one step per {period * 1000:g} ms "
-          "(8N1: 10 bits a byte)")
-    output.done(started)
-    return 0
+    lines = [f"link: {counts.exchanges} exchanges, {counts.missed} missed deadlines (the action "
+             f"held), {counts.late} late and {counts.duplicates} duplicated answers; round trip "
+             f"median {np.median(trips):.0f} us, 99th percentile {np.percentile(trips, 99):.0f} us, "
+             f"largest {np.max(trips):.0f} us",
+             f"{per_step:.0f} bytes a step, {BITS_PER_BYTE * per_step / period:,.0f} baud at one "
+             f"step per {period * 1000:g} ms (8N1: 10 bits a byte); {counts.bytes_fetched} bytes "
+             "fetching the weights at the episodes' ends"]
+    if device_agent.period is not None:
+        lines.append(f"real time: {device_agent.overruns} periods the host overran")
+    return "\n".join(lines)

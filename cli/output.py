@@ -3,6 +3,7 @@ the writing, progress bars, the results table printed after a run, the files `--
 writes, and a report of the outputs written."""
 
 import argparse
+import dataclasses
 import contextlib
 import importlib
 import os
@@ -15,6 +16,7 @@ import numpy as np
 import tqdm
 
 from lwrl import outputs
+from lwrl.agent import io as agent_io
 from lwrl.runners import summary
 
 
@@ -166,6 +168,18 @@ def write_run(out: str, config, results) -> list:
             file.write(config.to_json() + "\n")
         summary.write_csv(staging / RUN_FILES[1], results, config.seeds)
     return [os.path.join(out, name) for name in RUN_FILES]
+
+
+def write_out_and_save(written, args, config, results, agent, what: str) -> None:
+    """`--out DIR` (`write_run`) and `--save PATH` (the agents, `what` in the report) of a
+    run, each through `written` (an `Outputs`), so that one failing loses neither other."""
+    if args.out:
+        written.write(f"--out {args.out}", lambda: write_run(args.out, config, results))
+    if args.save:
+        def save():
+            agent_io.save(args.save, agent, {"config": dataclasses.asdict(config)})
+            return [f"{what} to {args.save}"]
+        written.write(f"--save {args.save}", save)
 
 
 def claim_outputs(args, *flags) -> None:

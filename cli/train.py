@@ -13,7 +13,6 @@ import time
 from lwrl import agent as learners
 from lwrl import outputs, tasks
 from lwrl.adapters import external
-from lwrl.agent import io as agent_io
 from lwrl.cli import fields, output
 from lwrl.cli import rerun_options as logging_rerun
 from lwrl.runners.config import EnvironmentSettings, LearnerChoice, ProtocolSettings, RunConfig
@@ -125,13 +124,7 @@ def train_agents(args) -> int:
                                        spawn=args.rerun)
             return [f"the recording {args.rrd} ({episodes})"]
         written.write(f"--rrd {args.rrd}" if args.rrd else "--rerun", record_run)
-    if args.out:
-        written.write(f"--out {args.out}", lambda: output.write_run(args.out, config, results))
-    if args.save:
-        def save():
-            agent_io.save(args.save, agent, {"config": dataclasses.asdict(config)})
-            return [f"the agents to {args.save}"]
-        written.write(f"--save {args.save}", save)
+    output.write_out_and_save(written, args, config, results, agent, "the agents")
     output.done(started, written.written, results.interrupted)
     status = written.report()
     return 130 if results.interrupted else status

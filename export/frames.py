@@ -25,12 +25,21 @@ goes over exactly, NaN and infinities included):
   (d doubles): L = 9 + 8 d.
 - ACTION: a discrete action's index (kind byte 0, then int32: L = 5) or a continuous
   action in [-1, 1] (kind byte 1, then a double: L = 9), `tasks.commands`' convention.
+- REQUEST (3, host to device, between episodes): the learned weights from index `offset`
+  (uint32: L = 4).
+- WEIGHTS (4, device to host, the answer with the request's step): the number of weights
+  (uint32), the offset of the first one sent (uint32), the diverged flag (uint8: 1 once the
+  learner froze its weights), then k of them (k doubles, 1 <= k <= WEIGHTS_PER_FRAME, in
+  the learner's order, `lwrl_weights()`): L = 9 + 8 k. The host asks from offset 0 on
+  until it has them all.
 
 A reader (`FrameReader`) takes bytes as they come and gives back whole frames. A byte
 that does not start a frame, or a frame whose CRC, version, kind or length is wrong, is
 skipped, counted and named (`FrameReader.errors`), and the reader looks for the next
 MAGIC from the byte after the bad frame's start: one corrupted frame costs that frame,
-never the stream. A frame cut short waits for its missing bytes; the host's timeout, not
+never the stream. A whole frame of another protocol version (its CRC right) is skipped
+too, and its version kept (`FrameReader.foreign_version`): the device speaks another
+protocol, which the host says in one line rather than wait for answers it cannot read. A frame cut short waits for its missing bytes; the host's timeout, not
 the reader, decides when they are not coming; a length that no frame of its kind has is
 refused at once.
 
@@ -48,8 +57,10 @@ from importlib import resources
 
 MAGIC = 0xA5
 VERSION = 1
-OBSERVATION, ACTION = 1, 2
-KINDS = {OBSERVATION: "observation", ACTION: "action"}
+OBSERVATION, ACTION, REQUEST, WEIGHTS = 1, 2, 3, 4
+KINDS = {OBSERVATION: "observation", ACTION: "action", REQUEST: "request", WEIGHTS: "weights"}
+WEIGHTS_PER_FRAME = 30
+"""Weights a WEIGHTS frame carries at most (9 + 8 * 30 = 249 bytes of payload)."""
 START, TERMINAL, TRUNCATED = 1, 2, 4
 """The OBSERVATION flags' bits."""
 DISCRETE, CONTINUOUS = 0, 1
@@ -153,7 +164,48 @@ def fits(kind: int, length: int) -> bool:
     any other at once rather than wait for bytes a corrupted length promises."""
     if kind == ACTION:
         return length in (5, 9)
-    return length >= 9 and (length - 9) % 8 == 0
+    if kind == REQUEST:
+        return length == 4
+    values = (length - 9) // 8
+    return length >= 9 and (length - 9) % 8 == 0 and (kind == OBSERVATION
+                                                      or 1 <= values <= WEIGHTS_PER_FRAME)
+
+
+@dataclasses.dataclass(frozen=True)
+class Request:
+    """The host's request for the learned weights from index `offset` on."""
+
+    step: int
+    offset: int = 0
+
+    def frame(self) -> Frame:
+        return Frame(REQUEST, self.step, struct.pack("<I", self.offset))
+
+
+@dataclasses.dataclass(frozen=True)
+class Weights:
+    """A piece of the device's learned weights: `values` from index `offset` of `total`."""
+
+    step: int
+    total: int
+    offset: int
+    diverged: bool
+    values: tuple
+
+    def frame(self) -> Frame:
+        return Frame(WEIGHTS, self.step, struct.pack(
+            f"<IIB{len(self.values)}d", self.total, self.offset, self.diverged, *self.values))
+
+    @classmethod
+    def read(cls, frame: Frame) -> "Weights":
+        """The weights a frame carries; a one-line ValueError where it carries none."""
+        if frame.kind != WEIGHTS or not fits(WEIGHTS, len(frame.payload)):
+            raise ValueError(f"not a weights frame (kind {frame.kind}, payload of "
+                             f"{len(frame.payload)} bytes; a weights frame's is 9 + 8 k, "
+                             f"1 <= k <= {WEIGHTS_PER_FRAME})")
+        total, offset, diverged, *values = struct.unpack(
+            f"<IIB{(len(frame.payload) - 9) // 8}d", frame.payload)
+        return cls(frame.step, total, offset, bool(diverged), tuple(values))
 
 
 class FrameReader:
@@ -165,6 +217,8 @@ class FrameReader:
         """One line per byte run skipped or frame refused, in order."""
         self.skipped = 0
         """Bytes skipped so far."""
+        self.foreign_version: int | None = None
+        """The version of the last whole frame of another protocol version met, if any."""
 
     def feed(self, data: bytes) -> list[Frame]:
         """Take `data`; return the frames it completes, in order."""
@@ -180,12 +234,20 @@ class FrameReader:
             if len(self.buffer) < HEADER.size:
                 return frames
             _, version, kind, length, step = HEADER.unpack_from(self.buffer)
-            if version != VERSION or kind not in KINDS or not fits(kind, length):
-                self._skip(1, f"a frame start with version {version}, kind {kind} and "
-                              f"length {length} (expected version {VERSION}, an observation "
-                              "of 9 + 8 d bytes or an action of 5 or 9)")
-                continue
             end = HEADER.size + length + CRC.size
+            if version != VERSION and self._whole_frame(length):
+                self.foreign_version = version
+                self._skip(end, f"a whole frame of protocol version {version} (this side "
+                                f"speaks version {VERSION})")
+                continue
+            plausible = kind in KINDS and fits(kind, length)
+            if version != VERSION and plausible and len(self.buffer) < end:
+                return frames  # perhaps another version's frame: its CRC will tell
+            if version != VERSION or not plausible:
+                self._skip(1, f"a frame start with version {version}, kind {kind} and "
+                              f"length {length} (expected version {VERSION}, a kind of "
+                              f"{sorted(KINDS)} and a length that kind has)")
+                continue
             if len(self.buffer) < end:
                 return frames
             body = bytes(self.buffer[1:HEADER.size + length])
@@ -196,6 +258,15 @@ class FrameReader:
                 continue
             frames.append(Frame(kind, step, bytes(self.buffer[HEADER.size:HEADER.size + length])))
             del self.buffer[:end]
+
+    def _whole_frame(self, length: int) -> bool:
+        """Whether the buffer starts with a whole frame of payload `length` whose CRC is
+        right, whatever its version and kind."""
+        end = HEADER.size + length + CRC.size
+        if len(self.buffer) < end:
+            return False
+        (crc,) = CRC.unpack_from(self.buffer, HEADER.size + length)
+        return crc == crc16(bytes(self.buffer[1:HEADER.size + length]))
 
     def _skip(self, count: int, why: str) -> None:
         if count:

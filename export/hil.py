@@ -11,17 +11,22 @@ link (`export.link.PipePort`); `build_emulated_program` for the bare-metal Corte
 `export.device`, its link UART0 of QEMU's mps2-an386, which QEMU puts on its own standard
 input and output: the same pipes reach the emulated board.
 
-`run_session` is the host's side: a dm_env environment of the task (`tasks.load`, any
-plant) seeded as lwrl's loops seed it, and every observation sent, the episode's first
-flagged START, a terminal one TERMINAL, the last of an episode cut by its time limit
-TRUNCATED; the device answers each, and the episode goes on with its action. A missed
-deadline holds the previous action, as an actuator would, and is counted. The episodes are
-recorded as every run records them (steps, return, up-time, truncated)."""
+`run_session` is the host's side: lwrl's stepped loop (`runners.stepped.run_batched`) on
+the task's plant, the device in it as the agent (`DeviceAgent`): every observation sent,
+the episode's first flagged START, a terminal one TERMINAL, the last of an episode cut by
+its time limit TRUNCATED; the device answers each, and the episode goes on with its action.
+A missed deadline holds the previous action, as an actuator would, and is counted. At each
+episode's end the host fetches the device's weights by frames. The episodes are what every
+run records (`EpisodeResults`: steps, return, up-time, truncated, diverged; recordings of
+the episodes asked for), and the weights load in `lwrl eval` as a saved agent's."""
 
-import dataclasses
 import os
 import subprocess
+import time
+import types
 from importlib import resources
+
+import numpy as np
 
 from lwrl import tasks
 from lwrl.export import frames, learner
@@ -29,7 +34,10 @@ from lwrl.export.c import find_compiler
 from lwrl.export.device import (BOARD, COMMON_FLAGS, M4_FLAGS, M4_LINK, check_tools,
                                 write_fixed_files)
 from lwrl.export.frames import Observation
-from lwrl.tasks.batched import flatten_observation
+from lwrl.runners.config import RunConfig
+from lwrl.runners.run import make_agent
+from lwrl.runners.stepped import run_batched
+from lwrl.tasks.batched import BatchedEnv
 
 PROGRAM = ("link_io.h", "link_main.c")
 """The device program's files beside the C learner's and the link's (`templates/link/`)."""
@@ -85,59 +93,118 @@ def build_emulated_program(task: str, build, seed: int = 0, dtype: str = "float"
             os.path.join(build, "link.elf")]
 
 
-@dataclasses.dataclass
-class Session:
-    """The episodes of a session, one entry per episode, and the actions the plant took."""
-
-    steps: list = dataclasses.field(default_factory=list)
-    returns: list = dataclasses.field(default_factory=list)
-    uptime: list = dataclasses.field(default_factory=list)
-    truncated: list = dataclasses.field(default_factory=list)
-    held: int = 0
-    """Steps whose action was held from the step before (missed deadlines)."""
-
-
 STARTUP = 30.0
 """Seconds the first answer may take: the device starting up (QEMU boots the emulated board
 in about a second)."""
 
 
-def run_session(link, task: str, episodes: int, seed: int = 0, plant=None,
-                **task_options) -> Session:
-    """`episodes` episodes of `task` on `plant` (the domain's first by default; seeded with
-    `seed` as lwrl's loops seed environment b with its seed; `task_options` the task's,
-    e.g. `time_limit`) with the device behind `link` (an `export.link.HostLink`) acting;
-    the first answer may take `STARTUP` seconds, every later one the link's deadline; see
-    the module."""
-    domain, name = tasks.split_name(task)
-    env = tasks.load(domain, name, plant=plant, seed=seed, task_kwargs=task_options)
-    session, step = Session(), 0
+class DeviceAgent:
+    """The learner on the device as the stepped loop's agent, a batch of one
+    (`runners.stepped.run_batched`'s interface): each `step` sends the time step's
+    observation frame over `link` (an `export.link.HostLink`) and returns the device's
+    answer. `twin`: a one-agent `Agents` of the learner the device runs, made from the same
+    settings, whose shapes and value functions read the device's weights (`arrays.weights`,
+    fetched by frames at each episode's end, with the diverged flag); Q and the TD error
+    stay on the device (NaN here). `env`: the batched environment stepped, which says when
+    an episode is cut by its time limit (the TRUNCATED flag). `period`: with a number of
+    seconds, real time: observations go out one `period` apart, and an answer that has not
+    come by the next one is a missed deadline (`missed`), the previous action held, as an
+    actuator would hold it; `overruns` counts the periods the host itself could not keep."""
 
-    def exchange(observation: Observation, held):
-        nonlocal step
-        step += 1
-        answer = link.exchange(observation, STARTUP if step == 1 else None)
+    batch_size = 1
+
+    def __init__(self, link, twin, env, period: float | None = None):
+        self.link, self.twin, self.env, self.period = link, twin, env, period
+        self.learner, self.continuous = twin.learner, twin.continuous
+        self.num_actions = twin.num_actions
+        self.arrays = types.SimpleNamespace(
+            q=np.full((1, twin.num_actions), np.nan), delta=np.full(1, np.nan),
+            diverged=np.zeros(1, dtype=bool), weights=twin.arrays.weights.copy())
+        self.frame_step, self.held, self.overruns = 0, 0, 0
+        self.action = np.zeros(1, dtype=np.float64 if self.continuous else np.int64)
+        self._tick = None
+
+    @property
+    def diverged(self) -> np.ndarray:
+        return self.arrays.diverged
+
+    def step(self, first, reward, discount, observation, active=None, learn=True,
+             greedy=False) -> np.ndarray:
+        """One exchange with the device (see the class)."""
+        if not learn or greedy:
+            raise ValueError("the learner on the device learns as it acts; it has no greedy "
+                             "or frozen mode over the link")
+        if active is not None and not np.asarray(active)[0]:
+            return np.zeros_like(self.action)
+        first, discount = bool(np.asarray(first)[0]), float(np.asarray(discount)[0])
+        terminal = not first and discount == 0.0
+        truncated = (not first and not terminal
+                     and self.env.steps[0] >= self.env.definition.step_limit)
+        self.frame_step += 1
+        message = Observation(self.frame_step, tuple(map(float, np.asarray(observation)[0])),
+                              0.0 if first else float(np.asarray(reward)[0]), start=first,
+                              terminal=terminal, truncated=truncated)
+        answer = self.link.exchange(message, self._deadline(first))
         if answer is None:
-            session.held += 1
-            return held
-        return answer.value
+            self.held += 1
+        else:
+            self.action[0] = answer.value
+        if terminal or truncated:
+            self.fetch_weights()
+        return self.action.copy()
 
-    for _ in range(episodes):
-        ts = env.reset()
-        action = exchange(Observation(step, tuple(flatten_observation(ts.observation)), 0.0,
-                                      start=True), 0)
-        count, total = 0, 0.0
-        while True:
-            ts = env.step(action)
-            count, total = count + 1, total + float(ts.reward)
-            terminal = ts.last() and ts.discount == 0.0
-            action = exchange(Observation(step, tuple(flatten_observation(ts.observation)),
-                                          float(ts.reward), terminal=terminal,
-                                          truncated=ts.last() and not terminal), action)
-            if ts.last():
-                break
-        session.steps.append(count)
-        session.returns.append(total)
-        session.uptime.append(float(env.task.uptime))
-        session.truncated.append(not terminal)
-    return session
+    def _deadline(self, first: bool) -> float | None:
+        """Seconds the answer may take: `STARTUP` for the session's first, the link's
+        timeout, or in real time what is left of the control period, after waiting for
+        its start."""
+        if self.frame_step == 1:
+            return STARTUP
+        if self.period is None:
+            return None
+        now = time.monotonic()
+        if first or self._tick is None:
+            self._tick = now
+        else:
+            self._tick += self.period
+            if now > self._tick:  # the host is late itself: start the period now
+                self.overruns += 1
+                self._tick = now
+            time.sleep(self._tick - now if self._tick > now else 0.0)
+        return max(self._tick + self.period - time.monotonic(), 0.0)
+
+    def fetch_weights(self) -> None:
+        """The device's weights and diverged flag into `arrays` (frames of their own)."""
+        values, diverged, self.frame_step = self.link.fetch_weights(self.frame_step + 1)
+        weights = self.arrays.weights
+        if values.size != weights[0].size:
+            raise ValueError(f"the device sent {values.size} weights; its learner has "
+                             f"{weights[0].size}")
+        weights[0] = values.reshape(weights.shape[1:])
+        self.arrays.diverged[0] = diverged
+        self.frame_step -= 1
+
+
+def twin_of(task: str, seed: int, plant, **task_options):
+    """The one-agent `RunConfig` and `Agents` of the learner the device program of `task`
+    runs (`write_program` with `seed`), lwrl's loops' defaults."""
+    config = RunConfig(task=task, agents=1, seed=seed, plant=plant,
+                       task_options=dict(task_options))
+    return config, make_agent(config)
+
+
+def run_session(link, task: str, episodes: int, seed: int = 0, plant=None, env_seed: int = 0,
+                realtime: bool = False, record=(), **task_options):
+    """`episodes` episodes of `task` on `plant` (the domain's first by default; the plant
+    seeded with `env_seed` as lwrl's loops seed an environment; `task_options` the task's,
+    e.g. `time_limit`) with the device behind `link` acting, a `DeviceAgent` of the learner
+    seeded with `seed`; real time at the task's control period with `realtime`; `record`:
+    the `(0, episode)` pairs recorded, as `run_batched` records them. Returns the episodes
+    (`EpisodeResults`), the `DeviceAgent` (its counts) and the twin `Agents` holding the
+    device's last weights (saved, it loads in `lwrl eval`)."""
+    domain, name = tasks.split_name(task)
+    config, twin = twin_of(task, seed, plant, **task_options)
+    env = BatchedEnv(domain, name, config.plant_name, [env_seed], **task_options)
+    device = DeviceAgent(link, twin, env, env.definition.control_timestep if realtime else None)
+    results = run_batched(env, device, episodes, record=record)
+    twin.arrays.weights[:] = device.arrays.weights
+    return results, device, twin

@@ -8,12 +8,16 @@ UART on a pty); `PipePort` is another, over a child process's standard input and
 (a device program built for the host).
 
 `exchange(observation)` sends the observation's frame and waits for the action frame of the
-same step until the deadline (`timeout` seconds after sending). What it meets on the way is
+same step until the deadline (`timeout` seconds after sending); `exchange(request)` (a
+`Request` for the learned weights) waits so for the WEIGHTS frame of its step, and
+`fetch_weights` asks for them all, piece by piece. What it meets on the way is
 counted, not taken (`LinkCounts`): an answer to an earlier step (late: its deadline had
 passed), a second answer to the awaited step (a duplicate), frames and bytes the reader
 refused. At the deadline it returns None: a missed deadline, which the caller handles as an
 actuator would, holding the previous action. It never waits longer than the deadline and
-never returns an answer to another step.
+never returns an answer to another step. A whole frame of another protocol version
+(`FrameReader.foreign_version`) ends the session with a one-line `ProtocolMismatch`: the
+device would never understand this host.
 """
 
 import dataclasses
@@ -21,7 +25,17 @@ import os
 import select
 import time
 
-from lwrl.export.frames import ACTION, Action, FrameReader, Observation
+import numpy as np
+
+from lwrl.export.frames import (ACTION, VERSION, WEIGHTS, Action, FrameReader, Observation,
+                                Request, Weights)
+
+ANSWERS = {Observation: (ACTION, Action.read), Request: (WEIGHTS, Weights.read)}
+"""What answers each message: the kind of its frame and how it is read."""
+
+
+class ProtocolMismatch(ValueError):
+    """The device answers in another version of the link's protocol."""
 
 
 @dataclasses.dataclass
@@ -38,6 +52,9 @@ class LinkCounts:
     """Second answers to a step already answered."""
     bytes_sent: int = 0
     bytes_received: int = 0
+    """Bytes of the observations and their answers (`bytes_fetched` apart)."""
+    bytes_fetched: int = 0
+    """Bytes sent and received fetching the weights."""
     round_trips: list = dataclasses.field(default_factory=list)
     """Seconds from sending each answered observation to its answer."""
 
@@ -55,44 +72,77 @@ class HostLink:
         self._answered: set = set()
         self._frames: list = []
 
-    def exchange(self, observation: Observation, timeout: float | None = None) -> Action | None:
-        """Send `observation`; its answer, or None at the deadline, `timeout` seconds (the
-        link's unless given: a device that is still starting up) after sending (see the
-        module)."""
-        data = observation.frame().encode()
+    def exchange(self, message: Observation | Request, timeout: float | None = None):
+        """Send `message`; its answer (an `Action`, or `Weights` for a `Request`), or None
+        at the deadline, `timeout` seconds (the link's unless given: a device that is still
+        starting up) after sending (see the module)."""
+        control = isinstance(message, Observation)
+        data = message.frame().encode()
         sent = time.monotonic()
         self.port.write(data)
-        self.counts.exchanges += 1
-        self.counts.bytes_sent += len(data)
+        received = 0
         deadline = sent + (self.timeout if timeout is None else timeout)
-        while True:
-            answer = self._take(observation.step)
-            if answer is not None:
-                self.counts.answered += 1
-                self.counts.round_trips.append(time.monotonic() - sent)
-                return answer
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                self.counts.missed += 1
-                return None
-            self.port.timeout = remaining
-            chunk = self.port.read(256)
-            self.counts.bytes_received += len(chunk)
-            self._frames += self.reader.feed(chunk)
+        try:
+            answer = self._take(message)
+            while answer is None and time.monotonic() < deadline:
+                self.port.timeout = deadline - time.monotonic()
+                chunk = self.port.read(256)
+                received += len(chunk)
+                self._frames += self.reader.feed(chunk)
+                if self.reader.foreign_version is not None:
+                    raise ProtocolMismatch(
+                        f"the device answers in version {self.reader.foreign_version} of the "
+                        f"link's protocol; this host speaks version {VERSION}")
+                if time.monotonic() >= deadline:
+                    break  # what came after the deadline is late, counted when met
+                answer = self._take(message)
+        finally:
+            counts = self.counts
+            if control:
+                counts.bytes_sent, counts.bytes_received = (counts.bytes_sent + len(data),
+                                                            counts.bytes_received + received)
+            else:
+                counts.bytes_fetched += len(data) + received
+        if control:
+            counts.exchanges += 1
+            if answer is None:
+                counts.missed += 1
+            else:
+                counts.answered += 1
+                counts.round_trips.append(time.monotonic() - sent)
+        return answer
 
-    def _take(self, step: int) -> Action | None:
-        """The answer to `step` among the frames read, the others counted and dropped."""
+    def fetch_weights(self, step: int, timeout: float | None = None):
+        """The device's learned weights, asked for piece by piece with requests of steps
+        `step`, `step + 1`, ... (each within `timeout`, the link's unless given): `(weights
+        as a float64 array, diverged, the next unused step)`; a one-line TimeoutError where a
+        piece does not come."""
+        values: list = []
+        total, diverged = None, False
+        while total is None or len(values) < total:
+            piece = self.exchange(Request(step, len(values)), timeout)
+            if piece is None or piece.offset != len(values):
+                raise TimeoutError(f"the device did not send its weights from index "
+                                   f"{len(values)} (request of step {step})")
+            total, diverged = piece.total, piece.diverged
+            values += piece.values
+            step += 1
+        return np.array(values, dtype=np.float64), diverged, step
+
+    def _take(self, message):
+        """The answer to `message` among the frames read, the others counted and dropped."""
+        kind, read = ANSWERS[type(message)]
         while self._frames:
             frame = self._frames.pop(0)
-            if frame.kind != ACTION:
+            if frame.kind != kind:
                 continue
             if frame.step in self._answered:
                 self.counts.duplicates += 1
-            elif frame.step != step:
+            elif frame.step != message.step:
                 self.counts.late += 1
             else:
-                self._answered.add(step)
-                return Action.read(frame)
+                self._answered.add(frame.step)
+                return read(frame)
         return None
 
 

@@ -106,7 +106,7 @@ def test_a_duplicated_frame_is_told_by_its_step():
 
 
 def test_bad_frames_are_refused_in_one_line():
-    for make, words in ((lambda: Frame(3, 0, b"").encode(), "kind"),
+    for make, words in ((lambda: Frame(9, 0, b"").encode(), "kind"),
                         (lambda: Frame(ACTION, -1, b"").encode(), "step"),
                         (lambda: Frame(OBSERVATION, 0, bytes(300)).encode(), "at most 255"),
                         (lambda: Action(0, "left").frame(), "index or a number"),

@@ -1,8 +1,11 @@
 """Hardware in the loop over the device link (`export.hil`): the C learner, built for the
 host in double and answering over the link, learns what lwrl's own learner learns, step
-for step, on the analytic plant and on MuJoCo's."""
+for step, on the analytic plant and on MuJoCo's; its weights come back by frames and load
+as an agent; real time holds the plant to its period; the command writes what a run writes."""
 
+import contextlib
 import subprocess
+import time
 
 import numpy as np
 import pytest
@@ -14,28 +17,48 @@ from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent, run_dm_env
 
 
+@contextlib.contextmanager
+def device_link(command, wrap=lambda port: port, timeout=5.0):
+    """A `HostLink` to the device program `command` run as a child process."""
+    device = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                              stderr=subprocess.DEVNULL)
+    try:
+        yield HostLink(wrap(PipePort(device)), timeout)
+    finally:
+        device.kill()
+        device.wait()
+
+
+def own_run(task, episodes, plant=None, **options):
+    """lwrl's learner (agent seed 3) on the episodes of environment seed 11."""
+    domain, name = tasks.split_name(task)
+    agent = make_agent(RunConfig(task=task, agents=1, seed=3, task_options=options))
+    results = run_dm_env(tasks.load(domain, name, plant=plant, seed=11, task_kwargs=options),
+                         agent, episodes)
+    return agent, results
+
+
+def assert_same_episodes(results, own):
+    for field in ("steps", "returns", "uptime", "truncated"):  # up-time NaN where a task has none
+        np.testing.assert_array_equal(getattr(results, field), getattr(own, field), err_msg=field)
+
+
 @pytest.mark.parametrize("task, plant, episodes", [("mountain_car.cost_to_go", "analytic", 3),
                                                    ("pendulum.swingup", "mujoco", 2)])
 def test_the_device_learns_over_the_link_what_lwrl_learns(task, plant, episodes, tmp_path):
     """The same agent (seed 3) on the same episodes (environment seed 11): every episode's
-    steps, return and up-time equal lwrl's learner's in its own loop (`run_dm_env`); no
-    deadline was missed and every byte is counted."""
-    command = build_host_program(task, tmp_path, seed=3)
-    device = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE)
-    try:
-        link = HostLink(PipePort(device), timeout=5.0)
-        session = run_session(link, task, episodes, seed=11, plant=plant)
-    finally:
-        device.kill()
-        device.wait()
-    domain, name = tasks.split_name(task)
-    agent = make_agent(RunConfig(task=task, agents=1, seed=3))
-    own = run_dm_env(tasks.load(domain, name, plant=plant, seed=11), agent, episodes)
-    np.testing.assert_array_equal(session.steps, own.steps[0])
-    np.testing.assert_array_equal(session.returns, own.returns[0])
-    np.testing.assert_array_equal(session.uptime, own.uptime[0])  # NaN where a task has none
-    assert session.held == 0 and link.counts.missed == 0
-    assert link.counts.answered == sum(session.steps) + episodes
+    steps, return, up-time and truncation equal lwrl's learner's in its own loop
+    (`run_dm_env`), and the weights fetched by frames at the end equal its weights to the
+    bit; no deadline was missed and every byte is counted."""
+    with device_link(build_host_program(task, tmp_path, seed=3)) as link:
+        results, device, twin = run_session(link, task, episodes, seed=3, plant=plant,
+                                            env_seed=11)
+    agent, own = own_run(task, episodes, plant)
+    assert_same_episodes(results, own)
+    np.testing.assert_array_equal(twin.arrays.weights, agent.arrays.weights)
+    assert device.held == 0 and link.counts.missed == 0 and not device.diverged[0]
+    assert link.counts.answered == results.steps.sum() + episodes
+    assert link.counts.bytes_fetched > 8 * twin.arrays.weights.size * episodes
 
 
 def test_duplicated_observations_teach_the_device_nothing_twice(tmp_path):
@@ -45,32 +68,103 @@ def test_duplicated_observations_teach_the_device_nothing_twice(tmp_path):
     from tests.test_link import FaultyPort
 
     task = "mountain_car.cost_to_go"
-    command = build_host_program(task, tmp_path, seed=3)
-    device = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE)
-    try:
-        port = FaultyPort(PipePort(device), {step: "duplicate" for step in (0, 5, 77)})
-        link = HostLink(port, timeout=5.0)
-        session = run_session(link, task, 2, seed=11)
-    finally:
-        device.kill()
-        device.wait()
-    agent = make_agent(RunConfig(task=task, agents=1, seed=3))
-    own = run_dm_env(tasks.load("mountain_car", "cost_to_go", seed=11), agent, 2)
-    np.testing.assert_array_equal(session.steps, own.steps[0])
+    faults = {step: "duplicate" for step in (0, 5, 77)}
+    with device_link(build_host_program(task, tmp_path, seed=3),
+                     lambda port: FaultyPort(port, faults)) as link:
+        results, _, _ = run_session(link, task, 2, seed=3, env_seed=11)
+    assert_same_episodes(results, own_run(task, 2)[1])
     assert link.counts.exchanges > 78 and link.counts.duplicates == 3
 
 
-def test_lwrl_device_hil_prints_the_episodes_and_the_link(capsys):
+def test_in_real_time_the_plant_keeps_its_period_and_the_episodes_stay(tmp_path):
+    """Paced at the pendulum's 20 ms, two episodes of 0.3 s (15 steps) take at least their
+    14 periods each after the first step, and are lwrl's learner's, step for step."""
+    task, options = "pendulum.swingup", {"time_limit": 0.3}
+    with device_link(build_host_program(task, tmp_path, seed=3)) as link:
+        started = time.monotonic()
+        results, device, _ = run_session(link, task, 2, seed=3, plant="analytic", env_seed=11,
+                                         realtime=True, **options)
+        took = time.monotonic() - started
+    assert device.period == 0.02 and took >= 2 * 14 * 0.02
+    assert device.held == link.counts.missed
+    if device.held == 0:  # a loaded machine may miss a deadline: then the episodes may differ
+        assert_same_episodes(results, own_run(task, 2, "analytic", **options)[1])
+
+
+class SlowPort:
+    """A port whose bytes arrive `delay` seconds after they could be read."""
+
+    def __init__(self, port, delay):
+        self.port, self.delay, self.timeout = port, delay, None
+
+    def write(self, data):
+        return self.port.write(data)
+
+    def read(self, size):
+        self.port.timeout = self.timeout
+        data = self.port.read(size)
+        if data:
+            time.sleep(self.delay)
+        return data
+
+
+def test_late_answers_in_real_time_hold_the_action_and_are_counted(tmp_path):
+    """Every answer 30 ms late at a 20 ms period: after the first (the start-up's), each
+    step misses its deadline and holds the action before, the late answers are counted and
+    never taken, and every episode still ends and is recorded."""
+    task, options = "pendulum.swingup", {"time_limit": 0.2}
+    with device_link(build_host_program(task, tmp_path, seed=3),
+                     lambda port: SlowPort(port, 0.03)) as link:
+        results, device, _ = run_session(link, task, 2, seed=3, plant="analytic", env_seed=11,
+                                         realtime=True, **options)
+    assert list(results.steps[0]) == [10, 10] and results.truncated.all()
+    assert device.held == link.counts.missed >= 15 and link.counts.late >= 5
+
+
+def test_lwrl_device_hil_writes_a_runs_files_and_an_agent_lwrl_eval_runs(capsys, tmp_path):
+    """--out, --save and --rrd: config.json and episodes.csv as `lwrl train` writes them,
+    the device's weights as an agent that `lwrl eval` runs, and a recording."""
+    import csv
+
+    from lwrl.agent import io as agent_io
     from lwrl.cli.main import main
 
+    out, saved, rrd = tmp_path / "run", tmp_path / "agent.npz", tmp_path / "run.rrd"
     assert main(["device", "hil", "mountain_car.cost_to_go", "--episodes", "2", "--seed", "3",
-                 "--env-seed", "11"]) == 0
-    out = capsys.readouterr().out
-    assert "on the analytic plant (seed 11)" in out and "0 missed deadlines" in out
-    assert out.count("\n      ") >= 2 and "baud at one step per" in out
-    assert main(["device", "hil", "mountain_car.cost_to_go", "--timeout", "0"]) == 2
+                 "--env-seed", "11", "--time-limit", "300", "--out", str(out), "--save",
+                 str(saved), "--rrd", str(rrd), "--log-episodes", "all"]) == 0
+    printed = capsys.readouterr().out
+    assert "0 missed deadlines" in printed and "baud at one step per" in printed
+    with open(out / "episodes.csv") as file:
+        rows = list(csv.DictReader(file))
+    agent, own = own_run("mountain_car.cost_to_go", 2, time_limit=300)
+    assert [int(row["steps"]) for row in rows] == list(own.steps[0])
+    loaded, metadata = agent_io.load(saved)
+    np.testing.assert_array_equal(loaded.arrays.weights, agent.arrays.weights)
+    assert metadata["config"]["seed"] == 3 and rrd.stat().st_size > 0
+    assert main(["eval", str(saved), "--episodes", "1"]) == 0
+
+
+def test_lwrl_device_hil_says_in_one_line_what_it_cannot_do(capsys):
+    from lwrl.cli.main import main
+
+    for argv, words in ((["--timeout", "0"], "--timeout must be a positive number"),
+                        (["--port", "/dev/no-such-port", "--emulated"], "give one"),
+                        (["--port", "/dev/no-such-port", "--baud", "300"],
+                         "need at least 500 baud"),
+                        (["--log-episodes", "best", "--rrd", "x.rrd"], "the device learns once")):
+        assert main(["device", "hil", "mountain_car.cost_to_go", *argv]) == 2, argv
+        error = capsys.readouterr().err.strip().splitlines()
+        assert len(error) == 1 and words in error[0], (argv, error)
+
+
+def test_a_port_that_does_not_exist_is_one_line(capsys):
+    pytest.importorskip("serial", reason="--port needs pyserial (the serial extra)")
+    from lwrl.cli.main import main
+
+    assert main(["device", "hil", "pendulum.swingup", "--port", "/dev/no-such-port"]) == 2
     error = capsys.readouterr().err.strip().splitlines()
-    assert len(error) == 1 and "--timeout must be a positive number" in error[0]
+    assert len(error) == 1 and "--port /dev/no-such-port: cannot open it" in error[0]
 
 
 @pytest.mark.skipif(bool(__import__("lwrl.export.device", fromlist=["missing_tools"]).missing_tools()),
@@ -79,23 +173,64 @@ def test_the_emulated_board_learns_over_its_uart_what_the_host_build_learns(tmp_
     """The float learner on the emulated Cortex-M4, its UART the link, against the same
     program built for the host, on MuJoCo's pendulum (2 episodes of 4 s: the emulated UART
     takes about 10 ms a round trip): the same steps, returns and up-times in every episode
-    (the device's expf is newlib's, the host's glibc's; they agree on these episodes)."""
+    (the device's expf is newlib's, the host's glibc's; they agree on these episodes), and
+    the weights fetched at the end within a float's rounding of each other."""
     from lwrl.export.hil import build_emulated_program
 
     task, plant, options, sessions = "pendulum.swingup", "mujoco", {"time_limit": 4.0}, []
     for build, target in ((tmp_path / "host", build_host_program),
                           (tmp_path / "m4", build_emulated_program)):
         build.mkdir()
-        device = subprocess.Popen(target(task, build, seed=3, dtype="float"),
-                                  stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                  stderr=subprocess.DEVNULL)
-        try:
-            link = HostLink(PipePort(device), timeout=5.0)
-            sessions.append(run_session(link, task, 2, seed=11, plant=plant, **options))
-        finally:
-            device.kill()
-            device.wait()
+        with device_link(target(task, build, seed=3, dtype="float")) as link:
+            results, _, twin = run_session(link, task, 2, seed=3, plant=plant, env_seed=11,
+                                           **options)
         assert link.counts.missed == 0 and link.counts.late == 0
-    host, emulated = sessions
-    assert emulated.steps == host.steps and emulated.returns == host.returns
-    np.testing.assert_array_equal(emulated.uptime, host.uptime)
+        sessions.append((results, twin.arrays.weights))
+    (host, host_weights), (emulated, emulated_weights) = sessions
+    assert_same_episodes(emulated, host)
+    scale = np.abs(host_weights).max()  # measured: 1.9e-7 of it apart, a float's last bits
+    np.testing.assert_allclose(emulated_weights, host_weights, rtol=0, atol=1e-5 * scale)
+
+
+class RestartingPort:
+    """A port to a device program that is killed and started again after `after` writes,
+    as a board that resets mid-episode."""
+
+    def __init__(self, command, after):
+        self.command, self.after, self.writes, self.timeout = command, after, 0, None
+        self.process = self._start()
+
+    def _start(self):
+        return subprocess.Popen(self.command, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                stderr=subprocess.DEVNULL)
+
+    def write(self, data):
+        self.writes += 1
+        if self.writes == self.after:
+            self.process.kill()
+            self.process.wait()
+            self.process = self._start()
+        return PipePort(self.process).write(data)
+
+    def read(self, size):
+        return PipePort(self.process, self.timeout).read(size)
+
+
+def test_a_device_that_restarts_mid_episode_begins_anew_and_the_session_goes_on(tmp_path):
+    """The device program restarted at the 40th observation of Mountain-Car's first
+    episode: it starts learning afresh from that observation, as from an episode's start,
+    and the session ends every episode; the weights it sends at the end are not those of a
+    device that never restarted: what it learned before is lost, as on a board that keeps
+    nothing over a reset."""
+    task = "mountain_car.cost_to_go"
+    command = build_host_program(task, tmp_path, seed=3)
+    port = RestartingPort(command, after=40)
+    try:
+        results, device, twin = run_session(HostLink(port, 5.0), task, 2, seed=3, env_seed=11)
+    finally:
+        port.process.kill()
+        port.process.wait()
+    agent, own = own_run(task, 2)
+    assert results.steps.shape == (1, 2) and np.all(results.steps > 0)
+    assert not np.array_equal(twin.arrays.weights, agent.arrays.weights)
+    assert device.held == 0

@@ -124,3 +124,27 @@ def test_a_restarted_device_and_a_restarted_host_go_on(device, tmp_path):
 def test_a_bad_timeout_is_one_line(device):
     with pytest.raises(ValueError, match="timeout must be a positive number"):
         HostLink(PipePort(device), 0)
+
+
+def test_a_device_of_another_protocol_version_is_one_line():
+    """A device that answers in version 2 of the protocol: the host says so at once, in one
+    line, rather than wait for answers it cannot read."""
+    from lwrl.export import frames
+    from lwrl.export.link import ProtocolMismatch
+
+    answer = bytearray(frames.Action(0, 1).frame().encode())
+    answer[1] = 2
+    answer[-2:] = frames.CRC.pack(frames.crc16(bytes(answer[1:-2])))
+
+    class OtherVersion:
+        timeout = None
+
+        def write(self, data):
+            return len(data)
+
+        def read(self, size):
+            return bytes(answer)
+
+    with pytest.raises(ProtocolMismatch) as error:
+        HostLink(OtherVersion(), TIMEOUT).exchange(observations(1)[0])
+    assert "version 2" in str(error.value) and "\n" not in str(error.value)

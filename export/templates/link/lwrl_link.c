@@ -59,8 +59,13 @@ static int fits(uint8_t kind, uint8_t length)
 {
     if (kind == LWRL_LINK_ACTION)
         return length == 5 || length == 9;
-    return kind == LWRL_LINK_OBSERVATION && length >= 9 && (length - 9) % 8 == 0
-           && (length - 9) / 8 <= LWRL_LINK_MAX_DIM;
+    if (kind == LWRL_LINK_REQUEST)
+        return length == 4;
+    if (length < 9 || (length - 9) % 8 != 0)
+        return 0;
+    if (kind == LWRL_LINK_WEIGHTS)
+        return length > 9 && (length - 9) / 8 <= LWRL_LINK_WEIGHTS_PER_FRAME;
+    return kind == LWRL_LINK_OBSERVATION && (length - 9) / 8 <= LWRL_LINK_MAX_DIM;
 }
 
 /* Drop the frame begun at buffer[0] and what follows it up to the next MAGIC. */
@@ -101,7 +106,7 @@ int lwrl_link_feed(lwrl_link_reader *reader, uint8_t byte, lwrl_link_observation
     while (reader->used > 0 && (state = check(reader)) != 0) {
         const uint8_t *b = reader->buffer;
         uint16_t end = (uint16_t)(LWRL_LINK_HEADER + b[3] + 2);
-        int taken = 0;
+        int taken = 0; /* the kind of the frame taken */
         if (state < 0) {
             resync(reader);
             continue;
@@ -113,43 +118,59 @@ int lwrl_link_feed(lwrl_link_reader *reader, uint8_t byte, lwrl_link_observation
             out->reward = read_double(b + 9);
             for (j = 0; j < out->dim; j++)
                 out->observation[j] = read_double(b + 17 + 8 * j);
-            taken = 1;
+            taken = LWRL_LINK_OBSERVATION;
+        } else if (b[2] == LWRL_LINK_REQUEST) {
+            out->step = read_u32(b + 4);
+            out->offset = read_u32(b + 8);
+            taken = LWRL_LINK_REQUEST;
         }
         /* the frame is taken; bytes after it (read while resynchronising) stay */
         memmove(reader->buffer, reader->buffer + end, (size_t)(reader->used - end));
         reader->used = (uint16_t)(reader->used - end);
         if (taken)
-            return 1;
+            return taken;
     }
     return 0;
 }
 
-static int action_frame(uint32_t step, uint8_t kind, const uint8_t *value, int size, uint8_t *out)
+/* The header of a frame of `kind` and `length` bytes of payload, whose payload is already
+ * at out + 8, and its CRC; returns the frame's length. */
+static int seal(uint32_t step, uint8_t kind, int length, uint8_t *out)
 {
     uint16_t crc;
     out[0] = LWRL_LINK_MAGIC;
     out[1] = LWRL_LINK_VERSION;
-    out[2] = LWRL_LINK_ACTION;
-    out[3] = (uint8_t)(1 + size);
+    out[2] = kind;
+    out[3] = (uint8_t)length;
     write_u32(out + 4, step);
-    out[8] = kind;
-    memcpy(out + 9, value, (size_t)size);
-    crc = lwrl_link_crc16(out + 1, (uint16_t)(8 + size));
-    out[9 + size] = (uint8_t)(crc & 0xFFu);
-    out[10 + size] = (uint8_t)(crc >> 8);
-    return 11 + size;
+    crc = lwrl_link_crc16(out + 1, (uint16_t)(7 + length));
+    out[8 + length] = (uint8_t)(crc & 0xFFu);
+    out[9 + length] = (uint8_t)(crc >> 8);
+    return 10 + length;
 }
 
 int lwrl_link_action_index(uint32_t step, int32_t index, uint8_t *out)
 {
-    uint8_t value[4];
-    write_u32(value, (uint32_t)index);
-    return action_frame(step, 0, value, 4, out);
+    out[8] = 0;
+    write_u32(out + 9, (uint32_t)index);
+    return seal(step, LWRL_LINK_ACTION, 5, out);
 }
 
 int lwrl_link_action_value(uint32_t step, double value, uint8_t *out)
 {
-    uint8_t bytes[8];
-    write_double(bytes, value);
-    return action_frame(step, 1, bytes, 8, out);
+    out[8] = 1;
+    write_double(out + 9, value);
+    return seal(step, LWRL_LINK_ACTION, 9, out);
+}
+
+int lwrl_link_weights(uint32_t step, uint32_t total, uint32_t offset, int diverged,
+                      const double *values, int count, uint8_t *out)
+{
+    int j;
+    write_u32(out + 8, total);
+    write_u32(out + 12, offset);
+    out[16] = diverged ? 1 : 0;
+    for (j = 0; j < count; j++)
+        write_double(out + 17 + 8 * j, values[j]);
+    return seal(step, LWRL_LINK_WEIGHTS, 9 + 8 * count, out);
 }
