@@ -183,8 +183,10 @@ def run_hil(args) -> int:
         if args.port:
             port, device_process = open_port(args, definition), None
         else:
-            command = (hil.build_emulated_program if args.emulated else hil.build_host_program)(
-                args.task, build, seed=args.seed, dtype=args.real)
+            command = (hil.build_emulated_program(args.task, build, seed=args.seed,
+                                                  dtype=args.real, count=True)
+                       if args.emulated else
+                       hil.build_host_program(args.task, build, seed=args.seed, dtype=args.real))
             device_process = subprocess.Popen(command, stdin=subprocess.PIPE,
                                               stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
             port = PipePort(device_process)
@@ -193,6 +195,8 @@ def run_hil(args) -> int:
             results, device_agent, twin = hil.run_session(
                 link, args.task, args.episodes, seed=args.seed, plant=plant,
                 env_seed=args.env_seed, realtime=args.realtime, record=record, **options)
+            instructions = (hil.counted_instructions(device_process, build) if args.emulated
+                            else None)
         finally:
             if device_process is None:
                 port.close()
@@ -208,6 +212,11 @@ def run_hil(args) -> int:
           f"{', in real time' if args.realtime else ''}")
     output.print_results(results, config.seeds, "", definition.has_uptime)
     print(link_report(link.counts, device_agent, definition))
+    if instructions is not None:
+        per_step = instructions / max(link.counts.exchanges, 1)
+        print(f"device: {per_step:,.0f} instructions a step (its waits for the link's bytes left "
+              f"out, the weights' frames in), {device.estimate_us(per_step, 168.0):,.0f} us at "
+              "168 MHz and one instruction a cycle (an estimate)")
     written = output.Outputs("device hil")
     if args.rrd:
         def record_run():

@@ -113,7 +113,9 @@ def plant_header(task: str, **options) -> str:
         step=string.Template(plant.step).substitute(values))
 
 
-def _compile(command, cwd):
+def compile_in(command, cwd) -> None:
+    """Run the compiler `command` in `cwd`; a one-line ValueError with its first words of
+    complaint if it fails."""
     result = subprocess.run(command, cwd=cwd, capture_output=True, text=True)
     if result.returncode != 0:
         raise ValueError(f"{os.path.basename(command[0])} failed: "
@@ -141,14 +143,14 @@ def write_fixed_files(build) -> None:
 
 def build_host(build, output="host", compiler=None, defines=()) -> str:
     """The program in `build` for this machine; the executable's path."""
-    _compile([find_compiler(compiler), *COMMON_FLAGS, *defines, *SOURCES, "io_host.c", "-o", output, "-lm"], build)
+    compile_in([find_compiler(compiler), *COMMON_FLAGS, *defines, *SOURCES, "io_host.c", "-o", output, "-lm"], build)
     return os.path.join(build, output)
 
 
 def build_m4(build, output="device.elf", defines=()) -> str:
     """The program in `build` for the bare-metal Cortex-M4; the ELF's path."""
     check_tools(("arm-none-eabi-gcc",))
-    _compile(["arm-none-eabi-gcc", *M4_FLAGS, *COMMON_FLAGS, *defines, *SOURCES, "io_semihosting.c",
+    compile_in(["arm-none-eabi-gcc", *M4_FLAGS, *COMMON_FLAGS, *defines, *SOURCES, "io_semihosting.c",
               *M4_LINK, "-o", output, "-lm"], build)
     return os.path.join(build, output)
 
@@ -167,11 +169,14 @@ def qemu(elf, plugin=None) -> tuple:
         if result.returncode != 0:
             raise ValueError(f"qemu-system-arm -M {BOARD} {os.path.basename(elf)} ended with "
                              f"status {result.returncode}: {result.stderr.strip()[-200:]}")
-        instructions = None
-        if plugin:
-            with open(log) as file:
-                instructions = int(re.search(r"instructions (\d+)", file.read()).group(1))
+        instructions = read_instructions(log) if plugin else None
     return result.stderr, instructions  # semihosting writes to QEMU's standard error
+
+
+def read_instructions(log) -> int:
+    """The instruction count the plugin (`insn_count.c`) wrote to QEMU's log `log`."""
+    with open(log) as file:
+        return int(re.search(r"instructions (\d+)", file.read()).group(1))
 
 
 def parse_run(text: str, dtype: str) -> dict:
@@ -231,7 +236,7 @@ def build_plugin(build) -> str:
     if not os.path.exists(source):
         with open(source, "w") as file:
             file.write(device_file("insn_count.c"))
-    _compile([compiler, "-O2", "-shared", "-fPIC", "insn_count.c", "-o", "insn_count.so"], build)
+    compile_in([compiler, "-O2", "-shared", "-fPIC", "insn_count.c", "-o", "insn_count.so"], build)
     return os.path.join(build, "insn_count.so")
 
 
@@ -272,7 +277,7 @@ def costs(task: str, dtype: str = "float", **settings) -> dict:
         written = write_program(build, source, dtype, "bench.c", steps="STEPS_FROM_BUILD",
                                 table=TABLE, decisions="DECISIONS_FROM_BUILD")
         result.update(summary=written["summary"], ram=written["ram"])
-        _compile(["arm-none-eabi-gcc", *M4_FLAGS, *COMMON_FLAGS, "-fstack-usage", "-c",
+        compile_in(["arm-none-eabi-gcc", *M4_FLAGS, *COMMON_FLAGS, "-fstack-usage", "-c",
                   "lwrl_learner.c", "-o", "lwrl_learner.o"], build)
         result["object"] = size_of(os.path.join(build, "lwrl_learner.o"))
         result["stack"] = stack_bytes(os.path.join(build, "lwrl_learner.su"))
@@ -328,8 +333,8 @@ def libm_agreement(count: int = 20000) -> dict:
             file.write(template("device/libm.c").substitute(
                 count=count, splitmix=learner.splitmix_c(SPLITMIX64)))
         sources = ["program.c", "io_common.c"]
-        _compile([find_compiler(), *COMMON_FLAGS, *sources, "io_host.c", "-o", "host", "-lm"], build)
-        _compile(["arm-none-eabi-gcc", *M4_FLAGS, *COMMON_FLAGS, *sources, "io_semihosting.c",
+        compile_in([find_compiler(), *COMMON_FLAGS, *sources, "io_host.c", "-o", "host", "-lm"], build)
+        compile_in(["arm-none-eabi-gcc", *M4_FLAGS, *COMMON_FLAGS, *sources, "io_semihosting.c",
                   *M4_LINK, "-o", "device.elf", "-lm"], build)
         host_text = subprocess.run([os.path.join(build, "host")], capture_output=True,
                                    text=True, check=True).stdout

@@ -31,8 +31,8 @@ import numpy as np
 from lwrl import tasks
 from lwrl.export import frames, learner
 from lwrl.export.c import find_compiler
-from lwrl.export.device import (BOARD, COMMON_FLAGS, M4_FLAGS, M4_LINK, check_tools,
-                                write_fixed_files)
+from lwrl.export.device import (BOARD, COMMON_FLAGS, M4_FLAGS, M4_LINK, build_plugin,
+                                check_tools, compile_in, read_instructions, write_fixed_files)
 from lwrl.export.frames import Observation
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent
@@ -57,13 +57,6 @@ def write_program(task: str, build, seed: int, dtype: str, target: str, **settin
             file.write(resources.files(__package__).joinpath("templates", "link", name).read_text())
 
 
-def _compile(command, build) -> None:
-    done = subprocess.run(command, cwd=build, capture_output=True, text=True)
-    if done.returncode != 0:
-        raise ValueError(f"{os.path.basename(command[0])} failed: "
-                         + " ".join(done.stderr.strip().splitlines()[:2]))
-
-
 SOURCES = ("lwrl_learner.c", "lwrl_link.c", "link_main.c")
 
 
@@ -73,24 +66,59 @@ def build_host_program(task: str, build, seed: int = 0, dtype: str = "double",
     this machine; the command that runs it (its standard input and output are the link)."""
     write_program(task, build, seed, dtype, "host", **settings)
     output = os.path.join(build, "link")
-    _compile([find_compiler(compiler), *COMMON_FLAGS, *SOURCES, IO["host"], "-o", output, "-lm"],
+    compile_in([find_compiler(compiler), *COMMON_FLAGS, *SOURCES, IO["host"], "-o", output, "-lm"],
              build)
     return [output]
 
 
+WAIT = "lwrl_link_getc"
+"""The function in which the device waits for the link's next byte (`link_io_uart.c`)."""
+PLUGIN_LOG = "plugin.log"
+
+
 def build_emulated_program(task: str, build, seed: int = 0, dtype: str = "float",
-                           **settings) -> list:
+                           count: bool = False, **settings) -> list:
     """The same program built for the bare-metal Cortex-M4 (`export.device`'s flags and
     start-up), its bytes on UART0; the command that runs it on QEMU's mps2-an386 with that
-    UART on QEMU's standard input and output."""
+    UART on QEMU's standard input and output. `count`: with the instruction-counting plugin
+    (`export.device.build_plugin`), which leaves out the polling loop of `WAIT`, so that
+    the count is the program's work; QEMU writes it to `PLUGIN_LOG` in `build` as it ends
+    (on SIGTERM too: `counted_instructions`)."""
     check_tools()
     write_program(task, build, seed, dtype, "emulated", **settings)
     write_fixed_files(build)
-    _compile(["arm-none-eabi-gcc", *M4_FLAGS, *COMMON_FLAGS, *SOURCES, IO["emulated"],
-              "io_semihosting.c", "io_common.c", *M4_LINK, "-o", "link.elf", "-lm"], build)
-    return ["qemu-system-arm", "-M", BOARD, "-display", "none", "-monitor", "none", "-serial",
-            "stdio", "-semihosting-config", "enable=on,target=native", "-kernel",
-            os.path.join(build, "link.elf")]
+    elf = os.path.join(build, "link.elf")
+    compile_in(["arm-none-eabi-gcc", *M4_FLAGS, *COMMON_FLAGS, *SOURCES, IO["emulated"],
+                "io_semihosting.c", "io_common.c", *M4_LINK, "-o", elf, "-lm"], build)
+    command = ["qemu-system-arm", "-M", BOARD, "-display", "none", "-monitor", "none",
+               "-serial", "stdio", "-semihosting-config", "enable=on,target=native",
+               "-kernel", elf]
+    if count:
+        start, end = symbol_range(elf, WAIT)
+        command += ["-plugin", f"{build_plugin(build)},skip={start:#x}:{end:#x}", "-d", "plugin",
+                    "-D", os.path.join(build, PLUGIN_LOG)]
+    return command
+
+
+def symbol_range(elf, name: str) -> tuple:
+    """`(start, end)` addresses of the function `name` in `elf` (arm-none-eabi-nm)."""
+    listing = subprocess.run(["arm-none-eabi-nm", "-S", elf], capture_output=True, text=True,
+                             check=True).stdout
+    for line in listing.splitlines():
+        fields = line.split()
+        if len(fields) == 4 and fields[3] == name:
+            start = int(fields[0], 16) & ~1  # a Thumb function's address without its bit 0
+            return start, start + int(fields[1], 16)
+    raise ValueError(f"{name} is not in {os.path.basename(elf)}")
+
+
+def counted_instructions(process, build) -> int:
+    """End the emulated board `process` of a program built with `count` (SIGTERM: QEMU shuts
+    down and the plugin writes its count); the instructions it executed, its waits for
+    bytes left out."""
+    process.terminate()
+    process.wait()
+    return read_instructions(os.path.join(build, PLUGIN_LOG))
 
 
 STARTUP = 30.0
