@@ -30,7 +30,8 @@ learners), `analysis` (statistics and figures), `viz` (Rerun), `runners` (runs a
 `adapters` (other suites), `export` (the C controller), `studies` (the paper, the plant
 comparison), `cli` (the `lwrl` command); `kernels` caches the compiled numba kernels on
 disk, `outputs` writes outputs whole and claims them, `settings` holds the settings
-dataclasses' field metadata, `gym` is the Gymnasium face. Each
+dataclasses' field metadata, `outside` admits the learners and domains of other installed
+packages (entry points), `gym` is the Gymnasium face. Each
 subpackage and each public name is imported on first use, so `import lwrl` stays quick.
 """
 
@@ -40,7 +41,7 @@ from typing import TYPE_CHECKING
 __version__ = "0.2.0"
 
 SUBPACKAGES = ("models", "tasks", "agent", "analysis", "viz", "runners", "adapters", "export",
-               "studies", "cli", "gym", "kernels", "outputs", "settings")
+               "studies", "cli", "gym", "kernels", "outputs", "settings", "outside")
 
 PUBLIC = {"RunConfig": "lwrl.runners.config", "run": "lwrl.runners.run",
           "make_agent": "lwrl.runners.run", "EpisodeResults": "lwrl.runners.episodes",

@@ -11,11 +11,13 @@
     env = tasks.load("cartpole", "balance", actions="continuous")  # the force itself, in N
     ts = env.reset(); ts = env.step([3.5])                          # clipped to [-10, 10]
 
-Each domain is one module, `tasks/<domain>.py`, ending with its `DOMAIN` (a
-`tasks.domain_contract.Domain`), and one line of `DOMAIN_MODULES` below. `DOMAINS[name]` is
-a domain's `Domain`; `ALL_TASKS` lists `(domain, task)` pairs; `PLANTS[domain]` the plants
-of a domain, the default first, and `ENVIRONMENT_PLANTS[domain]` those of a single
-environment. `definition(...)` gives a task's array functions (a
+Each domain is one module ending with its `DOMAIN` (a `tasks.domain_contract.Domain`). The
+registry has two parts, as `agent.LEARNERS` has: lwrl's own domains, `tasks/<domain>.py` and
+one line of `DOMAIN_MODULES` below, and then the domains other installed packages add
+through entry points of the group `lwrl.tasks` (`outside_domains`), with no lwrl file edited
+to admit them. `DOMAINS[name]` is a domain's `Domain`; `ALL_TASKS` lists `(domain, task)`
+pairs; `PLANTS[domain]` the plants of a domain, the default first, and
+`ENVIRONMENT_PLANTS[domain]` those of a single environment. `definition(...)` gives a task's array functions (a
 `tasks.task_definition.TaskDefinition`) and `tasks.batched` steps many copies of a task at
 once. Every task takes its domain's physical parameters as the option `params`
 (`Domain.parameters`, `tasks.parameters`) and the option `actions`, `"discrete"` (the
@@ -25,6 +27,7 @@ sensor and actuator options of `tasks.disturbances`.
 """
 
 import importlib
+import importlib.metadata
 import inspect
 import os
 
@@ -40,13 +43,45 @@ from lwrl.tasks import disturbances  # noqa: E402
 from lwrl.tasks.base import SuiteTask  # noqa: E402
 from lwrl.tasks.task_definition import ACTIONS, TaskDefinition  # noqa: E402
 from lwrl.tasks.domain_contract import Domain  # noqa: E402
+from lwrl.outside import admitted  # noqa: E402
 
 DOMAIN_MODULES = ("mountain_car", "pendulum", "cartpole", "acrobot")
-"""The registry: the modules of `tasks/` that each define one domain, in the suite's order."""
+"""lwrl's own domains: the modules of `tasks/` that each define one domain, in the suite's
+order."""
 
-DOMAINS = {domain.name: domain for domain in
-           (importlib.import_module(f"{__name__}.{module}").DOMAIN for module in DOMAIN_MODULES)}
-"""`{name: Domain}` of every domain of the suite."""
+ENTRY_POINT_GROUP = "lwrl.tasks"
+"""The entry-point group through which an installed distribution adds domains: each of its
+entry points, `NAME = module:attribute`, names a `Domain` called NAME, with its tasks."""
+
+
+def outside_domains(registered: dict, entry_points) -> dict:
+    """`{name: Domain}` of `entry_points` (of `ENTRY_POINT_GROUP`), in the order of their
+    names (then of their distributions), each added beside `registered` and those before it
+    (`lwrl.outside.admitted`, as `agent.outside_learners` adds learners).
+
+    One whose name is taken, that fails to import, that is not a `Domain` of its own name,
+    or whose domain or task names are not names of letters, digits and _ (`DOMAIN.TASK` and
+    the Gymnasium ids, `lwrl/{domain}-{task}-{plant}-v0`, are split at `.` and `-`), is
+    skipped with a one-line warning naming it, its distribution and what is wrong.
+    `python -W "error:lwrl.tasks entry point"` makes each an error."""
+    return admitted(ENTRY_POINT_GROUP, Domain, "domain", registered, entry_points,
+                    owner=lambda domain: domain.plants.step.__module__, check=_check_names)
+
+
+def _check_names(domain: Domain) -> None:
+    """A ValueError unless the domain's name and its tasks' are identifiers."""
+    for name in (domain.name, *domain.tasks):
+        if not (isinstance(name, str) and name.isidentifier()):
+            raise ValueError(f"names the domain {domain.name!r} with the task or domain name "
+                             f"{name!r}: names are letters, digits and _")
+
+
+_OWN = {domain.name: domain for domain in
+        (importlib.import_module(f"{__name__}.{module}").DOMAIN for module in DOMAIN_MODULES)}
+DOMAINS = {**_OWN, **outside_domains(
+    _OWN, importlib.metadata.entry_points(group=ENTRY_POINT_GROUP))}
+"""`{name: Domain}` of every domain of the suite: lwrl's own, then those of the entry
+points."""
 ALL_TASKS = tuple((name, task) for name, domain in DOMAINS.items() for task in domain.tasks)
 TASK_NAMES = tuple(f"{domain}.{task}" for domain, task in ALL_TASKS)
 """Every task as DOMAIN.TASK."""

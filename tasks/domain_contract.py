@@ -9,7 +9,8 @@ parameters, the device programs the plant in C, the benchmark the classical cont
 """
 
 import dataclasses
-from typing import Callable, Mapping, Optional
+from importlib.resources.abc import Traversable
+from typing import Callable, Mapping, Optional, Union
 
 import numpy as np
 
@@ -135,8 +136,9 @@ class Domain:
     one."""
 
     @property
-    def model(self) -> Optional[str]:
-        """The name of the domain's MJCF file in `models/` (None: no MuJoCo plant)."""
+    def model(self) -> Optional[Union[str, Traversable]]:
+        """The name of the domain's MJCF file in `models/`, or another package's file
+        (`DomainPlants.model`; None: no MuJoCo plant)."""
         return self.plants.model
 
     @property

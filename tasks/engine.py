@@ -69,18 +69,18 @@ def engine() -> Engine:
 
 
 @functools.lru_cache(maxsize=None)
-def _model(name: str) -> mujoco.MjModel:
-    """The MJCF model `models/<name>.xml`, loaded once and kept: compiled code holds its
-    address."""
+def _model(name) -> mujoco.MjModel:
+    """The MJCF model of `name` (`models.read`), loaded once and kept: compiled code holds
+    its address."""
     return mujoco.MjModel.from_xml_string(models.read(name))
 
 
 def engine_plant(model, actuator: str, substeps: int) -> EnginePlant:
     """The compiled-code view of a model driven through the actuator named `actuator`,
-    `substeps` MuJoCo steps per agent step: `model` the name of `models/<model>.xml`, or a
-    compiled `mujoco.MjModel` that outlives the plant (`DomainPlants.mujoco_model`, which
-    keeps the model of each set of parameter values)."""
-    model = _model(model) if isinstance(model, str) else model
+    `substeps` MuJoCo steps per agent step: `model` a model's file as `models.read` takes it
+    (`DomainPlants.model`), or a compiled `mujoco.MjModel` that outlives the plant
+    (`DomainPlants.mujoco_model`, which keeps the model of each set of parameter values)."""
+    model = model if isinstance(model, mujoco.MjModel) else _model(model)
     data = mujoco.MjData(model)
     warnings = data.warning.number.__array_interface__["data"][0] - data._address
     return EnginePlant(engine(), model._address, int(substeps), model.actuator(actuator).id,

@@ -13,7 +13,8 @@ import copy
 import dataclasses
 import functools
 import os
-from typing import Callable, Optional
+from importlib.resources.abc import Traversable
+from typing import Callable, Optional, Union
 
 import mujoco
 from mujoco import rollout
@@ -162,8 +163,10 @@ class DomainPlants:
     mujoco_physics: Optional[type] = None
     """Physics class of the MuJoCo plant, whose `ACTUATOR` is the driven actuator; None
     where the domain has no MuJoCo plant."""
-    model: Optional[str] = None
-    """Name of the domain's MJCF file in `models/`."""
+    model: Optional[Union[str, Traversable]] = None
+    """Name of the domain's MJCF file in `models/`, or, for a domain of another package, the
+    file itself (`importlib.resources.files(package) / "model.xml"`, or a `pathlib.Path`):
+    what `models.read` takes."""
     edit_model: Optional[Callable] = None
     """`edit_model(spec, p)`: the model's `mujoco.MjSpec` set to the parameter values `p`
     (`(P,)`), given with `model`; the domain's docstring says how each parameter enters."""

@@ -1,6 +1,6 @@
 """Shared fixtures: every (domain, task, plant) of the suite's dm_env environments, physical
-parameter values away from the paper's, a command run in this process, an OpenGL
-backend that renders headless; and the check that a call is refused in one line."""
+parameter values away from the paper's, short time limits, a command run in this process, an
+OpenGL backend that renders headless; and the check that a call is refused in one line."""
 
 import os
 import re
@@ -21,6 +21,15 @@ TASK_PLANTS = [(domain, task, plant) for domain, task in tasks.ALL_TASKS
 def task_plant(request):
     """A `(domain, task, plant)` triple; tests using it run over the whole suite."""
     return request.param
+
+
+def short_time_limit(chosen: dict, domain: str, steps: int = 20) -> float:
+    """A time limit short enough that a test's episodes end and restart: `chosen[domain]`, the
+    one the test chose for each of lwrl's own domains, else `steps` control steps of the
+    domain's first task (a domain of another package, `tasks.ENTRY_POINT_GROUP`)."""
+    if domain in chosen:
+        return chosen[domain]
+    return steps * tasks.definition(domain, next(iter(tasks.domain(domain).tasks))).control_timestep
 
 
 def set_state(env, state):
@@ -101,7 +110,7 @@ def one_line_error(call, *fragments):
 # ("test_file.py::test_name[parameters]"); its value says why those tests are slow. A test
 # may also carry `@pytest.mark.slow` itself.
 
-DEEP = r"(dqn|ppo|dqn_jax|ppo_jax)"
+DEEP = r"(dqn|ppo|dqn_jax|ppo_jax|sac_jax|td3_jax)"
 """The learners of neural networks (PyTorch, JAX): seconds a run where the others take
 milliseconds."""
 
@@ -171,7 +180,8 @@ SLOW = {
     r"test_learner_c\.py::(?!test_double_learner_is_the_python_learner_bit_for_bit\[mountain_car\]"
     r"|test_bad_inputs)": "compiles the C learner and trains in C and in Python",
     r"test_export_c\.py::(test_measure_reports|test_c_controller_picks_the_python_agents_greedy_"
-    r"action\[(?!mountain_car)|test_double_precision_controller_agrees_too\[(?!mountain_car))":
+    r"action\[(?!mountain_car)|test_double_precision_controller_agrees_too\[(?!mountain_car)"
+    r"|test_c_actor_gives_the_python_agents_greedy_action\[(?!pendulum_actor-float))":
         "compiles and runs C controllers",
     r"test_robustness\.py::test_the_c_controller_acts": "compiles a C controller",
     r"test_device\.py::test_host_build_in_double_is_the_python_learner_on_the_python_plant"
@@ -197,6 +207,8 @@ SLOW = {
     r"test_robustness\.py::test_lwrl_robustness_writes_its_report": "a robustness study",
     r"test_robustness\.py::test_a_quick_study_trains_evaluates_and_reports_a_population":
         "a robustness study of a JAX population learner: compiles its programs",
+    r"test_robustness\.py::test_a_quick_study_trains_evaluates_and_reports_a_continuous":
+        "a robustness study of the continuous actor-critic, its C controller compiled",
     r"test_benchmark_study\.py::test_a_tiny_benchmark": "a tiny "
         "benchmark: searches, trains and evaluates every linear row (and measures its costs)",
     r"test_budget\.py::(test_a_population|test_a_budget_cuts_the_run_it_would_have_been\[cartpole)":

@@ -17,20 +17,22 @@ from lwrl import agent, tasks
 from lwrl.agent.linear import FEATURE_MAPS
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-FLOORS = {"kernels": 0, "outputs": 0, "settings": 0, "models": 0, "agent": 1, "tasks": 1,
-          "analysis": 2, "gym": 2, "jax": 2, "viz": 3, "runners": 4, "adapters": 5,
+FLOORS = {"kernels": 0, "outputs": 0, "settings": 0, "outside": 0, "models": 0, "agent": 1,
+          "tasks": 1, "analysis": 2, "gym": 2, "jax": 2, "viz": 3, "runners": 4, "adapters": 5,
           "export": 5, "studies": 6, "cli": 7}
 """Room -> floor. `gym` is `lwrl/gym.py`, the suite's Gymnasium face (it reads `tasks`), and
 `jax` is `lwrl/jax/`, the suite in JAX (it reads `tasks` too);
-`kernels`, `outputs` and `settings` (`lwrl/kernels.py`, `lwrl/outputs.py`,
-`lwrl/settings.py`), the cache of compiled kernels, the writing of whole files and the
-settings dataclasses' metadata, are there for every room."""
-LWRL_MODULES = ("gym", "kernels", "outputs", "settings")
+`kernels`, `outputs`, `settings` and `outside` (`lwrl/kernels.py`, `lwrl/outputs.py`,
+`lwrl/settings.py`, `lwrl/outside.py`), the cache of compiled kernels, the writing of whole
+files, the settings dataclasses' metadata and the entry points through which other packages
+add to the registries, are there for every room."""
+LWRL_MODULES = ("gym", "kernels", "outputs", "settings", "outside")
 """The rooms that are one module of `lwrl/`."""
 LWRL_PACKAGES = ("jax",)
 """The rooms that are a package inside `lwrl/` (not a top-level folder: a folder `jax/` at
 the repository's root would shadow the library for code run from there)."""
-ISOLATED = {"agent": {"kernels", "outputs", "settings"}, "tasks": {"models", "kernels", "outputs"}}
+ISOLATED = {"agent": {"kernels", "outputs", "settings", "outside"},
+            "tasks": {"models", "kernels", "outputs", "outside"}}
 """Rooms that may import only these others: the learner sees arrays only."""
 NAMING_DOMAINS_ALLOWED = ("studies/paper/",)
 """The paper's study names the tasks of its figures as data: the one exception."""

@@ -42,8 +42,12 @@ def pair(result, plant, against):
 
 
 def angle_column(task):
-    return {"pendulum": "angle_max_1_s", "cartpole": "pole_angle_max_1_s",
-            "acrobot": "shoulder_angle_max_1_s"}[task.split(".")[0]]
+    """The column of the largest error in the first second of the task's first angle (the
+    pendulum's, the pole's, the shoulder's), or of its first compared variable where it has
+    no angle (`Domain.comparison`)."""
+    definition = tasks.definition(*tasks.split_name(task))
+    compared = tuple(tasks.domain(definition.domain).comparison.tolerances)
+    return f"{(definition.angles or compared)[0]}_max_1_s"
 
 
 def test_open_loop_numbers_are_finite_and_bounded(measured):

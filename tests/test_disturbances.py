@@ -17,11 +17,13 @@ from lwrl.tasks.batched import BatchedEnv
 from lwrl.tasks.task_definition import wrap_angle
 from lwrl.tasks.disturbances import applied_control, noisy_observation, stream_key
 from lwrl.tasks.pendulum import transition as pendulum_transition
+from conftest import short_time_limit
 
 ALL = [(domain, task, plant) for domain, task in tasks.ALL_TASKS
        for plant in tasks.ENVIRONMENT_PLANTS[domain]]
 SHORT = {"mountain_car": 40, "pendulum": 0.5, "cartpole": 240.0, "acrobot": 4.0}
-"""Time limits short enough that episodes end and restart within a test."""
+"""Time limits short enough that episodes end and restart within a test (`short_time_limit`:
+20 steps for a domain of another package)."""
 
 
 def first_task(domain: str) -> str:
@@ -82,7 +84,7 @@ def test_at_the_defaults_nothing_is_drawn(monkeypatch):
 def test_a_batch_is_its_single_environments_with_every_option(domain, task, plant):
     """With noisy sensors, a late and noisy actuator and episodes that end and restart, B
     batched environments are the B single environments of their seeds, step by step."""
-    options = {**every_option(domain), "time_limit": SHORT[domain]}
+    options = {**every_option(domain), "time_limit": short_time_limit(SHORT, domain)}
     seeds = [3, 5, 8]
     actions = np.random.default_rng(1).integers(tasks.definition(domain, task).num_actions,
                                                 size=(100, len(seeds)))

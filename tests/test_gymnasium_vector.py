@@ -15,12 +15,13 @@ from gymnasium.utils.passive_env_checker import check_action_space, check_observ
 from gymnasium.vector import AutoresetMode, SyncVectorEnv  # noqa: E402
 
 from lwrl.gym import CONTINUOUS_ENV_IDS, ENV_IDS, SuiteVectorEnv  # noqa: E402
+from conftest import short_time_limit  # noqa: E402
 
 pytestmark = pytest.mark.filterwarnings("error")
 
 SHORT = {"mountain_car": 60, "pendulum": 0.4, "cartpole": 240.0, "acrobot": 6.0}
 """A time limit per domain short enough that random episodes end often (the cart-pole's
-fail on their own)."""
+fail on their own; `short_time_limit`: 20 steps for a domain of another package)."""
 
 
 def random_actions(env, rng):
@@ -34,7 +35,7 @@ def random_actions(env, rng):
 
 def make_both(id_, num_envs=4, **kwargs):
     domain = id_.split("/")[1].split("-")[0]
-    kwargs.setdefault("time_limit", SHORT[domain])
+    kwargs.setdefault("time_limit", short_time_limit(SHORT, domain))
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # make_vec warns of missing or wrong autoreset metadata
         ours = gymnasium.make_vec(id_, num_envs=num_envs, **kwargs)

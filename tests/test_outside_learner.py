@@ -57,10 +57,11 @@ def install_wrong(site: pathlib.Path) -> None:
             {agent.ENTRY_POINT_GROUP: {point: target for point, (target, _) in WRONG.items()}})
 
 
-def warned_as_expected(messages) -> bool:
-    """The warnings of `WRONG`, one line each, in order."""
-    expected = [(f"{agent.ENTRY_POINT_GROUP} entry point '{point} = {target}' of lwrl-wrong 0.1 ",
-                 problem) for point, (target, problem) in WRONG.items()]
+def warned_as_expected(messages, group: str = agent.ENTRY_POINT_GROUP, wrong=None) -> bool:
+    """The warnings of `wrong` (`WRONG`: entry points of `group` of `lwrl-wrong`), one line
+    each, in order."""
+    expected = [(f"{group} entry point '{point} = {target}' of lwrl-wrong 0.1 ", problem)
+                for point, (target, problem) in (WRONG if wrong is None else wrong).items()]
     return len(messages) == len(expected) and all(
         message.startswith(start) and problem in message and message.endswith("; skipped")
         and "\n" not in message for message, (start, problem) in zip(messages, expected))
@@ -92,21 +93,31 @@ def child(site: pathlib.Path, *argv) -> subprocess.CompletedProcess:
                           env={**os.environ, "PYTHONPATH": os.pathsep.join(path)}, timeout=900)
 
 
+def admitted(site: pathlib.Path, group: str, outside, registry: dict) -> tuple[dict, list]:
+    """`(what it admits, the messages it warns)` of `outside(registry, entry points)`
+    (`agent.outside_learners`, `tasks.outside_domains`) over the entry points of `group`
+    that the distributions installed in `site` declare; `registry` is left as it was."""
+    points = [point for dist in importlib.metadata.distributions(path=[str(site)])
+              for point in dist.entry_points if point.group == group]
+    registered = dict(registry)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        found = outside(registry, points)
+    assert registry == registered
+    return found, [str(warning.message) for warning in caught]
+
+
 def test_bad_entry_points_are_skipped_with_one_warning_line_each(site, toy_source):
     """From the installed distributions' own entry points: the toy joins; each bad one is
     skipped with one line naming it, its distribution and what is wrong, in the order of
     their names; the registry it is added beside is left as it was."""
     install_wrong(site)
-    points = [point for dist in importlib.metadata.distributions(path=[str(site)])
-              for point in dist.entry_points if point.group == agent.ENTRY_POINT_GROUP]
-    registered = dict(agent.LEARNERS)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        found = agent.outside_learners(agent.LEARNERS, points)
+    found, messages = admitted(site, agent.ENTRY_POINT_GROUP, agent.outside_learners,
+                               agent.LEARNERS)
     from lwrl_toy import learner as toy
 
-    assert found == {"toy": toy.LEARNER} and agent.LEARNERS == registered
-    assert warned_as_expected([str(warning.message) for warning in caught])
+    assert found == {"toy": toy.LEARNER}
+    assert warned_as_expected(messages)
 
 
 @pytest.mark.slow

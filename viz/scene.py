@@ -42,8 +42,10 @@ def load_model(task: str) -> mujoco.MjModel:
     """The compiled MuJoCo model of a task's domain (`DOMAIN` or `DOMAIN.TASK`)."""
     domain = names.domain(task)
     if domain.model is None:
-        raise ValueError(f"{domain.name} has no MuJoCo model; models exist for "
-                         f"{', '.join(models.names())}")
+        from lwrl import tasks  # as names.domain does: the registry, for its domains' models
+
+        having = [name for name, other in tasks.DOMAINS.items() if other.model is not None]
+        raise ValueError(f"{domain.name} has no MuJoCo model; models exist for {', '.join(having)}")
     return mujoco.MjModel.from_xml_string(models.read(domain.model))
 
 
