@@ -13,12 +13,12 @@ share), `arithmetic` (what the learners' counted arithmetic shares), `traces`, `
 
 import importlib
 import importlib.metadata
-import warnings
 
 from lwrl.agent.learner_contract import Learner
+from lwrl.outside import admitted
 
 LEARNER_MODULES = ("sarsa", "true_online_sarsa", "ase_ace", "actor_critic", "dqn", "ppo", "sac", "td3",
-                   "ppo_jax", "dqn_jax")
+                   "ppo_jax", "dqn_jax", "sac_jax", "td3_jax")
 """lwrl's own learners: the modules of `agent/` that each define one learner, the default
 first."""
 
@@ -29,47 +29,15 @@ entry points, `NAME = module:attribute`, names a `Learner` called NAME."""
 
 def outside_learners(registered: dict, entry_points) -> dict:
     """`{name: Learner}` of `entry_points` (of `ENTRY_POINT_GROUP`), in the order of their
-    names (then of their distributions), each added beside `registered` and those before it.
+    names (then of their distributions), each added beside `registered` and those before it
+    (`lwrl.outside.admitted`, as `tasks.outside_domains` adds domains).
 
     One whose name is taken, that fails to import or that is not a `Learner` of its own
-    name is skipped, with a one-line warning naming it, its distribution and what is wrong.
-    A warning, not an error (pytest stops at a plugin that fails to import, as a plugin
-    changes how every test runs; Gymnasium warned of a failing environment plugin and went
-    on): `lwrl.agent` is imported by every command, and one broken package must not stop
-    the runs of every other learner. Nothing passes unnoticed for that: every run, results
-    table and saved agent names its learner, so a skipped one cannot stand in for another
-    (asking for it is an unknown learner), and a taken name keeps the learner that had it.
+    name is skipped, with a one-line warning naming it, its distribution and what is wrong
+    (why a warning, not an error: `lwrl.outside`).
     `python -W "error:lwrl.learners entry point"` makes each an error."""
-    found: dict = {}
-    for entry_point in sorted(entry_points, key=lambda each: (each.name, each.dist.name)):
-        try:
-            found[entry_point.name] = _loaded(entry_point, {**registered, **found})
-        except ValueError as problem:
-            dist = entry_point.dist
-            warnings.warn(f"{ENTRY_POINT_GROUP} entry point '{entry_point.name} = "
-                          f"{entry_point.value}' of {dist.name} {dist.version} {problem}; "
-                          "skipped", stacklevel=2)
-    return found
-
-
-def _loaded(entry_point, taken: dict) -> Learner:
-    """The `Learner` an entry point names, or a ValueError saying what is wrong with it."""
-    if entry_point.name in taken:
-        owner = taken[entry_point.name].settings.__module__
-        raise ValueError(f"takes the name of {owner}'s learner: an added learner needs a "
-                         "name of its own")
-    try:
-        named = entry_point.load()
-    except Exception as error:  # whatever the package raises, it is the package's fault
-        raise ValueError(f"fails to import ({type(error).__name__}: "
-                         f"{' '.join(str(error).split())})") from None
-    if not isinstance(named, Learner):
-        raise ValueError(f"names a {type(named).__name__}, not a Learner "
-                         "(lwrl.agent.learner_contract)")
-    if named.name != entry_point.name:
-        raise ValueError(f"names the learner {named.name!r}: an entry point's name must be "
-                         "its learner's")
-    return named
+    return admitted(ENTRY_POINT_GROUP, Learner, "learner", registered, entry_points,
+                    owner=lambda learner: learner.settings.__module__)
 
 
 _OWN = {module.LEARNER.name: module.LEARNER for module in

@@ -28,7 +28,10 @@ import numpy as np
 
 from lwrl.agent.dqn import ZOO_SETS, DqnSettings, arithmetic
 from lwrl.agent.jax_population import (PopulationAgents, Program, adam, adam_init,
-                                       clip_by_norm, fits_with_jax, mlp, mlp_init)
+                                       clip_by_norm, fits_with_jax, mlp, mlp_init, polyak,
+                                       replay_add, replay_buffer, replay_bytes, replay_due,
+                                       replay_gradient_steps, replay_hyper, replay_sample,
+                                       replay_update)
 from lwrl.agent.learner_contract import Learner
 from lwrl.agent.stable_baselines import network_bytes
 from lwrl.settings import setting
@@ -64,17 +67,16 @@ class DqnJaxAgents(PopulationAgents):
         net_key, key = jax.random.split(key)
         sizes = [self.dim, *settings.layers(), self.task.num_actions]
         params = mlp_init(net_key, sizes, [None] * (len(sizes) - 1), False)
-        n, dim = settings.buffer_size, self.dim
-        buffer = {"observations": jnp.zeros((n, dim), jnp.float32),
-                  "next_observations": jnp.zeros((n, dim), jnp.float32),
-                  "actions": jnp.zeros(n, jnp.int32), "rewards": jnp.zeros(n, jnp.float32),
-                  "terminals": jnp.zeros(n, jnp.float32), "count": jnp.zeros((), jnp.int32)}
-        return {"params": params, "target": params, "adam": adam_init(params), "buffer": buffer,
-                "key": key}
+        return {"params": params, "target": params, "adam": adam_init(params),
+                "buffer": replay_buffer(settings.buffer_size, self.dim, jnp.int32), "key": key}
 
     @staticmethod
     def weight_tree(state):
         return state["params"]
+
+    def shared(self) -> tuple:
+        """The gradient steps of a training call."""
+        return (replay_gradient_steps(self.learner.name, self.settings),)
 
     def q_values(self, params, observation):
         """Q(s, .) `(..., A)` of the network `params` at observations `(..., d)` (float32)."""
@@ -87,17 +89,8 @@ class DqnJaxAgents(PopulationAgents):
     def program(self) -> Program:
         jax, jnp = self.jax, self.jnp
         settings = self.settings[0]
-        size, batch_size = settings.buffer_size, settings.batch_size
-        horizon = settings.timesteps
-        hyper = {name: np.array([getattr(s, name) for s in self.settings]) for name in HYPER}
-        hyper["linear_rate"] = np.array([s.learning_rate_schedule == "linear" for s in self.settings])
-        hyper["learning_steps"] = np.array([-(-horizon // s.train_freq) * s.train_freq
-                                            for s in self.settings])
-        steps = [s.gradient_steps if s.gradient_steps >= 0 else s.train_freq for s in self.settings]
-        if len(set(steps)) > 1:
-            raise ValueError("dqn_jax agents of one batch must take as many gradient steps per "
-                             f"training call (gradient_steps, or train_freq where it is -1); got {steps}")
-        gradient_steps = steps[0]
+        batch_size, horizon = settings.batch_size, settings.timesteps
+        gradient_steps, = self.shared()
         q_values = self.q_values
 
         def epsilon(hyper, clock):
@@ -121,19 +114,10 @@ class DqnJaxAgents(PopulationAgents):
         def record(state, extras, observation, action, reward, terminated, truncated,
                    final_observation, hyper, clock, write):
             """The transition into the replay buffer, then `_on_step`'s target update."""
-            buffer = state["buffer"]
-            slot = buffer["count"] % size
-            entry = {"observations": observation.astype(jnp.float32),
-                     "next_observations": final_observation.astype(jnp.float32),
-                     "actions": action, "rewards": reward.astype(jnp.float32),
-                     "terminals": terminated.astype(jnp.float32)}
-            buffer = {**{name: buffer[name].at[slot].set(
-                jnp.where(write, entry[name], buffer[name][slot])) for name in entry},
-                "count": buffer["count"] + write.astype(jnp.int32)}
-            tau = hyper["tau"].astype(jnp.float32)
-            polyak = write & ((clock + 1) % jnp.maximum(hyper["target_update_interval"], 1) == 0)
-            target = jax.tree.map(lambda q, t: jnp.where(polyak, tau * q + (1.0 - tau) * t, t),
-                                  state["params"], state["target"])
+            buffer = replay_add(state["buffer"], write, observation, action, reward, terminated,
+                                final_observation)
+            due = write & ((clock + 1) % jnp.maximum(hyper["target_update_interval"], 1) == 0)
+            target = polyak(state["params"], state["target"], hyper["tau"], due)
             return {**state, "buffer": buffer, "target": target}
 
         def loss(params, target, batch, gamma):
@@ -145,37 +129,18 @@ class DqnJaxAgents(PopulationAgents):
             huber = jnp.where(jnp.abs(error) < 1.0, 0.5 * error * error, jnp.abs(error) - 0.5)
             return huber.mean()
 
-        def update(state, next_observation, next_start, hyper, clock, due):
-            """`DQN.train(batch_size, gradient_steps)` after the agent's step `clock`."""
-            del next_observation, next_start
-            buffer = state["buffer"]
-            filled = jnp.minimum(buffer["count"], size)
-            remaining = 1.0 - (clock + 1) / horizon
-            rate = hyper["learning_rate"] * jnp.where(hyper["linear_rate"], remaining, 1.0)
-            gamma = hyper["gamma"].astype(jnp.float32)
+        def gradient_step(learned, buffer, index, key, hyper, rate):
+            """One of `DQN.train`'s gradient steps."""
+            batch = replay_sample(buffer, key, batch_size)
+            grads = jax.grad(loss)(learned["params"], learned["target"], batch,
+                                   hyper["gamma"].astype(jnp.float32))
+            grads = clip_by_norm(grads, hyper["max_grad_norm"])
+            params, optimiser = adam(learned["params"], grads, learned["adam"], rate, 1e-8)
+            return {**learned, "params": params, "adam": optimiser}
 
-            def gradient_step(carry, key):
-                params, optimiser = carry
-                indices = jax.random.randint(key, (batch_size,), 0, filled)
-                batch = {name: buffer[name][indices] for name in buffer if name != "count"}
-                grads = jax.grad(loss)(params, state["target"], batch, gamma)
-                grads = clip_by_norm(grads, hyper["max_grad_norm"])
-                return adam(params, grads, optimiser, rate, 1e-8), None
-
-            key, steps_key = jax.random.split(state["key"])
-            (params, optimiser), _ = jax.lax.scan(
-                gradient_step, (state["params"], state["adam"]),
-                jax.random.split(steps_key, gradient_steps))
-            return {**state, **jax.tree.map(
-                lambda new, old: jnp.where(due, new, old),
-                {"params": params, "adam": optimiser, "key": key},
-                {name: state[name] for name in ("params", "adam", "key")})}
-
-        def update_due(hyper, clock):
-            done = clock + 1
-            return (done % hyper["train_freq"] == 0) & (done > hyper["learning_starts"])
-
-        return Program(act=act, record=record, update=update, update_due=update_due, hyper=hyper)
+        return Program(act=act, record=record,
+                       update=replay_update(gradient_step, gradient_steps, horizon),
+                       update_due=replay_due, hyper=replay_hyper(self.settings, HYPER))
 
 
 def make(settings, task, seeds) -> DqnJaxAgents:
@@ -192,7 +157,7 @@ def memory(settings, task) -> int:
     """Bytes of one agent: its replay buffer (float32 observations) and the online and target
     networks with Adam's two moments (four copies of the parameters)."""
     dim = len(task.state_names)
-    return (4 * settings.buffer_size * (2 * dim + 3)
+    return (replay_bytes(settings.buffer_size, dim)
             + network_bytes(dim, settings.layers(), task.num_actions, 4))
 
 

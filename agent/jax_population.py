@@ -1,13 +1,16 @@
-"""What lwrl's JAX population learners (`agent.ppo_jax`) share: B agents as one pytree of
-arrays with a leading axis B, trained by one jitted program (`runners.population`), and the
-pieces of Stable-Baselines3's learners written in JAX with PyTorch's arithmetic.
+"""What lwrl's JAX population learners (`agent.ppo_jax`, `agent.dqn_jax`, `agent.sac_jax`,
+`agent.td3_jax`) share: B agents as one pytree of arrays with a leading axis B, trained by one
+jitted program (`runners.population`), and the pieces of Stable-Baselines3's learners written
+in JAX with PyTorch's arithmetic.
 
 A population learner gives the runner a `Program`: pure per-agent functions that the runner
 `vmap`s over the batch, in the style of PureJaxRL (Lu et al. 2022) and rejax:
 
 - `act(state, observation, key, hyper, greedy, clock) -> (action, extras)` at the agent's
-  step `clock` (its steps of learning so far), `extras` what `record` needs of the choice
-  (e.g. PPO's V(s) and log-probability);
+  step `clock` (its steps of learning so far): an index, or for a learner of continuous
+  actions a float32 number in [-1, 1] that the runner scales to the actuator's range
+  (`tasks.commands`); `extras` what `record` needs of the choice (e.g. PPO's V(s) and
+  log-probability);
 - `record(state, extras, observation, action, reward, terminated, truncated,
   final_observation, hyper, clock, write) -> state`: the transition just taken, written
   only where `write` (learning, and the agent still running);
@@ -23,7 +26,10 @@ between two copies of a whole state (a replay buffer of a million transitions).
 shape, the rollout's length, the epochs) are the batch's and shape the program.
 
 The networks, the initialisation, Adam and the gradient clipping are SB3's and PyTorch's
-(`mlp`, `adam`, `clip_by_norm`): the same equations, drawn from JAX's random streams.
+(`mlp`, `adam`, `clip_by_norm`): the same equations, drawn from JAX's random streams. The
+off-policy learners (DQN, SAC, TD3) share SB3's replay buffer (`replay_buffer`,
+`replay_add`, `replay_sample`), its training calls (`replay_hyper`, `replay_update`,
+`replay_due`) and the target networks' Polyak update (`polyak`).
 JAX is optional (the `jax` extra); nothing here is imported without it but this module's
 names.
 """
@@ -133,6 +139,130 @@ def adam(params, grads, state, learning_rate, eps, beta1=0.9, beta2=0.999):
     return params, (m, v, count)
 
 
+def polyak(params, target, tau, when):
+    """The target networks moved toward `params` where `when`: tau params + (1 - tau)
+    target (SB3's `polyak_update`), tau in float32."""
+    jax, jnp = jax_modules()
+    tau = tau.astype(jnp.float32)
+    return jax.tree.map(lambda p, t: jnp.where(when, tau * p + (1.0 - tau) * t, t), params, target)
+
+
+def masked(due, state, **new):
+    """`state` with the entries `new` where `due`, its own elsewhere (an update's result,
+    taking effect for the agents due only)."""
+    jax, jnp = jax_modules()
+    return {**state, **jax.tree.map(lambda new_, old: jnp.where(due, new_, old), new,
+                                    {name: state[name] for name in new})}
+
+
+def hyper_arrays(settings, names) -> dict:
+    """`{setting: (B,) array}` of the agents' `settings` named (`Program.hyper`), and
+    `linear_rate`, whether each agent's learning rate follows the linear schedule."""
+    hyper = {name: np.array([getattr(s, name) for s in settings]) for name in names}
+    hyper["linear_rate"] = np.array([s.learning_rate_schedule == "linear" for s in settings])
+    return hyper
+
+
+def batch_value(learner: str, what: str, values):
+    """The one value of `values` (one per agent) where it shapes the program though the
+    settings that give it are per agent (`PopulationAgents.shared`), or a one-line
+    ValueError saying that the agents of a batch must `what`."""
+    if len(set(values)) > 1:
+        raise ValueError(f"{learner} agents of one batch must {what}; got {list(values)}")
+    return values[0]
+
+
+def replay_buffer(size: int, dim: int, action_dtype) -> dict:
+    """An empty replay buffer of `size` transitions (SB3's `ReplayBuffer`): float32
+    observations and next observations `(size, d)`, actions `(size,)` of `action_dtype`,
+    float32 rewards and terminals, and `count`, the transitions added so far."""
+    _, jnp = jax_modules()
+    return {"observations": jnp.zeros((size, dim), jnp.float32),
+            "next_observations": jnp.zeros((size, dim), jnp.float32),
+            "actions": jnp.zeros(size, action_dtype), "rewards": jnp.zeros(size, jnp.float32),
+            "terminals": jnp.zeros(size, jnp.float32), "count": jnp.zeros((), jnp.int32)}
+
+
+def replay_bytes(size: int, dim: int) -> int:
+    """Bytes of a `replay_buffer` of `size` transitions of `dim` state variables."""
+    return 4 * size * (2 * dim + 3)
+
+
+def replay_add(buffer, write, observation, action, reward, terminated, final_observation) -> dict:
+    """The buffer with the transition (s, a, r, s', terminal) in its next slot, the oldest
+    overwritten once it is full, where `write`: s' the episode's last observation where it
+    ended, a time limit not terminal (SB3's `handle_timeout_termination`)."""
+    _, jnp = jax_modules()
+    slot = buffer["count"] % buffer["rewards"].shape[0]
+    entry = {"observations": observation.astype(jnp.float32),
+             "next_observations": final_observation.astype(jnp.float32),
+             "actions": action, "rewards": reward.astype(jnp.float32),
+             "terminals": terminated.astype(jnp.float32)}
+    return {**{name: buffer[name].at[slot].set(
+        jnp.where(write, entry[name], buffer[name][slot])) for name in entry},
+        "count": buffer["count"] + write.astype(jnp.int32)}
+
+
+def replay_sample(buffer, key, batch_size: int) -> dict:
+    """`batch_size` transitions drawn uniformly, with replacement, among those the buffer
+    holds (SB3's `ReplayBuffer.sample`)."""
+    jax, jnp = jax_modules()
+    filled = jnp.minimum(buffer["count"], buffer["rewards"].shape[0])
+    indices = jax.random.randint(key, (batch_size,), 0, filled)
+    return {name: buffer[name][indices] for name in buffer if name != "count"}
+
+
+def replay_hyper(settings, names) -> dict:
+    """An off-policy learner's `Program.hyper`: the settings named (`hyper_arrays`) and
+    `learning_steps`, `timesteps` rounded up to a whole `train_freq`, as SB3's
+    `OffPolicyAlgorithm.learn()` collects whole training periods."""
+    hyper = hyper_arrays(settings, names)
+    hyper["learning_steps"] = np.array([-(-s.timesteps // s.train_freq) * s.train_freq
+                                        for s in settings])
+    return hyper
+
+
+def replay_gradient_steps(learner: str, settings) -> int:
+    """The gradient steps of each training call (`gradient_steps`, or `train_freq` where it
+    is -1, SB3's steps collected), which shape the program: one for the batch."""
+    return batch_value(learner, "take as many gradient steps per training call "
+                       "(gradient_steps, or train_freq where it is -1)",
+                       [s.gradient_steps if s.gradient_steps >= 0 else s.train_freq
+                        for s in settings])
+
+
+def replay_due(hyper, clock):
+    """True after the agent's step `clock` where SB3's off-policy `learn()` trains: every
+    `train_freq` steps past `learning_starts`."""
+    done = clock + 1
+    return (done % hyper["train_freq"] == 0) & (done > hyper["learning_starts"])
+
+
+def replay_update(gradient_step, gradient_steps: int, horizon: int):
+    """An off-policy learner's `Program.update`, SB3's `train(gradient_steps, batch_size)`
+    after the agent's step `clock`: the learning rate at the progress then (SB3's
+    `_update_learning_rate`: the initial rate, or with the linear schedule that rate times
+    the fraction of the `horizon` still to go), then `gradient_steps` calls of
+    `gradient_step(learned, buffer, index, key, hyper, rate) -> learned`, `learned` the
+    agent's state but its buffer and its key, `index` the gradient step's within the
+    call, `key` its own; taking effect where `due`."""
+    jax, jnp = jax_modules()
+
+    def update(state, next_observation, next_start, hyper, clock, due):
+        del next_observation, next_start
+        remaining = 1.0 - (clock + 1) / horizon
+        rate = hyper["learning_rate"] * jnp.where(hyper["linear_rate"], remaining, 1.0)
+        key, steps_key = jax.random.split(state["key"])
+        learned = {name: value for name, value in state.items() if name not in ("buffer", "key")}
+
+        def step(carry, inputs):
+            return gradient_step(carry, state["buffer"], *inputs, hyper, rate), None
+        learned, _ = jax.lax.scan(step, learned, (jnp.arange(gradient_steps),
+                                                  jax.random.split(steps_key, gradient_steps)))
+        return masked(due, state, key=key, **learned)
+    return update
+
+
 def flat(tree) -> np.ndarray:
     """`(B, N)`: each agent's leaves of `tree` (leading axis B), flattened in order."""
     import jax
@@ -156,6 +286,18 @@ class Program:
     `learning_steps`, each agent's steps of learning (`timesteps`, rounded up to a whole
     rollout or training period as SB3's `learn()` rounds it), after which it acts greedily
     and learns no more."""
+    mapped: bool = False
+    """True: the runner computes the agents' actions and their updates (for the agents due
+    only) one agent after another (`lax.map`), rather than `vmap`ped over the batch. Then an
+    agent's step is one computation in a batch of any size: vmapped, XLA's CPU dot takes another algorithm for
+    a batch of one agent than for several for some shapes (its sums in another order, e.g.
+    a weight gradient over a minibatch of 256 into a layer of a few inputs or outputs, or
+    an actor's output at one observation, jaxlib 0.10.2), so an agent alone would not give
+    its numbers in a batch: for a continuous action, every bit of it reaches the plant."""
+    unchanged: tuple = ()
+    """The entries of the state that `update` reads and never changes and `act` never reads
+    (a replay buffer): a mapped program does not carry them through, so that they are not
+    copied."""
 
 
 class PopulationAgents(Agents):
@@ -181,14 +323,14 @@ class PopulationAgents(Agents):
         self.clocks = np.zeros(len(self.seeds), dtype=np.int64)
         self._greedy = None  # the jitted greedy act of `step`, made at its first call
         batch = len(self.seeds)
-        self.arrays = PopulationArrays(q=np.zeros((batch, task.num_actions)),
+        self.arrays = PopulationArrays(q=np.zeros((batch, task.num_actions or 1)),
                                        delta=np.full(batch, np.nan),
                                        diverged=np.zeros(batch, dtype=bool),
                                        weights=flat(self.weight_tree(self.state)))
 
     def check_batchable(self) -> None:
         """A one-line ValueError where the agents' settings differ in a field that shapes
-        the program (one not marked `per_agent`)."""
+        the program (one not marked `per_agent`) or in a value of `shared`."""
         first = self.settings[0]
         for settings in self.settings[1:]:
             for field in dataclasses.fields(first):
@@ -198,6 +340,14 @@ class PopulationAgents(Agents):
                         f"{self.learner.name} agents of one batch must share {field.name} (it "
                         f"shapes the program); got {getattr(first, field.name)!r} and "
                         f"{getattr(settings, field.name)!r}")
+        self.shared()
+
+    def shared(self) -> tuple:
+        """What else shapes the program, beside the settings the batch shares: values that
+        per-agent settings give, which the batch's agents must share (`batch_value`: a
+        minibatch's size, the gradient steps of a training call); () for a learner without
+        such. The runner compiles a program for each."""
+        return ()
 
     def initial_state(self, key):
         raise NotImplementedError
@@ -260,7 +410,8 @@ class PopulationAgents(Agents):
                 lambda state, obs, hyper, clock: program.act(state, obs, key, hyper, True,
                                                              clock)[0]))
         actions = np.asarray(self._greedy(self.state, observation, self._hyper,
-                                          self.jnp.asarray(self.clocks)), dtype=np.int64)
+                                          self.jnp.asarray(self.clocks)),
+                             dtype=np.float64 if self.continuous else np.int64)
         active = np.ones(self.batch_size, dtype=bool) if active is None else np.asarray(active, bool)
         return np.where(active, actions, 0)
 

@@ -115,11 +115,11 @@ class OffPolicySettings(NetworkSettings):
         return gradient_steps, calls / steps
 
 
-def fits_continuous(name: str):
-    """A learner's `fits`: every task made with continuous actions, once PyTorch and
-    Stable-Baselines3 are installed; else one line naming `--action-kind continuous` or the
-    missing libraries."""
-    installed = fits_when_installed(name)
+def fits_continuous(name: str, installed=None):
+    """A learner's `fits`: every task made with continuous actions, once its libraries are
+    installed (`installed(task)` is None: PyTorch and Stable-Baselines3 unless given); else
+    one line naming `--action-kind continuous` or the missing libraries."""
+    installed = fits_when_installed(name) if installed is None else installed
 
     def fits(task):
         if task.actions != "continuous":

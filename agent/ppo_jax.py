@@ -29,7 +29,8 @@ import dataclasses
 import numpy as np
 
 from lwrl.agent.jax_population import (PopulationAgents, Program, adam, adam_init,
-                                       clip_by_norm, fits_with_jax, mlp, mlp_init)
+                                       clip_by_norm, fits_with_jax, hyper_arrays, masked, mlp,
+                                       mlp_init)
 from lwrl.agent.learner_contract import Learner
 from lwrl.agent.ppo import ZOO_SETS, PpoSettings, arithmetic
 from lwrl.agent.stable_baselines import network_bytes
@@ -109,9 +110,8 @@ class PpoJaxAgents(PopulationAgents):
         jax, jnp = self.jax, self.jnp
         settings = self.settings[0]
         n_steps, batch_size, epochs = settings.n_steps, settings.batch_size, settings.n_epochs
-        hyper = {name: np.array([getattr(s, name) for s in self.settings]) for name in HYPER}
+        hyper = hyper_arrays(self.settings, HYPER)
         hyper["learning_steps"] = np.full(len(self.settings), -(-settings.timesteps // n_steps) * n_steps)
-        hyper["linear_rate"] = np.array([s.learning_rate_schedule == "linear" for s in self.settings])
         hyper["linear_clip"] = np.array([s.clip_range_schedule == "linear" for s in self.settings])
 
         forward = self.forward
@@ -189,10 +189,7 @@ class PpoJaxAgents(PopulationAgents):
             key, epochs_key = jax.random.split(state["key"])
             (params, optimiser), _ = jax.lax.scan(
                 epoch, (state["params"], state["adam"]), jax.random.split(epochs_key, epochs))
-            return {**state, **jax.tree.map(
-                lambda new, old: jnp.where(due, new, old),
-                {"params": params, "adam": optimiser, "key": key},
-                {name: state[name] for name in ("params", "adam", "key")})}
+            return masked(due, state, params=params, adam=optimiser, key=key)
 
         return Program(act=act, record=record, update=update,
                        update_due=lambda hyper, clock: (clock + 1) % n_steps == 0, hyper=hyper)

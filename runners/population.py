@@ -12,6 +12,11 @@ learning) and the learner's `update` runs as one branch of the program where `up
 says for some agent, applied to those agents only: the batch's agents start together and
 step together, so the branch runs once per rollout, not at every step to be discarded.
 
+A learner of continuous actions (`Learner.actions`) runs the tasks made with
+`actions="continuous"`: its action in [-1, 1] becomes the command `tasks.commands.commands`
+names in the actuator's range at the episode's parameter values (the other loops' arithmetic,
+traced by JAX: `lwrl.jax.translate.as_jax`), which the JAX task takes as its control.
+
 Agent b's episode k runs at the physical parameter values the other loops give it: row b
 of `params`, with the parameters `randomise` names drawn from its seed and k
 (`tasks.randomisation.draws`, computed on the host before the program starts, `(B, K, P)`,
@@ -24,8 +29,8 @@ same distributions, other numbers.
 The program runs in chunks of `CHUNK` steps, so that progress is reported and a Ctrl-C
 stops the run between two chunks with every finished episode kept (`interrupted`). A chunk
 is compiled once per process for what shapes it (the task and its options, the longest
-action delay of the batch, the learner's batch-wide settings, the batch's size, the
-episodes, learning or not), the per-agent settings, physics, noise levels and delays being
+action delay of the batch, the learner's batch-wide settings and `shared` values, the
+batch's size, the episodes, learning or not), the per-agent settings, physics, noise levels and delays being
 its arguments; XLA's compiled code is also kept on disk beside lwrl's numba kernels
 (`lwrl.kernels.cache_root`, JAX's persistent compilation cache), so a later process loads it.
 """
@@ -37,6 +42,7 @@ import numpy as np
 from lwrl import kernels, tasks
 from lwrl.runners.episodes import EpisodeResults, episode_starts, step_budget
 from lwrl.settings import check_count
+from lwrl.tasks.commands import check_kinds, commands
 from lwrl.tasks.randomisation import check_ranges, draws
 
 CHUNK = 1024
@@ -73,6 +79,7 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
         raise ValueError(f"{name} keeps no recordings: it trains as one JAX program")
     env_options = dict(integrator=integrator, equations=equations, **task_options)
     env, _ = jax_tasks.make(f"{domain}.{task}", **env_options)
+    check_kinds(name, agent.learner.actions, env.definition, "run_population")
     batch = agent.batch_size
     sensors = env.sensors(batch, observation_noise=observation_noise, action_delay=action_delay,
                           action_noise=action_noise)
@@ -82,12 +89,12 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
     starts = jnp.asarray(episode_starts(env.definition, seeds, episodes))
     program = agent.program()
     shape = (env.name, repr(sorted(env_options.items())), sensors.max_delay, type(agent),
-             agent.dim, agent.num_actions, repr(_shared_settings(agent.settings[0])), batch,
-             episodes, bool(learn), bool(greedy), CHUNK)
+             agent.dim, agent.num_actions, repr(_shared_settings(agent.settings[0])),
+             agent.shared(), batch, episodes, bool(learn), bool(greedy), CHUNK)
     if shape not in _CHUNKS:
         _use_disk_cache()
         _CHUNKS[shape] = _compiled_chunk(env, program, episodes, agent.weight_tree,
-                                         bool(learn), bool(greedy))
+                                         bool(learn), bool(greedy), agent.continuous)
     step = _CHUNKS[shape]
     carry = _first_carry(env, agent, starts, sensors, episodes)
     steps = jnp.asarray(min(step_budget(budget), np.iinfo(np.int32).max), jnp.int32)
@@ -155,10 +162,21 @@ def _first_carry(env, agent, starts, sensors, episodes: int) -> dict:
             "diverged_episode": jnp.full(batch, -1, jnp.int32)}
 
 
-def _compiled_chunk(env, program, episodes: int, weight_tree, learn: bool, greedy: bool):
-    """`CHUNK` steps of the batch as one jitted function of the carry."""
+def _compiled_chunk(env, program, episodes: int, weight_tree, learn: bool, greedy: bool,
+                    continuous: bool):
+    """`CHUNK` steps of the batch as one jitted function of the carry; `continuous`: the
+    learner's actions are numbers in [-1, 1], scaled to the actuator's range."""
     import jax
     import jax.numpy as jnp
+    from lwrl.jax.translate import as_jax
+
+    def command(action, physical):
+        """What the JAX task takes for `action` at the episode's parameter values `physical`:
+        the action itself (an index), or the command a continuous one names."""
+        if not continuous:
+            return action
+        control_range = jnp.stack(env.action_range(physical))
+        return as_jax(commands, env.dtype)(control_range[None], action[None])[0]
 
     def finish(row, ended, steps, total, uptime, truncated):
         """`finish_episode` of one agent where `ended`: its episode's record at `done`
@@ -170,17 +188,37 @@ def _compiled_chunk(env, program, episodes: int, weight_tree, learn: bool, greed
                 "truncated": put(row["truncated"], truncated),
                 "done": row["done"] + ended.astype(jnp.int32)}
 
-    def agent_step(row, hyper, physical, starts, sensors, budget):
-        """One step of one agent, in its episode's physics (`physical` `(K, P)`) with its
-        sensors; the step that spends its `budget` ends its episode, truncated, and it."""
+    def choose(row, hyper):
+        """One agent's action at its observation, `(action, extras, keys)`: `keys` the
+        agent's next random stream and those of its plant's step and of its next start."""
         clock = row["clock"]
         learning = learn & (clock < hyper["learning_steps"])
         key, act_key, env_key, start_key = jax.random.split(row["key"], 4)
         action, extras = program.act(row["learner"], row["observation"], act_key, hyper,
                                      greedy | ~learning, clock)
+        return action, extras, (key, env_key, start_key)
+
+    def choices(carry, hyper):
+        """Every agent's `choose`: over the batch at once, or one agent after another where
+        the program asks (`Program.mapped`), reading the agents' states but for what
+        `Program.unchanged` names (what acting never reads: a replay buffer)."""
+        if not program.mapped:
+            return jax.vmap(choose)(carry, hyper)
+        acting = {"key": carry["key"], "clock": carry["clock"], "observation": carry["observation"],
+                  "learner": {name: value for name, value in carry["learner"].items()
+                              if name not in program.unchanged}}
+        return jax.lax.map(lambda row: choose(*row), (acting, hyper))
+
+    def agent_step(row, choice, hyper, physical, starts, sensors, budget):
+        """One step of one agent, taking its `choice`, in its episode's physics (`physical`
+        `(K, P)`) with its sensors; the step that spends its `budget` ends its episode,
+        truncated, and it."""
+        action, extras, (key, env_key, start_key) = choice
+        clock = row["clock"]
+        learning = learn & (clock < hyper["learning_steps"])
+        episode_physical = physical[jnp.minimum(row["done"], episodes - 1)]
         observation, state, reward, terminated, truncated, info = env.step_env(
-            env_key, row["env"], action, physical[jnp.minimum(row["done"], episodes - 1)],
-            sensors)
+            env_key, row["env"], command(action, episode_physical), episode_physical, sensors)
         learner = program.record(row["learner"], extras, row["observation"], action, reward,
                                  terminated, truncated, observation, hyper, clock,
                                  learning & row["active"])
@@ -212,15 +250,23 @@ def _compiled_chunk(env, program, episodes: int, weight_tree, learn: bool, greed
                 "diverged_episode": jnp.where(newly, row["done"], row["diverged_episode"])}
 
     def update(carry, hyper):
-        """The learner's update for the agents whose rollout the step just filled."""
-        learner = jax.vmap(program.update)(
-            carry["learner"], carry["observation"], carry["start"].astype(jnp.float32), hyper,
-            carry["clock"] - 1, carry["due"])
+        """The learner's update for the agents whose rollout the step just filled: over the
+        batch at once, or one agent after another where the program asks (`Program.mapped`),
+        computed for the agents due only."""
+        arguments = (carry["learner"], carry["observation"], carry["start"].astype(jnp.float32),
+                     hyper, carry["clock"] - 1, carry["due"])
+        if program.mapped:
+            def one(row):
+                new = jax.lax.cond(row[-1], lambda: program.update(*row), lambda: row[0])
+                return {name: new[name] for name in new if name not in program.unchanged}
+            learner = {**carry["learner"], **jax.lax.map(one, arguments)}
+        else:
+            learner = jax.vmap(program.update)(*arguments)
         return jax.vmap(diverge)({**carry, "learner": learner})
 
     def one(carry, _, hyper, physical, starts, sensors, budget):
-        carry = jax.vmap(agent_step, in_axes=(0, 0, 0, 0, 0, None))(carry, hyper, physical,
-                                                                     starts, sensors, budget)
+        carry = jax.vmap(agent_step, in_axes=(0, 0, 0, 0, 0, 0, None))(
+            carry, choices(carry, hyper), hyper, physical, starts, sensors, budget)
         carry = jax.lax.cond(jnp.any(carry["due"]), lambda c: update(c, hyper), lambda c: c,
                              carry)
         return carry, None

@@ -26,20 +26,21 @@ MISFITS = [(learner, task) for learner, task in itertools.product(learners.LEARN
 
 
 STEPPED_STEPS = 40
-"""Steps per episode of a contract run of a learner stepped in Python (no compiled step, no
-JAX program: Stable-Baselines3's, whose every step costs what a compiled episode does, and
-SAC's updates on minibatches of 256 far more), so that each contract test runs in seconds;
-three such episodes pass SAC's `learning_starts` of 100, so its saved agents carry updated
-networks, optimisers and replay buffers (TD3's 10 000 and DQN's are held to SB3's updates by
-`tests/test_stable_baselines.py`)."""
+"""Steps per episode of a contract run of a learner without a compiled step (stepped in
+Python, as Stable-Baselines3's, whose every step costs what a compiled episode does, or a
+JAX program, whose off-policy learners take a gradient step on a minibatch of 256 at every
+step once they learn), so that each contract test runs in seconds; three such episodes pass
+SAC's `learning_starts` of 100, so its saved agents carry updated networks, optimisers and
+replay buffers (TD3's 10 000 and DQN's are held to SB3's updates by
+`tests/test_stable_baselines.py`, the JAX learners' first updates to their equations by
+`tests/test_population.py` and `tests/test_sac_td3_jax.py`)."""
 
 
 def steps_per_episode(learner, task) -> int:
-    """At most 300 steps, `STEPPED_STEPS` for a learner stepped in Python."""
+    """At most 300 steps, `STEPPED_STEPS` for a learner without a compiled step."""
     definition = tasks.definition(*tasks.split_name(task))
-    declared = learners.learner(learner)
-    stepped = declared.step is None and not declared.population
-    return min(STEPPED_STEPS if stepped else 300, definition.step_limit)
+    short = learners.learner(learner).step is None
+    return min(STEPPED_STEPS if short else 300, definition.step_limit)
 
 
 def config_of(learner, task, **settings) -> RunConfig:
