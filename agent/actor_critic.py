@@ -35,7 +35,8 @@ at the pendulum's and the cart-pole's control period of 20 ms (gamma = exp(-dt /
 In the contract's terms: `actions` is `continuous` (the step returns u in [-1, 1]); `q`
 `(B, 1)` holds the actor's mean mu at the latest observation (what the greedy policy does);
 the state value is the critic's V; `weights` is `(B, 2, N)`, the actor's w and the critic's
-v; the TD error is the critic's delta.
+v; the TD error is the critic's delta. Its C controller (`lwrl export`) is the greedy actor,
+clip(mu(s), -1, 1), over the same NRBF code as the discrete learners'.
 """
 
 import collections
@@ -234,9 +235,11 @@ class ActorCriticAgents(LinearAgents):
         return document, {"weights": arrays.weights, "streams": arrays.streams,
                           "diverged": arrays.diverged}
 
-    def controller(self, b: int):
-        raise ValueError("actor_critic agents have no C controller yet: the export writes "
-                         "discrete controllers")
+    def controller_rows(self, b: int) -> np.ndarray:
+        """`(1, N)` the actor's weights alone: the C controller (`export.c`, `lwrl_policy`
+        for a continuous action) computes mu(s) over the NRBF features and clips it to
+        [-1, 1], the greedy action; the critic is not needed to act."""
+        return self.arrays.weights[b, ACTOR:ACTOR + 1]
 
 
 def make(settings, task, seeds) -> ActorCriticAgents:

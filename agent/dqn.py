@@ -198,7 +198,8 @@ class DqnAgents(ModelAgents):
 def mlp_form(torch, sequential, weights, task, activation: str) -> ControllerForm:
     """An MLP of `Linear` layers with `activation` between them (`torch.nn.Sequential`) as the
     export's `mlp_policy` template takes it: every layer's weights (row-major, out x in) then
-    its biases, one flat array; the layer sizes; the activation's C macro."""
+    its biases, one flat array; the layer sizes; the activation's C macro. What follows the
+    last layer is the template's (none for discrete actions, tanh for a continuous one)."""
     layers = [module for module in sequential if isinstance(module, torch.nn.Linear)]
     sizes = [layers[0].in_features] + [layer.out_features for layer in layers]
     flat = np.concatenate([np.concatenate([layer.weight.detach().cpu().numpy().ravel(),

@@ -395,7 +395,7 @@ class LinearAgents(Agents):
 
     def controller(self, b: int) -> ControllerForm:
         """The greedy NRBF controller, `argmax_a sum_i w_ia phibar_i(s)`, for the export's
-        template `lwrl_policy` (`export.c`)."""
+        template `lwrl_policy` (`export.c`), over the rows `controller_rows(b)`."""
         features = self.features
         if not isinstance(features, NRBF):
             raise ValueError(f"only NRBF agents can be exported to C; these have "
@@ -404,10 +404,15 @@ class LinearAgents(Agents):
         low, high = np.array(features.low), np.array(features.high)
         return ControllerForm(
             template="lwrl_policy",
-            values={"weights": self.arrays.weights[b], "low": low, "high": high,
+            values={"weights": self.controller_rows(b), "low": low, "high": high,
                     "r2": features.r2, "s_min": -margin, "s_max": 1.0 + margin,
                     "n": features.n, "neurons": features.num_features,
                     "grid": " x ".join([str(features.n)] * features.dim),
                     "r2_text": f"{features.r2:g}"},
             stored=("weights", "low", "high", "r2"), ranges=(features.low, features.high),
             check=lambda real: nrbf_check(features, real))
+
+    def controller_rows(self, b: int) -> np.ndarray:
+        """`(A, N)` the rows of agent b's weights that its C controller sums over the
+        features (`controller`): every action's."""
+        return self.arrays.weights[b]

@@ -13,7 +13,7 @@ the two critics toward r + gamma (1 - done) (min_i Q_target,i(s', a') - alpha lo
 a' ~ pi(.|s') (eq. 5, with the clipped double Q of Fujimoto et al. 2018); the actor by
 alpha log pi(a|s) - min_i Q_i(s, a) (eq. 7, reparameterised, eq. 11); the target critics'
 Polyak update by `tau` every `target_update_interval` gradient steps. A greedy action is
-tanh(mu(s)).
+tanh(mu(s)); its C controller (`lwrl export`, `mlp_policy`) is that forward pass.
 
 Defaults: rl-baselines3-zoo's Pendulum-v1 set (20000 steps, learning rate 1e-3;
 hyperparams/sac.yml at commit 22e3ff2450fd92033f7f032915e1f64894a09584, `off_policy.ZOO`),
@@ -23,7 +23,8 @@ SB3's own for what it does not set.
 import dataclasses
 
 from lwrl.agent.arithmetic import BACKWARD_MACS, Count, Counts
-from lwrl.agent.learner_contract import Learner
+from lwrl.agent.dqn import mlp_form
+from lwrl.agent.learner_contract import ControllerForm, Learner
 from lwrl.agent.off_policy import (ADAM_MACS, OffPolicyAgents, OffPolicySettings, counted,
                                    fits_continuous, network_counts)
 from lwrl.agent.off_policy import memory as off_policy_memory
@@ -80,6 +81,14 @@ class SacAgents(OffPolicyAgents):
     @staticmethod
     def _tensors(model) -> dict:
         return {} if model.log_ent_coef is None else {"log_ent_coef": model.log_ent_coef}
+
+    def controller(self, b: int) -> ControllerForm:
+        """The greedy actor, tanh(mu(s)) (the mean's layers, the log standard deviation's
+        head left out), as a plain MLP forward pass in C (`mlp_policy`, whose continuous
+        controller takes the last layer's tanh)."""
+        actor = self.models[b].actor
+        return mlp_form(self.torch, self.torch.nn.Sequential(*actor.latent_pi, actor.mu),
+                        self.arrays.weights[b], self.task, "ReLU")
 
 
 def make(settings, task, seeds) -> SacAgents:

@@ -12,7 +12,7 @@ r + gamma (1 - done) min_i Q_target,i(s', a'), a' = clip(mu_target(s') + clip(e,
 eq. 10, and target policy smoothing, eq. 14); every `policy_delay` gradient steps the actor
 along the gradient of Q_1(s, mu(s)) (the deterministic policy gradient) and the target
 networks' Polyak update by `tau` (delayed policy updates, section 5.2). A greedy action is
-mu(s).
+mu(s); its C controller (`lwrl export`, `mlp_policy`) is that forward pass.
 
 Defaults: rl-baselines3-zoo's Pendulum-v1 set (hyperparams/td3.yml at commit
 22e3ff2450fd92033f7f032915e1f64894a09584, `off_policy.ZOO`), SB3's own for what it does not set.
@@ -23,7 +23,8 @@ import dataclasses
 import numpy as np
 
 from lwrl.agent.arithmetic import BACKWARD_MACS, Count, Counts
-from lwrl.agent.learner_contract import Learner
+from lwrl.agent.dqn import mlp_form
+from lwrl.agent.learner_contract import ControllerForm, Learner
 from lwrl.agent.off_policy import (ADAM_MACS, OffPolicyAgents, OffPolicySettings, counted,
                                    fits_continuous, network_counts)
 from lwrl.agent.off_policy import memory as off_policy_memory
@@ -82,6 +83,12 @@ class Td3Agents(OffPolicyAgents):
     @staticmethod
     def _optimizers(model) -> dict:
         return {"actor_optimizer": model.actor.optimizer, "critic_optimizer": model.critic.optimizer}
+
+    def controller(self, b: int) -> ControllerForm:
+        """The deterministic actor mu(s), as a plain MLP forward pass in C (`mlp_policy`,
+        whose continuous controller takes the last layer's tanh, the actor's own)."""
+        return mlp_form(self.torch, self.models[b].actor.mu, self.arrays.weights[b], self.task,
+                        "ReLU")
 
 
 def make(settings, task, seeds) -> Td3Agents:

@@ -13,10 +13,11 @@ OUT = "robustness"
 def add_parser(commands) -> None:
     study = commands.add_parser(
         "robustness", help="evaluate trained controllers away from the paper's plant",
-        description="Train every learner that fits each task on the paper's plant and with "
+        description="Train every learner that fits each task (a learner of continuous "
+                    "actions on the task made with them) on the paper's plant and with "
                     "randomised physics, then run them greedily over a grid of the domain's "
                     "robustness parameters, observation noise and actuation delays, with the "
-                    "exported C controller beside them; write a map figure per task and a "
+                    "exported C controllers beside them; write a map figure per task and a "
                     "report. Runs are written as they finish: the same command resumes.")
     study.add_argument("task", nargs="+", metavar="DOMAIN.TASK", choices=tasks.TASK_NAMES,
                        help="one or more of: " + ", ".join(tasks.TASK_NAMES))

@@ -7,10 +7,16 @@ NRBF agents, below, and the Stable-Baselines3 learners' networks, template `mlp_
 plain forward pass over `const` weights, `tanhf`/`tanh` where the actor uses tanh) as two
 files in `out_dir`:
 
-- `lwrl_policy.h`: the interface. `int lwrl_act(const lwrl_real *state)` returns the greedy
-  action index; `void lwrl_q_values(const lwrl_real *state, lwrl_real *q)` writes Q(s, .).
-  `lwrl_real` is `float` (default) or `double`. Macros give the state dimension, the action
-  count, the grid, r^2 and the ranges (`LWRL_LOW`, `LWRL_HIGH`, as initialiser lists).
+- `lwrl_policy.h`: the interface. For a learner of discrete actions (`Learner.actions`),
+  `int lwrl_act(const lwrl_real *state)` returns the greedy action index and
+  `void lwrl_q_values(const lwrl_real *state, lwrl_real *q)` writes Q(s, .); for one of
+  continuous actions, `lwrl_real lwrl_act(const lwrl_real *state)` returns the greedy
+  action u in [-1, 1] and `void lwrl_actor(const lwrl_real *state, lwrl_real *u)` the
+  actor's output before the clip. `lwrl_real` is `float` (default) or `double`. Macros
+  give the state dimension, the action count (`LWRL_NUM_ACTIONS`) or the actuator's range
+  at the task's paper values (`LWRL_ACTION_LOW`, `LWRL_ACTION_HIGH`: u commands
+  `(low + high) / 2 + u (high - low) / 2`, `tasks.commands`), the grid, r^2 and the
+  ranges (`LWRL_LOW`, `LWRL_HIGH`, as initialiser lists).
 - `lwrl_policy.c`: the weights as `static const` arrays, action-major (each action's row of
   N weights is contiguous), and the two functions. It includes only `<math.h>` (`expf`,
   `fabsf`; `exp`, `fabs` for double) and allocates nothing: its stack holds the d x n
@@ -19,21 +25,27 @@ files in `out_dir`:
 
 The names are fixed (not per task) so firmware code does not change when the controller is
 retrained; the comment header of both files says what task, features, grid, ranges and
-source file (path, SHA-256, agent index) they were generated from.
+source file (path, SHA-256, agent index) they were generated from. One template pair per
+network serves both kinds of action: the lines between `%% discrete` (or `%% continuous`)
+and `%% end` are kept for that kind only (`template`), the rest, the features' and the
+network's code among it, is the same.
 
 The C code computes what `agent/nrbf.py` computes, step for step, in `lwrl_real`: each
 variable is mapped from [low, high] to [0, 1] (not clipped); per dimension, the factors
 `exp(-((s_j - c_k)^2 - m^2) / r^2)` with centroids `c_k = (k + 0.5) / n` and `m` the
 nearest-centroid distance (the underflow guard), normalised to sum 1; the features are the
 outer product of the per-dimension factors in C order (last variable fastest), and
-`Q(s, a) = sum_i w_ia phibar_i`. One addition: a normalised value is limited to
+`Q(s, a) = sum_i w_ia phibar_i`, or the actor's mean `mu(s) = sum_i w_i phibar_i` of
+`agent/actor_critic.py` (CACLA, van Hasselt and Wiering 2007), clipped to [-1, 1] as its
+greedy action is. One addition: a normalised value is limited to
 `[-M, 1 + M]` with `M = 400 n r^2` (`clamp_margin`). Beyond, every factor but the edge
 centroid's is below `exp(-800)`, which is 0 in float and in double, so the features are
 exactly those at the limit; the limit keeps the float arithmetic accurate (at a normalised
 value of 1e7 a float cannot tell the centroids apart) and finite (no inf - inf = NaN).
 
 Ties: `lwrl_act` returns the lowest index among equal Q values (the Python agent breaks
-ties at random); with trained weights exact ties are rare. A NaN state gives action 0.
+ties at random); with trained weights exact ties are rare. A NaN state gives action 0, or
+for a continuous action 0, the middle of the actuator's range.
 
 `measure(out_dir)` compiles the exported files with the system C compiler and reports the
 flash they take (`.text` at `-Os` and the read-only data) and the time per decision.
@@ -52,6 +64,7 @@ import numpy as np
 
 from lwrl import outputs, tasks
 from lwrl.agent import io as agent_io
+from lwrl.tasks.task_definition import ACTIONS
 
 SOURCE = "lwrl_policy.c"
 """The exported file names, fixed so that firmware does not change when the controller is
@@ -59,13 +72,33 @@ retrained; their templates are package data, `templates/<name>.in` (`string.Temp
 HEADER = "lwrl_policy.h"
 DTYPES = {"float": np.float32, "double": np.float64}
 _VALUES_PER_LINE = 6
+INTERFACES = {
+    "discrete": {"values": "lwrl_q_values", "outputs": "LWRL_NUM_ACTIONS", "row": "action {}"},
+    "continuous": {"values": "lwrl_actor", "outputs": "1", "row": "the actor"},
+}
+"""Per kind of action (`Learner.actions`), what the controller templates' code names: the
+function that writes the outputs (`values`: Q(s, .), or the actor's output), their count
+(`outputs`) and the comment before row a of the weights (`row`, formatted with a)."""
+SECTION = "%% "
+"""A template's line `%% KIND` starts the lines kept for the kind of action KIND only,
+`%% end` ends them."""
 
 
-def template(name: str) -> string.Template:
+def template(name: str, actions: str = "discrete") -> string.Template:
     """The template of the exported file `name` (`lwrl_policy.c`, `lwrl_policy.h`, or a
-    path below `templates/` such as `learner/lwrl_learner.c`)."""
-    return string.Template(resources.files(__package__).joinpath(
-        "templates", *f"{name}.in".split("/")).read_text())
+    path below `templates/` such as `learner/lwrl_learner.c`) for a controller of the kind
+    of action `actions`: its sections for the other kind left out (`SECTION`)."""
+    text = resources.files(__package__).joinpath("templates", *f"{name}.in".split("/")).read_text()
+    lines, kept = [], True
+    for line in text.splitlines(keepends=True):
+        if line.startswith(SECTION):
+            section = line[len(SECTION):].strip()
+            if section not in ("end", *ACTIONS):
+                raise ValueError(f"templates/{name}.in: unknown section {section!r}")
+            kept = section in ("end", actions)
+        elif kept:
+            lines.append(line)
+    return string.Template("".join(lines))
 
 
 def _literal(value, dtype: str) -> str:
@@ -101,44 +134,75 @@ def _check_index(agent_index, batch: int) -> int:
     return int(agent_index)
 
 
-def _task_description(metadata: dict, dim: int, num_actions: int, source: str):
-    """(task name, state names, controls or None, config dict) from the file's metadata; a
-    one-line error if the agents do not fit the task it names."""
+def _task_description(metadata: dict, agent, source: str):
+    """(task name, state names, task definition or None, config dict) from the file's
+    metadata, the definition made with the agents' kind of action; a one-line error if
+    the agents do not fit the task it names."""
     config = metadata.get("config") if isinstance(metadata, dict) else None
     config = config if isinstance(config, dict) else {}
     task = config.get("task")
-    names, controls = [f"state[{j}]" for j in range(dim)], None
+    names, definition = [f"state[{j}]" for j in range(agent.dim)], None
     if isinstance(task, str) and task.count(".") == 1:
         try:
-            definition = tasks.definition(*task.split("."))
+            definition = tasks.definition(*task.split("."), actions=_kind(agent))
         except ValueError:
             definition = None
         if definition is not None:
-            definition.check_fits(dim, num_actions, source)
-            names, controls = list(definition.state_names), definition.controls
+            definition.check_fits(agent.dim, agent.num_actions, source, agent.continuous)
+            names = list(definition.state_names)
     return (task if isinstance(task, str) else "unknown (no run configuration in the file)",
-            names, controls, config)
+            names, definition, config)
+
+
+def _kind(agent) -> str:
+    """The agents' kind of action (`Learner.actions`)."""
+    return "continuous" if agent.continuous else "discrete"
+
+
+def _action_fields(agent, definition, dtype: str) -> dict:
+    """The header's `action_lines` (what an action is) and `action_macros` (the count of
+    discrete actions, or the actuator's range) for `agent`'s controller on the task
+    `definition` (None: unknown, which only a controller of discrete actions may be)."""
+    if not agent.continuous:
+        controls = None if definition is None else definition.controls
+        line = ("" if controls is None else " (action i applies control " + ", ".join(
+            f"{i}: {c:g}" for i, c in enumerate(controls)) + ")")
+        return {"action_lines": f" * Actions: {agent.num_actions}{line}",
+                "action_macros": f"#define LWRL_NUM_ACTIONS {agent.num_actions}"}
+    low, high = definition.control_range
+    name = definition.control_name
+    return {"action_lines": (
+                f" * Action: a real u in [-1, 1] (lwrl_act); the actuator applies the {name}\n"
+                " *   (LWRL_ACTION_LOW + LWRL_ACTION_HIGH) / 2 + u (LWRL_ACTION_HIGH - "
+                "LWRL_ACTION_LOW) / 2\n"
+                f" *   (lwrl.tasks.commands), in [{low:g}, {high:g}] at the task's paper values"),
+            "action_macros": (
+                f"#define LWRL_ACTION_LOW ({_literal(low, dtype)}) /* the actuator's range "
+                f"({name}) at the task's paper values */\n"
+                f"#define LWRL_ACTION_HIGH ({_literal(high, dtype)})")}
 
 
 
-def _weights_block(rows: np.ndarray, dtype: str) -> str:
-    """The initialiser of a 2-D array (e.g. `WEIGHTS` (A, N)): one brace block per row."""
+def _weights_block(rows: np.ndarray, dtype: str, row: str = "action {}") -> str:
+    """The initialiser of a 2-D array (e.g. `WEIGHTS` (A, N)): one brace block per row,
+    row a's headed by the comment `row` formatted with a."""
     width = len(str(rows.shape[1] - 1))
     blocks = []
-    for a, row in enumerate(rows):
-        lines = [f"    {{ /* action {a} */"]
-        for start in range(0, len(row), _VALUES_PER_LINE):
-            values = ", ".join(_literal(v, dtype) for v in row[start:start + _VALUES_PER_LINE])
+    for a, values_of_row in enumerate(rows):
+        lines = [f"    {{ /* {row.format(a)} */"]
+        for start in range(0, len(values_of_row), _VALUES_PER_LINE):
+            values = ", ".join(_literal(v, dtype)
+                               for v in values_of_row[start:start + _VALUES_PER_LINE])
             lines.append(f"        /* {start:>{width}} */ {values},")
         lines.append("    },")
         blocks.append("\n".join(lines) + "\n")
     return "".join(blocks)
 
 
-def _rendered(value, dtype: str) -> str:
-    """A controller value as C text (`ControllerForm.values`)."""
+def _rendered(value, dtype: str, row: str = "action {}") -> str:
+    """A controller value as C text (`ControllerForm.values`; `row` as `_weights_block`)."""
     if isinstance(value, np.ndarray) and value.ndim == 2:
-        return _weights_block(value, dtype)
+        return _weights_block(value, dtype, row)
     if isinstance(value, np.ndarray):
         return ", ".join(_literal(v, dtype) for v in value)
     if isinstance(value, float):
@@ -153,8 +217,10 @@ def export_c(agent_path, out_dir, agent_index: int = 0, dtype: str = "float") ->
     and `lwrl_policy.h` (created or overwritten; `out_dir` is created if needed). Refuses
     (one-line ValueError) a file that is not an agent file, a learner or feature map with no
     C controller (CMAC features), a diverged agent (flagged, or non-finite weights), weights
-    or constants that do not fit `dtype`, and an index out of range. Returns a dict:
-    `source`, `header` (paths), `task`, `agent_index`, `dtype`, `state_dim`, `actions`,
+    or constants that do not fit `dtype`, an index out of range, and agents of continuous
+    actions from a file that names no task (their header states the actuator's range).
+    Returns a dict: `source`, `header` (paths), `task`, `agent_index`, `dtype`,
+    `state_dim`, `actions` (the discrete actions, or 1: one continuous action),
     `weight_bytes` (the weights), `constant_bytes` (the other values it stores: an NRBF's
     ranges and r^2) and `flash_bytes` (their sum; the compiled code comes on top, see
     `measure`), and the controller's own values that are sizes (an NRBF's `grid`, `neurons`).
@@ -182,7 +248,11 @@ def export_c(agent_path, out_dir, agent_index: int = 0, dtype: str = "float") ->
         raise ValueError(f"{agent_path}: {reason}")
 
     dim, num_actions = agent.dim, agent.num_actions
-    task, names, controls, config = _task_description(metadata, dim, num_actions, agent_path)
+    task, names, definition, config = _task_description(metadata, agent, agent_path)
+    if agent.continuous and definition is None:
+        raise ValueError(f"{agent_path}: names no task, whose actuator's range a controller of "
+                         "continuous actions states: save the agents with their run "
+                         "configuration (lwrl train --save)")
     with open(agent_path, "rb") as file:
         sha256 = hashlib.sha256(file.read()).hexdigest()
     size = np.dtype(numpy_type).itemsize
@@ -202,13 +272,14 @@ def export_c(agent_path, out_dir, agent_index: int = 0, dtype: str = "float") ->
         run = ("\n *   trained with " + _comment(", ".join(parts))) if parts else ""
     name_width = max(len(name) for name in names)
     low, high = form.ranges
+    kind = _kind(agent)
+    interface = INTERFACES[kind]
     fields = dict(
-        {name: _rendered(value, dtype) for name, value in rounded.items()},
+        {name: _rendered(value, dtype, interface["row"]) for name, value in rounded.items()},
         header=HEADER, source=SOURCE, real=dtype, task=_comment(task), dim=dim,
-        num_actions=num_actions,
+        num_actions=num_actions, values=interface["values"], outputs=interface["outputs"],
         state_lines="\n".join(f" *   state[{j}] {_comment(name)}" for j, name in enumerate(names)),
-        action_line=("" if controls is None else " (action i applies control " + ", ".join(
-            f"{i}: {c:g}" for i, c in enumerate(controls)) + ")"),
+        **_action_fields(agent, definition, dtype),
         path=_comment(os.path.abspath(os.fspath(agent_path))), sha256=sha256, index=b,
         batch=agent.batch_size, run=run,
         range_lines="\n".join(
@@ -219,8 +290,8 @@ def export_c(agent_path, out_dir, agent_index: int = 0, dtype: str = "float") ->
         exp="expf" if dtype == "float" else "exp", fabs="fabsf" if dtype == "float" else "fabs",
         tanh="tanhf" if dtype == "float" else "tanh",
     )
-    paths = write_files(out_dir, {HEADER: template(f"{form.template}.h").substitute(fields),
-                                  SOURCE: template(f"{form.template}.c").substitute(fields)})
+    paths = write_files(out_dir, {HEADER: template(f"{form.template}.h", kind).substitute(fields),
+                                  SOURCE: template(f"{form.template}.c", kind).substitute(fields)})
     sizes = {name: value for name, value in form.values.items()
              if isinstance(value, int) and not isinstance(value, bool)}
     return {"source": paths[SOURCE], "header": paths[HEADER], "task": task, "agent_index": b,
@@ -252,11 +323,13 @@ def find_compiler(compiler=None) -> str:
     raise ValueError(f"no C compiler found ({'not found: ' + compiler if compiler else 'tried $CC, cc, gcc, clang'})")
 
 
-def _compile(compiler, arguments, cwd):
-    result = subprocess.run([compiler, *arguments], cwd=cwd, capture_output=True, text=True)
+def compile_in(command, cwd) -> None:
+    """Run the compiler `command` (the compiler, then its arguments) in `cwd`; a one-line
+    ValueError with its first words of complaint if it fails."""
+    result = subprocess.run(command, cwd=cwd, capture_output=True, text=True)
     if result.returncode != 0:
-        raise ValueError(f"{os.path.basename(compiler)} {' '.join(arguments)} failed: "
-                         f"{result.stderr.strip().splitlines()[0] if result.stderr.strip() else result.returncode}")
+        raise ValueError(f"{os.path.basename(command[0])} failed: "
+                         + " ".join(result.stderr.strip().splitlines()[:2]))
 
 
 def section_sizes(object_path) -> dict:
@@ -293,12 +366,12 @@ static double now(void)
     return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
 
-static double run(long count, unsigned long *checksum)
+static double run(long count, double *checksum)
 {
     long i;
     double start = now();
-    for (i = 0; i < count; i++)
-        *checksum += (unsigned long)lwrl_act(states[i & (TABLE - 1)]);
+    for (i = 0; i < count; i++) /* an action index, or a continuous action */
+        *checksum += (double)lwrl_act(states[i & (TABLE - 1)]);
     return now() - start;
 }
 
@@ -307,7 +380,7 @@ int main(int argc, char **argv)
     const double low[LWRL_STATE_DIM] = {LWRL_LOW}, high[LWRL_STATE_DIM] = {LWRL_HIGH};
     double seconds = argc > 1 ? atof(argv[1]) : 0.2, best;
     unsigned long long x = 88172645463325252ULL;
-    unsigned long checksum = 0;
+    double checksum = 0.0;
     long count = 1024;
     int i, j;
     for (i = 0; i < TABLE; i++)
@@ -325,7 +398,7 @@ int main(int argc, char **argv)
         if (t < best)
             best = t;
     }
-    printf("%.3f %ld %lu\n", 1e9 * best / (double)count, count, checksum);
+    printf("%.3f %ld %g\n", 1e9 * best / (double)count, count, checksum);
     return 0;
 }
 """
@@ -349,12 +422,12 @@ def measure(out_dir, compiler=None, seconds: float = 0.2) -> dict:
     version = subprocess.run([compiler, "--version"], capture_output=True, text=True).stdout
     with tempfile.TemporaryDirectory() as build:
         include = ["-I", os.path.abspath(out_dir)]
-        _compile(compiler, ["-Os", "-std=c99", *include, "-c", source, "-o", "policy.o"], build)
+        compile_in([compiler, "-Os", "-std=c99", *include, "-c", source, "-o", "policy.o"], build)
         sections = section_sizes(os.path.join(build, "policy.o"))
         with open(os.path.join(build, "bench.c"), "w") as file:
             file.write(_BENCH)
-        _compile(compiler, ["-O2", "-std=c99", *include, "bench.c", source, "-o", "bench", "-lm"],
-                 build)
+        compile_in([compiler, "-O2", "-std=c99", *include, "bench.c", source, "-o", "bench",
+                    "-lm"], build)
         output = subprocess.run([os.path.join(build, "bench"), repr(float(seconds))],
                                 capture_output=True, text=True, check=True).stdout.split()
     return {"compiler": f"{compiler} ({version.splitlines()[0] if version else 'unknown version'})",

@@ -45,7 +45,7 @@ import numpy as np
 from lwrl import tasks
 from lwrl.agent.streams import SPLITMIX64
 from lwrl.export import learner
-from lwrl.export.c import DTYPES, _literal, find_compiler, template
+from lwrl.export.c import DTYPES, _literal, compile_in, find_compiler, template
 
 CROSS = {"arm-none-eabi-gcc": "gcc-arm-none-eabi", "arm-none-eabi-size": "binutils-arm-none-eabi",
          "qemu-system-arm": "qemu-system-arm"}
@@ -111,15 +111,6 @@ def plant_header(task: str, **options) -> str:
         controls=", ".join(_literal(float(c), "double") for c in definition.controls),
         start=string.Template(plant.start).substitute(values),
         step=string.Template(plant.step).substitute(values))
-
-
-def compile_in(command, cwd) -> None:
-    """Run the compiler `command` in `cwd`; a one-line ValueError with its first words of
-    complaint if it fails."""
-    result = subprocess.run(command, cwd=cwd, capture_output=True, text=True)
-    if result.returncode != 0:
-        raise ValueError(f"{os.path.basename(command[0])} failed: "
-                         + " ".join(result.stderr.strip().splitlines()[:2]))
 
 
 def write_program(build, source, dtype, program: str, **fields) -> dict:

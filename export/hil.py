@@ -30,9 +30,9 @@ import numpy as np
 
 from lwrl import tasks
 from lwrl.export import frames, learner
-from lwrl.export.c import find_compiler
+from lwrl.export.c import compile_in, find_compiler
 from lwrl.export.device import (BOARD, COMMON_FLAGS, M4_FLAGS, M4_LINK, build_plugin,
-                                check_tools, compile_in, read_instructions, write_fixed_files)
+                                check_tools, read_instructions, write_fixed_files)
 from lwrl.export.frames import Observation
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent

@@ -89,10 +89,11 @@ def from_file(path, agent_index: int = 0) -> LearnerSource:
     b = _check_index(agent_index, agents.batch_size)
     if agents.diverged[b]:
         raise ValueError(f"{path}: agent {b} diverged (non-finite weights); there is nothing to resume")
-    task, names, controls, _ = _task_description(metadata, agents.dim, agents.num_actions, path)
+    task, names, definition, _ = _task_description(metadata, agents, path)
     with open(path, "rb") as file:
         sha256 = hashlib.sha256(file.read()).hexdigest()
-    return LearnerSource(agents, b, task, tuple(names), controls,
+    return LearnerSource(agents, b, task, tuple(names),
+                         None if definition is None or agents.continuous else definition.controls,
                          origin=f"resumed from agent {b} of {os.path.abspath(os.fspath(path))} "
                                 f"(SHA-256 {sha256})",
                          stream=f"agent {b}'s stream as saved")

@@ -1,5 +1,7 @@
 """The embedded controller (lwrl.export.c): the exported C picks the Python agent's
-greedy action, compiles cleanly as C99, and bad inputs are refused in one line.
+greedy action, compiles cleanly as C99, and bad inputs are refused in one line; for a
+continuous actor-critic (CACLA) the C action is the Python agent's greedy action, within
+the same error bound.
 
 The C code runs in float (single precision, weights rounded to float32) by default; the
 Python agent in float64. Where the Python agent's two best actions are within the float
@@ -22,6 +24,7 @@ import numpy as np
 import pytest
 from conftest import one_line_error
 
+from lwrl import tasks
 from lwrl.agent import io as agent_io
 from lwrl.agent.cmac import CMAC
 from lwrl.agent.nrbf import NRBF
@@ -46,22 +49,33 @@ DRIVER = r"""
 #include "lwrl_policy.h"
 
 /* Reads states (LWRL_STATE_DIM numbers each, hex floats are exact) from stdin; prints per
- * state the action of lwrl_act and the Q values of lwrl_q_values as hex floats. */
+ * state the action of lwrl_act and the Q values of lwrl_q_values as hex floats, or for a
+ * continuous controller the action and the actor's mean of lwrl_actor, both hex floats. */
 int main(void)
 {
+#ifdef LWRL_NUM_ACTIONS
     lwrl_real state[LWRL_STATE_DIM], q[LWRL_NUM_ACTIONS];
+    int a;
+#else
+    lwrl_real state[LWRL_STATE_DIM], mu;
+#endif
     double value;
-    int j, a;
+    int j;
     for (;;) {
         for (j = 0; j < LWRL_STATE_DIM; j++) {
             if (scanf("%lf", &value) != 1)
                 return 0;
             state[j] = (lwrl_real)value;
         }
+#ifdef LWRL_NUM_ACTIONS
         lwrl_q_values(state, q);
         printf("%d", lwrl_act(state));
         for (a = 0; a < LWRL_NUM_ACTIONS; a++)
             printf(" %a", (double)q[a]);
+#else
+        lwrl_actor(state, &mu);
+        printf("%a %a", (double)lwrl_act(state), (double)mu);
+#endif
         printf("\n");
     }
 }
@@ -93,6 +107,12 @@ def agent_files(tmp_path_factory):
     one_dimensional.weights[:] = rng.normal(size=one_dimensional.weights.shape)
     agent_io.save(directory / "one_dimensional.npz", one_dimensional)  # no run configuration
     files["one_dimensional"] = directory / "one_dimensional.npz"
+    for task, scale in (("pendulum.swingup", 1.0), ("cartpole.balance", 1.0)):
+        config = RunConfig(task=task, learner="actor_critic", actions="continuous",
+                           plant="analytic", agents=2, episodes=3)
+        agent = make_agent(config)
+        agent.arrays.weights[:] = scale * rng.normal(size=agent.arrays.weights.shape)
+        files[f"{task.split('.')[0]}_actor"] = save(directory / f"{task}-actor.npz", agent, config)
     return files
 
 
@@ -107,14 +127,15 @@ def compile_driver(out_dir, build_dir):
     return executable
 
 
-def run_driver(executable, states):
-    """C actions `(M,)` and Q values `(M, A)` at `states` `(M, d)` (exact: hex floats)."""
+def run_driver(executable, states, continuous=False):
+    """C actions `(M,)` and Q values `(M, A)` at `states` `(M, d)` (exact: hex floats), or
+    for a `continuous` controller its actions and the actor's means `(M, 1)`."""
     text = "\n".join(" ".join(float(v).hex() for v in row) for row in states) + "\n"
     output = subprocess.run([str(executable)], input=text, capture_output=True, text=True,
                             check=True).stdout.split("\n")
     rows = [line.split() for line in output if line]
     assert len(rows) == len(states)
-    return (np.array([int(row[0]) for row in rows]),
+    return (np.array([float.fromhex(row[0]) if continuous else int(row[0]) for row in rows]),
             np.array([[float.fromhex(v) for v in row[1:]] for row in rows]))
 
 
@@ -184,6 +205,56 @@ def test_c_controller_picks_the_python_agents_greedy_action(agent_files, tmp_pat
 @pytest.mark.parametrize("name", ["mountain_car", "cartpole"])
 def test_double_precision_controller_agrees_too(agent_files, tmp_path, name):
     check_against_python(agent_files[name], tmp_path / "out", tmp_path, 0, "double", count=500)
+
+
+def greedy_actions(agent, b, states):
+    """Agent b's greedy actions at `states` `(M, d)`, each the step of an episode's first
+    observation (`Agents.step`, `greedy=True`, no learning), as the run loops take them."""
+    batch = agent.batch_size
+    return np.array([agent.step([True] * batch, [0.0] * batch, [1.0] * batch,
+                                np.tile(state, (batch, 1)), learn=False, greedy=True)[b]
+                     for state in states])
+
+
+@needs_compiler
+@pytest.mark.parametrize("name, dtype", [("pendulum_actor", "float"), ("pendulum_actor", "double"),
+                                         ("cartpole_actor", "float"), ("cartpole_actor", "double")])
+def test_c_actor_gives_the_python_agents_greedy_action(agent_files, tmp_path, name, dtype):
+    """A continuous actor-critic (CACLA) exported: `lwrl_act` returns a real, the Python
+    agent's greedy action clip(mu(s), -1, 1), within the bound of the module's docstring over
+    the actor's weights (float), within 1e-12 of it (double); `lwrl_actor` its mean mu(s).
+    Random weights put mu beyond [-1, 1] at some states, so the clip is tested too. The
+    header gives the actuator's range and the mapping, and the file holds the actor's
+    weights only."""
+    path, b = agent_files[name], 1
+    result = export_c(path, tmp_path / "out", agent_index=b, dtype=dtype)
+    executable = compile_driver(tmp_path / "out", tmp_path)
+    agent, _ = agent_io.load(path)
+    states = sample_states(agent.features, 2000, np.random.default_rng(7),
+                           np.float32 if dtype == "float" else np.float64)
+    c_actions, c_means = run_driver(executable, states, continuous=True)
+    python = greedy_actions(agent, b, states)
+    mu = agent.policy_means(states)[b]
+    rel, absolute = TOLERANCE[dtype]
+    bound = rel * agent.features.features(states) @ np.abs(agent.arrays.weights[b, 0]) + absolute
+    assert np.all(np.abs(c_means[:, 0] - mu) <= bound)
+    assert np.all(np.abs(c_actions - python) <= (bound if dtype == "float" else 1e-12))
+    np.testing.assert_array_equal(python, np.clip(python, -1.0, 1.0))
+    assert (np.abs(mu) > 1.0).mean() > 0.05 and (np.abs(mu) < 1.0).mean() > 0.05
+    assert np.all(np.abs(c_actions) <= 1.0)
+    nan_action, _ = run_driver(executable, np.full((1, agent.dim), np.nan), continuous=True)
+    assert nan_action[0] == 0.0  # the middle of the actuator's range
+    header = (tmp_path / "out" / "lwrl_policy.h").read_text()
+    real = "f" if dtype == "float" else ""
+    low, high = tasks.definition(*result["task"].split("."), actions="continuous").control_range
+    assert f"#define LWRL_ACTION_LOW ({low!r}{real})" in header
+    assert f"#define LWRL_ACTION_HIGH ({high!r}{real})" in header
+    assert "lwrl_real lwrl_act(const lwrl_real *state);" in header
+    assert "LWRL_NUM_ACTIONS" not in header and "(lwrl.tasks.commands)" in header
+    assert result["weight_bytes"] == agent.features.num_features * (4 if dtype == "float" else 8)
+    print(f"\n{name} ({dtype}): {len(states)} states, C action error <= "
+          f"{np.abs(c_actions - python).max():.2g}, "
+          f"{(np.abs(mu) > 1.0).mean():.0%} of the means clipped")
 
 
 def test_exported_files_describe_the_controller(agent_files, tmp_path):
@@ -261,6 +332,21 @@ def test_bad_inputs_are_refused_in_one_line(agent_files, tmp_path):
     agent_io.save(tmp_path / "huge.npz", agent, metadata)
     one_line_error(lambda: export_c(tmp_path / "huge.npz", tmp_path / "out"), "beyond the range of float")
     export_c(tmp_path / "huge.npz", tmp_path / "huge", dtype="double")
+    # A continuous actor-critic: with CMAC features, or saved without its task (the
+    # header's actuator range), refused; its diverged agent too.
+    config = RunConfig(task="pendulum.swingup", learner="actor_critic", actions="continuous",
+                       features="cmac", agents=1)
+    agent_io.save(tmp_path / "actor_cmac.npz", make_agent(config),
+                  {"config": dataclasses.asdict(config)})
+    one_line_error(lambda: export_c(tmp_path / "actor_cmac.npz", tmp_path / "out"), "only NRBF")
+    agent, metadata = agent_io.load(agent_files["pendulum_actor"])
+    agent_io.save(tmp_path / "actor_alone.npz", agent)
+    one_line_error(lambda: export_c(tmp_path / "actor_alone.npz", tmp_path / "out"),
+                   "names no task", "actuator's range")
+    agent.arrays.weights[1, 0, 5] = np.inf
+    agent_io.save(tmp_path / "actor_inf.npz", agent, metadata)
+    one_line_error(lambda: export_c(tmp_path / "actor_inf.npz", tmp_path / "out", 1),
+                   "agent 1 diverged")
     # An output directory that is a file.
     (tmp_path / "file").write_text("")
     one_line_error(lambda: export_c(agent_files["pendulum"], tmp_path / "file"), "cannot write")

@@ -21,9 +21,9 @@ from lwrl import tasks
 from lwrl.agent import io as agent_io
 from lwrl.agent.jax_population import missing_jax
 from lwrl.runners import sweep
-from lwrl.runners.config import RunConfig
+from lwrl.runners.config import RunConfig, task_info
 from lwrl.runners.run import environment_options, make_agent, run, run_batched, run_compiled, run_dm_env
-from lwrl.studies.robustness import controller, plan
+from lwrl.studies.robustness import controller, plan, study
 from lwrl.tasks.batched import BatchedEnv
 from lwrl.tasks.randomisation import check_ranges, draws
 from conftest import off_nominal, run_cli
@@ -257,13 +257,17 @@ def test_each_domain_names_its_robustness_parameters():
 
 
 def test_the_plan_covers_every_learner_and_cell():
-    """Every learner that fits the task (the population learners where JAX is installed), but
-    the population learners on a plant other than the analytic one."""
+    """Every learner that fits the task (the population learners where JAX is installed), a
+    learner of continuous actions on the task made with them, but the population learners
+    on a plant other than the analytic one."""
     task = "cartpole.balance"
     trainings = plan.trainings(task, "analytic")
     fitting = {name: learner for name, learner in learners.LEARNERS.items()
-               if learner.fits(RunConfig(task=task).task_info) is None}
+               if learner.fits(task_info(task, actions=learner.actions)) is None}
     assert {learner for learner, _ in trainings} == set(fitting)
+    assert {config.actions for config in trainings.values()} == {"discrete", "continuous"}
+    for (name, _), config in trainings.items():
+        assert config.actions == learners.LEARNERS[name].actions
     assert set(plan.learners_for(task, "mujoco")) == {name for name, learner in fitting.items()
                                                       if not learner.population}
     cells = plan.cells(task)
@@ -291,7 +295,10 @@ def test_lwrl_robustness_writes_its_report_and_resumes(tmp_path, capsys):
     for name in names:
         assert f"| {name} | nominal |" in report and f"| {name} | randomised |" in report
     cells = len(plan.cells("mountain_car.cost_to_go", quick=True))
-    assert f"in {cells} of {cells} cells" in report
+    for name in study.C_LEARNERS:  # one of each kind of action
+        assert (f"The C controller of {name} (`lwrl.export.c.export_c` of agent 0 of its nominal "
+                "training") in report
+    assert report.count(f"in {cells} of {cells} cells") == len(study.C_LEARNERS)
     assert os.path.exists(out / "figures" / "mountain_car_cost_to_go.png")
     status, _, _ = run_cli(argv, capsys)
     again = (out / "report.md").read_text()
@@ -347,7 +354,8 @@ def test_the_wall_time_is_summed_over_the_invocations_that_computed_a_studys_run
 def test_a_learner_of_the_stepped_loop_trains_the_benchmarks_agents_with_its_tuned_settings():
     """DQN and PPO (where installed) take part with at most `STEPPED_AGENTS` agents,
     rl-baselines3-zoo's sets and the benchmark's episodes (the cart-pole's 30 of 60 s), and
-    are evaluated on the task's own episodes as every learner is; their JAX ports (where
+    are evaluated on the task's own episodes as every learner is; SAC and TD3 so too, with
+    their defaults (the zoo's Pendulum-v1 sets); their JAX ports (where
     JAX is installed) with the same sets and episodes, but the count of agents asked for;
     the compiled loop's learners keep the count asked for, the paper's protocol and their
     defaults (their runs' keys unchanged)."""
@@ -358,17 +366,19 @@ def test_a_learner_of_the_stepped_loop_trains_the_benchmarks_agents_with_its_tun
     stepped = bench_protocol.episode_budgets()  # as lwrl robustness passes them
     trainings = plan.trainings(task, "analytic", agents=30, stepped=stepped)
     for (name, _), config in trainings.items():
-        if learners.LEARNERS[name].compiles:
+        learner = learners.LEARNERS[name]
+        if learner.compiles:
             assert config.agents == 30 and config == RunConfig(
-                task=task, learner=name, plant="analytic", agents=30, randomise=config.randomise)
+                task=task, learner=name, plant="analytic", agents=30, randomise=config.randomise,
+                actions=learner.actions)
         else:
-            if learners.LEARNERS[name].population:
+            if learner.population:
                 assert config.agents == 30
             else:
                 assert config.agents == plan.STEPPED_AGENTS < 30
             assert (config.episodes, config.task_options) == (30, {"time_limit": 60.0}) == (
                 bench_protocol.TASKS[task].episodes, bench_protocol.TASKS[task].task_options)
-            assert tuned_settings(task, name)
+            assert tuned_settings(task, name) or not learner.tuned  # SAC, TD3: their defaults
             for setting, value in tuned_settings(task, name).items():
                 assert getattr(config.agent, setting) == value
         evaluation = plan.evaluation(task, config, plan.cells(task)[0], 3)
@@ -469,6 +479,34 @@ def test_a_quick_study_trains_evaluates_and_reports_a_population_learner(tmp_pat
     section = report.section(result, "figure.png")
     assert "| dqn_jax | nominal |" in section and "| dqn_jax | randomised |" in section
     assert report.figure(result, str(tmp_path / "figures"))
+
+
+def test_a_quick_study_trains_evaluates_and_reports_a_continuous_learner(tmp_path):
+    """`actor_critic` alone in the pendulum's quick study: trained on the task made with
+    continuous actions (the torque in [-1, 1] of its range), on the paper's plant and with
+    randomised physics, evaluated greedily in every cell, measured and reported, and its
+    exported C controller, whose `lwrl_act` returns a real (`CController` with a double
+    return type), run in every cell through ctypes: its episodes are the Python agent's.
+    The double controller's action differs from the Python agent's by an ulp or so (its
+    sums run in another order), too little to change the plant's arithmetic here."""
+    from lwrl.studies.robustness import report
+
+    task = "pendulum.swingup"
+    assert "actor_critic" in plan.learners_for(task)
+    result = study.study_task(task, str(tmp_path), quick=True, learners=["actor_critic"])
+    assert result.computed == result.runs == 2 * (1 + len(result.cells))
+    assert {config.actions for config in result.trainings.values()} == {"continuous"}
+    assert list(result.controllers) == ["actor_critic"] == [
+        name for name in study.C_LEARNERS if learners.LEARNERS[name].actions == "continuous"]
+    ran = result.controllers["actor_critic"]
+    assert ran["same"] == ran["cells"] == len(result.cells)
+    assert all(values.shape == (2,) and np.all(np.isfinite(values))
+               for (_, _, _, column), values in result.per_agent.items() if column == "uptime_s")
+    source = pathlib.Path(ran["source"]).read_text()
+    assert "lwrl_real lwrl_act(const lwrl_real *state)" in source
+    section = report.section(result, "figure.png")
+    assert "| actor_critic | nominal |" in section and "| C actor_critic |" in section
+    assert f"in {len(result.cells)} of {len(result.cells)} cells" in section
 
 
 def test_an_interrupted_study_that_finished_no_run_adds_no_time(tmp_path, monkeypatch):

@@ -1,9 +1,9 @@
 """The Stable-Baselines3 learners (`agent.dqn`, `agent.ppo`, `agent.sac`, `agent.td3`):
 stepped by lwrl's loop they compute what SB3's own `learn()` computes, to the bit, on the same
 environment and seed, terminal states and truncations included, with discrete actions and
-continuous ones; their settings are checked in one line; the discrete learners' greedy
-networks export as C99 that picks torch's action. Tiny budgets (seconds); skipped,
-naming the extra, where PyTorch and Stable-Baselines3 are not installed."""
+continuous ones; their settings are checked in one line; their greedy networks export as
+C99 that picks torch's action, or for SAC and TD3 returns it. Tiny budgets (seconds);
+skipped, naming the extra, where PyTorch and Stable-Baselines3 are not installed."""
 
 import numpy as np
 import pytest
@@ -239,41 +239,80 @@ int main(void)
 {
     lwrl_real state[LWRL_STATE_DIM];
     while (fread(state, sizeof(lwrl_real), LWRL_STATE_DIM, stdin) == LWRL_STATE_DIM)
+#ifdef LWRL_NUM_ACTIONS
         printf("%d\n", lwrl_act(state));
+#else
+        printf("%a\n", (double)lwrl_act(state)); /* a continuous action, exact */
+#endif
     return 0;
 }
 """
+
+
+def exported_actions(path, out_dir, states, dtype="float"):
+    """The actions of the C controller that `export_c` writes of the agent file `path` in
+    `out_dir` (`dtype`), built with HARNESS, at `states` `(M, d)`: indices, or reals."""
+    import subprocess
+
+    from lwrl.export.c import DTYPES, export_c, find_compiler
+    written = export_c(path, out_dir, dtype=dtype)
+    (out_dir / "main.c").write_text(HARNESS)
+    subprocess.run([find_compiler(), "-O2", "-std=c99", "-I", str(out_dir), "main.c",
+                    "lwrl_policy.c", "-o", "act", "-lm"], cwd=out_dir, check=True)
+    output = subprocess.run([str(out_dir / "act")], input=states.astype(DTYPES[dtype]).tobytes(),
+                            capture_output=True, check=True).stdout.decode().split()
+    return written, np.array([float.fromhex(v) if v.startswith(("0x", "-0x")) else int(v)
+                              for v in output])
 
 
 @pytest.mark.parametrize("learner", ["dqn", "ppo"])
 def test_the_exported_network_picks_torchs_greedy_action(learner, tmp_path):
     """The C99 forward pass of the trained network (`export_c`, template `mlp_policy`) picks
     the action torch's network picks, on 5000 states in and around the task's ranges."""
-    import shutil
-    import subprocess
-
     from lwrl.agent import io as agent_io
-    from lwrl.export.c import export_c, find_compiler
-    compiler = find_compiler()
     module, settings = (dqn, dqn.DqnSettings(timesteps=400, **DQN_SETTINGS)) if learner == "dqn" \
         else (ppo, ppo.PpoSettings(timesteps=192, **PPO_SETTINGS))
     agents = module.make([settings], task_info(TASK), [SEED])
     lwrl_loop(agents, SEED, settings.timesteps)
     path = tmp_path / "agent.npz"
     agent_io.save(path, agents, {"config": {"task": TASK}})
-    written = export_c(path, tmp_path / "c")
+    states = around_the_ranges(5000).astype(np.float32)
+    written, actions = exported_actions(path, tmp_path / "c", states)
     # DQN: the online Q-network, all its weights; PPO: the actor, without the critic
     assert written["weight_bytes"] == 4 * written["parameters"]
     assert (written["parameters"] == agents.arrays.weights.shape[1]) == (learner == "dqn")
-    (tmp_path / "c" / "main.c").write_text(HARNESS)
-    subprocess.run([compiler, "-O2", "-std=c99", "-I", str(tmp_path / "c"), "main.c", "lwrl_policy.c",
-                    "-o", "act", "-lm"], cwd=tmp_path / "c", check=True)
-    low, high = np.array(task_info(TASK).low), np.array(task_info(TASK).high)
-    states = low + (high - low) * np.random.default_rng(0).uniform(-0.25, 1.25, (5000, len(low)))
-    states = states.astype(np.float32)
-    output = subprocess.run([str(tmp_path / "c" / "act")], input=states.tobytes(), capture_output=True,
-                            check=True).stdout.split()
     values = agents.action_values(states.astype(np.float64))[0]
-    np.testing.assert_array_equal(np.array(output, dtype=int), values.argmax(axis=1))
+    np.testing.assert_array_equal(actions, values.argmax(axis=1))
     assert len(set(values.argmax(axis=1))) > 1  # the test tells actions apart
-    shutil.rmtree(tmp_path / "c")
+
+
+def around_the_ranges(count: int) -> np.ndarray:
+    """`count` states `(count, d)` of the task, uniform in its ranges widened by a quarter
+    on each side."""
+    low, high = np.array(task_info(TASK).low), np.array(task_info(TASK).high)
+    return low + (high - low) * np.random.default_rng(0).uniform(-0.25, 1.25, (count, len(low)))
+
+
+@pytest.mark.parametrize("learner", [sac, td3])
+def test_the_exported_actor_returns_the_agents_greedy_action(learner, tmp_path):
+    """SAC's and TD3's actors after a short training, exported (`export_c`, template
+    `mlp_policy` for a continuous action: tanh after the last layer, SAC's log standard
+    deviation's head left out): `lwrl_act` returns a real, the Python agent's greedy action
+    (`Agents.step`, greedy: SB3's `predict(deterministic=True)`, tanh(mu(s)) in float32)
+    within float32's rounding, in float and in double, on 2000 states in and around the
+    task's ranges."""
+    from lwrl.agent import io as agent_io
+    settings = learner.LEARNER.settings(timesteps=300, **OFF_POLICY_SETTINGS)
+    agents = learner.make([settings], task_info(TASK, actions="continuous"), [SEED])
+    lwrl_loop(agents, SEED, settings.timesteps)
+    path = tmp_path / "agent.npz"
+    agent_io.save(path, agents, {"config": {"task": TASK, "actions": "continuous"}})
+    states = around_the_ranges(2000).astype(np.float32).astype(np.float64)  # as torch reads them
+    python = np.array([agents.step([True], [0.0], [1.0], state[None], learn=False, greedy=True)[0]
+                       for state in states])
+    assert python.std() > 0.05  # the test tells actions apart
+    for dtype in ("float", "double"):
+        written, actions = exported_actions(path, tmp_path / dtype, states, dtype)
+        np.testing.assert_allclose(actions, python, rtol=0, atol=1e-5)
+        assert written["parameters"] < agents.arrays.weights.shape[1]  # the actor alone
+    assert "#define LWRL_ACTION_LOW (-10.0f)" in (tmp_path / "float" / "lwrl_policy.h").read_text()

@@ -5,16 +5,18 @@ through ctypes for every step of every environment.
 arithmetic is the Python agent's: the float export may round a near tie the other way);
 `CController` compiles it with the system C compiler (`-O2 -shared -fPIC`) and stands in
 for a batch of agents in the stepped loop (`runners.stepped.run_batched`: it acts, it never
-learns), so that its episodes are counted as every run's are.
+learns), so that its episodes are counted as every run's are. A controller of discrete
+actions returns an action's index (`int lwrl_act`), one of continuous actions the action in
+[-1, 1] (`lwrl_real lwrl_act`, here a double), which the loop scales to the actuator's range
+as it scales every continuous learner's (`tasks.commands`).
 """
 
 import ctypes
 import os
-import subprocess
 
 import numpy as np
 
-from lwrl.export.c import SOURCE, export_c, find_compiler
+from lwrl.export.c import SOURCE, compile_in, export_c, find_compiler
 from lwrl.runners.run import environment_options
 from lwrl.runners.stepped import run_batched
 from lwrl.tasks.batched import BatchedEnv
@@ -27,11 +29,8 @@ def build(agent_path, out_dir: str, agent_index: int = 0, compiler=None) -> str:
     and compile it as a shared library there; return the library's path."""
     export_c(agent_path, out_dir, agent_index, dtype="double")
     library = os.path.join(out_dir, LIBRARY)
-    result = subprocess.run([find_compiler(compiler), "-std=c99", "-O2", "-shared", "-fPIC",
-                             "-o", LIBRARY, SOURCE, "-lm"], cwd=out_dir, capture_output=True,
-                            text=True)
-    if result.returncode != 0:
-        raise ValueError(f"compiling {SOURCE} failed: {' '.join(result.stderr.split())}")
+    compile_in([find_compiler(compiler), "-std=c99", "-O2", "-shared", "-fPIC", "-o", LIBRARY,
+                SOURCE, "-lm"], out_dir)
     return library
 
 
@@ -40,33 +39,35 @@ class CController:
     interface of `Agents` that the stepped loop uses (`step`, `diverged`, `batch_size`,
     `continuous`)."""
 
-    continuous = False
-    """It returns an action's index (`lwrl_act`'s int)."""
-
-    def __init__(self, library: str, batch_size: int):
+    def __init__(self, library: str, batch_size: int, continuous: bool = False):
+        self.continuous = continuous
+        """False: it returns an action's index (`lwrl_act`'s int); True: a continuous
+        action in [-1, 1] (its `lwrl_real`, a double)."""
         self._act = ctypes.CDLL(os.path.abspath(library)).lwrl_act
         self._act.argtypes = [ctypes.POINTER(ctypes.c_double)]
-        self._act.restype = ctypes.c_int
+        self._act.restype = ctypes.c_double if continuous else ctypes.c_int
         self.batch_size = batch_size
         self.diverged = np.zeros(batch_size, dtype=bool)
 
-    def act(self, observation: np.ndarray) -> int:
+    def act(self, observation: np.ndarray) -> int | float:
         """`lwrl_act` of one observation `(d,)`."""
         state = np.ascontiguousarray(observation, dtype=np.float64)
-        return int(self._act(state.ctypes.data_as(ctypes.POINTER(ctypes.c_double))))
+        return self._act(state.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
 
     def step(self, first, reward, discount, observation, active=None, learn=True,
              greedy=True) -> np.ndarray:
         """The controller's action for each observation `(B, d)`; it learns nothing."""
-        return np.array([self.act(row) for row in observation], dtype=np.int64)
+        return np.array([self.act(row) for row in observation],
+                        dtype=np.float64 if self.continuous else np.int64)
 
 
 def run_controller(library: str, configs, seeds):
     """The C controller's episodes in each of `configs` (`RunConfig`s of one agent each, as
-    the study evaluates; environment b seeded with `seeds[b]`), all in one `BatchedEnv` whose
-    environments have each configuration's physics and sensors."""
+    the study evaluates, all of one kind of action, the controller's; environment b seeded
+    with `seeds[b]`), all in one `BatchedEnv` whose environments have each configuration's
+    physics and sensors."""
     base = configs[0]
     env = BatchedEnv(base.domain, base.task_name, base.plant_name, seeds, **base.plant_options,
-                     **base.task_options, **environment_options(configs))
-    return run_batched(env, CController(library, len(configs)), base.episodes, learn=False,
-                       greedy=True)
+                     **base.task_options, **environment_options(configs), actions=base.actions)
+    return run_batched(env, CController(library, len(configs), base.actions == "continuous"),
+                       base.episodes, learn=False, greedy=True)

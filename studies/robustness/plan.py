@@ -1,7 +1,8 @@
 """The robustness study's runs: which agents are trained, and where each is evaluated.
 
-For a task, every learner of the registry that fits it (`agent.LEARNERS`, `Learner.fits`) is
-trained twice, with the settings tuned for it elsewhere where it has them
+For a task, every learner of the registry that fits it (`agent.LEARNERS`, `Learner.fits`), a
+learner of continuous actions on the task made with them (`Learner.actions`, the run's
+`actions`), is trained twice, with the settings tuned for it elsewhere where it has them
 (`runners.config.tuned_settings`: rl-baselines3-zoo's for DQN and PPO, where `lwrl bench`'s
 search starts), else the task's defaults: on the
 paper's plant, and with the domain's robustness parameters (`Domain.robustness_axes`) drawn
@@ -36,6 +37,7 @@ import numpy as np
 
 from lwrl import agent as learners
 from lwrl import tasks
+from lwrl.agent import LEARNERS
 from lwrl.runners.config import RunConfig, task_defaults, task_info, tuned_settings
 
 FACTORS = (0.25, 0.5, 1.0, 2.0, 4.0)
@@ -103,11 +105,12 @@ def values(task: str, cell: Cell) -> dict:
 
 
 def learners_for(task: str, plant: str = "analytic") -> list:
-    """The learners of the registry that fit `task` on `plant`, in the registry's order: a
-    population learner (`Learner.population`) runs on the analytic plant only."""
-    info = task_info(task)
-    return [name for name, learner in learners.LEARNERS.items()
-            if learner.fits(info) is None and (plant == "analytic" or not learner.population)]
+    """The learners of the registry that fit `task` on `plant`, each the task made with its
+    kind of action (`Learner.actions`), in the registry's order: a population learner
+    (`Learner.population`) runs on the analytic plant only."""
+    return [name for name, learner in LEARNERS.items()
+            if learner.fits(task_info(task, actions=learner.actions)) is None
+            and (plant == "analytic" or not learner.population)]
 
 
 def agents_for(task: str, learner: str, agents=None):
@@ -162,7 +165,8 @@ def trainings(task: str, plant: str, agents=None, episodes=None, quick: bool = F
     """`{(learner, training): RunConfig}`: each learner of `learners` (None: every one that
     fits `task` on `plant`, `chosen_learners`), trained on the paper's plant and with randomisation, `agents_for(task,
     learner, agents)` agents (seeds 0..) for `episodes` episodes each (None: the task's
-    protocol; `stepped_protocol` with `stepped`)."""
+    protocol; `stepped_protocol` with `stepped`), on the task made with the learner's kind
+    of action."""
     chosen = chosen_learners(task, plant, learners)  # checked before anything runs
     if quick:
         agents, episodes = agents or QUICK["agents"], episodes or QUICK["episodes"]
@@ -175,7 +179,7 @@ def trainings(task: str, plant: str, agents=None, episodes=None, quick: bool = F
         for training in TRAININGS:
             configs[learner, training] = RunConfig(
                 task=task, learner=learner, plant=plant, agents=agents_for(task, learner, agents),
-                episodes=count, task_options=options,
+                actions=LEARNERS[learner].actions, episodes=count, task_options=options,
                 randomise=ranges if training == "randomised" else {},
                 **tuned_settings(task, learner))
     return configs

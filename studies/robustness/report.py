@@ -4,8 +4,8 @@ A figure has a row per learner: the measure over the parameter grid of the agent
 the paper's plant and of those trained with randomisation (two maps, one colour scale), then
 the measure against observation noise and against delay, both trainings. The report gives
 every cell's 95 % interval, the controllers' scores over the grid compared by the
-probability of improvement (Agarwal et al. 2021), and the C controller beside the Python
-agent it was exported from.
+probability of improvement (Agarwal et al. 2021), and the C controllers (one per kind of
+action, `study.C_LEARNERS`) beside the Python agents they were exported from.
 """
 
 import numpy as np
@@ -119,24 +119,24 @@ def section(result, figure_path: str) -> str:
     lines += [f"- {a[0]} ({a[1]}) against {b[0]} ({b[1]}): "
               f"{result.comparison(a, b, first).text(2)} — {verdict(result.comparison(a, b, first))}"
               for a, b in comparisons(pairs)]
+    controllers = result.controllers
     lines += ["", f"Every cell ({first.label}" + (f", {first.unit}" if first.unit else "")
               + "; mean over agents [95 % interval]):", "",
-              "| cell | " + " | ".join(f"{l} ({t})" for l, t in pairs)
-              + (" | C controller |" if result.controller else " |"),
-              "|---|" + "---|" * (len(pairs) + bool(result.controller))]
+              "| cell | " + " | ".join([f"{l} ({t})" for l, t in pairs]
+                                      + [f"C {learner}" for learner in controllers]) + " |",
+              "|---|" + "---|" * (len(pairs) + len(controllers))]
     for cell in result.cells:
         row = [result.estimate(learner, training, cell, first).text(first.digits)
                for learner, training in pairs]
-        if result.controller:
-            row.append(f"{result.controller['per_cell'][cell][first.column]:.{first.digits}f}")
+        row += [f"{c['per_cell'][cell][first.column]:.{first.digits}f}"
+                for c in controllers.values()]
         lines.append(f"| {_cell_label(result, cell)} | " + " | ".join(row) + " |")
-    if result.controller:
-        c = result.controller
-        lines += ["", f"The C controller (`lwrl.export.c.export_c` of agent {c['agent']} of the "
-                  f"first learner's nominal training, double precision, compiled as a shared "
+    for learner, c in controllers.items():
+        lines += ["", f"The C controller of {learner} (`lwrl.export.c.export_c` of agent "
+                  f"{c['agent']} of its nominal training, double precision, compiled as a shared "
                   f"library and called through ctypes at every step): its episodes equal the "
                   f"Python agent's, step count and return episode by episode, in {c['same']} of "
-                  f"{c['cells']} cells (its column: that one agent's {first.label})."]
+                  f"{c['cells']} cells (its column, C {learner}: that one agent's {first.label})."]
     return "\n".join(lines) + "\n"
 
 
@@ -197,7 +197,9 @@ def document(results, command: str, seconds: float, figure_paths: dict) -> str:
              + "summed over the tasks and over the invocations that computed them: the same "
              "command resumes an interrupted study, reading what an earlier one finished); "
              f"this invocation took {seconds / 60:.1f} minutes.", "",
-             "Agents of every learner of the registry that fits the task, each with the "
+             "Agents of every learner of the registry that fits the task (a learner of "
+             "continuous actions on the task made with them: the force, torque or thrust "
+             "itself in the actuator's range), each with the "
              "settings tuned for it elsewhere where it has them (rl-baselines3-zoo's sets for "
              "DQN and PPO and their JAX ports, where the benchmark's search starts), else the "
              "task's defaults, are trained on the paper's plant (*nominal*) and "

@@ -24,9 +24,20 @@ from lwrl.runners.sweep import run_sweep
 from lwrl.runners.store import RunStore
 from lwrl.studies.robustness import controller, plan
 
-C_LEARNER = learners.DEFAULT_LEARNER
-"""The learner whose exported controller runs in C: the paper's light-weight one, whose
-NRBF agents export (`Agents.controller`)."""
+
+def first_of_each_kind() -> tuple:
+    """The registry's first learner of each kind of action (`Learner.actions`), in its
+    order."""
+    first: dict = {}
+    for name, learner in learners.LEARNERS.items():
+        first.setdefault(learner.actions, name)
+    return tuple(first.values())
+
+
+C_LEARNERS = first_of_each_kind()
+"""The learners whose exported controllers run in C: the registry's first of each kind of
+action, the paper's light-weight one and, for continuous actions, its actor-critic over the
+same NRBF features (CACLA), whose agents export (`Agents.controller`)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -62,9 +73,10 @@ class TaskResult:
     """`{(learner, training): RunConfig}` of the trained runs."""
     per_agent: dict
     """`{(learner, training, cell, measure column): (agents,) values}`."""
-    controller: dict = dataclasses.field(default_factory=dict)
-    """The C controller's run: `agent` (its index), `same` (cells whose episodes equal the
-    Python agent's), `per_cell` `{cell: {measure column: value}}`; empty where none ran."""
+    controllers: dict = dataclasses.field(default_factory=dict)
+    """`{learner: run}` of the C controllers that ran (`C_LEARNERS`' in the study): `agent`
+    (its index), `same` (cells whose episodes equal the Python agent's), `per_cell`
+    `{cell: {measure column: value}}`."""
     evaluation_episodes: int = 0
     seconds: float = 0.0
     """This invocation's wall time on the task."""
@@ -171,26 +183,31 @@ def study_task(task: str, out_dir: str, plant: str = "analytic", quick: bool = F
     result = TaskResult(task, plant, tuple(p.name for p in plan.axes(task)), cells, trained,
                         per_agent, evaluation_episodes=count, computed=computed + more,
                         runs=len(trained) + len(evaluations), timing=timing)
-    if (C_LEARNER, "nominal") in trained:
-        result.controller = controlled(task, out_dir, trained[C_LEARNER, "nominal"], evaluations,
-                                       table)
+    for learner in C_LEARNERS:
+        if (learner, "nominal") in trained:
+            ran = controlled(task, out_dir, learner, trained[learner, "nominal"], evaluations,
+                             table)
+            if ran:
+                result.controllers[learner] = ran
     result.seconds = time.perf_counter() - started
     return result
 
 
-def controlled(task: str, out_dir: str, trained, evaluations: dict, table: pd.DataFrame) -> dict:
-    """The exported C controller of the first agent of `trained` that did not diverge, in
-    every cell of the study: its measures, and the cells whose episodes (steps and returns,
-    episode by episode) equal that Python agent's."""
+def controlled(task: str, out_dir: str, learner: str, trained, evaluations: dict,
+               table: pd.DataFrame) -> dict:
+    """The exported C controller of the first agent of `trained` (a run of `learner`) that
+    did not diverge, in every cell of the study: its measures, and the cells whose episodes
+    (steps and returns, episode by episode) equal that Python agent's; empty where every
+    agent diverged."""
     kept = RunStore.agents_file(out_dir, trained.key)
-    runs = {cell: config for (learner, training, cell), config in evaluations.items()
-            if learner == C_LEARNER and training == "nominal"}
+    runs = {cell: config for (name, training, cell), config in evaluations.items()
+            if name == learner and training == "nominal"}
     agent, _ = agent_io.load(kept)
     alive = np.flatnonzero(~agent.diverged)
     if len(alive) == 0:
         return {}
     b = int(alive[0])
-    directory = os.path.join(out_dir, "controller", task)
+    directory = os.path.join(out_dir, "controller", task, learner)
     library = controller.build(kept, directory, b)
     configs = [dataclasses.replace(config, agents=1, seed=config.seed + b) for config in runs.values()]
     results = controller.run_controller(library, configs, [config.seed for config in configs])
