@@ -22,8 +22,11 @@ needs_both = pytest.mark.skipif(
 
 
 def test_the_pairs_come_from_the_registry():
-    """Each population learner beside the learner whose settings class its own subclasses."""
+    """Each population learner beside the learner whose settings class its own subclasses,
+    those of the kind of action asked (the study's: discrete)."""
     assert plan.pairs() == [plan.Pair("ppo", "ppo_jax"), plan.Pair("dqn", "dqn_jax")]
+    assert plan.pairs(actions="continuous") == [plan.Pair("sac", "sac_jax"),
+                                                plan.Pair("td3", "td3_jax")]
 
 
 def test_the_closest_reference_is_chosen():
@@ -46,7 +49,8 @@ def test_the_closest_reference_is_chosen():
         pass
 
     def learner(settings, population=False):
-        return type("L", (), {"settings": settings, "population": population})
+        return type("L", (), {"settings": settings, "population": population,
+                              "actions": "discrete"})
 
     registry = {"base": learner(Base), "middle": learner(Middle),
                 "twin": learner(Twin, True), "alone": learner(Alone, True)}

@@ -39,15 +39,17 @@ class Pair:
         return f"{self.reference}-{self.twin}"
 
 
-def pairs(registry=None) -> list:
-    """Every population learner of `registry` (`{name: Learner}`, default the registry) with
-    the learner whose settings class its own subclasses, the closest where several do
-    (e.g. a population learner over `X`'s settings and `X`); a population learner with
-    none has no pair."""
+def pairs(registry=None, actions: str = "discrete") -> list:
+    """Every population learner of `registry` (`{name: Learner}`, default the registry) that
+    takes `actions` (`Learner.actions`) with the learner whose settings class its own
+    subclasses, the closest where several do (e.g. a population learner over `X`'s settings
+    and `X`); a population learner with none has no pair. The study runs the tasks as the
+    paper poses them, with discrete actions (`actions`' default): the learners of continuous
+    actions (`sac_jax`, `td3_jax`) are not paired in it yet."""
     registry = learners.LEARNERS if registry is None else registry
     found = []
     for name, twin in registry.items():
-        if not twin.population:
+        if not twin.population or twin.actions != actions:
             continue
         parents = [other for other, learner in registry.items()
                    if not learner.population and issubclass(twin.settings, learner.settings)]
