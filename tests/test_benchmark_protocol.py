@@ -13,14 +13,21 @@ from lwrl.studies.paper.benchmark import protocol, search
 
 @pytest.mark.parametrize("task", list(protocol.BUDGETS))
 def test_every_row_runs_under_the_tasks_budget_and_the_deep_rows_schedules_span_it(task):
+    """The light-weight row first (the paper's agent; the actor-critic on a task made with
+    continuous actions, every row of it made so), the deep rows on their JAX populations."""
     rows = protocol.rows(task)
-    assert rows[0].label == "paper" and {"dqn", "ppo"} <= {row.label for row in rows}
+    name, actions = protocol.variant(task)
+    deep = protocol.deep(task)
+    assert rows[0].label == protocol.light(task) == ("paper" if actions == "discrete" else "actor_critic")
+    assert set(deep) == ({"dqn", "ppo"} if actions == "discrete" else {"sac", "td3"})
+    assert set(deep) <= {row.label for row in rows}
     for row in rows:
         config = protocol.training(task, row, row.settings, 0, protocol.AGENTS)
         assert config.budget == protocol.BUDGETS[task] and config.seeds == list(range(20))
         assert config.episodes * protocol.SHORTEST_EPISODE >= config.budget
-        if row.label in protocol.DEEP:
-            assert config.learner == protocol.DEEP[row.label]
+        assert config.task == name and config.actions == actions
+        if row.label in deep:
+            assert config.learner == deep[row.label]
             assert config.agent.timesteps == protocol.BUDGETS[task]
 
 

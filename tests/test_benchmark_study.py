@@ -5,6 +5,8 @@ of the budget trained and evaluated, the reference rows written once; a second c
 computes nothing and gives the same scores, and neither does a third once the kept agents
 are gone (a fresh clone has the committed tables only)."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -13,18 +15,24 @@ from lwrl.studies.paper.benchmark import evaluation, protocol, report, search, s
 TASK = "mountain_car.cost_to_go"
 
 
+def shrink(monkeypatch, episodes: int) -> None:
+    """2 agents a row, 2 configurations of 2 agents in the search, `episodes` greedy episodes
+    an evaluation."""
+    monkeypatch.setattr(protocol, "AGENTS", 2)
+    monkeypatch.setattr(protocol, "SHORTEST_EPISODE", 100)
+    monkeypatch.setattr(search, "CONFIGURATIONS", 2)
+    monkeypatch.setattr(search, "SEEDS", (1000, 1001))
+    monkeypatch.setattr(search, "AGENTS", 2)
+    monkeypatch.setattr(evaluation, "EPISODES", episodes)
+
+
 @pytest.fixture
 def tiny(monkeypatch):
     monkeypatch.setitem(protocol.BUDGETS, TASK, 400)
     monkeypatch.setattr(protocol, "DEEP", {})
     every_row = protocol.rows
     monkeypatch.setattr(protocol, "rows", lambda task: every_row(task)[:2])  # paper's two traces
-    monkeypatch.setattr(protocol, "AGENTS", 2)
-    monkeypatch.setattr(protocol, "SHORTEST_EPISODE", 100)
-    monkeypatch.setattr(search, "CONFIGURATIONS", 2)
-    monkeypatch.setattr(search, "SEEDS", (1000, 1001))
-    monkeypatch.setattr(search, "AGENTS", 2)
-    monkeypatch.setattr(evaluation, "EPISODES", 2)
+    shrink(monkeypatch, 2)
     monkeypatch.setattr(evaluation, "STEP_CAP", 200)
 
 
@@ -72,3 +80,44 @@ def test_the_best_mean_is_chosen_a_diverged_agent_the_worst_and_the_first_on_a_t
               ("c", 0): np.array([0.3]), ("c", 1): np.array([0.3])}
     assert study.choose(scores) == {"a": 1, "b": 0, "c": 0}
 
+
+
+CONTINUOUS = "pendulum.swingup-continuous"
+
+
+@pytest.fixture
+def tiny_continuous(monkeypatch):
+    """The continuous pendulum at a tiny scale: the actor-critic and SAC (the light-weight row
+    and a deep one), 300 steps of budget, SAC learning from step 100 on minibatches of 32."""
+    monkeypatch.setitem(protocol.BUDGETS, CONTINUOUS, 300)
+    monkeypatch.setattr(protocol, "CONTINUOUS_DEEP", {"sac": "sac_jax"})
+    every_row = protocol.rows
+
+    def rows(task):
+        return [dataclasses.replace(row, settings={**row.settings, "net_arch": "16,16",
+                                                    "batch_size": 32})
+                if row.label == "sac" else row for row in every_row(task)]
+    monkeypatch.setattr(protocol, "rows", rows)
+    monkeypatch.setattr(search, "RANGES", {**search.RANGES, "sac_jax": (
+        search.LogUniform("learning_rate", 1e-4, 3e-3),)})
+    shrink(monkeypatch, 1)
+
+
+def test_a_tiny_continuous_benchmark_runs_its_own_rows_and_references(tiny_continuous, tmp_path):
+    """`pendulum.swingup-continuous`: every run made with continuous actions, the actor-critic
+    in the paper's agent's place against SAC (on its JAX population), the reference rows
+    acting by a number in [-1, 1]; the report judges the actor-critic against SAC."""
+    from lwrl.studies.paper.benchmark import benchmark
+    path = benchmark.benchmark([CONTINUOUS], str(tmp_path), "lwrl bench run " + CONTINUOUS,
+                               sweep={"workers": 1})
+    runs = study.study_task(CONTINUOUS, str(tmp_path), sweep={"workers": 1})
+    assert [row.label for row in protocol.rows(CONTINUOUS)] == ["actor_critic", "sac"]
+    assert {config.actions for config in runs.trainings.values()} == {"continuous"}
+    assert {config.task for config in runs.trainings.values()} == {"pendulum.swingup"}
+    assert runs.trainings["sac", 1.0].learner == "sac_jax"
+    assert set(runs.tables["actions"]) == {"continuous"}
+    assert all(np.isfinite(values).all() for values in runs.references.values())
+    assert np.mean(runs.references["classical"]) > 50.0 > np.mean(runs.references["random"])
+    text = open(path).read()
+    assert "| task | verdict | against sac |" in text and f"| {CONTINUOUS} | **" in text
+    assert "P(actor_critic better)" in text and "one task only" in text

@@ -21,6 +21,7 @@ from lwrl import tasks
 from lwrl.runners.config import RunConfig
 from lwrl.runners.stepped import run_batched
 from lwrl.studies.paper.bench_protocol import STEPS, UPTIME, Measure
+from lwrl.studies.paper.benchmark.protocol import variant
 from lwrl.studies.paper.benchmark.references import ROWS
 from lwrl.tasks.batched import BatchedEnv
 from lwrl.tasks.task_definition import TaskDefinition
@@ -35,9 +36,11 @@ reach the goal counts this."""
 
 
 def task_definition(task: str) -> TaskDefinition:
-    """The definition of `task` (DOMAIN.TASK) at its defaults, or a one-line ValueError
-    naming the suite's tasks (`tasks.split_name`, `tasks.domain`, `tasks.task_options`)."""
-    return tasks.definition(*tasks.split_name(task))
+    """The definition of `task` (DOMAIN.TASK, or a benchmark task's `DOMAIN.TASK-continuous`,
+    `protocol.variant`) at its defaults, or a one-line ValueError naming the suite's tasks
+    (`tasks.split_name`, `tasks.domain`, `tasks.task_options`)."""
+    name, actions = variant(task)
+    return tasks.definition(*tasks.split_name(name), actions=actions)
 
 
 def task_measure(task: str) -> Measure:
@@ -68,10 +71,12 @@ def evaluation(trained: RunConfig) -> RunConfig:
 
 def evaluation_env(task: str, agents: int, plant: str) -> BatchedEnv:
     """The environments of the evaluation of `agents` agents of seeds 0 up (`evaluation`'s
-    seeds, starts and episodes) of `task` on `plant`."""
-    domain, name = tasks.split_name(task)
-    return BatchedEnv(domain, name, plant, [EVALUATION_SEED + b for b in range(agents)],
-                      **episode_options(task))
+    seeds, starts and episodes) of `task` on `plant`, made with its kind of action
+    (`protocol.variant`)."""
+    name, actions = variant(task)
+    domain, task_name = tasks.split_name(name)
+    return BatchedEnv(domain, task_name, plant, [EVALUATION_SEED + b for b in range(agents)],
+                      actions=actions, **episode_options(task))
 
 
 def run_references(task: str, agents: int = 20, plant: str = "analytic",

@@ -2,7 +2,9 @@
 again: the second benchmark's rule"), from the rows' normalised scores (`study.TaskRuns`) and
 what a learning step costs:
 
-- per task and rival (DQN, PPO): the gate (`analysis.verdicts.above_random_gate`: not judged
+- per task and rival (DQN, PPO; SAC and TD3 on a task made with continuous actions, against
+  the actor-critic over the paper's features in the paper's agent's place, `protocol.light`):
+  the gate (`analysis.verdicts.above_random_gate`: not judged
   unless both sides' intervals lie above the random row's), the permutation test of the
   final normalised scores with Holm's correction across the whole task x rival family, the
   probability of improvement;
@@ -10,7 +12,7 @@ what a learning step costs:
   `protocol.LEVEL` at one of the evaluations (`protocol.FRACTIONS`): the steps taken to it
   times the CPU seconds (and the multiply-adds, where counted) of a learning step; an agent
   that never reaches it counts the whole budget and is counted as not reaching it;
-- per task the verdict: yes where the paper's agent is not worse than any judged rival and
+- per task the verdict: yes where the light-weight row is not worse than any judged rival and
   reaches the level with at most `COMPUTE_FRACTION` of that rival's CPU seconds; no where
   it is worse than a judged rival or needs more than its compute; partly otherwise; not
   judged where no comparison is judged.
@@ -26,7 +28,6 @@ from lwrl.studies.paper.benchmark import protocol
 
 COMPUTE_FRACTION = 1 / 100
 """The paper's agent's compute to the level, at most this fraction of a rival's."""
-PAPER = "paper"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -72,24 +73,27 @@ def compute(scores: dict, label: str, budget: int, cpu_s_per_step=None,
 
 @dataclasses.dataclass(frozen=True)
 class Comparison:
-    """The paper's agent against one rival on one task."""
+    """The task's light-weight row (`protocol.light`: the paper's agent) against one rival on
+    one task."""
 
     task: str
     rival: str
     gate: verdicts.GateVerdict
     p_value: float
     improvement: statistics.Estimate
-    """P(an agent of the paper's does better than one of the rival), with its interval."""
+    """P(an agent of the light-weight row does better than one of the rival), with its
+    interval."""
     adjusted: float = math.nan
     """Holm's adjusted p-value across the family (`holm_family`)."""
     significant: bool = False
 
 
 def compare(task: str, scores: dict, random_scores, rival: str) -> Comparison:
-    """The paper's agent against `rival` on `task` by their final normalised scores."""
-    final = protocol.FRACTIONS[-1]
-    paper, other = np.asarray(scores[PAPER, final]), np.asarray(scores[rival, final])
-    gate = verdicts.above_random_gate(paper, other, random_scores, names=(PAPER, rival))
+    """The task's light-weight row (`protocol.light`) against `rival` on `task` by their
+    final normalised scores."""
+    final, light = protocol.FRACTIONS[-1], protocol.light(task)
+    paper, other = np.asarray(scores[light, final]), np.asarray(scores[rival, final])
+    gate = verdicts.above_random_gate(paper, other, random_scores, names=(light, rival))
     return Comparison(task, rival, gate, verdicts.permutation_p_value(paper, other),
                       statistics.improvement_interval(paper, other, higher_is_better=True))
 
@@ -103,12 +107,12 @@ def holm_family(comparisons: list) -> list:
 
 
 def side(comparison: Comparison, scores: dict) -> int:
-    """+1 where the paper's agent is better than the rival (Holm-significant, its mean
+    """+1 where the light-weight row is better than the rival (Holm-significant, its mean
     higher), -1 where worse, 0 a tie."""
     if not comparison.significant:
         return 0
-    final = protocol.FRACTIONS[-1]
-    difference = np.nanmean(scores[PAPER, final]) - np.nanmean(scores[comparison.rival, final])
+    final, light = protocol.FRACTIONS[-1], protocol.light(comparison.task)
+    difference = np.nanmean(scores[light, final]) - np.nanmean(scores[comparison.rival, final])
     return 1 if difference > 0 else -1
 
 
@@ -118,7 +122,7 @@ def verdict(comparisons: list, scores: dict, computes: dict) -> str:
     judged = [c for c in comparisons if c.gate.judged]
     if not judged:
         return "not judged"
-    paper = computes[PAPER].cpu_s
+    paper = computes[protocol.light(judged[0].task)].cpu_s
     outcomes = []
     for comparison in judged:
         rival = computes[comparison.rival].cpu_s

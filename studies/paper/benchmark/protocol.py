@@ -23,8 +23,10 @@ from lwrl.runners.config import RunConfig, tuned_settings
 from lwrl.studies.paper import bench_protocol
 
 BUDGETS = {"mountain_car.cost_to_go": 100_000, "pendulum.swingup": 90_000,
-           "cartpole.balance": 250_000, "acrobot.swingup": 100_000}
-"""Environment steps per agent, per task, for every learner (FINDINGS says why these)."""
+           "cartpole.balance": 250_000, "acrobot.swingup": 100_000,
+           "pendulum.swingup-continuous": 90_000}
+"""Environment steps per agent, per task, for every learner (FINDINGS says why these; the
+continuous pendulum's are the discrete one's)."""
 FRACTIONS = (0.1, 0.25, 0.5, 1.0)
 """The fractions of the budget after which the agents are evaluated greedily."""
 AGENTS = 20
@@ -36,6 +38,13 @@ SHORTEST_EPISODE = 10
 or reaches a goal in from most of Mountain-Car's and the acrobot's starts."""
 DEEP = {"dqn": "dqn_jax", "ppo": "ppo_jax"}
 """The deep rows and the implementation each runs on (the fastest, docs/guide/speed.md)."""
+CONTINUOUS = "-continuous"
+"""The suffix of a benchmark task made with continuous actions (`variant`)."""
+LIGHT = {"discrete": "paper", "continuous": "actor_critic"}
+"""The light-weight row a task's deep rows are judged against, by the kind of action: the
+paper's agent, and on a continuous task the actor-critic over its features."""
+CONTINUOUS_DEEP = {"sac": "sac_jax", "td3": "td3_jax"}
+"""The deep rows of a continuous task and the implementation each runs on."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,16 +63,43 @@ def check_task(task: str) -> str:
     return task
 
 
+def variant(task: str) -> tuple:
+    """`(DOMAIN.TASK, kind of action)` of a benchmark task: `DOMAIN.TASK-continuous` is the
+    suite's task made with continuous actions, any other the task with discrete ones."""
+    if task.endswith(CONTINUOUS):
+        return task[:-len(CONTINUOUS)], "continuous"
+    return task, "discrete"
+
+
+def light(task: str) -> str:
+    """The label of the light-weight row of `task` (`LIGHT`)."""
+    return LIGHT[variant(task)[1]]
+
+
+def deep(task: str) -> dict:
+    """`{label: learner}` of the deep rows of `task`, by its kind of action."""
+    return CONTINUOUS_DEEP if variant(task)[1] == "continuous" else DEEP
+
+
 def rows(task: str) -> list:
-    """The task's rows, the paper's agent first: the first protocol's rows but DQN and PPO,
-    which run on their JAX populations with their horizon the budget."""
+    """The task's rows, the light-weight one first: for a discrete task the first
+    protocol's rows but DQN and PPO, which run on their JAX populations with their horizon
+    the budget; for a continuous one the actor-critic, then SAC and TD3 alike, every row
+    made with continuous actions."""
     check_task(task)
-    linear = [Row(label, learner, dict(settings))
-              for label, learner, settings in bench_protocol.learners(task)
-              if label not in bench_protocol.DEEP]
-    deep = [Row(label, learner, dict(tuned_settings(task, learner), timesteps=BUDGETS[task]))
-            for label, learner in DEEP.items()]
-    return linear + deep
+    name, actions = variant(task)
+    if actions == "continuous":
+        kind = {"actions": actions}
+        linear = [Row(LIGHT[actions], "actor_critic", dict(kind))]
+    else:
+        kind = {}
+        linear = [Row(label, learner, dict(settings))
+                  for label, learner, settings in bench_protocol.learners(name)
+                  if label not in bench_protocol.DEEP]
+    deep_rows = [Row(label, learner, dict(tuned_settings(name, label), timesteps=BUDGETS[task],
+                                          **kind))
+                 for label, learner in deep(task).items()]
+    return linear + deep_rows
 
 
 def most_episodes(task: str) -> int:
@@ -78,5 +114,5 @@ def training(task: str, row: Row, settings: dict, seed: int, agents: int,
     """The run that trains `agents` agents of `row` with `settings` (seeds `seed`..) on the
     task's own episodes for `fraction` of its budget."""
     budget = round(fraction * BUDGETS[check_task(task)])
-    return RunConfig(task=task, plant=plant, learner=row.learner, agents=agents, seed=seed,
+    return RunConfig(task=variant(task)[0], plant=plant, learner=row.learner, agents=agents, seed=seed,
                      episodes=most_episodes(task), budget=budget, **settings)

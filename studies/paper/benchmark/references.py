@@ -18,6 +18,11 @@ the task's observation (`TaskDefinition.observe`). They agree on every task:
   through sines and cosines (the energy, the accelerations) and wraps the elbow's itself.
 So the control at the observation is the control at the state, up to the round-off of a
 cosine 2 pi k away (tests/test_benchmark_evaluation.py checks it at random states).
+
+On a task made with continuous actions (`TaskDefinition.continuous`) both act as a learner
+of continuous actions does, by a number u in [-1, 1] that the loop scales to the actuator's
+range (`tasks.commands`): the random row draws u uniformly, the classical row takes the u
+that commands its control, clipped to the range as the actuator saturates.
 """
 
 import collections
@@ -36,14 +41,31 @@ values), `delta` `(B,)` NaN (no TD error), `diverged` `(B,)` False (nothing to d
 `weights` `(B, 0)` (nothing learned)."""
 
 
-class ReferencePolicy(Agents):
-    """B agents of a reference row on a task of `num_actions` discrete actions and `dim`
-    observed variables; a subclass chooses the actions (`step`)."""
+def discrete_actions(definition: TaskDefinition) -> int:
+    """The number of discrete actions of `definition`'s task, 0 where it was made with
+    continuous ones (as `Agents.num_actions` counts them)."""
+    return 0 if definition.continuous else definition.num_actions
 
-    def __init__(self, batch: int, num_actions: int, dim: int):
+
+class ReferencePolicy(Agents):
+    """B agents of a reference row on a task of `num_actions` discrete actions (0: with
+    `continuous` actions) and `dim` observed variables; a subclass chooses the actions
+    (`step`)."""
+
+    def __init__(self, batch: int, num_actions: int, dim: int, continuous: bool = False):
         self.dim = dim
+        self._continuous = continuous
         self.arrays = ReferenceArrays(np.zeros((batch, num_actions)), np.full(batch, np.nan),
                                       np.zeros(batch, dtype=bool), np.zeros((batch, 0)))
+
+    @property
+    def continuous(self) -> bool:
+        """True where it acts by a number in [-1, 1] (a task made with continuous actions)."""
+        return self._continuous
+
+    def no_actions(self) -> np.ndarray:
+        """`(B,)` zeros of its kind of action, what the agents that do not act take."""
+        return np.zeros(self.batch_size, dtype=np.float64 if self.continuous else np.int64)
 
     def acting(self, active) -> np.ndarray:
         """The indices of the agents that act this step: those `active` (None: all)."""
@@ -58,32 +80,36 @@ class RandomPolicy(ReferencePolicy):
     draws its starts (`tasks.task_definition.random_starts`): the actions are independent of
     the starts."""
 
-    def __init__(self, num_actions: int, dim: int, seeds):
+    def __init__(self, num_actions: int, dim: int, seeds, continuous: bool = False):
         seeds = [check_count("seed", seed, 0) for seed in seeds]
-        super().__init__(len(seeds), num_actions, dim)
+        super().__init__(len(seeds), num_actions, dim, continuous)
         self.streams = [np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0])
                         for seed in seeds]
 
     @classmethod
     def on(cls, env: BatchedEnv) -> "RandomPolicy":
         """The row on `env`, agent b seeded as environment b is (`BatchedEnv.seeds`)."""
-        return cls(env.num_actions, len(env.definition.state_names), env.seeds)
+        return cls(discrete_actions(env.definition), len(env.definition.state_names),
+                   env.seeds, env.definition.continuous)
 
     def step(self, first, reward, discount, observation, active=None, learn=True,
              greedy=False) -> np.ndarray:
-        """One uniform draw per acting agent (`Agents.step`'s arguments; the others act 0)."""
+        """One uniform draw per acting agent, an action's index or u in [-1, 1]
+        (`Agents.step`'s arguments; the others act 0)."""
         self.check_observation(observation)
-        actions = np.zeros(self.batch_size, dtype=np.int64)
+        actions = self.no_actions()
         for b in self.acting(active):
-            actions[b] = self.streams[b].integers(self.num_actions)
+            actions[b] = (self.streams[b].uniform(-1.0, 1.0) if self.continuous
+                          else self.streams[b].integers(self.num_actions))
         return actions
 
 
 class ClassicalPolicy(ReferencePolicy):
     """The domain's classical controller (`Domain.classical`, its `source` says whose) on
-    `definition`'s discrete task: agent b takes the action nearest
+    `definition`'s task: agent b takes the action nearest
     (`TaskDefinition.nearest_action`) the control wanted at its observation and its
-    episode's physical parameter values, as tests/test_classical.py runs it.
+    episode's physical parameter values, as tests/test_classical.py runs it, or on a task
+    made with continuous actions the u in [-1, 1] that commands that control (`commanding`).
 
     It reads those values from `physical` `(B, P)` at every step: give it the environment's
     own `BatchedEnv.physical`, which an environment redraws in place for each episode where
@@ -98,7 +124,8 @@ class ClassicalPolicy(ReferencePolicy):
         if np.ndim(physical) != 2 or np.shape(physical)[1] != count:
             raise ValueError(f"physical must have shape (B, {count}), one row of parameter "
                              f"values per agent; got shape {np.shape(physical)}")
-        super().__init__(len(physical), definition.num_actions, len(definition.state_names))
+        super().__init__(len(physical), discrete_actions(definition),
+                         len(definition.state_names), definition.continuous)
         self.definition, self.physical, self.control = definition, physical, classical.control
 
     @classmethod
@@ -108,14 +135,27 @@ class ClassicalPolicy(ReferencePolicy):
 
     def step(self, first, reward, discount, observation, active=None, learn=True,
              greedy=False) -> np.ndarray:
-        """The nearest action to the classical control of each acting agent (`Agents.step`'s
+        """The action of the classical control of each acting agent (`Agents.step`'s
         arguments; the others act 0)."""
         observation = self.check_observation(observation)
-        actions = np.zeros(self.batch_size, dtype=np.int64)
+        actions = self.no_actions()
         acting = self.acting(active)
-        wanted = [self.control(observation[b], self.physical[b]) for b in acting]
-        actions[acting] = self.definition.nearest_action(np.array(wanted), self.physical[acting])
+        wanted = np.array([self.control(observation[b], self.physical[b]) for b in acting])
+        if self.continuous:
+            actions[acting] = commanding(self.definition.control_range_at(self.physical[acting]),
+                                         wanted)
+        else:
+            actions[acting] = self.definition.nearest_action(wanted, self.physical[acting])
         return actions
+
+
+def commanding(control_range: np.ndarray, controls) -> np.ndarray:
+    """`(B,)` the continuous actions u in [-1, 1] that command `controls` `(B,)` in the
+    actuators' ranges `control_range` `(B, 2)`: `tasks.commands.commands` inverted, a
+    control beyond the range taking its end, as the actuator saturates."""
+    low, high = control_range[:, 0], control_range[:, 1]
+    return np.clip((np.asarray(controls, dtype=np.float64) - 0.5 * (low + high))
+                   / (0.5 * (high - low)), -1.0, 1.0)
 
 
 ROWS = {"random": RandomPolicy.on, "classical": ClassicalPolicy.on}

@@ -40,7 +40,7 @@ def judge(task_runs: list, cpu_s_per_step: dict) -> list:
     for runs in task_runs:
         random_scores = _random_scores(runs)
         comparisons += [judging.compare(runs.task, runs.scores, random_scores, rival)
-                        for rival in protocol.DEEP if (rival, 1.0) in runs.scores]
+                        for rival in protocol.deep(runs.task) if (rival, 1.0) in runs.scores]
     comparisons = judging.holm_family(comparisons) if comparisons else []
     judged = []
     for runs in task_runs:
@@ -74,6 +74,11 @@ def _random_scores(runs) -> np.ndarray:
     return study.normalised(runs.task, runs.references["random"], runs.references)
 
 
+def rivals(judged: list) -> list:
+    """The deep rows of the tasks of `judged`, in the order of their tasks (`protocol.deep`)."""
+    return list(dict.fromkeys(rival for j in judged for rival in protocol.deep(j.runs.task)))
+
+
 def aggregate_matrix(judged: list) -> dict:
     """`{label: agents x tasks}` final normalised scores of the rows every task has."""
     final = protocol.FRACTIONS[-1]
@@ -89,12 +94,12 @@ def document(judged: list, command: str, seconds: float, figure_dir: str, out_di
              f"Written by `{command}`; the calls that computed its runs took {seconds / 60:.1f} "
              "min of wall time. The rule is docs/FINDINGS.md's (\"The light-weight claim judged "
              "again\"), written before the runs.", "",
-             "| task | verdict | " + " | ".join(f"against {rival}" for rival in protocol.DEEP) + " |",
-             "|---|---|" + "---|" * len(protocol.DEEP)]
+             "| task | verdict | " + " | ".join(f"against {rival}" for rival in rivals(judged)) + " |",
+             "|---|---|" + "---|" * len(rivals(judged))]
     for j in judged:
         against = {c.rival: c.gate.reason.split(":")[0] for c in j.comparisons}
         lines.append(f"| {j.runs.task} | **{j.verdict}** | "
-                     + " | ".join(against.get(rival, "—") for rival in protocol.DEEP) + " |")
+                     + " | ".join(against.get(rival, "—") for rival in rivals(judged)) + " |")
     lines += ["", *aggregates_section(judged, figure_dir, out_dir)]
     for j in judged:
         lines += task_section(j)
@@ -102,9 +107,12 @@ def document(judged: list, command: str, seconds: float, figure_dir: str, out_di
 
 
 def aggregates_section(judged: list, figure_dir: str, out_dir: str) -> list:
-    """Across tasks: IQM, median, mean and optimality gap with stratified bootstrap intervals,
-    and the performance profiles (Agarwal et al. 2021), of the rows every task has."""
-    scores = aggregate_matrix(judged)
+    """Across the tasks judged against the paper's agent (those of discrete actions, whose
+    rows are the same): IQM, median, mean and optimality gap with stratified bootstrap
+    intervals, and the performance profiles (Agarwal et al. 2021), of the rows every such
+    task has. A task of continuous actions has other rows and stands alone."""
+    judged = [j for j in judged if protocol.light(j.runs.task) == protocol.LIGHT["discrete"]]
+    scores = aggregate_matrix(judged) if judged else {}
     if not scores or len(judged) < 2:
         return ["Across tasks: one task only, no aggregate.", ""]
     estimates = verdicts.aggregate_estimates(scores)
@@ -142,7 +150,9 @@ def task_section(j: Judged) -> list:
                      f"| {macs} |")
     lines += ["", f"**Verdict: {j.verdict}.**", ""]
     for c in j.comparisons:
-        lines.append(f"- against {c.rival}: {c.gate.reason}; P(paper's agent better) "
+        light = protocol.light(c.task)
+        who = "paper's agent" if light == protocol.LIGHT["discrete"] else light
+        lines.append(f"- against {c.rival}: {c.gate.reason}; P({who} better) "
                      f"{c.improvement.text(2)}; permutation p {c.p_value:.3g}, Holm "
                      f"{c.adjusted:.3g}{' (significant)' if c.significant else ''}.")
     lines += ["", *search_lines(runs), ""]

@@ -9,10 +9,13 @@ The ranges follow what each learner's authors and tuners vary: for the linear le
 step size alpha (log-uniform over a factor of 4 either side of the task's), lambda, epsilon,
 the NRBF grid (the task's n and one either side) and the RBFs' width r^2; for ASE/ACE its
 step sizes, trace decays and exploration noise (Barto, Sutton and Anderson 1983); for the
-deep learners the width, the learning rate, the exploration schedule, the warm-up, the
+continuous actor-critic the critic's and the actor's step sizes, lambda, gamma, the
+exploration's sigma (van Hasselt and Wiering 2007 vary these), the grid and the width; for
+the deep learners the width, the learning rate, the exploration schedule, the warm-up, the
 training frequency or rollout length, the epochs and batch, as rl-baselines3-zoo's
 hyperparameter search samples them (`rl_zoo3/hyperparams_opt.py`: `sample_dqn_params`,
-`sample_ppo_params`). Observation normalisation, which the zoo turns on for PPO on
+`sample_ppo_params`, `sample_sac_params`, `sample_td3_params`, narrowed to what a CPU can
+train in the budget: no network beyond 256 x 256). Observation normalisation, which the zoo turns on for PPO on
 Mountain-Car and the acrobot, is not searched: neither implementation of lwrl's takes it
 (SB3's `VecNormalize` is a wrapper of Gymnasium environments, not a learner setting).
 
@@ -81,6 +84,16 @@ NRBF = (LogUniform("alpha", 0.25, 4.0, around=True), Uniform("lam", 0.0, 0.95),
 CMAC = (LogUniform("alpha", 0.25, 4.0, around=True), Uniform("lam", 0.0, 0.95),
         Choice("epsilon", (0.0, 0.01, 0.05, 0.1)), Choice("n", (-1, 0, 1), around=True),
         Choice("tilings", (4, 5, 8, 10)))
+OFF_POLICY_CONTINUOUS = (Choice("net_arch", ("64,64", "128,128", "256,256")),
+                         LogUniform("learning_rate", 1e-4, 3e-3),
+                         Choice("batch_size", (64, 128, 256)),
+                         Choice("learning_starts", (100, 1000, 10_000)),
+                         Choice("train_freq", (1, 4, 16)), Choice("tau", (0.005, 0.01, 0.02)),
+                         Choice("gamma", (0.98, 0.99, 0.999)))
+ACTOR_CRITIC = (LogUniform("alpha", 0.25, 4.0, around=True), LogUniform("beta", 0.05, 1.0),
+                Uniform("lam", 0.0, 0.95), LogUniform("sigma", 0.05, 1.0),
+                Choice("gamma", (0.95, 0.98, 0.99)), Choice("n", (-1, 0, 1), around=True),
+                LogUniform("r2", 0.0025, 0.04))
 RANGES = {
     "sarsa": NRBF,
     "true_online_sarsa": NRBF,
@@ -99,6 +112,9 @@ RANGES = {
                 Choice("n_epochs", (4, 10, 20)), Choice("batch_size", (32, 64, 128, 256)),
                 Uniform("gae_lambda", 0.8, 0.99), Choice("ent_coef", (0.0, 0.001, 0.01)),
                 Choice("clip_range", (0.1, 0.2, 0.3)), Choice("gamma", (0.98, 0.99, 0.999))),
+    "actor_critic": ACTOR_CRITIC,
+    "sac_jax": OFF_POLICY_CONTINUOUS,
+    "td3_jax": OFF_POLICY_CONTINUOUS + (Choice("noise_std", (0.1, 0.2, 0.3)),),
 }
 """What is drawn, per learner; the row's other settings stay its own."""
 
@@ -114,7 +130,8 @@ def start(task: str, row: protocol.Row) -> dict:
     """The values the row starts from, for the ranges drawn around them: its settings over
     the task's defaults and its learner's."""
     learner = dataclasses.asdict(learner_settings(row.learner, None))
-    defaults = {k: v for k, v in task_defaults(task).items() if k in learner and learner[k] is None}
+    defaults = {k: v for k, v in task_defaults(protocol.variant(task)[0]).items()
+                if k in learner and learner[k] is None}
     return {**learner, **defaults, **row.settings}
 
 
