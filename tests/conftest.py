@@ -110,7 +110,7 @@ def one_line_error(call, *fragments):
 # ("test_file.py::test_name[parameters]"); its value says why those tests are slow. A test
 # may also carry `@pytest.mark.slow` itself.
 
-DEEP = r"(dqn|ppo|dqn_jax|ppo_jax|sac_jax|td3_jax)"
+DEEP = r"((dqn|ppo|sac|td3)(_jax)?)"
 """The learners of neural networks (PyTorch, JAX): seconds a run where the others take
 milliseconds."""
 
