@@ -7,15 +7,42 @@
   naming the host and process that computes it, so that two processes sweeping into one
   directory share the work: each computes the batches it could claim and waits for the
   others' runs. A claim whose process is gone is taken over.
+- What computing each batch cost is a line of `OUT/compute.jsonl` (`record_compute`,
+  `compute_spent`): a study that runs over several working sessions, interrupted at each
+  end, still says what all its runs cost.
 """
 
 import hashlib
+import json
 import os
 import pathlib
+import platform
+import time
 
 import pandas as pd
 
 from lwrl import outputs
+
+
+LEDGER = "compute.jsonl"
+
+
+def compute_spent(out_dir) -> dict:
+    """What the ledger of `out_dir` (`RunStore.record_compute`) counts: `runs` (computed
+    runs it names), `wall_s` and `cpu_s` (summed over its batches), `hosts`; zeros where it
+    has none."""
+    spent = {"runs": 0, "wall_s": 0.0, "cpu_s": 0.0, "hosts": []}
+    path = pathlib.Path(out_dir) / LEDGER
+    if not path.exists():
+        return spent
+    for line in path.read_text().splitlines():
+        entry = json.loads(line)
+        spent["runs"] += len(entry["runs"])
+        spent["wall_s"] += entry["wall_s"]
+        spent["cpu_s"] += entry["cpu_s"]
+        if entry["host"] not in spent["hosts"]:
+            spent["hosts"].append(entry["host"])
+    return spent
 
 
 class RunStore:
@@ -57,6 +84,22 @@ class RunStore:
                 lines.append(f"{path} is damaged ({' '.join(str(error).split()) or type(error).__name__}); "
                              f"moved to {aside.name}, its run is computed again")
         return lines
+
+    @property
+    def ledger(self) -> pathlib.Path:
+        """`out_dir/compute.jsonl`: what each computed batch cost (`record_compute`)."""
+        return self.directory.parent / LEDGER
+
+    def record_compute(self, batch, wall_s: float, cpu_s: float) -> None:
+        """Add one line to the ledger for a finished batch: its runs' keys, its wall and CPU
+        seconds, the host, the time. Each line is appended whole by one `write` in append
+        mode, so processes sharing the directory do not mix their lines, and nothing is
+        rewritten: what a call that is interrupted later computed stays counted."""
+        line = json.dumps({"runs": [config.key for config in batch], "wall_s": round(wall_s, 3),
+                           "cpu_s": round(cpu_s, 3), "host": platform.node(),
+                           "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z")}) + "\n"
+        with open(self.ledger, "a") as file:
+            file.write(line)
 
     def write(self, config, table: pd.DataFrame) -> None:
         with outputs.atomic_path(self.path(config)) as temporary:

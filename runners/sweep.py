@@ -114,9 +114,16 @@ def _agent_episodes(configs) -> int:
     return sum(config.agents * config.episodes for config in configs)
 
 
+def timed_batch(configs, progress=None, *options) -> tuple:
+    """`(run_batch's tables, wall seconds, CPU seconds of the process that ran it)`."""
+    wall, cpu = time.perf_counter(), time.process_time()
+    tables = run_batch(configs, progress, *options)
+    return tables, time.perf_counter() - wall, time.process_time() - cpu
+
+
 def _local(batches_, progress, *options):
     for batch in batches_:
-        yield batch, run_batch(batch, progress, *options)
+        yield batch, timed_batch(batch, progress, *options)
 
 
 def _ray(batches_, address, progress, *options):
@@ -126,15 +133,15 @@ def _ray(batches_, address, progress, *options):
         raise ValueError("the ray backend needs Ray: pip install -e '.[ray]'") from None
     ray.init(address=address, ignore_reinit_error=True, include_dashboard=False,
              log_to_driver=False)
-    remote = ray.remote(run_batch)
+    remote = ray.remote(timed_batch)
     pending = {remote.remote(batch, None, *options): batch for batch in batches_}
     try:
         while pending:
             done, _ = ray.wait(list(pending), num_returns=1)
             batch = pending.pop(done[0])
-            tables = ray.get(done[0])
+            timed = ray.get(done[0])
             progress(_agent_episodes(batch))
-            yield batch, tables
+            yield batch, timed
     finally:
         for ref in pending:
             ray.cancel(ref, force=True)
@@ -184,8 +191,8 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
                         if not all(map(store.finished, batch)) and store.claim(batch))
                 finished = (_local(mine, bar.update, *options) if backend == "local"
                             else _ray(list(mine), address, bar.update, *options))
-                for batch, tables in finished:
-                    writer.submit(_keep, store, batch, tables)
+                for batch, (tables, wall_s, cpu_s) in finished:
+                    writer.submit(_keep, store, batch, tables, wall_s, cpu_s)
                     computed += len(batch)
                     queue.remove(batch)
                 writer.wait()
@@ -199,10 +206,12 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
     return store.read(configs), computed
 
 
-def _keep(store: RunStore, batch, tables) -> None:
-    """Write a finished batch's tables, then release its claim."""
+def _keep(store: RunStore, batch, tables, wall_s: float, cpu_s: float) -> None:
+    """Write a finished batch's tables and what it cost (`RunStore.record_compute`), then
+    release its claim."""
     for config, table in zip(batch, tables):
         store.write(config, table)
+    store.record_compute(batch, wall_s, cpu_s)
     store.release(batch)
 
 

@@ -47,6 +47,8 @@ def test_a_tiny_benchmark_runs_resumes_and_needs_no_kept_agents_once_evaluated(t
     assert f"`lwrl bench run {TASK} --out {tmp_path} --workers 1`" in text
     assert (tmp_path / "figures" / f"{TASK}-curves.png").exists()
     assert (tmp_path / "costs.json").exists()
+    runs = len(list((tmp_path / "runs").glob("*.csv.gz")))
+    assert f"{runs} of the {runs} runs in `runs/`" in text  # the ledger counts every run
     first = study.study_task(TASK, str(tmp_path), sweep={"workers": 1})
     labels = [row.label for row in protocol.rows(TASK)]
     assert set(first.chosen) == set(labels) and len(first.search_scores) == 2 * len(labels)

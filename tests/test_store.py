@@ -1,5 +1,6 @@
 """The runs directory of a sweep: damaged files are named, set aside and recomputed; two
-processes on one directory share the batches; a stale claim is taken over."""
+processes on one directory share the batches; a stale claim is taken over; the ledger
+counts what each computed batch cost."""
 
 import os
 import subprocess
@@ -12,7 +13,7 @@ import pytest
 
 from lwrl.runners import sweep
 from lwrl.runners.config import RunConfig
-from lwrl.runners.store import RunStore
+from lwrl.runners.store import RunStore, compute_spent
 
 
 def grid(alphas=(0.5, 1.0, 2.0)):
@@ -43,6 +44,22 @@ def test_damaged_run_files_are_named_set_aside_and_recomputed(tmp_path, clean, c
     assert (store.directory / (store.path(configs[0]).name + ".damaged")).exists()
     assert computed == 2  # the two damaged runs, as one batch
     pd.testing.assert_frame_equal(results, clean)
+
+
+def test_the_ledger_counts_each_computed_batch_once_across_calls(tmp_path):
+    """A line per computed batch in `compute.jsonl`, naming its runs; a call that computes
+    nothing adds nothing, and one that computes more adds its own line."""
+    sweep.run_sweep(grid(), tmp_path)
+    first = compute_spent(tmp_path)
+    assert first["runs"] == 3 and first["wall_s"] > 0 and first["cpu_s"] > 0
+    assert len(first["hosts"]) == 1
+    sweep.run_sweep(grid(), tmp_path)
+    assert compute_spent(tmp_path) == first
+    sweep.run_sweep(grid((0.25, 4.0)), tmp_path)
+    lines = RunStore(tmp_path).ledger.read_text().splitlines()
+    assert len(lines) == 2 and compute_spent(tmp_path)["runs"] == 5
+    assert compute_spent(tmp_path / "nowhere") == {"runs": 0, "wall_s": 0.0, "cpu_s": 0.0,
+                                                   "hosts": []}
 
 
 def sleeper(claim=None):

@@ -5,6 +5,7 @@ compute to the level, the comparisons with the paper's agent and every search co
 score beside the chosen one."""
 
 import dataclasses
+import glob
 import math
 import os
 
@@ -15,6 +16,7 @@ from lwrl import agent
 from lwrl.agent.arithmetic import NotCounted
 from lwrl.analysis import statistics, verdicts
 from lwrl.analysis.plots import save_figure
+from lwrl.runners.store import compute_spent
 from lwrl.studies.paper.benchmark import evaluation, judging, protocol, search, study
 
 THRESHOLDS = np.linspace(-0.25, 1.5, 71)
@@ -93,7 +95,7 @@ def document(judged: list, command: str, seconds: float, figure_dir: str, out_di
     lines = ["# The second benchmark: the light-weight claim by a reviewer's rule", "",
              f"Written by `{command}`; the calls that computed its runs took {seconds / 60:.1f} "
              "min of wall time. The rule is docs/FINDINGS.md's (\"The light-weight claim judged "
-             "again\"), written before the runs.", "",
+             "again\"), written before the runs.", "", cost_line(out_dir), "",
              "| task | verdict | " + " | ".join(f"against {rival}" for rival in rivals(judged)) + " |",
              "|---|---|" + "---|" * len(rivals(judged))]
     for j in judged:
@@ -104,6 +106,18 @@ def document(judged: list, command: str, seconds: float, figure_dir: str, out_di
     for j in judged:
         lines += task_section(j)
     return "\n".join(lines) + "\n"
+
+
+def cost_line(out_dir: str) -> str:
+    """What the runs in `out_dir/runs` cost, as far as its ledger counts them
+    (`runners.store.compute_spent`: a line per computed batch, kept across interruptions)."""
+    spent = compute_spent(out_dir)
+    total = len(glob.glob(os.path.join(out_dir, "runs", "*.csv.gz")))
+    counted = (f"{spent['wall_s'] / 3600:.2f} h of wall time and {spent['cpu_s'] / 3600:.2f} h "
+               f"of CPU on {', '.join(spent['hosts'])}" if spent["runs"] else "nothing")
+    return (f"What the runs cost, from `compute.jsonl` (a line per computed batch): "
+            f"{spent['runs']} of the {total} runs in `runs/`, {counted}; runs computed before "
+            "the ledger was kept are not counted.")
 
 
 def aggregates_section(judged: list, figure_dir: str, out_dir: str) -> list:
