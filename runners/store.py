@@ -31,18 +31,12 @@ def compute_spent(out_dir) -> dict:
     """What the ledger of `out_dir` (`RunStore.record_compute`) counts: `runs` (computed
     runs it names), `wall_s` and `cpu_s` (summed over its batches), `hosts`; zeros where it
     has none."""
-    spent = {"runs": 0, "wall_s": 0.0, "cpu_s": 0.0, "hosts": []}
     path = pathlib.Path(out_dir) / LEDGER
-    if not path.exists():
-        return spent
-    for line in path.read_text().splitlines():
-        entry = json.loads(line)
-        spent["runs"] += len(entry["runs"])
-        spent["wall_s"] += entry["wall_s"]
-        spent["cpu_s"] += entry["cpu_s"]
-        if entry["host"] not in spent["hosts"]:
-            spent["hosts"].append(entry["host"])
-    return spent
+    entries = [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
+    return {"runs": sum(len(entry["runs"]) for entry in entries),
+            "wall_s": float(sum(entry["wall_s"] for entry in entries)),
+            "cpu_s": float(sum(entry["cpu_s"] for entry in entries)),
+            "hosts": list(dict.fromkeys(entry["host"] for entry in entries))}
 
 
 class RunStore:
