@@ -11,8 +11,8 @@ randomisation). A learner that runs only in the stepped loop trains `STEPPED_AGE
 at most, under the benchmark's protocol where the command sets no episodes
 (`stepped_protocol`: `lwrl bench`'s episodes and episode length, docs/benchmark, instead of
 the paper's, which would take DQN and PPO hours per agent on the cart-pole). The JAX
-population learners (`Learner.population`: `dqn_jax`, `ppo_jax`, SB3's DQN and PPO in one
-jitted program, `runners.population`) train under that same protocol with the same tuned
+population learners (`Learner.population`: `dqn_jax`, `ppo_jax`, `sac_jax`, `td3_jax`, SB3's
+learners in one jitted program, `runners.population`) train under that same protocol with the same tuned
 settings as their Stable-Baselines3 counterparts, but with the task's full count of agents
 (`agents_for`): in a batch an agent-step costs them tens of microseconds of CPU, against
 SB3's milliseconds (docs/guide/jax.md). They run on the analytic plant only (its JAX port,
