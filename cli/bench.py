@@ -61,7 +61,9 @@ def add_run(actions) -> None:
                     "verdicts, the aggregates across tasks and the figures. Runs are written "
                     "as they finish: the same command resumes, on a fresh clone from the "
                     "committed tables.")
-    run.add_argument("tasks", metavar="TASK", nargs="+", help="tasks (DOMAIN.TASK), or all")
+    run.add_argument("tasks", metavar="TASK", nargs="+",
+                     help="tasks (DOMAIN.TASK, or DOMAIN.TASK-continuous for one made with "
+                          "continuous actions), or all")
     add_plant_and_out(run, SECOND, "output directory")
     reproduce.add_sweep_flags(run)
     run.set_defaults(run=run_second)
