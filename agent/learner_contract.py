@@ -163,7 +163,8 @@ class Agents:
     @property
     def continuous(self) -> bool:
         """True where its actions are numbers in [-1, 1] (`Learner.actions`); False for
-        agents of no learner (a benchmark's reference rows), which act by index."""
+        agents of no learner, which act by index unless they say otherwise (a benchmark's
+        reference rows on a task made with continuous actions)."""
         learner = getattr(self, "learner", None)
         return learner is not None and learner.actions == "continuous"
 

@@ -64,6 +64,7 @@ import numpy as np
 
 from lwrl import outputs, tasks
 from lwrl.agent import io as agent_io
+from lwrl.runners.stepped import kind_of
 from lwrl.tasks.task_definition import ACTIONS
 
 SOURCE = "lwrl_policy.c"
@@ -144,7 +145,7 @@ def _task_description(metadata: dict, agent, source: str):
     names, definition = [f"state[{j}]" for j in range(agent.dim)], None
     if isinstance(task, str) and task.count(".") == 1:
         try:
-            definition = tasks.definition(*task.split("."), actions=_kind(agent))
+            definition = tasks.definition(*task.split("."), actions=kind_of(agent)[1])
         except ValueError:
             definition = None
         if definition is not None:
@@ -152,11 +153,6 @@ def _task_description(metadata: dict, agent, source: str):
             names = list(definition.state_names)
     return (task if isinstance(task, str) else "unknown (no run configuration in the file)",
             names, definition, config)
-
-
-def _kind(agent) -> str:
-    """The agents' kind of action (`Learner.actions`)."""
-    return "continuous" if agent.continuous else "discrete"
 
 
 def _action_fields(agent, definition, dtype: str) -> dict:
@@ -272,7 +268,7 @@ def export_c(agent_path, out_dir, agent_index: int = 0, dtype: str = "float") ->
         run = ("\n *   trained with " + _comment(", ".join(parts))) if parts else ""
     name_width = max(len(name) for name in names)
     low, high = form.ranges
-    kind = _kind(agent)
+    kind = kind_of(agent)[1]
     interface = INTERFACES[kind]
     fields = dict(
         {name: _rendered(value, dtype, interface["row"]) for name, value in rounded.items()},

@@ -92,16 +92,17 @@ def aggregate_matrix(judged: list) -> dict:
 
 def document(judged: list, command: str, seconds: float, figure_dir: str, out_dir: str) -> str:
     """The report's Markdown, its figures written to `figure_dir`."""
+    columns = rivals(judged)
     lines = ["# The second benchmark: the light-weight claim by a reviewer's rule", "",
              f"Written by `{command}`; the calls that computed its runs took {seconds / 60:.1f} "
              "min of wall time. The rule is docs/FINDINGS.md's (\"The light-weight claim judged "
              "again\"), written before the runs.", "", cost_line(out_dir), "",
-             "| task | verdict | " + " | ".join(f"against {rival}" for rival in rivals(judged)) + " |",
-             "|---|---|" + "---|" * len(rivals(judged))]
+             "| task | verdict | " + " | ".join(f"against {rival}" for rival in columns) + " |",
+             "|---|---|" + "---|" * len(columns)]
     for j in judged:
         against = {c.rival: c.gate.reason.split(":")[0] for c in j.comparisons}
         lines.append(f"| {j.runs.task} | **{j.verdict}** | "
-                     + " | ".join(against.get(rival, "—") for rival in rivals(judged)) + " |")
+                     + " | ".join(against.get(rival, "—") for rival in columns) + " |")
     lines += ["", *aggregates_section(judged, figure_dir, out_dir)]
     for j in judged:
         lines += task_section(j)
