@@ -8,7 +8,12 @@ import dataclasses
 
 import pytest
 
+from lwrl.agent import jax_population
 from lwrl.studies.paper.benchmark import protocol, search
+
+pytestmark = pytest.mark.skipif(
+    jax_population.missing_jax(), reason="the benchmark's deep rows run on JAX populations: "
+    "pip install 'lwrl[jax]'")
 
 
 @pytest.mark.parametrize("task", list(protocol.BUDGETS))

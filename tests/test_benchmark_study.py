@@ -10,6 +10,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from lwrl.agent import jax_population
 from lwrl.studies.paper.benchmark import evaluation, protocol, report, search, study
 
 TASK = "mountain_car.cost_to_go"
@@ -105,6 +106,8 @@ def tiny_continuous(monkeypatch):
     shrink(monkeypatch, 1)
 
 
+@pytest.mark.skipif(jax_population.missing_jax(),
+                    reason="SAC's row runs on a JAX population: pip install 'lwrl[jax]'")
 def test_a_tiny_continuous_benchmark_runs_its_own_rows_and_references(tiny_continuous, tmp_path):
     """`pendulum.swingup-continuous`: every run made with continuous actions, the actor-critic
     in the paper's agent's place against SAC (on its JAX population), the reference rows
