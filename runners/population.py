@@ -12,6 +12,11 @@ learning) and the learner's `update` runs as one branch of the program where `up
 says for some agent, applied to those agents only: the batch's agents start together and
 step together, so the branch runs once per rollout, not at every step to be discarded.
 
+The JAX tasks step the analytic plant (the domain's equations, traced) or, for a domain with
+a MuJoCo model, the mjx plant (`lwrl.jax.mjx`: the model stepped by MJX, MuJoCo's C engine
+being out of a JAX program's reach), whose one model is compiled at the run's parameter
+values: a run on it whose agents or episodes differ in them is refused in one line.
+
 A learner of continuous actions (`Learner.actions`) runs the tasks made with
 `actions="continuous"`: its action in [-1, 1] becomes the command `tasks.commands.commands`
 names in the actuator's range at the episode's parameter values (the other loops' arithmetic,
@@ -28,7 +33,7 @@ same distributions, other numbers.
 
 The program runs in chunks of `CHUNK` steps, so that progress is reported and a Ctrl-C
 stops the run between two chunks with every finished episode kept (`interrupted`). A chunk
-is compiled once per process for what shapes it (the task and its options, the longest
+is compiled once per process for what shapes it (the task, its plant and options, the longest
 action delay of the batch, the learner's batch-wide settings and `shared` values, the
 batch's size, the episodes, learning or not), the per-agent settings, physics, noise levels and delays being
 its arguments; XLA's compiled code is also kept on disk beside lwrl's numba kernels
@@ -66,26 +71,31 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
     `Agents.step`; `budget`: environment steps per agent at most (None: no budget), the
     episode that spends them cut there, truncated, as `run_compiled` cuts it (the learner
     sees that step as it would without the budget, so what came before is the same). A one-line ValueError for a bad option and for what the path does not
-    run: a plant but the analytic one, recordings."""
+    run: a plant but those of `lwrl.jax` (`PLANTS`), recordings, and on the mjx plant,
+    whose one model is compiled at the run's parameter values, values that differ between
+    agents or episodes."""
     import jax.numpy as jnp
     import lwrl.jax as jax_tasks
 
     episodes = check_count("episodes", episodes, 1)
     name = agent.learner.name
-    if plant != "analytic":
-        raise ValueError(f"{name} runs on the analytic plant only (its JAX port, lwrl.jax); "
+    if plant not in jax_tasks.PLANTS:
+        raise ValueError(f"{name} runs on the plants of lwrl.jax: {', '.join(jax_tasks.PLANTS)}; "
                          f"got plant {plant!r}")
     if len(record):
         raise ValueError(f"{name} keeps no recordings: it trains as one JAX program")
-    env_options = dict(integrator=integrator, equations=equations, **task_options)
-    env, _ = jax_tasks.make(f"{domain}.{task}", **env_options)
-    check_kinds(name, agent.learner.actions, env.definition, "run_population")
     batch = agent.batch_size
+    parameters = tasks.domain(domain).parameters
+    physical = draws(parameters, check_ranges(parameters, randomise),
+                     parameters.values(params, batch), seeds, episodes)
+    env_options = dict(plant=plant, integrator=integrator, equations=equations, **task_options)
+    if plant == "mjx":  # one model, compiled at the run's values (lwrl.jax.mjx)
+        env_options["params"] = dict(zip(parameters.names, physical[0, 0].tolist()))
+    env, _ = jax_tasks.make(f"{domain}.{task}", **env_options)
+    physical = env.check_params(physical)
+    check_kinds(name, agent.learner.actions, env.definition, "run_population")
     sensors = env.sensors(batch, observation_noise=observation_noise, action_delay=action_delay,
                           action_noise=action_noise)
-    parameters = tasks.domain(domain).parameters
-    physical = jnp.asarray(draws(parameters, check_ranges(parameters, randomise),
-                                 parameters.values(params, batch), seeds, episodes))
     starts = jnp.asarray(episode_starts(env.definition, seeds, episodes))
     program = agent.program()
     shape = (env.name, repr(sorted(env_options.items())), sensors.max_delay, type(agent),

@@ -7,7 +7,9 @@ substeps in a loop) where the C engine steps the states one by one. It agrees wi
 engine (`MujocoPlant`) to round-off, not bit for bit (XLA orders the arithmetic its own way):
 hence a plant of its own, and `mujoco` stays the C engine, the reference, on which every
 result stays bit-identical. It steps batches only (`tasks.batched`, `lwrl train`); a dm_env
-environment (`tasks.load`) runs on the C engine (`tasks.plants.BATCHED_ONLY`).
+environment (`tasks.load`) runs on the C engine (`tasks.plants.BATCHED_ONLY`). Its step of
+one state (`state_step`) is also the plant of the JAX tasks on MuJoCo's model
+(`lwrl.jax.mjx`), inside the population learners' programs.
 
 JAX is an optional extra (`pip install 'lwrl[mjx]'`), imported when a plant is first made.
 The plant steps one model: every state of a batch at the same parameter values (a batch
@@ -50,16 +52,17 @@ def motion_model(model: mujoco.MjModel) -> mujoco.MjModel:
 
 
 @functools.cache
-def compiled_step(model: mujoco.MjModel, actuator: str, substeps: int):
-    """The jitted batch step of a compiled model (one that is kept, as
-    `DomainPlants.mujoco_model`'s are): `(state (B, d), control (B,)) -> state (B, d)` in
-    the task's order `(q0, q0_dot, q1, ...)`, `substeps` MJX steps with `control` on
-    `actuator`. Made once per process and model; JAX compiles it once per batch size.
-    Call it under `jax.enable_x64(True)`."""
+def state_step(model: mujoco.MjModel, actuator: str, substeps: int):
+    """One state's step of a compiled model (one that is kept, as
+    `DomainPlants.mujoco_model`'s are), a function JAX traces: `(state (d,), control ()) ->
+    state (d,)` in the task's order `(q0, q0_dot, q1, ...)`, `substeps` MJX steps with
+    `control` on `actuator` (MuJoCo clips it to the actuator's `ctrlrange`), before the
+    domain's `limit`. `compiled_step` batches it; `lwrl.jax`'s mjx environments call it
+    inside their programs. Made once per process and model; trace it in 64 bits."""
     jax, mjx = _jax_and_mjx()
     model = motion_model(model)
     actuator_id = model.actuator(actuator).id
-    with jax.enable_x64(True):
+    with jax.enable_x64(True), jax.ensure_compile_time_eval():  # concrete, if made in a trace
         device_model = mjx.put_model(model)
         rest = mjx.make_data(device_model)
 
@@ -71,7 +74,16 @@ def compiled_step(model: mujoco.MjModel, actuator: str, substeps: int):
         data = jax.lax.fori_loop(0, substeps, lambda _, data: mjx.step(device_model, data), data)
         return jax.numpy.stack([data.qpos, data.qvel], axis=-1).ravel()
 
-    return jax.jit(jax.vmap(step_one))
+    return step_one
+
+
+@functools.cache
+def compiled_step(model: mujoco.MjModel, actuator: str, substeps: int):
+    """The jitted batch step of a compiled model: `(state (B, d), control (B,)) -> state
+    (B, d)`, `state_step` over the batch. Made once per process and model; JAX compiles it
+    once per batch size. Call it under `jax.enable_x64(True)`."""
+    jax = _jax_and_mjx()[0]
+    return jax.jit(jax.vmap(state_step(model, actuator, substeps)))
 
 
 class MjxPlant:

@@ -271,7 +271,7 @@ def test_each_agent_of_a_batch_senses_and_acts_with_its_own_options():
 
 
 @pytest.mark.parametrize("change, message", [
-    (dict(plant="mujoco", task="cartpole.balance"), "runs on the analytic plant only"),
+    (dict(plant="mujoco", task="cartpole.balance"), "runs on the plants of lwrl.jax: analytic, mjx"),
 ])
 def test_what_the_population_path_does_not_run_is_refused_in_one_line(change, message):
     config = RunConfig(**{**dict(task="cartpole.balance", learner="ppo_jax", agents=2,

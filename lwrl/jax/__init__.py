@@ -18,8 +18,12 @@ away from them.
 `make(name, actions="continuous")` makes the action the control itself, clipped to
 `env.action_range(params)` as the NumPy environments clip it; the tests hold its episodes
 to `tasks.batched.BatchedEnv`'s within the same 1e-12.
+
+`make(name, plant="mjx")` steps the domain's MuJoCo model by MJX instead of its equations
+(`lwrl.jax.mjx`: the pendulum, the cart-pole and the acrobot, at the parameter values it is
+made with, in float64); `tests/test_jax_mjx.py` holds its episodes to MuJoCo's C engine.
 """
 
-from lwrl.jax.environment import EnvState, Environment, make
+from lwrl.jax.environment import PLANTS, EnvState, Environment, make
 
-__all__ = ["EnvState", "Environment", "make"]
+__all__ = ["PLANTS", "EnvState", "Environment", "make"]

@@ -21,7 +21,8 @@ have their own.
 Every function of the task is the suite's own (`lwrl.jax.translate`): the analytic plant's
 step of `tasks/<domain>.py` with its Euler scheme and equations, the start distribution,
 the observation, `outcome` (reward, termination, up-time) and `advance_episode` (the time
-limit), traced by JAX instead of compiled by numba.
+limit), traced by JAX instead of compiled by numba. On the `mjx` plant (`make(...,
+plant="mjx")`, `lwrl.jax.mjx`) the step is MuJoCo's model's, stepped by MJX, the rest alike.
 """
 
 import dataclasses
@@ -106,7 +107,8 @@ class StartDraws:
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class Environment:
-    """`DOMAIN.TASK` on the analytic plant, in JAX (`lwrl.jax.make` builds it).
+    """`DOMAIN.TASK` on the analytic plant, in JAX (`lwrl.jax.make` builds it; on the mjx
+    plant, `lwrl.jax.mjx.MjxEnvironment`).
 
         obs, state = env.reset(key, params)
         obs, state, reward, terminated, truncated, info = env.step(key, state, action, params)
@@ -314,10 +316,21 @@ class Environment:
         return observation, state, reward, terminated, truncated, info
 
 
+PLANTS = ("analytic", "mjx")
+"""The plants a JAX environment steps: the paper's equations, traced (`Environment`), and
+MuJoCo's model, stepped by MJX (`lwrl.jax.mjx`); MuJoCo's C engine cannot be stepped inside
+a JAX program."""
+
+
 def make(name: str, dtype=None, integrator: str = "semi_implicit", equations: str = "paper",
-         observation_noise=None, action_delay: int = 0, action_noise: float = 0.0, **options):
+         observation_noise=None, action_delay: int = 0, action_noise: float = 0.0,
+         plant: str = "analytic", **options):
     """`(Environment, params)`: the task `DOMAIN.TASK` (`lwrl.tasks.TASK_NAMES`) in JAX and
     its physical parameter values `(P,)`, gymnax's `make`.
+
+    `plant` is `analytic` (the domain's equations) or `mjx` (its MuJoCo model stepped by
+    MJX, for the domains that have one: `lwrl.jax.mjx.MjxEnvironment`, which steps the one
+    model compiled at `params`, in float64, and has no `integrator` or `equations`).
 
     `options` are the task's (`time_limit`, `track_limit`, `params={name: value}`, ...),
     `actions` (`"discrete"`, the default, or `"continuous"`: the control itself, clipped to
@@ -331,10 +344,21 @@ def make(name: str, dtype=None, integrator: str = "semi_implicit", equations: st
     ValueError names what is allowed for an unknown task, option or value.
     """
     domain_name, task = tasks.split_name(name)
-    definition = tasks.resolve(domain_name, task, "analytic", **options)[0]
     domain = tasks.domain(domain_name)
-    semi_implicit = check_integrator(integrator) if domain.plants.euler else True
-    slips = check_equations(equations) if domain.plants.euler else False
+    if plant not in PLANTS:
+        raise ValueError(f"plant must be one of: {', '.join(PLANTS)} (lwrl.jax steps no C "
+                         f"engine); got {plant!r}")
+    if plant not in domain.plants.names:
+        having = [other for other, plants in tasks.PLANTS.items() if plant in plants]
+        raise ValueError(f"the {plant} plant steps a domain's MuJoCo model; {domain_name} has "
+                         f"none (the domains with one: {', '.join(having)})")
+    definition = tasks.resolve(domain_name, task, plant, **options)[0]
+    analytic = plant == "analytic"
+    if not analytic and (integrator, equations) != ("semi_implicit", "paper"):
+        raise ValueError(f"integrator and equations are options of the analytic plant; the "
+                         f"{plant} plant steps MuJoCo's model and has none")
+    semi_implicit = check_integrator(integrator) if analytic and domain.plants.euler else True
+    slips = check_equations(equations) if analytic and domain.plants.euler else False
     x64 = jax.config.read("jax_enable_x64")
     dtype = jnp.dtype((jnp.float64 if x64 else jnp.float32) if dtype is None else dtype)
     if dtype not in (jnp.float32, jnp.float64):
@@ -342,10 +366,18 @@ def make(name: str, dtype=None, integrator: str = "semi_implicit", equations: st
     if dtype == jnp.float64 and not x64:
         raise ValueError("dtype float64 needs JAX in 64 bits: call jax.config.update("
                          "'jax_enable_x64', True) first, or pass dtype='float32'")
+    if not analytic and dtype != jnp.float64:
+        raise ValueError(f"the {plant} plant steps MuJoCo's model in float64: call "
+                         "jax.config.update('jax_enable_x64', True) first, and leave dtype float64")
     sensors = Sensors.of(definition, dtype, observation_noise=observation_noise,
                          action_delay=action_delay, action_noise=action_noise)
-    env = Environment(name=f"{domain_name}.{task}", definition=definition, dtype=dtype,
-                      semi_implicit=semi_implicit, slips=slips, default_sensors=sensors)
+    if analytic:
+        kind = Environment
+    else:
+        from lwrl.jax.mjx import MjxEnvironment  # here: it imports this module
+        kind = MjxEnvironment
+    env = kind(name=f"{domain_name}.{task}", definition=definition, dtype=dtype,
+               semi_implicit=semi_implicit, slips=slips, default_sensors=sensors)
     return env, env.default_params
 
 

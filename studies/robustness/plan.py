@@ -15,8 +15,9 @@ population learners (`Learner.population`: `dqn_jax`, `ppo_jax`, `sac_jax`, `td3
 learners in one jitted program, `runners.population`) train under that same protocol with the same tuned
 settings as their Stable-Baselines3 counterparts, but with the task's full count of agents
 (`agents_for`): in a batch an agent-step costs them tens of microseconds of CPU, against
-SB3's milliseconds (docs/guide/jax.md). They run on the analytic plant only (its JAX port,
-`lwrl.jax`), so a study on another plant leaves them out (`learners_for`). Each trained
+SB3's milliseconds (docs/guide/jax.md). They run on the JAX plants only (`lwrl.jax`: the
+analytic one, and MJX at one set of parameter values, which the randomised training cannot
+use), so a study on another plant leaves them out (`learners_for`). Each trained
 batch is then evaluated greedily without learning (`RunConfig.trained`, `learn`, `greedy`;
 the agents go on as they ended, `Agents.take_over`) in every cell:
 
@@ -107,7 +108,8 @@ def values(task: str, cell: Cell) -> dict:
 def learners_for(task: str, plant: str = "analytic") -> list:
     """The learners of the registry that fit `task` on `plant`, each the task made with its
     kind of action (`Learner.actions`), in the registry's order: a population learner
-    (`Learner.population`) runs on the analytic plant only."""
+    (`Learner.population`) runs on the analytic plant only here (its other JAX plant, MJX,
+    takes one set of parameter values per run, not the randomised training's draws)."""
     return [name for name, learner in LEARNERS.items()
             if learner.fits(task_info(task, actions=learner.actions)) is None
             and (plant == "analytic" or not learner.population)]
