@@ -63,7 +63,7 @@ def add_run(actions) -> None:
                     "committed tables.")
     run.add_argument("tasks", metavar="TASK", nargs="+",
                      help="tasks (DOMAIN.TASK, or DOMAIN.TASK-continuous for one made with "
-                          "continuous actions), or all")
+                          "continuous actions), or all (those whose domain has --plant)")
     add_plant_and_out(run, SECOND, "output directory")
     reproduce.add_sweep_flags(run)
     run.set_defaults(run=run_second)
@@ -123,9 +123,9 @@ def run_second(args) -> int:
     module, protocol = output.study_modules("bench", "lwrl.studies.paper.benchmark.benchmark",
                                             "lwrl.studies.paper.benchmark.protocol")
     started = time.perf_counter()
-    tasks = list(protocol.BUDGETS) if args.tasks == ["all"] else args.tasks
+    tasks = protocol.tasks_on(args.plant) if args.tasks == ["all"] else args.tasks
     for task in tasks:
-        protocol.check_task(task)
+        protocol.check_task(task, args.plant)
     output.claim_outputs(args, "out")
     outputs.check_directory(args.out, "--out")  # a benchmark resumes in its directory
     path = module.benchmark(tasks, args.out, shlex.join(["lwrl", *args.argv]), plant=args.plant,

@@ -76,3 +76,12 @@ def test_an_unknown_task_is_one_line():
     from conftest import one_line_error
     one_line_error(lambda: protocol.rows("pendulum.balance"), "unknown benchmark task",
                    "allowed: mountain_car.cost_to_go")
+
+
+def test_the_benchmark_on_mujocos_model_has_the_tasks_whose_domain_has_one():
+    from conftest import one_line_error
+    assert protocol.tasks_on("analytic") == list(protocol.BUDGETS)
+    assert "mountain_car.cost_to_go" not in protocol.tasks_on("mujoco")
+    assert "pendulum.swingup-continuous" in protocol.tasks_on("mujoco")
+    one_line_error(lambda: protocol.check_task("mountain_car.cost_to_go", "mujoco"),
+                   "on the mujoco plant", "allowed: pendulum.swingup,")

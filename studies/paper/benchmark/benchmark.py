@@ -45,7 +45,7 @@ def benchmark(tasks, out_dir: str, command: str, plant: str = "analytic", sweep=
     """Run (or resume) the benchmark on `tasks`, measure the rows' costs, place the outside
     results of `out_dir/outside`, write the report; its path."""
     started = time.perf_counter()
-    tasks = [protocol.check_task(task) for task in tasks]
+    tasks = [protocol.check_task(task, plant) for task in tasks]
     task_runs = []
     for task in tasks:
         runs = study.study_task(task, out_dir, plant, sweep)

@@ -15,10 +15,17 @@ on its fastest implementation, the JAX populations `dqn_jax` and `ppo_jax` that
 docs/implementations holds to Stable-Baselines3's, starting from rl-baselines3-zoo's sets
 with their horizon the budget (so that DQN's exploration and the linear schedules run over
 it). Every row is searched the same way (`search`).
+
+On MuJoCo's model (`plant` "mujoco") the linear rows train on the C engine (the `mujoco`
+plant) and the deep rows, the JAX populations, on the `mjx` plant: a population trains as one
+JAX program (`runners.population`), inside which the C engine cannot be stepped, and MJX
+steps the same model with the same step, agreeing with the C engine to round-off
+(`lwrl.jax.mjx`, tests/test_jax_mjx.py). On the analytic plant every row trains on it.
 """
 
 import dataclasses
 
+from lwrl import tasks
 from lwrl.runners.config import RunConfig, tuned_settings
 from lwrl.studies.paper import bench_protocol
 
@@ -57,10 +64,18 @@ class Row:
     settings: dict
 
 
-def check_task(task: str) -> str:
-    if task not in BUDGETS:
-        raise ValueError(f"unknown benchmark task {task!r}; allowed: {', '.join(BUDGETS)}")
+def check_task(task: str, plant: str = "analytic") -> str:
+    """`task`, or a one-line ValueError naming the benchmark's tasks on `plant`."""
+    if task not in tasks_on(plant):
+        raise ValueError(f"unknown benchmark task {task!r} on the {plant} plant; allowed: "
+                         f"{', '.join(tasks_on(plant))}")
     return task
+
+
+def tasks_on(plant: str) -> list:
+    """The benchmark's tasks whose domain has `plant` (Mountain-Car has no MuJoCo model)."""
+    return [task for task in BUDGETS
+            if plant in tasks.domain(variant(task)[0].split(".")[0]).plants.names]
 
 
 def variant(task: str) -> tuple:
@@ -109,10 +124,17 @@ def most_episodes(task: str) -> int:
     return -(-BUDGETS[check_task(task)] // SHORTEST_EPISODE)
 
 
+def row_plant(task: str, row: Row, plant: str) -> str:
+    """The plant `row` of `task` trains on in the benchmark on `plant`: `mjx` for a deep row
+    on MuJoCo's model (see the module), else `plant`."""
+    return "mjx" if plant == "mujoco" and row.label in deep(task) else plant
+
+
 def training(task: str, row: Row, settings: dict, seed: int, agents: int,
              fraction: float = 1.0, plant: str = "analytic") -> RunConfig:
     """The run that trains `agents` agents of `row` with `settings` (seeds `seed`..) on the
-    task's own episodes for `fraction` of its budget."""
+    task's own episodes for `fraction` of its budget, on `row_plant`."""
     budget = round(fraction * BUDGETS[check_task(task)])
-    return RunConfig(task=variant(task)[0], plant=plant, learner=row.learner, agents=agents, seed=seed,
+    return RunConfig(task=variant(task)[0], plant=row_plant(task, row, plant),
+                     learner=row.learner, agents=agents, seed=seed,
                      episodes=most_episodes(task), budget=budget, **settings)
