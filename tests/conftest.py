@@ -159,6 +159,7 @@ SLOW = {
     # loops' kernels are cached; these are not).
     r"test_mjx_plant\.py::(?!test_every_model_has_an_mjx_plant)": "compiles MJX's step",
     r"test_parameters\.py::test_the_mjx_plant_takes_one_set_of_values": "compiles MJX's step",
+    r"test_jax_mjx\.py::(test_every_step|test_a_population)": "compiles MJX's step inside JAX programs",
     r"test_population\.py::(?!test_a_batch_of_settings_that_cannot_be_batched)":
         "compiles JAX programs of networks",
     r"test_jax_peer\.py::": "compiles and runs the JAX peer (a benchmark, not the package)",

@@ -126,3 +126,39 @@ def test_a_tiny_continuous_benchmark_runs_its_own_rows_and_references(tiny_conti
     text = open(path).read()
     assert "| task | verdict | against sac |" in text and f"| {CONTINUOUS} | **" in text
     assert "P(actor_critic better)" in text and "one task only" in text
+
+
+@pytest.fixture
+def tiny_mujoco(monkeypatch):
+    """The pendulum on MuJoCo's model at a tiny scale: the paper's agent and DQN (a linear
+    row and a deep one), 300 steps of budget, DQN learning from step 100 on minibatches of 32."""
+    monkeypatch.setitem(protocol.BUDGETS, "pendulum.swingup", 300)
+    monkeypatch.setattr(protocol, "DEEP", {"dqn": "dqn_jax"})
+    every_row = protocol.rows
+
+    def rows(task):
+        return [dataclasses.replace(row, settings={**row.settings, "net_arch": "16,16",
+                                                    "batch_size": 32, "learning_starts": 100})
+                if row.label == "dqn" else row for row in every_row(task)
+                if row.label in ("paper", "dqn")]
+    monkeypatch.setattr(protocol, "rows", rows)
+    monkeypatch.setattr(search, "RANGES", {**search.RANGES, "dqn_jax": (
+        search.LogUniform("learning_rate", 1e-4, 3e-3),)})
+    shrink(monkeypatch, 1)
+
+
+@pytest.mark.skipif(jax_population.missing_jax(),
+                    reason="DQN's row runs on a JAX population: pip install 'lwrl[jax,mjx]'")
+def test_a_tiny_benchmark_on_mujocos_model_trains_the_deep_rows_on_mjx(tiny_mujoco, tmp_path):
+    """On the mujoco plant the linear row and the references run on the C engine, the deep
+    row on MJX (`protocol.row_plant`); the report judges the paper's agent against DQN."""
+    pytest.importorskip("mujoco.mjx", reason="the deep rows on MuJoCo's model: pip install 'lwrl[mjx]'")
+    from lwrl.studies.paper.benchmark import benchmark
+    path = benchmark.benchmark(["pendulum.swingup"], str(tmp_path), "lwrl bench run ...",
+                               plant="mujoco", sweep={"workers": 1})
+    runs = study.study_task("pendulum.swingup", str(tmp_path), plant="mujoco", sweep={"workers": 1})
+    assert runs.trainings["paper", 1.0].plant == "mujoco"
+    assert runs.trainings["dqn", 1.0].plant == "mjx"
+    assert set(runs.tables["plant"]) == {"mujoco", "mjx"}
+    assert (tmp_path / "references" / "pendulum.swingup-mujoco.csv.gz").exists()
+    assert "| pendulum.swingup | **" in open(path).read()
