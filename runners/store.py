@@ -31,12 +31,17 @@ def compute_spent(out_dir) -> dict:
     """What the ledger of `out_dir` (`RunStore.record_compute`) counts: `runs` (computed
     runs it names), `wall_s` and `cpu_s` (summed over its batches), `hosts`; zeros where it
     has none."""
-    path = pathlib.Path(out_dir) / LEDGER
-    entries = [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
+    entries = ledger_lines(out_dir)
     return {"runs": sum(len(entry["runs"]) for entry in entries),
             "wall_s": float(sum(entry["wall_s"] for entry in entries)),
             "cpu_s": float(sum(entry["cpu_s"] for entry in entries)),
             "hosts": list(dict.fromkeys(entry["host"] for entry in entries))}
+
+
+def ledger_lines(out_dir) -> list:
+    """The ledger of `out_dir` (`RunStore.record_compute`), a dict per computed batch."""
+    path = pathlib.Path(out_dir) / LEDGER
+    return [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
 
 
 class RunStore:

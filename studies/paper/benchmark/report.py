@@ -17,7 +17,7 @@ from lwrl.agent.arithmetic import NotCounted
 from lwrl.analysis import statistics, verdicts
 from lwrl.analysis.plots import save_figure
 from lwrl.runners.store import compute_spent
-from lwrl.studies.paper.benchmark import evaluation, judging, protocol, search, study
+from lwrl.studies.paper.benchmark import evaluation, judging, protocol, search, study, twin_cost
 
 THRESHOLDS = np.linspace(-0.25, 1.5, 71)
 """The performance profiles' normalised scores."""
@@ -111,14 +111,15 @@ def document(judged: list, command: str, seconds: float, figure_dir: str, out_di
 
 def cost_line(out_dir: str) -> str:
     """What the runs in `out_dir/runs` cost, as far as its ledger counts them
-    (`runners.store.compute_spent`: a line per computed batch, kept across interruptions)."""
+    (`runners.store.compute_spent`: a line per computed batch, kept across interruptions),
+    then what the deep rows would have cost with Stable-Baselines3 alone (`twin_cost`)."""
     spent = compute_spent(out_dir)
     total = len(glob.glob(os.path.join(out_dir, "runs", "*.csv.gz")))
     counted = (f"{spent['wall_s'] / 3600:.2f} h of wall time and {spent['cpu_s'] / 3600:.2f} h "
                f"of CPU on {', '.join(spent['hosts'])}" if spent["runs"] else "nothing")
     return (f"What the runs cost, from `compute.jsonl` (a line per computed batch): "
             f"{spent['runs']} of the {total} runs in `runs/`, {counted}; runs computed before "
-            "the ledger was kept are not counted.")
+            f"the ledger was kept are not counted. {twin_cost.sentence(out_dir)}")
 
 
 def aggregates_section(judged: list, figure_dir: str, out_dir: str) -> list:

@@ -1,0 +1,132 @@
+"""What the second benchmark's deep rows would have cost on Stable-Baselines3 alone
+(benchmarks/sb3_cost.py, and the report's sentence, `twin_cost.sentence`), on tables of episodes
+written at the runs' keys of Mountain-Car's first configuration of each deep row: the search's
+training (3 agents of 1600 steps in 2 episodes) and its greedy evaluation (3 agents of 400
+steps). The measurement is timed, its numbers not asserted; the report's arithmetic is, on
+rates written by hand."""
+
+import json
+
+import numpy as np
+import pytest
+
+from lwrl.agent import jax_population
+from lwrl.agent.stable_baselines import missing_libraries
+from lwrl.runners.episodes import EpisodeResults
+from lwrl.runners.store import RunStore
+from lwrl.runners.sweep import results_table
+from lwrl.studies.paper.benchmark import evaluation, protocol, report, search, twin_cost
+
+pytestmark = [
+    pytest.mark.skipif(bool(missing_libraries()), reason="the twins are Stable-Baselines3's: "
+                       "pip install 'lwrl[baselines]' (the baselines extra)"),
+    pytest.mark.skipif(jax_population.missing_jax(), reason="the deep rows' runs are of JAX "
+                       "population learners: pip install 'lwrl[jax]' (the jax extra)")]
+
+TASK = "mountain_car.cost_to_go"
+TRAINING_STEPS = (800, 800)
+EVALUATION_STEPS = (200, 200)
+
+
+def write_runs(out_dir) -> dict:
+    """The tables of the search's training and evaluation of configuration 0 of each deep row
+    of `TASK` (see the module); `{label: (training, evaluation)}`."""
+    store, runs, written = RunStore(out_dir), search.runs(TASK), {}
+    for label in protocol.deep(TASK):
+        training = runs[label, 0]
+        written[label] = (training, evaluation.evaluation(training))
+        for config, steps in zip(written[label], (TRAINING_STEPS, EVALUATION_STEPS)):
+            results = EpisodeResults.empty(config.agents, len(steps))
+            results.steps[:] = steps
+            store.write(config, results_table(config, results))
+    return written
+
+
+def test_every_configuration_is_measured_once_and_a_rerun_measures_what_is_missing(
+        tmp_path, monkeypatch, capsys):
+    from benchmarks import sb3_cost
+
+    written = write_runs(tmp_path)
+    sb3_cost.main([str(tmp_path), "--steps", "40"])
+    path = tmp_path / twin_cost.SB3_COST
+    measured = json.loads(path.read_text())
+    assert set(measured) == {training.key for training, _ in written.values()}
+    for label, (training, _) in written.items():
+        entry = measured[training.key]
+        assert (entry["task"], entry["row"], entry["configuration"]) == (TASK, label, 0)
+        assert (entry["learner"], entry["twin"]) == (training.learner, label)
+        settings = training.agent
+        assert entry["settings"]["net_arch"] == settings.net_arch
+        warm_up = getattr(settings, "learning_starts", 0)
+        period = getattr(settings, "n_steps", None) or settings.train_freq
+        assert entry["warm_up_steps"] == entry["steps"]["warm_up"] == warm_up
+        assert entry["steps"]["learning"] == max(2 * period, -(-40 // period) * period)
+        assert entry["steps"]["greedy"] == 40
+        assert all(rate > 0 for name, rate in entry["cpu_s_per_step"].items()
+                   if entry["steps"][name])
+        assert entry["host"] and entry["lwrl"] and entry["command"].endswith("--steps 40")
+    assert "With Stable-Baselines3 alone" in capsys.readouterr().out
+
+    kept = measured.pop(written["dqn"][0].key)
+    path.write_text(json.dumps(measured))
+    calls = []
+
+    def stub(config, least):
+        calls.append(config.learner)
+        return {key: kept[key] for key in ("warm_up_steps", "steps", "cpu_s_per_step")}
+    monkeypatch.setattr(sb3_cost, "measure", stub)
+    sb3_cost.main([str(tmp_path), "--steps", "40"])
+    assert calls == ["dqn"]
+    again = json.loads(path.read_text())
+    assert set(again) == set(measured) | {written["dqn"][0].key}
+    assert again[written["ppo"][0].key] == measured[written["ppo"][0].key]
+
+
+def test_the_report_multiplies_each_runs_steps_by_its_configurations_rates(tmp_path):
+    """DQN: 3 agents x (1000 warm-up steps at 0.36 s + 600 learning at 3.6 s) + 1200 greedy
+    at 0.036 s = 7603.2 s; PPO, no warm-up: 4800 x 3.6 + 1200 x 0.036 = 17323.2 s; 6.92 h
+    in all. The ledger's line of DQN's training (the other names a run of no deep row) cost
+    2 h on JAX; its estimate is 7560 s, 2.10 h."""
+    written = write_runs(tmp_path)
+    rates = {"warm_up": 0.36, "learning": 3.6, "greedy": 0.036}
+    command = "python -m benchmarks.sb3_cost X"
+    measured = {training.key: {"plant": training.plant, "twin": label, "warm_up_steps": warm_up,
+                               "cpu_s_per_step": rates, "command": command}
+                for (label, (training, _)), warm_up in zip(written.items(), (1000, 0))}
+    (tmp_path / twin_cost.SB3_COST).write_text(json.dumps(measured))
+    ledger = [{"runs": [written["dqn"][0].key], "wall_s": 100.0, "cpu_s": 7200.0, "host": "h"},
+              {"runs": [written["dqn"][1].key, "another-run"], "wall_s": 1.0, "cpu_s": 1.0,
+               "host": "h"}]
+    (tmp_path / "compute.jsonl").write_text("".join(json.dumps(line) + "\n" for line in ledger))
+    line = report.cost_line(str(tmp_path))
+    assert "3 of the 4 runs in `runs/`" in line
+    assert ("the deep rows would have cost about 6.92 h of CPU for their 9,600 agent-steps of "
+            "training and 2,400 agent-steps of greedy evaluation (dqn 2.11 h, ppo 4.81 h)") in line
+    assert ("the ledger counts 1 of their 4 runs, which cost 2.00 h of CPU and would have cost "
+            "about 2.10 h") in line
+    assert f"measured by `{command}`" in line
+    configurations = twin_cost.deep_configurations(str(tmp_path))
+    assert [(c.label, c.index, len(c.trainings), len(c.evaluations)) for c in configurations] == [
+        ("dqn", 0, 1, 1), ("ppo", 0, 1, 1)]
+    table = RunStore(tmp_path).read([written["ppo"][0]])
+    assert np.isclose(twin_cost.twin_cpu_s(written["ppo"][0], table, measured[written["ppo"][0].key]),
+                      3 * 1600 * 3.6)
+
+
+def test_without_measurements_the_report_gives_the_command(tmp_path):
+    write_runs(tmp_path)
+    line = report.cost_line(str(tmp_path))
+    assert f"`python -m benchmarks.sb3_cost {tmp_path}` measures it" in line
+
+
+@pytest.mark.parametrize("argv", [["nowhere"], [".", "--steps", "0"]])
+def test_a_bad_out_dir_or_step_count_is_one_line_and_status_2(argv, tmp_path, monkeypatch, capsys):
+    from benchmarks import sb3_cost
+
+    (tmp_path / "runs").mkdir()
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exit_:
+        sb3_cost.main(argv)
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("python -m benchmarks.sb3_cost: error: ")
