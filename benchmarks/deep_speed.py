@@ -1,16 +1,23 @@
 """What each learner costs: CPU per agent-step of the JAX population learners (`ppo_jax`,
-`dqn_jax`) against their Stable-Baselines3 twins (`ppo`, `dqn`), their compile time, and for
-every learner of the registry the counted arithmetic of one greedy decision and one
-agent-step of learning beside the time measured.
+`dqn_jax`, `sac_jax`, `td3_jax`) against their Stable-Baselines3 twins (`ppo`, `dqn`, `sac`,
+`td3`: the pairs of `PAIRS`), their compile time, and for every learner of the registry the
+counted arithmetic of one greedy decision and one agent-step of learning beside the time
+measured.
 
 Workload (`FULL`): the pendulum swing-up (`pendulum.swingup`, analytic plant) cut at a
 `time_limit` of 10.24 s, 512 steps: the task has no terminal state, so every agent takes
 512 steps an episode and 1024 in its 2 episodes (exactly one chunk of the population
-program, `runners.population.CHUNK`, so no scanned step is spent on finished agents). The
-twins of a pair take the same settings (`SETTINGS`): PPO with rollouts of 512 (one rollout
-an episode: two updates per agent), 10 epochs of minibatches of 64, MLP 64,64; DQN with SB3's
-defaults but a replay buffer of 50 000 and learning from step 100; `timesteps` 100 000 for
-both, so that every agent learns throughout the run. Agent b has seed b.
+program, `runners.population.CHUNK`, so no scanned step is spent on finished agents), with
+each pair's kind of action (`Learner.actions`): discrete for PPO and DQN, continuous (the
+torque itself) for SAC and TD3. The twins of a pair take the same settings
+(`Workload.settings`): PPO with rollouts of 512 (one rollout an episode: two updates per
+agent), 10 epochs of minibatches of 64, MLP 64,64; DQN with SB3's defaults but MLP 64,64, a
+replay buffer of 50 000 and learning from step 100; SAC and TD3 likewise, their defaults
+(SB3's and rl-baselines3-zoo's Pendulum-v1 sets: a minibatch of 256, one gradient step every
+step; the learners' as the implementations study and `lwrl train` run them) but MLP 64,64,
+a replay buffer of 50 000 and learning from step 100 (TD3's default waits 10 000 steps,
+longer than the run); `timesteps` 100 000 for all, so that every agent learns throughout
+the run. Agent b has seed b.
 
 One run of this script measures:
 
@@ -18,9 +25,10 @@ One run of this script measures:
    `runners.run.run(config)` from new agents, divided by its agent-steps (the sum of
    `results.steps`), and its wall time likewise. Each measurement repeats the run until
    `--seconds` of wall time have passed (at least `MIN_RUNS` runs; one for a batch of
-   SB3's agents, whose run lasts from half a minute to two) and reports the median over the
-   runs; the JAX learners' first run compiles (the program is cached in the process by its
-   shape, `runners.population._CHUNKS`) and is not timed. SB3's learners (one model per
+   SB3's agents, whose run lasts from half a minute to minutes, SAC's and TD3's the longest
+   with a gradient step every agent-step) and reports the median over the runs; the JAX
+   learners' first run compiles (the program is cached in the process by its shape,
+   `runners.population._CHUNKS`) and is not timed. SB3's learners (one model per
    agent, stepped one after another, torch on one thread) at 1, 16 and 64 agents, after an
    untimed warm-up run of one agent; the JAX learners at 1, 16 and 64 agents, under two
    conditions (3.).
@@ -41,7 +49,7 @@ One run of this script measures:
    `agent.stable_baselines.torch_modules`), measured in this process; the busiest-thread
    share checks that too. The compiled learners (the table of 5.) run in this process with
    lwrl's loop on one worker thread (`agent.threads.set_workers(1)`).
-4. **Compile time** of `ppo_jax` and `dqn_jax`: the first run's wall time minus the second's
+4. **Compile time** of each JAX learner: the first run's wall time minus the second's
    (the same work), with how many XLA programs the first run compiled (JAX's
    `/jax/core/compile/backend_compile_duration` events: the population program and the
    small programs of the eager operations around it) and whether any later run compiled
@@ -62,13 +70,14 @@ One run of this script measures:
 
 Ratios are of times measured in the same run of this script; the machine's load average is
 printed with every measurement, since other jobs change what the figures mean (CPU time
-less than wall time). The aims (from the issue): `ppo_jax` at most 1/20 of SB3 PPO's CPU
-per agent-step at 16 agents, `dqn_jax` at most 1/4 of SB3 DQN's.
+less than wall time). The aims (from the issue, `AIMS`): `ppo_jax` at most 1/20 of SB3 PPO's
+CPU per agent-step at 16 agents, `dqn_jax` at most 1/4 of SB3 DQN's; SAC and TD3 have none.
 
 Run from the repository root (the JAX part needs the `jax` extra, the SB3 part the
 `baselines` extra; either part is skipped, saying so, without its extra):
 
-    python -m benchmarks.deep_speed            # 10-20 minutes on two loaded cores
+    python -m benchmarks.deep_speed            # 10-20 minutes on two loaded cores for PPO
+                                               # and DQN, SAC and TD3 beyond that
     python -m benchmarks.deep_speed --quick    # smoke test: tiny networks and episodes
 """
 
@@ -98,8 +107,10 @@ from lwrl.runners.run import run
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 TASK = "pendulum.swingup"
 """The workload's task: no terminal state, so every agent takes as many steps."""
-PAIRS = {"ppo": "ppo_jax", "dqn": "dqn_jax"}
+PAIRS = {"ppo": "ppo_jax", "dqn": "dqn_jax", "sac": "sac_jax", "td3": "td3_jax"}
 """Each SB3 learner and its JAX twin."""
+AIMS = {"ppo": 20, "dqn": 4}
+"""The issue's aims: the twin at most 1/N of the SB3 learner's CPU per agent-step."""
 FAMILY = {**{sb3: sb3 for sb3 in PAIRS}, **{twin: sb3 for sb3, twin in PAIRS.items()}}
 """Which settings (`Workload.settings`) each learner of a pair takes."""
 ONE_THREAD_FLAGS = "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
@@ -130,14 +141,15 @@ class Workload:
     terminal states there)."""
 
 
+REPLAY = dict(buffer_size=50_000, learning_starts=100, net_arch="64,64", timesteps=100_000)
+"""The off-policy learners' settings (DQN, SAC, TD3): the rest their defaults."""
+QUICK_REPLAY = dict(buffer_size=64, learning_starts=2, batch_size=4, net_arch="8", timesteps=1000)
 FULL = Workload(time_limit=10.24, episodes=2, agents=(1, 16, 64), reference=16, settings={
     "ppo": dict(n_steps=512, batch_size=64, n_epochs=10, net_arch="64,64", timesteps=100_000),
-    "dqn": dict(buffer_size=50_000, learning_starts=100, net_arch="64,64", timesteps=100_000)},
-    other_episodes=20)
+    "dqn": REPLAY, "sac": REPLAY, "td3": REPLAY}, other_episodes=20)
 QUICK = Workload(time_limit=0.16, episodes=2, agents=(1, 2), reference=2, settings={
     "ppo": dict(n_steps=8, batch_size=4, n_epochs=2, net_arch="8", timesteps=1000),
-    "dqn": dict(buffer_size=64, learning_starts=2, batch_size=4, net_arch="8", timesteps=1000)},
-    other_episodes=2)
+    "dqn": QUICK_REPLAY, "sac": QUICK_REPLAY, "td3": QUICK_REPLAY}, other_episodes=2)
 QUICK_SECONDS = 0.05
 """Time budget per measurement with `--quick`."""
 
@@ -460,8 +472,9 @@ def run_line(m: Measurement) -> str:
 
 def parse_args(argv=None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
-        description="CPU per agent-step of ppo_jax and dqn_jax against SB3's PPO and DQN "
-                    "(1, 16, 64 agents; one thread and both cores), their compile time, and "
+        description="CPU per agent-step of the JAX learners (ppo_jax, dqn_jax, sac_jax, "
+                    "td3_jax) against SB3's PPO, DQN, SAC and TD3 (1, 16, 64 agents; one "
+                    "thread and both cores), their compile time, and "
                     "every learner's counted arithmetic beside its measured time; prints "
                     "Markdown tables.")
     parser.add_argument("--seconds", type=float, default=3.0,
@@ -560,7 +573,8 @@ def main(argv=None) -> None:
         print()
 
     print(f"## Aims, at {reference} agents (CPU per agent-step)\n")
-    for sb3, twin, aim in (("ppo", "ppo_jax", 20), ("dqn", "dqn_jax", 4)):
+    for sb3, aim in AIMS.items():
+        twin = PAIRS[sb3]
         for condition, label in (("one", "one thread"), ("both", "both cores")):
             a, b = get(sb3, reference, "one", False), get(twin, reference, condition, False)
             if a is None or b is None:

@@ -10,8 +10,9 @@ import time
 from lwrl import outputs, tasks
 from lwrl.cli import fields, output, reproduce
 
-OUT = "implementations"
-"""The default output directory."""
+OUT = {"discrete": "implementations", "continuous": "implementations-continuous"}
+"""The default output directory of each kind of action (`--action-kind`): one study's
+report does not take the other's place."""
 AGENTS = 10
 """Agents per implementation, task and pair by default."""
 
@@ -36,7 +37,9 @@ def add_parser(commands) -> None:
                     "and episodes; then write a report with the settings field by field, "
                     "learning curves, each implementation's measure with 95 % intervals, the "
                     "probability that the population learner does better, a verdict and the "
-                    "costs. Runs are written as they finish: the same command resumes.")
+                    "costs. Runs are written as they finish: the same command resumes. The "
+                    "pairs of discrete actions by default; --action-kind continuous runs those "
+                    "of continuous actions on the tasks made with them.")
     study.add_argument("task", nargs="+", metavar="DOMAIN.TASK", choices=tasks.TASK_NAMES,
                        help="one or more of: " + ", ".join(tasks.TASK_NAMES))
     study.add_argument("--agents", metavar="N", type=reproduce.agents_per_cell, default=AGENTS,
@@ -53,8 +56,15 @@ def add_parser(commands) -> None:
     study.add_argument("--time-limit", metavar="SECONDS", type=positive_seconds,
                        help="the episodes' time limit, a whole number of control steps "
                             "(a smoke test: it changes the protocol)")
-    study.add_argument("--out", metavar="DIR", default=OUT,
-                       help=f"output directory (default: {OUT})")
+    study.add_argument("--action-kind", dest="actions", choices=tasks.ACTIONS,
+                       default=tasks.ACTIONS[0],
+                       help="the kind of action of the pairs run and of the tasks they run on "
+                            f"(default {tasks.ACTIONS[0]}, the paper's; continuous: the force, "
+                            "torque or thrust itself)")
+    study.add_argument("--out", metavar="DIR",
+                       help="output directory (default: "
+                            + ", ".join(f"{out} with {kind} actions" for kind, out in OUT.items())
+                            + ")")
     reproduce.add_sweep_flags(study)
     study.set_defaults(run=study_implementations)
 
@@ -65,6 +75,7 @@ def study_implementations(args) -> int:
                                          "lwrl.studies.implementations.study",
                                          "lwrl.studies.paper.bench_protocol")
     started = time.perf_counter()
+    args.out = args.out or OUT[args.actions]
     output.claim_outputs(args, "out")
     outputs.check_directory(args.out, "--out")  # a study resumes in its directory
     command = shlex.join(["lwrl", *args.argv])
@@ -72,7 +83,8 @@ def study_implementations(args) -> int:
                                   budgets=bench.episode_budgets(),  # the benchmark's protocol
                                   episodes=args.episodes, timesteps=args.timesteps,
                                   time_limit=args.time_limit, backend=args.backend,
-                                  workers=args.workers, address=args.address, command=command)
+                                  workers=args.workers, address=args.address, command=command,
+                                  actions=args.actions)
     output.done(started, [path, f"the figures in {os.path.join(args.out, 'figures')}",
                           f"the runs in {os.path.join(args.out, 'runs')}"])
     return 0

@@ -76,7 +76,8 @@ def test_mjx_plant_quick_prints_its_table(capsys):
 def test_deep_speed_quick_prints_its_tables(capsys):
     """The deep learners' cost benchmark in its smoke mode (tiny networks and episodes, 1 and
     2 agents; JAX programs from lwrl's compilation cache; the JAX learners on one thread
-    only, the other condition the same code with other XLA flags): its tables, a row of
+    only, the other condition the same code with other XLA flags): its tables, each pair's
+    (SAC's and TD3's with continuous actions among them) measured at 1 and 2 agents, a row of
     counted arithmetic for every learner of the registry, and its JAX part or SB3 part
     skipped, saying so, where the extra is missing."""
     from benchmarks import deep_speed
@@ -92,9 +93,17 @@ def test_deep_speed_quick_prints_its_tables(capsys):
         assert out.count("not measured (not among --conditions)") == 2  # both cores
     for name in learners.LEARNERS:
         assert f"\n| {name} | " in out  # its counted arithmetic
-    for name in ("ppo_jax", "dqn_jax"):
-        assert (f"- {name}: skipped:" in out) == missing_jax()
-    assert ("- ppo: skipped:" in out) == bool(missing_libraries())
+    assert {"sac": "sac_jax", "td3": "td3_jax"}.items() <= deep_speed.PAIRS.items()
+    for sb3, twin in deep_speed.PAIRS.items():
+        assert f"- {sb3} and {twin}: " in out  # the settings both take
+        header = f"| agents | {sb3} (SB3, one thread) | {twin}, one thread |"
+        rows = out.split(header)[1].split("\n\n")[0].splitlines()[2:]
+        assert [row.split(" | ")[0] for row in rows] == ["| 1", "| 2"]
+        for row in rows:  # SB3's and the twin's one thread measured, where installed
+            measured = [cell != "—" for cell in row.split(" | ")[1:3]]
+            assert measured == [not missing_libraries(), not missing_jax()], row
+        assert (f"- {twin}: skipped:" in out) == missing_jax()
+        assert (f"- {sb3}: skipped:" in out) == bool(missing_libraries())
     if not missing_jax():
         assert "## Compile time (JAX)" in out and "XLA thread" in out
 

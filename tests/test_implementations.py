@@ -23,7 +23,7 @@ needs_both = pytest.mark.skipif(
 
 def test_the_pairs_come_from_the_registry():
     """Each population learner beside the learner whose settings class its own subclasses,
-    those of the kind of action asked (the study's: discrete)."""
+    those of the kind of action asked (the study's default: discrete)."""
     assert plan.pairs() == [plan.Pair("ppo", "ppo_jax"), plan.Pair("dqn", "dqn_jax")]
     assert plan.pairs(actions="continuous") == [plan.Pair("sac", "sac_jax"),
                                                 plan.Pair("td3", "td3_jax")]
@@ -100,10 +100,36 @@ def test_overrides_replace_the_protocol_and_say_so():
     assert cell.settings["timesteps"] == 500 and "--timesteps" in cell.sources["timesteps"]
 
 
-def test_each_twin_states_what_differs():
-    for pair in plan.pairs():
-        text = plan.known_differences(pair.twin)
+@pytest.mark.parametrize("actions", ["discrete", "continuous"])
+def test_each_twin_states_what_differs(actions):
+    """In its own module, or in the module its agents' classes come from (what `sac_jax` and
+    `td3_jax` share)."""
+    for pair in plan.pairs(actions=actions):
+        module, text = plan.known_differences(pair.twin)
         assert text.startswith("What differs") and "random streams" in text
+        assert f"`{pair.reference}`" in text.split(",")[0], text
+        assert module.startswith("lwrl.agent.")
+
+
+@needs_both
+def test_the_continuous_pairs_run_on_the_tasks_made_with_continuous_actions():
+    """`--action-kind continuous`: SAC's and TD3's pairs, their runs on the task made with
+    continuous actions (the run key names it), the learners' own defaults (no tuned set) the
+    same for both; the discrete study's runs keep their keys (no kind of action in them)."""
+    cells = plan.cells(["pendulum.swingup"], 2, actions="continuous")
+    assert [c.pair.slug for c in cells] == ["sac-sac_jax", "td3-td3_jax"]
+    for cell in cells:
+        assert cell.actions == "continuous" and cell.settings == {}
+        rows = plan.translation(cell)
+        assert rows and all(row.same and row.source == "the learner's default" for row in rows)
+        for config in (cell.config(name, 0) for name in cell.pair.names):
+            assert config.actions == config.task_info.actions == "continuous"
+            assert '"actions": "continuous"' in config.key_json()
+    assert report.actions_lines(cells) and "`sac` has no tuned set" in report.untuned(cells)
+    discrete = plan.cells(["pendulum.swingup"], 2)
+    assert not report.actions_lines(discrete) and not report.untuned(discrete)
+    for config in (c.config(name, 0) for c in discrete for name in c.pair.names):
+        assert config.actions == "discrete" and '"actions"' not in config.key_json()
 
 
 def test_identical_result_sets_give_one_half_and_no_difference():
@@ -189,6 +215,8 @@ def test_the_report_is_written_from_synthetic_results(tmp_path):
 
 @pytest.mark.parametrize("argv, fragment", [
     (["implementations", "nowhere.nothing"], "invalid choice: 'nowhere.nothing'"),
+    (["implementations", "pendulum.swingup", "--action-kind", "sideways"],
+     "invalid choice: 'sideways'"),
     (["implementations", "pendulum.swingup", "--agents", "1"], "an interval needs two agents"),
     (["implementations", "pendulum.swingup", "--time-limit", "-1"], "seconds > 0"),
     (["implementations", "pendulum.swingup", "--episodes", "0"], "must be a positive integer"),
@@ -226,3 +254,25 @@ def test_a_tiny_study_runs_end_to_end_and_resumes(tmp_path, capsys, monkeypatch)
     assert status == 0, err
     assert "computed 0 of the 8 runs" in (out / "report.md").read_text()
     assert re.search(r"done in .*: wrote", printed)
+
+
+@needs_both
+@pytest.mark.slow
+def test_a_tiny_continuous_study_runs_end_to_end(tmp_path, capsys, monkeypatch):
+    """`--action-kind continuous`: SAC's and TD3's pairs on the pendulum made with continuous
+    actions, 2 agents, 2 episodes of 30 steps, 100 steps of learning: the runs, the report's
+    table and its sections; the continuous actor's one output ranks no actions."""
+    monkeypatch.setattr(plan, "INIT_AGENTS", 4)
+    out = tmp_path / "study"
+    argv = ["implementations", "pendulum.swingup", "--action-kind", "continuous", "--agents", "2",
+            "--episodes", "2", "--time-limit", "0.6", "--timesteps", "100", "--out", str(out)]
+    status, printed, err = run_cli(argv, capsys)
+    assert status == 0, err
+    assert len(list((out / "runs").glob("*.csv.gz"))) == 8
+    text = (out / "report.md").read_text()
+    assert "computed 8 of the 8 runs" in text and "- Actions: continuous" in text
+    for reference, twin in (("sac", "sac_jax"), ("td3", "td3_jax")):
+        assert f"| pendulum.swingup | {reference} / {twin} | mean up-time" in text
+        assert f"## What differs: {reference} and {twin}" in text
+    assert text.count("(what ranks the actions) | — | — |") == 2
+    assert len(list((out / "figures").glob("*.png"))) == 2

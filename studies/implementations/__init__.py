@@ -2,10 +2,12 @@
 they take, one pair at a time, under the same settings, seeds, starts and episodes.
 
 The pairs come from the registry (`plan.pairs`): each population learner (`Learner.population`)
-and the registry learner whose settings class its own subclasses (the Stable-Baselines3
-learner it re-implements). Every pair runs on every task asked for with the settings tuned
-for the reference learner on the task's domain (`runners.config.tuned_settings`), the same
-for both implementations; the report lists them field by field (the translation).
+of the kind of action asked (discrete, the paper's, by default; continuous with
+`--action-kind continuous`, on the tasks made with it) and the registry learner whose
+settings class its own subclasses (the Stable-Baselines3 learner it re-implements). Every
+pair runs on every task asked for with the settings tuned for the reference learner on the
+task's domain (`runners.config.tuned_settings`; the learners' defaults where it has none),
+the same for both implementations; the report lists them field by field (the translation).
 
 Modules: `plan` (the pairs, the runs, the measures, the translation), `costs` (CPU and wall
 time per agent-step of each implementation), `report` (the statistics, the figures and

@@ -43,9 +43,9 @@ def pairs(registry=None, actions: str = "discrete") -> list:
     """Every population learner of `registry` (`{name: Learner}`, default the registry) that
     takes `actions` (`Learner.actions`) with the learner whose settings class its own
     subclasses, the closest where several do (e.g. a population learner over `X`'s settings
-    and `X`); a population learner with none has no pair. The study runs the tasks as the
-    paper poses them, with discrete actions (`actions`' default): the learners of continuous
-    actions (`sac_jax`, `td3_jax`) are not paired in it yet."""
+    and `X`); a population learner with none has no pair. `actions` is the study's kind of
+    action: `discrete` (its default) runs the tasks as the paper poses them, `continuous`
+    pairs the learners of continuous actions on the tasks made with them."""
     registry = learners.LEARNERS if registry is None else registry
     found = []
     for name, twin in registry.items():
@@ -102,10 +102,18 @@ class Cell:
     def measure(self) -> Measure:
         return measure(self.task)
 
+    @property
+    def actions(self) -> str:
+        """The kind of action both learners take (`Learner.actions`), hence the task's."""
+        return learners.learner(self.pair.reference).actions
+
     def config(self, name: str, seed: int, agents: int = 1, **protocol) -> RunConfig:
-        """The run of learner `name` (one of the pair) for `agents` agents from `seed`."""
+        """The run of learner `name` (one of the pair) for `agents` agents from `seed`, on
+        the task made with the pair's kind of action (a run key names it where it is not
+        the default, discrete)."""
         values = dict(task=self.task, plant=PLANT, learner=name, agents=agents, seed=seed,
-                      episodes=self.episodes, task_options=dict(self.task_options))
+                      episodes=self.episodes, task_options=dict(self.task_options),
+                      actions=self.actions)
         values.update(protocol)
         return RunConfig(**values, **self.settings)
 
@@ -136,15 +144,16 @@ def protocol(task: str, budgets: dict, episodes: int | None, time_limit: float |
 
 
 def cells(task_names, agents: int, budgets=None, episodes=None, timesteps=None,
-          time_limit=None, registry_pairs=None) -> list:
-    """Every `Cell` of the study: each task (in the order given, once) and each pair; the
-    settings the reference's tuned set for the task, `timesteps` replacing its horizon.
-    A one-line ValueError for an unknown task, a task no pair runs on, or no pair."""
+          time_limit=None, registry_pairs=None, actions: str = "discrete") -> list:
+    """Every `Cell` of the study: each task (in the order given, once) and each pair of
+    `actions` (`pairs`); the settings the reference's tuned set for the task (none: the
+    learners' defaults), `timesteps` replacing its horizon. A one-line ValueError for an
+    unknown task, a task no pair runs on, or no pair."""
     budgets = budgets or {}
-    found = pairs() if registry_pairs is None else registry_pairs
+    found = pairs(actions=actions) if registry_pairs is None else registry_pairs
     if not found:
-        raise ValueError("no population learner in the registry has a reference learner "
-                         "(a learner whose settings class its own subclasses)")
+        raise ValueError(f"no population learner of {actions} actions in the registry has a "
+                         "reference learner (a learner whose settings class its own subclasses)")
     result = []
     for task in dict.fromkeys(task_names):
         task_defaults(task)  # a one-line error for an unknown task
@@ -220,12 +229,22 @@ def _field_help(cls, name: str) -> str:
         return ""
 
 
-def known_differences(name: str) -> str:
-    """What the learner's own module says differs from the learner it re-implements: the
-    paragraph of its docstring that starts "What differs" (empty where there is none)."""
-    module = importlib.import_module(learners.learner(name).settings.__module__)
-    paragraphs = [" ".join(part.split()) for part in (module.__doc__ or "").split("\n\n")]
-    return "\n\n".join(part for part in paragraphs if part.startswith("What differs"))
+def known_differences(name: str) -> tuple:
+    """`(module, text)`: what the learner's own modules say differs from the learner it
+    re-implements, the paragraphs starting "What differs" of the first docstring that has
+    any, of its module (its `make`'s), then of the modules of the classes its agents are
+    built from (`make`'s return annotation and its bases: what `sac_jax` and `td3_jax` share
+    is said once, in `agent.off_policy_jax`); `(None, "")` where none says it."""
+    make = learners.learner(name).make
+    made = inspect.signature(make).return_annotation
+    bases = made.__mro__ if isinstance(made, type) else ()
+    for module_name in dict.fromkeys([make.__module__, *(cls.__module__ for cls in bases)]):
+        module = importlib.import_module(module_name)
+        paragraphs = [" ".join(part.split()) for part in (module.__doc__ or "").split("\n\n")]
+        stated = [part for part in paragraphs if part.startswith("What differs")]
+        if stated:
+            return module_name, "\n\n".join(stated)
+    return None, ""
 
 
 def title(name: str) -> str:
@@ -249,8 +268,10 @@ from its sampling error."""
 def initialisation(cell: Cell, agents: int | None = None) -> dict:
     """Per implementation, its `agents` (default `INIT_AGENTS`) untrained agents (seeds 0
     on) summed up: the parameter count, the spread of the initial parameters, and of the
-    network's outputs (`Agents.action_values`) over states across the task's ranges: the
-    initialisation compared by what it does, whatever order each flattens its layers in."""
+    network's outputs (`Agents.action_values`: the values of the actions, or a continuous
+    actor's greedy action, whose spread over actions is None) over states across the task's
+    ranges: the initialisation compared by what it does, whatever order each flattens its
+    layers in."""
     from lwrl.runners.run import make_agent
     agents = agents or INIT_AGENTS
     states = starts_box(cell)
@@ -260,11 +281,12 @@ def initialisation(cell: Cell, agents: int | None = None) -> dict:
         weights = np.asarray(made.arrays.weights, dtype=float)
         outputs = np.asarray(made.action_values(states), dtype=float)  # (B, n, A)
         spread = outputs - outputs.mean(axis=-1, keepdims=True)  # what ranks the actions
+        ranked = outputs.shape[-1] > 1  # a continuous actor's one output ranks nothing
         summary[name] = {"agents": agents, "parameters": int(weights.shape[1]),
                          "weight_std": float(weights.std()),
                          "weight_abs_max": float(np.abs(weights).max()),
                          "zero_fraction": float(np.mean(weights == 0.0)),
                          "output_mean": float(outputs.mean()),
                          "output_std_over_agents": float(outputs.mean(axis=1).std(axis=0).mean()),
-                         "action_spread": float(np.abs(spread).mean())}
+                         "action_spread": float(np.abs(spread).mean()) if ranked else None}
     return summary

@@ -21,10 +21,12 @@ import sys
 import matplotlib.pyplot as plt
 import numpy as np
 
+from lwrl import agent as learners
 from lwrl import outputs
 from lwrl.agent.stable_baselines import ZOO
 from lwrl.analysis import statistics as st
 from lwrl.analysis.plots import plot_learning_curve, save_figure
+from lwrl.runners.config import tuned_settings
 from lwrl.studies.implementations import costs as costs_module
 from lwrl.studies.implementations import plan
 
@@ -299,12 +301,12 @@ def write(cells, results, costs: dict, timings: dict, initialisations: dict, out
                   for name, value in options) + ")" if options else "")
                           for task, count, options in dict.fromkeys(
                               (c.task, c.episodes, tuple(sorted(c.task_options.items()))) for c in cells))
-              + ".",
+              + ".", *actions_lines(cells),
               f"- Settings: rl-baselines3-zoo's tuned set for the environment each domain is "
               f"tuned as (`Domain.tuned_as`; {ZOO}), the same for both implementations "
               "(`runners.config.tuned_settings` of the reference learner), each task's section "
               "lists them field by field; the fields the zoo does not set keep the learners' "
-              "defaults, SB3's.",
+              "defaults, SB3's." + untuned(cells),
               "- Measure: the paper's, per agent its mean over its episodes: the steps per "
               "episode where the task ends at a goal (fewer is better), the up-time per "
               "episode where it keeps one (more is better). Intervals: 95 % percentile "
@@ -348,14 +350,39 @@ def write(cells, results, costs: dict, timings: dict, initialisations: dict, out
     return path
 
 
+def actions_lines(cells) -> list:
+    """The protocol's line on the kind of action where it is not the paper's (discrete)."""
+    kinds = [kind for kind in dict.fromkeys(cell.actions for cell in cells) if kind != "discrete"]
+    return [f"- Actions: {', '.join(kinds)}: each task made with them (`actions`, `lwrl train "
+            "--action-kind`), the control itself in the actuator's range, as both learners "
+            "take it."] if kinds else []
+
+
+def untuned(cells) -> str:
+    """The sentences on the references the zoo has no tuned set for on a task's domain: both
+    implementations take the reference's defaults, which its settings class states."""
+    bare = {}
+    for cell in cells:
+        if not tuned_settings(cell.task, cell.pair.reference):
+            bare.setdefault(cell.pair.reference, []).append(cell.task)
+    sentences = []
+    for name, found in bare.items():
+        settings = learners.learner(name).settings
+        stated = " ".join((settings.__doc__ or "").split()).rstrip(".")
+        sentences.append(f" `{name}` has no tuned set for {', '.join(found)}: both take its "
+                         f"defaults (`{settings.__name__}`: {stated}).")
+    return "".join(sentences)
+
+
 def differences(cells, comparisons) -> list:
     """Per pair, what differs between the implementations: what the population learner's
     module says, and the cells where the results differ."""
     lines = []
     for pair in dict.fromkeys(cell.pair for cell in cells):
         lines += [f"## What differs: {pair.reference} and {pair.twin}", ""]
-        stated = plan.known_differences(pair.twin)
-        lines += [f"From `{pair.twin}`'s own description (its module's docstring):", "",
+        module, stated = plan.known_differences(pair.twin)
+        lines += [f"From `{pair.twin}`'s own description (the docstring of `{module}`):"
+                  if module else f"From `{pair.twin}`'s own description:", "",
                   "> " + (stated or "(it states none)"), ""]
         mine = [c for c in comparisons if c.cell.pair == pair]
         apart = [c for c in mine if c.outcome != 0]

@@ -151,15 +151,17 @@ def write_report(cells, out_dir: str, command: str, seconds: float, total_second
 
 def implementations(task_names, out_dir: str, agents: int = 10, budgets=None, episodes=None,
                     timesteps=None, time_limit=None, backend: str = "local", workers=None,
-                    address=None, command: str = "") -> str:
+                    address=None, command: str = "", actions: str = "discrete") -> str:
     """Run (or resume) the study and write its report; return the report's path.
 
     `budgets`: `{task: (episodes, task options)}`, each task's protocol by default (the
     task's own episodes where it has none); `episodes`, `timesteps` and `time_limit`
     replace every task's episodes, both learners' horizon and the episodes' time limit
-    (smoke tests)."""
+    (smoke tests); `actions`: the pairs' kind of action (`plan.pairs`), the tasks made with
+    it."""
     started = time.perf_counter()
-    cells = plan.cells(task_names, agents, budgets, episodes, timesteps, time_limit)
+    cells = plan.cells(task_names, agents, budgets, episodes, timesteps, time_limit,
+                       actions=actions)
     if backend not in sweep.BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; allowed: {', '.join(sweep.BACKENDS)}")
     os.makedirs(out_dir, exist_ok=True)
