@@ -50,6 +50,11 @@ CONTINUOUS = "-continuous"
 LIGHT = {"discrete": "paper", "continuous": "actor_critic"}
 """The light-weight row a task's deep rows are judged against, by the kind of action: the
 paper's agent, and on a continuous task the actor-critic over its features."""
+ACTOR_CRITIC_START = {"alpha": 1.0, "beta": 0.5, "lam": 0.6, "gamma": 0.98, "sigma": 0.3,
+                      "r2": 0.01}
+"""The settings the actor-critic's row starts its search from: the learner's defaults before
+that search, which then chose its defaults (`agent.actor_critic`), kept here so that the
+search, its runs' keys and what it chose stay as they were."""
 CONTINUOUS_DEEP = {"sac": "sac_jax", "td3": "td3_jax"}
 """The deep rows of a continuous task and the implementation each runs on."""
 
@@ -105,7 +110,7 @@ def rows(task: str) -> list:
     name, actions = variant(task)
     if actions == "continuous":
         kind = {"actions": actions}
-        linear = [Row(LIGHT[actions], "actor_critic", dict(kind))]
+        linear = [Row(LIGHT[actions], "actor_critic", dict(kind, **ACTOR_CRITIC_START))]
     else:
         kind = {}
         linear = [Row(label, learner, dict(settings))
