@@ -486,9 +486,11 @@ def test_a_quick_study_trains_evaluates_and_reports_a_continuous_learner(tmp_pat
     continuous actions (the torque in [-1, 1] of its range), on the paper's plant and with
     randomised physics, evaluated greedily in every cell, measured and reported, and its
     exported C controller, whose `lwrl_act` returns a real (`CController` with a double
-    return type), run in every cell through ctypes: its episodes are the Python agent's.
-    The double controller's action differs from the Python agent's by an ulp or so (its
-    sums run in another order), too little to change the plant's arithmetic here."""
+    return type), run in every cell through ctypes: its episodes are the Python agent's, the
+    same steps and the returns to round-off (`study.CONTINUOUS_RETURNS`): the double
+    controller's action differs from the Python agent's by an ulp or so (its sums run in
+    another order), which the plant carries into the return's last bits (2.4e-16 of it in
+    one of the cells here)."""
     from lwrl.studies.robustness import report
 
     task = "pendulum.swingup"

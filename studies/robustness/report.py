@@ -10,10 +10,11 @@ action, `study.C_LEARNERS`) beside the Python agents they were exported from.
 
 import numpy as np
 
+from lwrl.agent import LEARNERS
 from lwrl.analysis.plots import save_figure
 from lwrl.analysis.statistics import mean_interval
 from lwrl.studies.robustness import plan
-from lwrl.studies.robustness.study import measures
+from lwrl.studies.robustness.study import CONTINUOUS_RETURNS, measures
 
 
 def _grid(result, learner, training, measure) -> np.ndarray:
@@ -86,6 +87,15 @@ def figure(result, figure_dir: str) -> list:
     return save_figure(fig, figure_dir, result.task.replace(".", "_"))
 
 
+def _returns_within(learner: str) -> str:
+    """How a C controller's returns are compared: the same numbers, or for one of
+    continuous actions to round-off (`study.CONTINUOUS_RETURNS`)."""
+    if LEARNERS[learner].actions != "continuous":
+        return ""
+    return (f" (returns within {CONTINUOUS_RETURNS:g} of their size: the continuous action is "
+            "the Python agent's to an ulp)")
+
+
 def _cell_label(result, cell) -> str:
     if cell.kind == "noise":
         return f"noise {cell.noise:g}"
@@ -135,7 +145,8 @@ def section(result, figure_path: str) -> str:
         lines += ["", f"The C controller of {learner} (`lwrl.export.c.export_c` of agent "
                   f"{c['agent']} of its nominal training, double precision, compiled as a shared "
                   f"library and called through ctypes at every step): its episodes equal the "
-                  f"Python agent's, step count and return episode by episode, in {c['same']} of "
+                  f"Python agent's, step count and return episode by episode{_returns_within(learner)}, "
+                  f"in {c['same']} of "
                   f"{c['cells']} cells (its column, C {learner}: that one agent's {first.label})."]
     return "\n".join(lines) + "\n"
 

@@ -193,12 +193,19 @@ def study_task(task: str, out_dir: str, plant: str = "analytic", quick: bool = F
     return result
 
 
+CONTINUOUS_RETURNS = 1e-12
+"""The relative distance within which a continuous C controller's episode returns count as
+the Python agent's (measured: 2.4e-16, one cell of the pendulum's quick study)."""
+
+
 def controlled(task: str, out_dir: str, learner: str, trained, evaluations: dict,
                table: pd.DataFrame) -> dict:
     """The exported C controller of the first agent of `trained` (a run of `learner`) that
     did not diverge, in every cell of the study: its measures, and the cells whose episodes
     (steps and returns, episode by episode) equal that Python agent's; empty where every
-    agent diverged."""
+    agent diverged. A discrete controller's returns must be the same numbers; a continuous
+    one's within `CONTINUOUS_RETURNS` of their size, its action (a double sum in C's order)
+    being the Python agent's to an ulp or so, which the plant carries into the return."""
     kept = RunStore.agents_file(out_dir, trained.key)
     runs = {cell: config for (name, training, cell), config in evaluations.items()
             if name == learner and training == "nominal"}
@@ -216,8 +223,10 @@ def controlled(task: str, out_dir: str, learner: str, trained, evaluations: dict
     for index, (cell, config) in enumerate(runs.items()):
         ours = c_table[c_table["agent"] == index]
         python = table[(table["run"] == config.key) & (table["agent"] == b)]
+        tolerance = CONTINUOUS_RETURNS if agent.learner.actions == "continuous" else 0.0
         same += bool(np.array_equal(ours["steps"].to_numpy(), python["steps"].to_numpy())
-                     and np.array_equal(ours["return"].to_numpy(), python["return"].to_numpy()))
+                     and np.allclose(ours["return"].to_numpy(), python["return"].to_numpy(),
+                                     rtol=tolerance, atol=0.0))
         per_cell[cell] = {measure.column: float(ours[measure.column].mean())
                           for measure in measures(task)}
     return {"agent": b, "same": same, "cells": len(runs), "per_cell": per_cell,
