@@ -225,6 +225,8 @@ SLOW = {
     r"mujoco)": "`lwrl compare --quick`; an episode replayed on MuJoCo",
     r"test_bench\.py::test_lwrl_bench_writes_its_report": "a benchmark study",
     r"test_benchmarks\.py::test_\w+_quick_prints_its_table": "a quick benchmark",
+    r"test_sb3_cost\.py::test_every_configuration_is_measured": "trains SB3's DQN and PPO "
+    "(a quick benchmark)",
     r"test_implementations\.py::test_the_report_is_written": "draws the report's figures",
     r"test_verdicts\.py::test_the_claims_figure_draws": "draws the claims' figure",
     r"test_gymnasium_envs\.py::test_observations_stay_inside_the_box": "rolls out several "
