@@ -91,17 +91,25 @@ CONTINUOUS = "pendulum.swingup-continuous"
 @pytest.fixture
 def tiny_continuous(monkeypatch):
     """The continuous pendulum at a tiny scale: the actor-critic and SAC (the light-weight row
-    and a deep one), 300 steps of budget, SAC learning from step 100 on minibatches of 32."""
+    and a deep one), 300 steps of budget."""
     monkeypatch.setitem(protocol.BUDGETS, CONTINUOUS, 300)
     monkeypatch.setattr(protocol, "CONTINUOUS_DEEP", {"sac": "sac_jax"})
+    one_small_deep_row(monkeypatch, "sac", "sac_jax", ("actor_critic", "sac"))
+
+
+def one_small_deep_row(monkeypatch, label: str, learner: str, labels) -> None:
+    """The rows `labels` only, the deep one `label` (`learner`) with a 16 x 16 network and
+    minibatches of 32 learning from step 100, its search drawing the learning rate alone;
+    then `shrink`'s sizes."""
     every_row = protocol.rows
 
     def rows(task):
         return [dataclasses.replace(row, settings={**row.settings, "net_arch": "16,16",
-                                                    "batch_size": 32})
-                if row.label == "sac" else row for row in every_row(task)]
+                                                    "batch_size": 32, "learning_starts": 100})
+                if row.label == label else row for row in every_row(task)
+                if row.label in labels]
     monkeypatch.setattr(protocol, "rows", rows)
-    monkeypatch.setattr(search, "RANGES", {**search.RANGES, "sac_jax": (
+    monkeypatch.setattr(search, "RANGES", {**search.RANGES, learner: (
         search.LogUniform("learning_rate", 1e-4, 3e-3),)})
     shrink(monkeypatch, 1)
 
@@ -131,20 +139,10 @@ def test_a_tiny_continuous_benchmark_runs_its_own_rows_and_references(tiny_conti
 @pytest.fixture
 def tiny_mujoco(monkeypatch):
     """The pendulum on MuJoCo's model at a tiny scale: the paper's agent and DQN (a linear
-    row and a deep one), 300 steps of budget, DQN learning from step 100 on minibatches of 32."""
+    row and a deep one), 300 steps of budget."""
     monkeypatch.setitem(protocol.BUDGETS, "pendulum.swingup", 300)
     monkeypatch.setattr(protocol, "DEEP", {"dqn": "dqn_jax"})
-    every_row = protocol.rows
-
-    def rows(task):
-        return [dataclasses.replace(row, settings={**row.settings, "net_arch": "16,16",
-                                                    "batch_size": 32, "learning_starts": 100})
-                if row.label == "dqn" else row for row in every_row(task)
-                if row.label in ("paper", "dqn")]
-    monkeypatch.setattr(protocol, "rows", rows)
-    monkeypatch.setattr(search, "RANGES", {**search.RANGES, "dqn_jax": (
-        search.LogUniform("learning_rate", 1e-4, 3e-3),)})
-    shrink(monkeypatch, 1)
+    one_small_deep_row(monkeypatch, "dqn", "dqn_jax", ("paper", "dqn"))
 
 
 @pytest.mark.skipif(jax_population.missing_jax(),
