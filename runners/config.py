@@ -99,8 +99,8 @@ class EnvironmentSettings:
     task: str = setting(cli=False)
     """DOMAIN.TASK of the suite."""
     plant: str | None = None
-    """`mujoco`, `analytic` or `mjx` (MuJoCo's XLA port, batched runs only; default: the
-    domain's first, MuJoCo where there is one)."""
+    """`mujoco`, `analytic` or `mjx` (MuJoCo's XLA port: batched runs and the JAX population
+    learners only; default: the domain's first, MuJoCo where there is one)."""
     integrator: str = setting("semi_implicit", choices=INTEGRATORS)
     """Euler scheme of the analytic plant: `semi_implicit` (MuJoCo's) or `explicit` (the
     paper's literal reading)."""
