@@ -35,6 +35,7 @@ names.
 """
 
 import collections
+import copy
 import dataclasses
 import importlib.util
 import math
@@ -300,6 +301,26 @@ class Program:
     copied."""
 
 
+_INITIALISERS: dict = {}
+"""The jitted initial state of each kind of batch (`initialiser`), made once per process."""
+
+
+def initialiser(agents):
+    """`keys (B, 2) -> state`: `agents.initial_state` of each key, jitted once per process
+    for each `agents.initialiser_key()`, so that a new batch of the same kind compiles
+    nothing (a program made anew for every batch compiled for 1.5 s each time here, where
+    JAX's disk cache did not hold it). One program, the agents one after another: vmapped,
+    the orthogonal initialisation's batched QR hangs XLA's CPU runtime in some processes
+    (jaxlib 0.10.2: 5 of 6 fresh processes making 100 ppo_jax agents never returned);
+    mapped, it gives the same bits. The program keeps a copy of `agents` made before its
+    state exists, which holds the settings and the task only."""
+    key = agents.initialiser_key()
+    if key not in _INITIALISERS:
+        jax, shell = agents.jax, copy.copy(agents)
+        _INITIALISERS[key] = jax.jit(lambda keys: jax.lax.map(shell.initial_state, keys))
+    return _INITIALISERS[key]
+
+
 class PopulationAgents(Agents):
     """B agents of a population learner: `state`, a pytree of arrays with a leading axis B
     (JAX arrays), and `clocks` `(B,)`, each agent's steps of learning so far. Subclasses build
@@ -316,10 +337,7 @@ class PopulationAgents(Agents):
         self.check_batchable()
         self.dim = len(task.state_names)
         keys = self.jax.vmap(self.jax.random.PRNGKey)(self.jnp.asarray(self.seeds, self.jnp.uint32))
-        # one program, the agents one after another: vmapped, the orthogonal initialisation's
-        # batched QR hangs XLA's CPU runtime in some processes (jaxlib 0.10.2: 5 of 6 fresh
-        # processes making 100 ppo_jax agents never returned); mapped, it gives the same bits
-        self.state = self.jax.jit(lambda keys: self.jax.lax.map(self.initial_state, keys))(keys)
+        self.state = initialiser(self)(keys)
         self.clocks = np.zeros(len(self.seeds), dtype=np.int64)
         self._greedy = None  # the jitted greedy act of `step`, made at its first call
         batch = len(self.seeds)
@@ -327,6 +345,11 @@ class PopulationAgents(Agents):
                                        delta=np.full(batch, np.nan),
                                        diverged=np.zeros(batch, dtype=bool),
                                        weights=flat(self.weight_tree(self.state)))
+
+    def initialiser_key(self) -> tuple:
+        """What `initial_state` depends on: the class, the first agent's settings (the
+        batch's shapes are its) and the task."""
+        return type(self), self.settings[0], self.task
 
     def check_batchable(self) -> None:
         """A one-line ValueError where the agents' settings differ in a field that shapes
