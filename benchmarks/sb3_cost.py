@@ -74,12 +74,13 @@ def twins() -> dict:
     return {pair.twin: pair.reference for actions in ACTIONS for pair in pairs(actions=actions)}
 
 
-def twin_config(config, twin: str):
-    """One agent of `twin` with the settings of the run `config`'s learner, the rest of the
-    run as it is."""
+def twin_config(config, twin: str, plant: str):
+    """One agent of `twin` with the settings of the run `config`'s learner on the
+    benchmark's `plant` (on MuJoCo's model the C engine, which SB3 steps, where the JAX
+    learner stepped MJX), the rest of the run as it is."""
     settings = learner_settings(twin, {field.name: getattr(config.agent, field.name)
                                        for field in dataclasses.fields(config.agent)})
-    return dataclasses.replace(config, learner=twin, agent=settings, agents=1)
+    return dataclasses.replace(config, learner=twin, agent=settings, agents=1, plant=plant)
 
 
 def learning_steps(settings, least: int) -> int:
@@ -129,7 +130,8 @@ def parse_args(argv=None):
                         help="the benchmark's directory (its runs/ read, sb3_cost.json written)")
     parser.add_argument("--steps", type=int, default=STEPS,
                         help=f"learning and greedy steps timed per configuration (default {STEPS})")
-    parser.add_argument("--plant", default="analytic", help="the runs' plant (default analytic)")
+    parser.add_argument("--plant", choices=("analytic", "mujoco"), default="analytic",
+                        help="the benchmark's plant (its --plant; default analytic)")
     args = parser.parse_args(argv)
     if not os.path.isdir(os.path.join(args.out_dir, "runs")):
         parser.error(f"{args.out_dir} has no runs/ directory: give the benchmark's directory")
@@ -157,7 +159,7 @@ def main(argv=None) -> None:
             continue
         trained = c.trainings[0]
         try:
-            config = twin_config(trained, pair[trained.learner])
+            config = twin_config(trained, pair[trained.learner], args.plant)
         except ValueError as error:  # SB3 not installed
             parser.error(str(error))
         measured[c.key] = {"task": c.task, "plant": config.plant, "row": c.label,

@@ -130,3 +130,16 @@ def test_a_bad_out_dir_or_step_count_is_one_line_and_status_2(argv, tmp_path, mo
     assert exit_.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("python -m benchmarks.sb3_cost: error: ")
+
+
+def test_on_mujocos_model_the_configurations_are_those_of_its_tasks(tmp_path):
+    """The benchmark on MuJoCo's model has no Mountain-Car (`protocol.tasks_on`): its deep
+    configurations are found among the tasks with a model, whose deep rows train on mjx."""
+    RunStore(tmp_path)
+    assert twin_cost.deep_configurations(str(tmp_path), "mujoco") == []
+    pendulum = search.runs("pendulum.swingup", "mujoco")["dqn", 0]
+    assert pendulum.plant == "mjx"
+    RunStore(tmp_path).write(pendulum, results_table(pendulum, EpisodeResults.empty(3, 1)))
+    found, = twin_cost.deep_configurations(str(tmp_path), "mujoco")
+    assert (found.task, found.label, found.index, found.key) == ("pendulum.swingup", "dqn", 0,
+                                                                 pendulum.key)

@@ -35,11 +35,12 @@ class DeepConfiguration:
 
 def deep_configurations(out_dir: str, plant: str = "analytic") -> list:
     """Every configuration of a deep row (`protocol.deep`) of every benchmark task on `plant`
-    of which `out_dir/runs` holds a run, its runs made as the study makes them
+    (`protocol.tasks_on`; the benchmark's plant, whose deep rows may train on another,
+    `protocol.row_plant`) of which `out_dir/runs` holds a run, its runs made as the study makes them
     (`search.runs`, `protocol.training`, `evaluation.evaluation`)."""
     store = RunStore(out_dir)
     found = []
-    for task in protocol.BUDGETS:
+    for task in protocol.tasks_on(plant):
         searched = search.runs(task, plant)
         for row in protocol.rows(task):
             if row.label not in protocol.deep(task):
