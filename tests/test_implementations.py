@@ -11,8 +11,9 @@ import pandas as pd
 import pytest
 
 from conftest import run_cli
+from lwrl import tasks
 from lwrl.agent import jax_population, stable_baselines
-from lwrl.studies.implementations import plan, report
+from lwrl.studies.implementations import costs, plan, report
 
 TASKS = ("mountain_car.cost_to_go", "pendulum.swingup")
 needs_both = pytest.mark.skipif(
@@ -130,6 +131,20 @@ def test_the_continuous_pairs_run_on_the_tasks_made_with_continuous_actions():
     assert not report.actions_lines(discrete) and not report.untuned(discrete)
     for config in (c.config(name, 0) for c in discrete for name in c.pair.names):
         assert config.actions == "discrete" and '"actions"' not in config.key_json()
+
+
+@needs_both
+def test_the_timed_run_reaches_past_the_warm_up():
+    """TD3 waits `learning_starts` steps before its first update: its cost is timed over
+    that warm-up and `COST_STEPS` more, so that it is timed learning."""
+    for cell in plan.cells(["pendulum.swingup"], 2, actions="continuous"):
+        for name in cell.pair.names:
+            config = costs.cost_config(cell, name)
+            starts = getattr(config.agent, "learning_starts", 0)
+            definition = tasks.definition(*tasks.split_name(config.task), **config.task_options)
+            steps = config.episodes * definition.step_limit
+            assert steps >= starts + costs.COST_STEPS, (name, starts, steps)
+            assert steps - definition.step_limit < starts + costs.COST_STEPS, (name, starts, steps)
 
 
 def test_identical_result_sets_give_one_half_and_no_difference():

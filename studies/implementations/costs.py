@@ -1,7 +1,10 @@
 """What each implementation costs per agent-step, measured on this machine.
 
 Each implementation of a cell runs the cell's own configuration for `COST_EPISODES`
-episodes of at most `COST_STEPS` steps together, in this process, timed by the wall clock
+episodes or more of `timed_steps` steps at most together: its warm-up (`learning_starts`)
+then `COST_STEPS`, so that a learner waiting 10 000 steps before its first update, as TD3
+does, is timed learning as well as filling its buffer, in about the proportion of the
+study's runs. It runs in this process, timed by the wall clock
 and by the CPU time of the process (all its threads: XLA's among them): the reference
 learner one agent (its agents are independent models, one after the other, so a batch costs
 the sum of its agents), the population learner the study's whole population (it trains as
@@ -26,25 +29,34 @@ from lwrl import agent as learners
 from lwrl import outputs, tasks
 
 COST_STEPS = 8192
-"""Steps of the timed episodes at most (two of the longest tuned rollouts)."""
+"""Steps of the timed episodes at most after the learner's warm-up (two of the longest tuned
+rollouts)."""
 COST_EPISODES = 4
-"""Timed episodes, each of `COST_STEPS / COST_EPISODES` steps at most: an agent whose first
-episode ends early at a goal is still timed over several."""
+"""Timed episodes at least, each of a quarter of the timed steps at most: an agent whose
+first episode ends early at a goal is still timed over several."""
 WARM_UP_STEPS = 16
 """Steps of the run before a reference learner is timed (its libraries imported)."""
 
 
+def timed_steps(config) -> int:
+    """Steps timed of `config`: its learner's warm-up (`learning_starts`, 0 where it has none)
+    then `COST_STEPS`."""
+    return getattr(config.agent, "learning_starts", 0) + COST_STEPS
+
+
 def cost_config(cell, name: str):
-    """The timed run of learner `name` of `cell`: `COST_EPISODES` episodes of the cell's task
-    capped at `COST_STEPS` steps together, one agent (the reference) or the cell's
-    population (the twin)."""
+    """The timed run of learner `name` of `cell`: `timed_steps` steps of the cell's task in
+    `COST_EPISODES` episodes or more (as many as its episodes, capped at a share of the
+    steps, take), one agent (the reference) or the cell's population (the twin)."""
     definition = tasks.definition(*tasks.split_name(cell.task), **cell.task_options)
     options = dict(cell.task_options)
-    cap = COST_STEPS // COST_EPISODES
+    agents = cell.agents if learners.learner(name).population else 1
+    steps = timed_steps(cell.config(name, 0, agents=agents))
+    cap = steps // COST_EPISODES
     if definition.step_limit > cap:
         options["time_limit"] = cap * definition.control_timestep
-    agents = cell.agents if learners.learner(name).population else 1
-    return cell.config(name, 0, agents=agents, episodes=COST_EPISODES, task_options=options)
+    episodes = -(-steps // min(cap, definition.step_limit))
+    return cell.config(name, 0, agents=agents, episodes=episodes, task_options=options)
 
 
 def _timed(config) -> tuple:
