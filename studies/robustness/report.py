@@ -14,7 +14,7 @@ from lwrl.agent import LEARNERS
 from lwrl.analysis.plots import save_figure
 from lwrl.analysis.statistics import mean_interval
 from lwrl.studies.robustness import plan
-from lwrl.studies.robustness.study import CONTINUOUS_RETURNS, measures
+from lwrl.studies.robustness.study import measures, returns_tolerance
 
 
 def _grid(result, learner, training, measure) -> np.ndarray:
@@ -89,10 +89,11 @@ def figure(result, figure_dir: str) -> list:
 
 def _returns_within(learner: str) -> str:
     """How a C controller's returns are compared: the same numbers, or for one of
-    continuous actions to round-off (`study.CONTINUOUS_RETURNS`)."""
-    if LEARNERS[learner].actions != "continuous":
+    continuous actions to round-off (`study.returns_tolerance`)."""
+    tolerance = returns_tolerance(LEARNERS[learner].actions)
+    if not tolerance:
         return ""
-    return (f" (returns within {CONTINUOUS_RETURNS:g} of their size: the continuous action is "
+    return (f" (returns within {tolerance:g} of their size: the continuous action is "
             "the Python agent's to an ulp)")
 
 

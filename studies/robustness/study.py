@@ -198,6 +198,13 @@ CONTINUOUS_RETURNS = 1e-12
 the Python agent's (measured: 2.4e-16, one cell of the pendulum's quick study)."""
 
 
+def returns_tolerance(actions: str) -> float:
+    """The relative distance within which a C controller's returns count as the Python
+    agent's, for a learner of `actions`: none for discrete actions, `CONTINUOUS_RETURNS`
+    for continuous ones."""
+    return CONTINUOUS_RETURNS if actions == "continuous" else 0.0
+
+
 def controlled(task: str, out_dir: str, learner: str, trained, evaluations: dict,
                table: pd.DataFrame) -> dict:
     """The exported C controller of the first agent of `trained` (a run of `learner`) that
@@ -223,10 +230,9 @@ def controlled(task: str, out_dir: str, learner: str, trained, evaluations: dict
     for index, (cell, config) in enumerate(runs.items()):
         ours = c_table[c_table["agent"] == index]
         python = table[(table["run"] == config.key) & (table["agent"] == b)]
-        tolerance = CONTINUOUS_RETURNS if agent.learner.actions == "continuous" else 0.0
         same += bool(np.array_equal(ours["steps"].to_numpy(), python["steps"].to_numpy())
                      and np.allclose(ours["return"].to_numpy(), python["return"].to_numpy(),
-                                     rtol=tolerance, atol=0.0))
+                                     rtol=returns_tolerance(agent.learner.actions), atol=0.0))
         per_cell[cell] = {measure.column: float(ours[measure.column].mean())
                           for measure in measures(task)}
     return {"agent": b, "same": same, "cells": len(runs), "per_cell": per_cell,
