@@ -212,6 +212,8 @@ SLOW = {
         "a robustness study of the continuous actor-critic, its C controller compiled",
     r"test_benchmark_study\.py::test_a_tiny_continuous_benchmark": "a tiny benchmark of "
         "the continuous pendulum: trains the actor-critic and SAC, compiling its programs",
+    r"test_benchmark_study\.py::test_the_pendulum_with_three_torques": "two tiny "
+        "benchmarks: the paper's agent and the actor-critic trained, evaluated and measured",
     r"test_benchmark_study\.py::test_a_tiny_benchmark": "a tiny "
         "benchmark: searches, trains and evaluates every linear row (and measures its costs)",
     r"test_budget\.py::(test_a_population|test_a_budget_cuts_the_run_it_would_have_been\[cartpole)":

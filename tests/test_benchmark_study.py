@@ -136,6 +136,35 @@ def test_a_tiny_continuous_benchmark_runs_its_own_rows_and_references(tiny_conti
     assert "P(actor_critic better)" in text and "one task only" in text
 
 
+def test_the_pendulum_with_three_torques_and_with_any_torque_side_by_side(monkeypatch, tmp_path):
+    """Both pendulum tasks, the light-weight row of each alone: the report sets the paper's
+    agent (three torques) beside the actor-critic (any torque) on the seconds up, the steps
+    and the trials to the level, with the direct comparison and its figure."""
+    from lwrl.studies.paper.benchmark import benchmark, torques
+    tasks = ["pendulum.swingup", CONTINUOUS]
+    for task in tasks:
+        monkeypatch.setitem(protocol.BUDGETS, task, 400)
+    monkeypatch.setattr(protocol, "DEEP", {})
+    monkeypatch.setattr(protocol, "CONTINUOUS_DEEP", {})
+    every_row = protocol.rows
+    monkeypatch.setattr(protocol, "rows", lambda task: [
+        row for row in every_row(task) if row.label in ("paper", "actor_critic")])
+    shrink(monkeypatch, 1)
+    monkeypatch.setattr(evaluation, "STEP_CAP", 200)
+    path = benchmark.benchmark(tasks, str(tmp_path), "lwrl bench run ...", sweep={"workers": 1})
+    runs = [study.study_task(task, str(tmp_path), sweep={"workers": 1}) for task in tasks]
+    trials, reached = torques.trials_to_level(runs[1], "actor_critic")
+    measures = torques.training_measures(runs[1], "actor_critic")
+    assert measures.shape == (protocol.AGENTS, 1)  # 400 steps: part of one 3000-step episode
+    assert trials.shape == reached.shape == (protocol.AGENTS,)
+    assert np.all(np.where(reached, trials == 1, trials == 2))
+    text = open(path).read()
+    assert "## pendulum.swingup: three torques or any torque" in text
+    assert "| paper | discrete |" in text and "| actor_critic | continuous |" in text
+    assert "P(actor_critic better)" in text and "outside the verdicts' Holm family" in text
+    assert (tmp_path / "figures" / "pendulum.swingup-torques.png").exists()
+
+
 @pytest.fixture
 def tiny_mujoco(monkeypatch):
     """The pendulum on MuJoCo's model at a tiny scale: the paper's agent and DQN (a linear

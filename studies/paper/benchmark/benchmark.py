@@ -22,7 +22,8 @@ Layout of the output directory (every table a gzip CSV, resumable by the same co
                                  interruptions: the report's cost line
     configs.jsonl                every run's full configuration (lwrl's version in `learner`'s
                                  settings, the host in timings)
-    figures/                     the aggregates, the profiles and each task's curves
+    figures/                     the aggregates, the profiles, each task's curves and the
+                                 pendulum's training curves with both kinds of action
     README.md                    the report, the command at its top
 """
 

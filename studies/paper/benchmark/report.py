@@ -1,8 +1,9 @@
 """The second benchmark's report: the verdicts by docs/FINDINGS.md's rule across every task
 (`judge`), and the document (`document`) with the aggregates across tasks and their figures,
-per task the reference rows, each row's normalised scores at each fraction of the budget, its
-compute to the level, the comparisons with the paper's agent and every search configuration's
-score beside the chosen one."""
+a task with discrete and with continuous actions side by side (`torques`), per task the
+reference rows, each row's normalised scores at each fraction of the budget, its compute to
+the level, the comparisons with the paper's agent and every search configuration's score
+beside the chosen one."""
 
 import dataclasses
 import glob
@@ -17,7 +18,7 @@ from lwrl.agent.arithmetic import NotCounted
 from lwrl.analysis import statistics, verdicts
 from lwrl.analysis.plots import save_figure
 from lwrl.runners.store import compute_spent
-from lwrl.studies.paper.benchmark import evaluation, judging, protocol, search, study, twin_cost
+from lwrl.studies.paper.benchmark import evaluation, judging, protocol, search, study, torques, twin_cost
 
 THRESHOLDS = np.linspace(-0.25, 1.5, 71)
 """The performance profiles' normalised scores."""
@@ -103,7 +104,8 @@ def document(judged: list, command: str, seconds: float, figure_dir: str, out_di
         against = {c.rival: c.gate.reason.split(":")[0] for c in j.comparisons}
         lines.append(f"| {j.runs.task} | **{j.verdict}** | "
                      + " | ".join(against.get(rival, "—") for rival in columns) + " |")
-    lines += ["", *aggregates_section(judged, figure_dir, out_dir)]
+    lines += ["", *aggregates_section(judged, figure_dir, out_dir),
+              *torques.section(judged, figure_dir, out_dir)]
     for j in judged:
         lines += task_section(j)
     return "\n".join(lines) + "\n"
