@@ -30,6 +30,12 @@ def save_figure(figure, figure_dir: str, name: str) -> list:
     return paths
 
 
+def markdown_images(paths, out_dir: str) -> list:
+    """A Markdown image line for each PNG of `paths` (`save_figure`'s), relative to `out_dir`."""
+    return [f"![{os.path.basename(path)}]({os.path.relpath(path, out_dir)})"
+            for path in paths if path.endswith(".png")]
+
+
 def plot_learning_curve(results: pd.DataFrame, value: str, ylabel: str, title: str, axes=None,
                         interval: bool = False, label: str = "mean over agents"):
     """Mean over agents per episode, with a band of one standard error, or with `interval`

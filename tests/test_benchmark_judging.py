@@ -98,7 +98,8 @@ def test_the_multiply_adds_of_a_row_are_its_learners_counts():
 
 def test_the_report_judges_every_task_with_holm_across_them_and_aggregates(tmp_path):
     """Two tasks of synthetic rows: four comparisons in one Holm family, the verdicts and
-    the aggregates across tasks in the document, its figures written."""
+    the aggregates across tasks in the document, its figures written (each task's search's
+    among them)."""
     import pandas as pd
 
     from lwrl.studies.paper.benchmark import report, study
@@ -124,3 +125,6 @@ def test_the_report_judges_every_task_with_holm_across_them_and_aggregates(tmp_p
     assert "## Across tasks" in text and "| paper | " in text and "IQM" in text
     assert (tmp_path / "figures" / "aggregates.png").exists()
     assert (tmp_path / "figures" / "profiles.png").exists()
+    for r in runs:  # each task's search drawn, as Jordan et al. (2020) look at it
+        assert (tmp_path / "figures" / f"{r.task}-sensitivity.png").exists()
+        assert f"figures/{r.task}-sensitivity.png" in text

@@ -16,9 +16,9 @@ import numpy as np
 from lwrl import agent
 from lwrl.agent.arithmetic import NotCounted
 from lwrl.analysis import statistics, verdicts
-from lwrl.analysis.plots import save_figure
+from lwrl.analysis.plots import markdown_images, save_figure
 from lwrl.runners.store import compute_spent
-from lwrl.studies.paper.benchmark import evaluation, judging, protocol, search, study, torques, twin_cost
+from lwrl.studies.paper.benchmark import evaluation, judging, protocol, search, sensitivity, study, torques, twin_cost
 
 THRESHOLDS = np.linspace(-0.25, 1.5, 71)
 """The performance profiles' normalised scores."""
@@ -107,7 +107,7 @@ def document(judged: list, command: str, seconds: float, figure_dir: str, out_di
     lines += ["", *aggregates_section(judged, figure_dir, out_dir),
               *torques.section(judged, figure_dir, out_dir)]
     for j in judged:
-        lines += task_section(j)
+        lines += task_section(j, markdown_images(sensitivity.figure(j.runs, figure_dir), out_dir))
     return "\n".join(lines) + "\n"
 
 
@@ -142,13 +142,13 @@ def aggregates_section(judged: list, figure_dir: str, out_dir: str) -> list:
              "|---|" + "---|" * len(verdicts.AGGREGATES)]
     for label, values in estimates.items():
         lines.append(f"| {label} | " + " | ".join(values[a].text(2) for a in verdicts.AGGREGATES) + " |")
-    lines += [""] + [f"![{os.path.basename(path)}]({os.path.relpath(path, out_dir)})"
-                     for path in paths if path.endswith(".png")] + [""]
+    lines += ["", *markdown_images(paths, out_dir), ""]
     return lines
 
 
-def task_section(j: Judged) -> list:
-    """One task's tables: the reference rows, the rows, the comparisons and the search."""
+def task_section(j: Judged, sensitivity_images=()) -> list:
+    """One task's tables: the reference rows, the rows, the comparisons and the search, with
+    the search's figure `sensitivity_images` (Markdown lines)."""
     runs, measure = j.runs, evaluation.task_measure(j.runs.task)
     lines = [f"## {runs.task}", "", f"Budget: {protocol.BUDGETS[runs.task]:,} steps per agent. "
              f"Measure: {measure.label}; random row "
@@ -173,7 +173,7 @@ def task_section(j: Judged) -> list:
         lines.append(f"- against {c.rival}: {c.gate.reason}; P({who} better) "
                      f"{c.improvement.text(2)}; permutation p {c.p_value:.3g}, Holm "
                      f"{c.adjusted:.3g}{' (significant)' if c.significant else ''}.")
-    lines += ["", *search_lines(runs), ""]
+    lines += ["", *search_lines(runs), "", *sensitivity_images, ""]
     return lines
 
 

@@ -18,13 +18,11 @@ are against its own reference rows (the classical controller acting with three t
 with any torque in the range). The direct comparison is one test outside the verdicts'
 Holm family, on the final greedy measure itself (seconds up), not the normalised score."""
 
-import os
-
 import matplotlib.pyplot as plt
 import numpy as np
 
 from lwrl.analysis import statistics, verdicts
-from lwrl.analysis.plots import save_figure
+from lwrl.analysis.plots import markdown_images, save_figure
 from lwrl.studies.paper.benchmark import evaluation, judging, protocol, study
 
 
@@ -97,8 +95,7 @@ def section(judged: list, figure_dir: str, out_dir: str) -> list:
                     f"{int(reached.sum())} of {len(reached)} |")
         lines += ["", *_direct(discrete, continuous), ""]
         paths = _curves(discrete, continuous, figure_dir)
-        lines += [f"![{os.path.basename(path)}]({os.path.relpath(path, out_dir)})"
-                  for path in paths if path.endswith(".png")] + [""]
+        lines += [*markdown_images(paths, out_dir), ""]
     return lines
 
 
