@@ -62,7 +62,6 @@ def benchmark(tasks, out_dir: str, command: str, plant: str = "analytic", sweep=
            costs[config.key]["cpu_s_per_learning_step"] for _, _, config in cells}
     judged = report.judge(task_runs, cpu)
     figure_dir = os.path.join(out_dir, FIGURES)
-    report.curves(judged, figure_dir)
     seconds = timed_calls(out_dir, time.perf_counter() - started)
     path = os.path.join(out_dir, "README.md")
     with outputs.atomic_write(path) as file:

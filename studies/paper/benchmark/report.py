@@ -33,6 +33,8 @@ class Judged:
     comparisons: list
     computes: dict
     verdict: str
+    cpu_s_per_step: dict = dataclasses.field(default_factory=dict)
+    """`{label: CPU seconds of a learning step}` of the rows whose cost was measured."""
 
 
 def judge(task_runs: list, cpu_s_per_step: dict) -> list:
@@ -52,7 +54,9 @@ def judge(task_runs: list, cpu_s_per_step: dict) -> list:
                                            cpu_s_per_step.get((runs.task, label)),
                                            macs_per_step(runs.trainings.get((label, 1.0))))
                     for label, fraction in runs.scores if fraction == protocol.FRACTIONS[-1]}
-        judged.append(Judged(runs, mine, computes, judging.verdict(mine, runs.scores, computes)))
+        cpu = {label: cpu_s_per_step[runs.task, label] for label in computes
+               if cpu_s_per_step.get((runs.task, label)) is not None}
+        judged.append(Judged(runs, mine, computes, judging.verdict(mine, runs.scores, computes), cpu))
     return judged
 
 
@@ -107,7 +111,8 @@ def document(judged: list, command: str, seconds: float, figure_dir: str, out_di
     lines += ["", *aggregates_section(judged, figure_dir, out_dir),
               *torques.section(judged, figure_dir, out_dir)]
     for j in judged:
-        lines += task_section(j, markdown_images(sensitivity.figure(j.runs, figure_dir), out_dir))
+        lines += task_section(j, markdown_images(curves(j, figure_dir), out_dir),
+                              markdown_images(sensitivity.figure(j.runs, figure_dir), out_dir))
     return "\n".join(lines) + "\n"
 
 
@@ -146,9 +151,9 @@ def aggregates_section(judged: list, figure_dir: str, out_dir: str) -> list:
     return lines
 
 
-def task_section(j: Judged, sensitivity_images=()) -> list:
-    """One task's tables: the reference rows, the rows, the comparisons and the search, with
-    the search's figure `sensitivity_images` (Markdown lines)."""
+def task_section(j: Judged, curve_images=(), sensitivity_images=()) -> list:
+    """One task's tables: the reference rows, the rows with their curves `curve_images`, the
+    comparisons and the search with its figure `sensitivity_images` (Markdown lines)."""
     runs, measure = j.runs, evaluation.task_measure(j.runs.task)
     lines = [f"## {runs.task}", "", f"Budget: {protocol.BUDGETS[runs.task]:,} steps per agent. "
              f"Measure: {measure.label}; random row "
@@ -166,7 +171,7 @@ def task_section(j: Judged, sensitivity_images=()) -> list:
         lines.append(f"| {label} | " + " | ".join(cells)
                      + f" | {compute.reached} of {compute.agents} | {compute.steps.text(0)} | {cpu} "
                      f"| {macs} |")
-    lines += ["", f"**Verdict: {j.verdict}.**", ""]
+    lines += ["", *curve_images, "", f"**Verdict: {j.verdict}.**", ""]
     for c in j.comparisons:
         light = protocol.light(c.task)
         who = "paper's agent" if light == protocol.LIGHT["discrete"] else light
@@ -188,22 +193,30 @@ def search_lines(runs) -> list:
     return lines
 
 
-def curves(judged: list, figure_dir: str) -> list:
-    """Per task, each row's greedy normalised score against the fraction of the budget (mean
-    and interval over agents); the paths written."""
-    paths = []
-    for j in judged:
-        figure, axes = plt.subplots(figsize=(6, 4))
-        for label, compute in j.computes.items():
-            estimates = [statistics.mean_interval(j.runs.scores[label, f]) for f in protocol.FRACTIONS]
-            axes.plot(protocol.FRACTIONS, [e.value for e in estimates], marker="o", label=label)
+def curves(j: Judged, figure_dir: str) -> list:
+    """Each row of one task's greedy normalised score (mean and interval over agents) against
+    the environment steps it trained for and against the CPU seconds they cost it (one
+    agent, one thread, its fastest implementation; a row whose cost was not measured is
+    left out there); the paths written."""
+    figure, (by_steps, by_cpu) = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
+    steps = np.array(protocol.FRACTIONS) * protocol.BUDGETS[j.runs.task]
+    for label in j.computes:
+        estimates = [statistics.mean_interval(j.runs.scores[label, f]) for f in protocol.FRACTIONS]
+        xs = [(by_steps, steps)]
+        if label in j.cpu_s_per_step:
+            xs.append((by_cpu, steps * j.cpu_s_per_step[label]))
+        for axes, x in xs:
+            line, = axes.plot(x, [e.value for e in estimates], marker="o", label=label)
             if not any(math.isnan(e.low) for e in estimates):
-                axes.fill_between(protocol.FRACTIONS, [e.low for e in estimates],
-                                  [e.high for e in estimates], alpha=0.15)
+                axes.fill_between(x, [e.low for e in estimates], [e.high for e in estimates],
+                                  alpha=0.15, color=line.get_color())
+    for axes in (by_steps, by_cpu):
         axes.axhline(protocol.LEVEL, color="grey", linewidth=0.8, linestyle="--")
-        axes.set_xlabel("fraction of the budget")
-        axes.set_ylabel("greedy normalised score")
-        axes.set_title(j.runs.task)
-        axes.legend(fontsize="small")
-        paths += save_figure(figure, figure_dir, f"{j.runs.task}-curves")
-    return paths
+    by_steps.set_xlabel("environment steps of training")
+    by_steps.set_ylabel("greedy normalised score")
+    by_cpu.set_xscale("log")
+    by_cpu.set_xlabel("CPU seconds of training (one agent, one thread)")
+    by_steps.legend(fontsize="small")
+    figure.suptitle(j.runs.task)
+    figure.tight_layout()
+    return save_figure(figure, figure_dir, f"{j.runs.task}-curves")
