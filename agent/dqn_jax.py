@@ -29,9 +29,9 @@ import numpy as np
 from lwrl.agent.dqn import ZOO_SETS, DqnSettings, arithmetic
 from lwrl.agent.jax_population import (PopulationAgents, Program, adam, adam_init,
                                        clip_by_norm, fits_with_jax, mlp, mlp_init, polyak,
-                                       replay_add, replay_buffer, replay_bytes, replay_due,
-                                       replay_gradient_steps, replay_hyper, replay_sample,
-                                       replay_update)
+                                       replay_add, replay_buffer, replay_bytes, replay_capacity,
+                                       replay_due, replay_gradient_steps, replay_hyper,
+                                       replay_sample, replay_update)
 from lwrl.agent.learner_contract import Learner
 from lwrl.agent.stable_baselines import network_bytes
 from lwrl.settings import setting
@@ -68,11 +68,15 @@ class DqnJaxAgents(PopulationAgents):
         sizes = [self.dim, *settings.layers(), self.task.num_actions]
         params = mlp_init(net_key, sizes, [None] * (len(sizes) - 1), False)
         return {"params": params, "target": params, "adam": adam_init(params),
-                "buffer": replay_buffer(settings.buffer_size, self.dim, jnp.int32), "key": key}
+                "buffer": replay_buffer(self.state_shape()[0], self.dim, jnp.int32), "key": key}
 
     @staticmethod
     def weight_tree(state):
         return state["params"]
+
+    def state_shape(self) -> tuple:
+        """The replay buffer's capacity (`replay_capacity`)."""
+        return (replay_capacity(self.settings),)
 
     def shared(self) -> tuple:
         """The gradient steps of a training call."""
@@ -157,7 +161,7 @@ def memory(settings, task) -> int:
     """Bytes of one agent: its replay buffer (float32 observations) and the online and target
     networks with Adam's two moments (four copies of the parameters)."""
     dim = len(task.state_names)
-    return (replay_bytes(settings.buffer_size, dim)
+    return (replay_bytes(replay_capacity([settings]), dim)
             + network_bytes(dim, settings.layers(), task.num_actions, 4))
 
 

@@ -184,6 +184,19 @@ def replay_buffer(size: int, dim: int, action_dtype) -> dict:
             "terminals": jnp.zeros(size, jnp.float32), "count": jnp.zeros((), jnp.int32)}
 
 
+def replay_capacity(settings) -> int:
+    """The transitions a replay buffer of agents with `settings` (one batch's) is made to
+    hold: `buffer_size`, or fewer where the agents cannot store that many, as an agent
+    stores a transition only while it learns (`record`'s `write`), so at most
+    `replay_hyper`'s `learning_steps` in its life. Then no slot is ever overwritten and no
+    draw reaches past the transitions stored, in a buffer of either size: the same numbers,
+    without carrying SB3's million empty slots (a million-transition buffer made each of
+    SAC's steps four times dearer here)."""
+    settings = list(settings)
+    steps = max(-(-s.timesteps // s.train_freq) * s.train_freq for s in settings)
+    return min(settings[0].buffer_size, steps)
+
+
 def replay_bytes(size: int, dim: int) -> int:
     """Bytes of a `replay_buffer` of `size` transitions of `dim` state variables."""
     return 4 * size * (2 * dim + 3)
@@ -348,8 +361,14 @@ class PopulationAgents(Agents):
 
     def initialiser_key(self) -> tuple:
         """What `initial_state` depends on: the class, the first agent's settings (the
-        batch's shapes are its) and the task."""
-        return type(self), self.settings[0], self.task
+        batch's shapes are its), the task and `state_shape`."""
+        return type(self), self.settings[0], self.task, self.state_shape()
+
+    def state_shape(self) -> tuple:
+        """What else shapes the state than the first agent's settings: () here; an
+        off-policy learner's replay buffer's capacity (`replay_capacity`, from every
+        agent's settings)."""
+        return ()
 
     def check_batchable(self) -> None:
         """A one-line ValueError where the agents' settings differ in a field that shapes

@@ -41,7 +41,7 @@ import numpy as np
 
 from lwrl.agent.jax_population import (PopulationAgents, Program, adam, adam_init,
                                        batch_value, masked, mlp, mlp_init, replay_add,
-                                       replay_buffer, replay_bytes, replay_due,
+                                       replay_buffer, replay_bytes, replay_capacity, replay_due,
                                        replay_gradient_steps, replay_hyper, replay_sample,
                                        replay_update)
 from lwrl.agent.stable_baselines import network_bytes
@@ -69,7 +69,7 @@ class ActorCriticAgents(PopulationAgents):
         params = {"actor": actor, "critics": critics}
         return {"params": params, "critic_target": critics,
                 "adam": {name: adam_init(network) for name, network in params.items()},
-                "buffer": replay_buffer(settings.buffer_size, self.dim, jnp.float32), "key": key,
+                "buffer": replay_buffer(self.state_shape()[0], self.dim, jnp.float32), "key": key,
                 **self.own_state(params)}
 
     def own_state(self, params) -> dict:
@@ -156,6 +156,10 @@ class ActorCriticAgents(PopulationAgents):
         """The program's `hyper` (`jax_population.replay_hyper`)."""
         return replay_hyper(self.settings, self.HYPER)
 
+    def state_shape(self) -> tuple:
+        """The replay buffer's capacity (`replay_capacity`)."""
+        return (replay_capacity(self.settings),)
+
     def shared(self) -> tuple:
         """The minibatches' size and the gradient steps of a training call."""
         return (batch_value(self.learner.name, "share batch_size (it shapes the program)",
@@ -198,6 +202,6 @@ def memory(settings, task, actor_outputs: int, actor_copies: int) -> int:
     (`actor_outputs` outputs) in `actor_copies` float32 copies (parameters, Adam's two
     moments, a target) and two critics with their targets and Adam's moments (four copies)."""
     dim, layers = len(task.state_names), settings.layers()
-    return (replay_bytes(settings.buffer_size, dim)
+    return (replay_bytes(replay_capacity([settings]), dim)
             + network_bytes(dim, layers, actor_outputs, actor_copies)
             + 2 * network_bytes(dim + 1, layers, 1, 4))

@@ -314,3 +314,28 @@ def test_a_batch_of_a_kind_already_made_compiles_no_initialiser():
     alone = make_agent(dataclasses.replace(config, agents=1, seed=6))
     for batched, single in zip(*(jax.tree_util.tree_leaves(a.state) for a in (again, alone))):
         np.testing.assert_array_equal(np.asarray(batched)[1], np.asarray(single)[0])
+
+
+@pytest.mark.parametrize("name", ["dqn_jax", "sac_jax"])
+def test_a_replay_buffer_holds_what_its_agents_can_store_and_changes_no_number(name, monkeypatch):
+    """An off-policy agent stores a transition only while it learns, `timesteps` (rounded up
+    to a whole `train_freq`) at most: its buffer is made that size where `buffer_size` is
+    larger, and the episodes and weights are those of a buffer of `buffer_size`."""
+    from lwrl.agent import jax_population
+    settings = learners.learner(name).settings(timesteps=300, buffer_size=5000, train_freq=16,
+                                               learning_starts=50, batch_size=16, net_arch="8")
+    assert jax_population.replay_capacity([settings]) == 304
+    assert jax_population.replay_capacity([dataclasses.replace(settings, buffer_size=100)]) == 100
+    config = RunConfig(task="pendulum.swingup", learner=name, agents=2, episodes=3, seed=3,
+                       plant="analytic", agent=settings, task_options={"time_limit": 2.0},
+                       actions="continuous" if name == "sac_jax" else "discrete")
+    capped_agent, capped = run(config)
+    assert capped_agent.state["buffer"]["rewards"].shape == (2, 304)
+    module = "lwrl.agent.dqn_jax" if name == "dqn_jax" else "lwrl.agent.off_policy_jax"
+    monkeypatch.setattr(f"{module}.replay_capacity", lambda s: list(s)[0].buffer_size)
+    monkeypatch.setattr(jax_population, "_INITIALISERS", {})
+    whole_agent, whole = run(config)
+    assert whole_agent.state["buffer"]["rewards"].shape == (2, 5000)
+    for field in ("steps", "returns", "uptime", "truncated", "diverged_episode"):
+        np.testing.assert_array_equal(getattr(capped, field), getattr(whole, field))
+    np.testing.assert_array_equal(capped_agent.arrays.weights, whole_agent.arrays.weights)
