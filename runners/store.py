@@ -44,6 +44,26 @@ def ledger_lines(out_dir) -> list:
     return [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
 
 
+SIMD = ("AVX512F", "AVX2", "FMA3", "ASIMD")
+"""The CPU features `cpu` names: those that change how compiled code (XLA's, NumPy's) rounds."""
+
+
+def cpu() -> str:
+    """The CPU a run was computed on: its model (Linux's `/proc/cpuinfo`, else the platform's
+    word) and which of `SIMD` it has. A JAX population's numbers are the same on the same
+    CPU, not on another one (XLA compiles for the CPU's features)."""
+    from numpy._core import _multiarray_umath
+    model = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as file:
+            model = next((line.split(":", 1)[1].strip() for line in file
+                          if line.startswith("model name")), model)
+    except OSError:
+        pass
+    features = _multiarray_umath.__cpu_features__
+    return f"{model}; {' '.join(name for name in SIMD if features.get(name))}"
+
+
 class RunStore:
     """The runs of a sweep in `out_dir/runs`; with `keep_agents`, each run's agents too,
     `<key>.agents.npz` (`agent.io`), written before its table."""
@@ -91,11 +111,11 @@ class RunStore:
 
     def record_compute(self, batch, wall_s: float, cpu_s: float) -> None:
         """Add one line to the ledger for a finished batch: its runs' keys, its wall and CPU
-        seconds, the host, the time. Each line is appended whole by one `write` in append
+        seconds, the host, its CPU (`cpu`), the time. Each line is appended whole by one `write` in append
         mode, so processes sharing the directory do not mix their lines, and nothing is
         rewritten: what a call that is interrupted later computed stays counted."""
         line = json.dumps({"runs": [config.key for config in batch], "wall_s": round(wall_s, 3),
-                           "cpu_s": round(cpu_s, 3), "host": platform.node(),
+                           "cpu_s": round(cpu_s, 3), "host": platform.node(), "cpu": cpu(),
                            "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z")}) + "\n"
         with open(self.ledger, "a") as file:
             file.write(line)

@@ -2,6 +2,7 @@
 processes on one directory share the batches; a stale claim is taken over; the ledger
 counts what each computed batch cost."""
 
+import json
 import os
 import subprocess
 import sys
@@ -13,7 +14,7 @@ import pytest
 
 from lwrl.runners import sweep
 from lwrl.runners.config import RunConfig
-from lwrl.runners.store import RunStore, compute_spent
+from lwrl.runners.store import RunStore, compute_spent, cpu
 
 
 def grid(alphas=(0.5, 1.0, 2.0)):
@@ -47,8 +48,8 @@ def test_damaged_run_files_are_named_set_aside_and_recomputed(tmp_path, clean, c
 
 
 def test_the_ledger_counts_each_computed_batch_once_across_calls(tmp_path):
-    """A line per computed batch in `compute.jsonl`, naming its runs; a call that computes
-    nothing adds nothing, and one that computes more adds its own line."""
+    """A line per computed batch in `compute.jsonl`, naming its runs and the CPU; a call that
+    computes nothing adds nothing, and one that computes more adds its own line."""
     sweep.run_sweep(grid(), tmp_path)
     first = compute_spent(tmp_path)
     assert first["runs"] == 3 and first["wall_s"] > 0 and first["cpu_s"] > 0
@@ -58,6 +59,7 @@ def test_the_ledger_counts_each_computed_batch_once_across_calls(tmp_path):
     sweep.run_sweep(grid((0.25, 4.0)), tmp_path)
     lines = RunStore(tmp_path).ledger.read_text().splitlines()
     assert len(lines) == 2 and compute_spent(tmp_path)["runs"] == 5
+    assert all(json.loads(line)["cpu"] == cpu() for line in lines)  # what JAX's numbers depend on
     assert compute_spent(tmp_path / "nowhere") == {"runs": 0, "wall_s": 0.0, "cpu_s": 0.0,
                                                    "hosts": []}
 

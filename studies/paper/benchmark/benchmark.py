@@ -18,7 +18,7 @@ Layout of the output directory (every table a gzip CSV, resumable by the same co
     costs.json                   CPU per learning step of each row (studies/paper/bench_costs.py)
     timings.json                 the wall time of every call that finished
     compute.jsonl                what each computed batch of runs cost (wall and CPU seconds,
-                                 host; `runners.store`), a line each, kept across
+                                 host, CPU: `runners.store`), a line each, kept across
                                  interruptions: the report's cost line
     configs.jsonl                every run's full configuration (lwrl's version in `learner`'s
                                  settings, the host in timings)
