@@ -44,24 +44,26 @@ def ledger_lines(out_dir) -> list:
     return [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
 
 
-SIMD = ("AVX512F", "AVX2", "FMA3", "ASIMD")
-"""The CPU features `cpu` names: those that change how compiled code (XLA's, NumPy's) rounds."""
+SIMD = {"avx512f": "AVX-512", "avx2": "AVX2", "fma": "FMA", "asimd": "NEON"}
+"""The CPU features `cpu` names (Linux's flags: names): those that change how compiled code
+(XLA's, NumPy's) rounds."""
 
 
 def cpu() -> str:
-    """The CPU a run was computed on: its model (Linux's `/proc/cpuinfo`, else the platform's
-    word) and which of `SIMD` it has. A JAX population's numbers are the same on the same
-    CPU, not on another one (XLA compiles for the CPU's features)."""
-    from numpy._core import _multiarray_umath
-    model = platform.processor() or platform.machine()
+    """The CPU a run was computed on: its model and which of `SIMD` it has (Linux's
+    `/proc/cpuinfo`; elsewhere the platform's word alone). A JAX population's numbers are the
+    same on the same CPU, not on another one (XLA compiles for the CPU's features)."""
+    fields = {}
     try:
         with open("/proc/cpuinfo") as file:
-            model = next((line.split(":", 1)[1].strip() for line in file
-                          if line.startswith("model name")), model)
+            for line in file:
+                name, _, value = line.partition(":")
+                fields.setdefault(name.strip(), value.strip())
     except OSError:
         pass
-    features = _multiarray_umath.__cpu_features__
-    return f"{model}; {' '.join(name for name in SIMD if features.get(name))}"
+    model = fields.get("model name") or platform.processor() or platform.machine()
+    flags = set((fields.get("flags") or fields.get("Features") or "").split())
+    return f"{model}; {' '.join(word for flag, word in SIMD.items() if flag in flags)}"
 
 
 class RunStore:
