@@ -2,6 +2,7 @@
 
     lwrl bench run TASK... [--plant P] [--out DIR] ...   the second benchmark (FINDINGS'
                                                          reviewer's rule), resumable
+    lwrl bench status TASK... [--plant P] [--out DIR]    how far it has got (read only)
     lwrl bench score RESULTS... [--out DIR]              an outside learner's results, checked
                                                          and placed in that benchmark
     lwrl bench first TASK... [--learners ...] ...        the first benchmark, kept with its
@@ -16,7 +17,7 @@ from lwrl import outputs
 from lwrl.cli import output, reproduce
 from lwrl.cli.output import Parser
 
-ACTIONS = ("run", "score", "first")
+ACTIONS = ("run", "status", "score", "first")
 SECOND = "benchmark2"
 """The second benchmark's default directory."""
 
@@ -36,11 +37,13 @@ def add_parser(commands) -> None:
                     "docs/FINDINGS.md's rule (one budget of steps per task, greedy "
                     "evaluations, random and classical rows, the same search for every "
                     "learner, 20 agents, Holm-corrected tests, the not-judged gate). "
-                    "`score`: an outside learner's results placed in it. `first`: the first "
+                    "`status`: how far it has got. `score`: an outside learner's results "
+                    "placed in it. `first`: the first "
                     "benchmark (`lwrl bench TASK...`).")
     actions = bench.add_subparsers(dest="action", required=True, metavar="ACTION",
                                    parser_class=Parser)
     add_run(actions)
+    add_status(actions)
     add_score(actions)
     add_first(actions)
 
@@ -52,34 +55,54 @@ def add_plant_and_out(parser, out: str, what: str) -> None:
     parser.add_argument("--out", metavar="DIR", default=out, help=f"{what} (default: {out})")
 
 
+TASKS = ("tasks", "TASK", "tasks (DOMAIN.TASK, or DOMAIN.TASK-continuous for one made with "
+         "continuous actions), or all (those whose domain has --plant)")
+"""The positional argument of `run` and `status`: (name, metavar, help)."""
+
+
+def add_second(actions, name: str, summary: str, description: str, positional: tuple,
+               directory: str, run):
+    """One action on the second benchmark's directory: its `positional` argument (name,
+    metavar, help; one or more), `--plant`, `--out` (described as `directory`), and `run`."""
+    parser = actions.add_parser(name, help=summary, description=description)
+    dest, metavar, text = positional
+    parser.add_argument(dest, metavar=metavar, nargs="+", help=text)
+    add_plant_and_out(parser, SECOND, directory)
+    parser.set_defaults(run=run)
+    return parser
+
+
 def add_run(actions) -> None:
-    run = actions.add_parser(
-        "run", help="the second benchmark (resumable)",
-        description="Run (or resume) the second benchmark on the tasks: the reference rows, "
-                    "every row's search, the chosen configurations at each fraction of the "
-                    "budget, their greedy evaluations and costs; then the report with the "
-                    "verdicts, the aggregates across tasks and the figures. Runs are written "
-                    "as they finish: the same command resumes, on a fresh clone from the "
-                    "committed tables.")
-    run.add_argument("tasks", metavar="TASK", nargs="+",
-                     help="tasks (DOMAIN.TASK, or DOMAIN.TASK-continuous for one made with "
-                          "continuous actions), or all (those whose domain has --plant)")
-    add_plant_and_out(run, SECOND, "output directory")
+    run = add_second(
+        actions, "run", "the second benchmark (resumable)",
+        "Run (or resume) the second benchmark on the tasks: the reference rows, every row's "
+        "search, the chosen configurations at each fraction of the budget, their greedy "
+        "evaluations and costs; then the report with the verdicts, the aggregates across "
+        "tasks and the figures. Runs are written as they finish: the same command resumes, "
+        "on a fresh clone from the committed tables.", TASKS, "output directory", run_second)
     reproduce.add_sweep_flags(run)
-    run.set_defaults(run=run_second)
+
+
+def add_status(actions) -> None:
+    add_second(
+        actions, "status", "how far the second benchmark has got in its directory (read only)",
+        "Print, per task, whether the reference rows are written, each row's search "
+        "trainings and greedy evaluations done, the configuration it chose and its rows' "
+        "trainings and evaluations, then what the ledger counts: what `lwrl bench run` with "
+        "the same tasks has left to do. Nothing is run or written.", TASKS,
+        "the benchmark's directory", run_status)
 
 
 def add_score(actions) -> None:
-    score = actions.add_parser(
-        "score", help="an outside learner's results, checked and placed in the benchmark",
-        description="Check results files of a learner outside lwrl's registry against the "
-                    "second benchmark's protocol (one CSV row per greedy evaluation episode: "
-                    "learner, task, budget, fraction, seed, episode, steps, uptime_s; "
-                    "studies/paper/benchmark/outside.py), print their normalised scores, and "
-                    "keep them in the benchmark's directory, whose report places them.")
-    score.add_argument("results", metavar="RESULTS", nargs="+", help="results files (CSV, .gz)")
-    add_plant_and_out(score, SECOND, "the benchmark's directory")
-    score.set_defaults(run=run_score)
+    add_second(
+        actions, "score", "an outside learner's results, checked and placed in the benchmark",
+        "Check results files of a learner outside lwrl's registry against the second "
+        "benchmark's protocol (one CSV row per greedy evaluation episode: learner, task, "
+        "budget, fraction, seed, episode, steps, uptime_s; "
+        "studies/paper/benchmark/outside.py), print their normalised scores, and keep them "
+        "in the benchmark's directory, whose report places them.",
+        ("results", "RESULTS", "results files (CSV, .gz)"), "the benchmark's directory",
+        run_score)
 
 
 def add_first(actions) -> None:
@@ -132,6 +155,18 @@ def run_second(args) -> int:
                             sweep={"backend": args.backend, "workers": args.workers,
                                    "address": args.address})
     output.done(started, [path, f"the figures in {os.path.join(args.out, 'figures')}"])
+    return 0
+
+
+def run_status(args) -> int:
+    """Print how far the benchmark in `--out` has got."""
+    module, protocol = output.study_modules("bench", "lwrl.studies.paper.benchmark.progress",
+                                            "lwrl.studies.paper.benchmark.protocol")
+    tasks = protocol.tasks_on(args.plant) if args.tasks == ["all"] else args.tasks
+    for task in tasks:
+        protocol.check_task(task, args.plant)
+    for line in module.lines(tasks, args.out, args.plant):
+        print(line)
     return 0
 
 

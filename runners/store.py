@@ -68,11 +68,13 @@ def cpu() -> str:
 
 class RunStore:
     """The runs of a sweep in `out_dir/runs`; with `keep_agents`, each run's agents too,
-    `<key>.agents.npz` (`agent.io`), written before its table."""
+    `<key>.agents.npz` (`agent.io`), written before its table. `make=False`: a store that is
+    only read, whose directory is not made where it does not exist."""
 
-    def __init__(self, out_dir, keep_agents: bool = False):
+    def __init__(self, out_dir, keep_agents: bool = False, make: bool = True):
         self.directory = pathlib.Path(out_dir) / "runs"
-        self.directory.mkdir(parents=True, exist_ok=True)
+        if make:
+            self.directory.mkdir(parents=True, exist_ok=True)
         self.keep_agents = keep_agents
         self._claims = {}
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from lwrl.agent import jax_population
-from lwrl.studies.paper.benchmark import evaluation, protocol, report, search, study
+from lwrl.studies.paper.benchmark import evaluation, progress, protocol, report, search, study
 
 TASK = "mountain_car.cost_to_go"
 
@@ -75,7 +75,26 @@ def test_a_tiny_benchmark_runs_resumes_and_needs_no_kept_agents_once_evaluated(t
     assert all(f"\n| {label} | " in text for label in labels)
     assert text.count("| **yes** |") == len(labels)  # one chosen configuration per row
     assert "](figures/mountain_car.cost_to_go-curves.png)" in text
+    status = progress.task_lines(TASK, str(tmp_path))
+    assert status[0].endswith("reference rows written") and len(status) == 1 + len(labels)
+    assert all(f"search 2/2 trained, 2/2 evaluated; configuration {third.chosen[label]} chosen; "
+               "rows (2 agents at 4 fractions) 4/4 trained, 4/4 evaluated" in line
+               for label, line in zip(labels, status[1:]))
     assert (tmp_path / "figures" / "mountain_car.cost_to_go-curves.png").exists()
+
+
+def test_the_status_of_an_empty_directory_is_that_nothing_ran(tmp_path, capsys):
+    """`lwrl bench status` reads the directory only: nothing run, nothing written; a task
+    that is not the benchmark's is one line and status 2."""
+    from conftest import run_cli
+    status, printed, _ = run_cli(["bench", "status", TASK, "--out", str(tmp_path)], capsys)
+    assert status == 0 and not list(tmp_path.iterdir())
+    lines = printed.splitlines()
+    assert lines[0] == f"{TASK} (analytic plant): reference rows not run yet"
+    assert all("search 0/16 trained, 0/16 evaluated; its rows wait" in line for line in lines[1:-1])
+    assert lines[-1].endswith("0 runs, 0.00 h of wall time, 0.00 h of CPU")
+    status, _, err = run_cli(["bench", "status", "cartpole.swingup", "--out", str(tmp_path)], capsys)
+    assert status == 2 and len(err) == 1 and "unknown benchmark task" in err[0]
 
 
 def test_the_best_mean_is_chosen_a_diverged_agent_the_worst_and_the_first_on_a_tie():
