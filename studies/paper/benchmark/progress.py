@@ -26,9 +26,8 @@ def _chosen(task: str, out_dir: str, plant: str, runs: dict, store: RunStore):
     if not os.path.exists(path) or not all(map(store.finished, evaluations.values())):
         return None
     reference = study.references(task, out_dir, plant)  # written: read, not run
-    scores = {name: study.normalised(task, evaluation.measure(store.read([config]), task), reference)
-              for name, config in evaluations.items()}
-    return study.choose(scores)
+    tables = {name: store.read([config]) for name, config in evaluations.items()}
+    return study.choose(study.scored(task, tables, reference))
 
 
 def task_lines(task: str, out_dir: str, plant: str = "analytic") -> list:
@@ -46,9 +45,7 @@ def task_lines(task: str, out_dir: str, plant: str = "analytic") -> list:
         if chosen is None:
             text += "its rows wait for every row's search"
         else:
-            settings = search.configurations(task, row)[chosen[row.label]]
-            trainings = [protocol.training(task, row, settings, 0, protocol.AGENTS, fraction, plant)
-                         for fraction in protocol.FRACTIONS]
+            trainings = list(study.row_trainings(task, row, chosen[row.label], plant).values())
             trained, evaluated = _counts(store, trainings)
             text += (f"configuration {chosen[row.label]} chosen; rows ({protocol.AGENTS} agents "
                      f"at {len(trainings)} fractions) {trained}/{len(trainings)} trained, "

@@ -94,20 +94,27 @@ def study_task(task: str, out_dir: str, plant: str = "analytic", sweep=None) -> 
     reference = references(task, out_dir, plant)
     runs = search.runs(task, plant)
     evaluated, search_tables = train_and_evaluate(runs, out_dir, sweep, f"{task}: search")
-    search_scores = {name: normalised(task, evaluation.measure(table, task), reference)
-                     for name, table in evaluated.items()}
+    search_scores = scored(task, evaluated, reference)
     chosen = choose(search_scores)
-    trainings = {}
-    for row in protocol.rows(task):
-        settings = search.configurations(task, row)[chosen[row.label]]
-        for fraction in protocol.FRACTIONS:
-            trainings[row.label, fraction] = protocol.training(
-                task, row, settings, 0, protocol.AGENTS, fraction, plant)
+    trainings = {(row.label, fraction): config for row in protocol.rows(task)
+                 for fraction, config in row_trainings(task, row, chosen[row.label], plant).items()}
     evaluated, row_tables = train_and_evaluate(trainings, out_dir, sweep, f"{task}: rows")
-    scores = {name: normalised(task, evaluation.measure(table, task), reference)
-              for name, table in evaluated.items()}
-    return TaskRuns(task, reference, search_scores, chosen, scores, trainings,
-                    pd.concat([search_tables, row_tables], ignore_index=True))
+    return TaskRuns(task, reference, search_scores, chosen, scored(task, evaluated, reference),
+                    trainings, pd.concat([search_tables, row_tables], ignore_index=True))
+
+
+def scored(task: str, evaluated: dict, reference: dict) -> dict:
+    """`{name: (agents,) normalised scores}` of the evaluation tables `{name: table}`."""
+    return {name: normalised(task, evaluation.measure(table, task), reference)
+            for name, table in evaluated.items()}
+
+
+def row_trainings(task: str, row: protocol.Row, chosen: int, plant: str = "analytic") -> dict:
+    """`{fraction: RunConfig}`: the row's chosen configuration (`chosen`, its position in
+    the search) trained by `protocol.AGENTS` agents for each fraction of the budget."""
+    settings = search.configurations(task, row)[chosen]
+    return {fraction: protocol.training(task, row, settings, 0, protocol.AGENTS, fraction, plant)
+            for fraction in protocol.FRACTIONS}
 
 
 def choose(search_scores: dict) -> dict:
