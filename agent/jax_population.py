@@ -401,6 +401,13 @@ class PopulationAgents(Agents):
     def weight_tree(state):
         raise NotImplementedError
 
+    def snapshot(self) -> "PopulationAgents":
+        """A copy of these agents whose `finished` leaves these as they are (the state's
+        arrays are immutable, the host arrays copied): the agents at a run's checkpoint."""
+        other = copy.copy(self)
+        other.arrays = PopulationArrays(*(np.copy(values) for values in self.arrays))
+        return other
+
     def finished(self, state, clocks) -> None:
         """After a run: the batch's new state and clocks, its weights and divergence."""
         self.state, self.clocks = state, np.asarray(clocks, dtype=np.int64)

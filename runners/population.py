@@ -31,6 +31,14 @@ and delays of a batch joining several runs may differ), with the noise drawn fro
 agent's JAX stream, not the numba loops' counter-based streams (`tasks.disturbances`): the
 same distributions, other numbers.
 
+A run with a budget can also give, on the way, the runs with smaller budgets
+(`checkpoints`): the budget cuts a run without changing what came before it, so the run given
+budget b is the longer run's agents as they were after b steps, with the episode that spent
+them cut there. The chunk that reaches b is run twice from the same carry, once with budget
+b (until every agent has stopped: that run's end, its results and a copy of its agents) and
+once with the run's own, which goes on; each checkpoint costs a chunk, not a run from the
+start, and its numbers are those of the run with budget b, bit for bit (tested).
+
 The program runs in chunks of `CHUNK` steps, so that progress is reported and a Ctrl-C
 stops the run between two chunks with every finished episode kept (`interrupted`). A chunk
 is compiled once per process for what shapes it (the task, its plant and options, the longest
@@ -61,7 +69,7 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
                    greedy: bool = False, progress=None, record=(), plant: str = "analytic",
                    integrator: str = "semi_implicit", equations: str = "paper", params=None,
                    observation_noise=None, action_delay=0, action_noise=0.0, randomise=None,
-                   budget=None, **task_options) -> EpisodeResults:
+                   budget=None, checkpoints=None, **task_options) -> EpisodeResults:
     """Run `agent` (a population learner's agents, `agent.jax_population.PopulationAgents`)
     for `episodes` episodes each on `domain.task`'s JAX plant, agent b from `seeds[b]`'s
     starts with the physical parameter values of row b of `params` (`{name: value or B
@@ -70,7 +78,10 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
     agent, as `runners.compiled.run_compiled` takes them; `learn` and `greedy` as for
     `Agents.step`; `budget`: environment steps per agent at most (None: no budget), the
     episode that spends them cut there, truncated, as `run_compiled` cuts it (the learner
-    sees that step as it would without the budget, so what came before is the same). A one-line ValueError for a bad option and for what the path does not
+    sees that step as it would without the budget, so what came before is the same);
+    `checkpoints`: `{smaller budget: call(agents, results)}`, each called with a copy of the
+    agents and the results the run with that budget would end with (see the module). A
+    one-line ValueError for a bad option and for what the path does not
     run: a plant but those of `lwrl.jax` (`PLANTS`), recordings, and on the mjx plant,
     whose one model is compiled at the run's parameter values, values that differ between
     agents or episodes."""
@@ -107,17 +118,61 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
                                          bool(learn), bool(greedy), agent.continuous)
     step = _CHUNKS[shape]
     carry = _first_carry(env, agent, starts, sensors, episodes)
-    steps = jnp.asarray(min(step_budget(budget), np.iinfo(np.int32).max), jnp.int32)
-    results = EpisodeResults.empty(batch, episodes)
+    chunk = lambda carry, limit: step(carry, program.hyper, physical, starts, sensors,
+                                      jnp.asarray(min(limit, np.iinfo(np.int32).max), jnp.int32))
+    budget = step_budget(budget)
+    pending = sorted(_check_checkpoints(checkpoints or {}, budget))
+    interrupted = False
     try:
-        while bool(np.any(np.asarray(carry["active"]))):
+        while pending or _any(carry["active"]):
+            if pending and _reaches(carry, pending[0]):
+                smaller = pending.pop(0)
+                checkpoints[smaller](*_ended(agent.snapshot(), _run_out(chunk, carry, smaller),
+                                             episodes))
+                continue
             before = int(np.asarray(carry["done"]).sum())
-            carry = step(carry, program.hyper, physical, starts, sensors, steps)
+            carry = chunk(carry, budget)
             if progress is not None:
                 progress(int(np.asarray(carry["done"]).sum()) - before)
     except KeyboardInterrupt:
-        results.interrupted = True
+        interrupted = True
+    _, results = _ended(agent, carry, episodes)
+    results.interrupted = interrupted
+    return results
+
+
+def _any(active) -> bool:
+    return bool(np.any(np.asarray(active)))
+
+
+def _check_checkpoints(checkpoints: dict, budget: int) -> list:
+    """The budgets of `checkpoints`, each a positive count below the run's `budget`."""
+    for smaller in checkpoints:
+        if isinstance(smaller, bool) or not isinstance(smaller, (int, np.integer)) \
+                or not 0 < smaller < budget:
+            raise ValueError(f"a checkpoint is a budget of steps from 1 to the run's budget "
+                             f"({budget}) exclusive; got {smaller!r}")
+    return list(checkpoints)
+
+
+def _reaches(carry, budget: int) -> bool:
+    """Whether the next chunk may spend `budget` for an agent still running (or none runs)."""
+    active = np.asarray(carry["active"])
+    return not active.any() or int(np.asarray(carry["spent"])[active].max()) + CHUNK >= budget
+
+
+def _run_out(chunk, carry, budget: int) -> dict:
+    """`carry` run on with `budget` until every agent has stopped."""
+    while _any(carry["active"]):
+        carry = chunk(carry, budget)
+    return carry
+
+
+def _ended(agent, carry, episodes: int) -> tuple:
+    """`(agent, results)`: `agent` given the learners' states and clocks of `carry`, and the
+    episodes `carry` finished."""
     agent.finished(carry["learner"], np.asarray(carry["clock"]))
+    results = EpisodeResults.empty(agent.batch_size, episodes)
     ran = np.arange(episodes)[None, :] < np.asarray(carry["done"])[:, None]
     for field, values in (("steps", results.steps), ("returns", results.returns),
                           ("uptime", results.uptime)):
@@ -125,7 +180,7 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
     results.truncated[ran] = np.asarray(carry["truncated"])[ran]
     results.diverged_episode[:] = np.asarray(carry["diverged_episode"])
     agent.arrays.diverged[:] |= results.diverged_episode >= 0
-    return results
+    return agent, results
 
 
 _CHUNKS: dict = {}

@@ -99,7 +99,8 @@ def drawn_values(config, options: dict, seeds, results: EpisodeResults) -> dict:
 
 
 def run(config, agent: Agents | None = None, learn: bool = True, greedy: bool = False,
-        progress=None, record=(), seeds=None, batch=None) -> tuple[Agents, EpisodeResults]:
+        progress=None, record=(), seeds=None, batch=None,
+        checkpoints=None) -> tuple[Agents, EpisodeResults]:
     """Run a `RunConfig`: the compiled loop where it runs the plant and the learner, else
     the batched stepper. Returns the agents (new ones unless given) and their results, with
     recordings of the `(agent, episode)` pairs in `record`. `learn=False` runs without
@@ -107,17 +108,29 @@ def run(config, agent: Agents | None = None, learn: bool = True, greedy: bool = 
     a given `agent`) replaces the configuration's, and `batch` (the configurations the
     agents come from, `config` first) gives each agent its configuration's physics and
     sensors (`environment_options`), for batches that join several configurations. The
-    values drawn per episode (`randomise`) are in `results.physical`."""
+    values drawn per episode (`randomise`) are in `results.physical`. `checkpoints`
+    (`{smaller budget: call(agents, results)}`, population learners only) gives on the way
+    the runs of `config` with smaller budgets (`runners.population.run_population`)."""
     agent = make_agent(config) if agent is None else agent
     seeds = config.seeds if seeds is None else list(seeds)
     domain, task = config.domain, config.task_name
     options = environment_options(batch or [config])
     if config.actions != "discrete":
         options["actions"] = config.actions
+    if checkpoints and not agent.learner.population:
+        raise ValueError(f"checkpoints are taken by population learners only; {config.learner} "
+                         "is not one")
+
+    def drawn(results):
+        results.physical = drawn_values(config, options, seeds, results)
+        return results
+
     if agent.learner.population:
         results = run_population(domain, task, agent, config.episodes, seeds, learn=learn,
                                  greedy=greedy, progress=progress, record=record,
                                  budget=config.budget,
+                                 checkpoints={smaller: _after(call, drawn) for smaller, call
+                                              in (checkpoints or {}).items()},
                                  plant=config.plant_name, **config.plant_options,
                                  **config.task_options, **options)
     elif agent.learner.compiles and compiles(domain, config.plant_name):
@@ -132,5 +145,9 @@ def run(config, agent: Agents | None = None, learn: bool = True, greedy: bool = 
         results = run_batched(env, agent, config.episodes, learn=learn, greedy=greedy,
                               budget=config.budget,
                               progress=progress, record=record)
-    results.physical = drawn_values(config, options, seeds, results)
-    return agent, results
+    return agent, drawn(results)
+
+
+def _after(call, first):
+    """`call(agents, first(results))`, as a function of `(agents, results)`."""
+    return lambda agents, results: call(agents, first(results))

@@ -19,13 +19,16 @@ as they come back.
 """
 
 import dataclasses
+import functools
 import json
 import sys
 import time
 
+import numpy as np
 import pandas as pd
 import tqdm
 
+from lwrl import agent as learners
 from lwrl import outputs
 from lwrl.agent import io as agent_io
 from lwrl.agent import threads
@@ -68,6 +71,24 @@ def batches(configs, max_agents: int = MAX_BATCH_AGENTS) -> list:
     return result
 
 
+def family_key(config) -> str:
+    """What the runs of one family share: every setting but the budget."""
+    return json.dumps({field.name: value for field, value in config.flat_fields()
+                       if field.name != "budget"}, sort_keys=True)
+
+
+def families(configs) -> list:
+    """The configurations as runs to compute, each a list: those of a population learner
+    (`Learner.population`) with a budget that differ only in it joined (the longest run
+    gives the others on the way, `runners.population.run_population`'s checkpoints), every
+    other one alone, once. Order is kept."""
+    groups = {}
+    for config in {config.key: config for config in configs}.values():
+        joins = config.budget is not None and learners.learner(config.learner).population
+        groups.setdefault(family_key(config) if joins else config.key, []).append(config)
+    return list(groups.values())
+
+
 def trained_agents(configs, directory):
     """The agents of a batch of configurations that go on with the agents of the run
     `configs[0].trained` (kept in `directory`, `RunStore.agents_path`): each configuration's
@@ -80,26 +101,41 @@ def trained_agents(configs, directory):
 
 
 def run_batch(configs, progress=None, directory=None, keep_agents: bool = False) -> list:
-    """Run several configurations as one batch of agents; one tidy table per configuration,
-    equal to running each alone (agents are independent). `progress(agent_episodes)` is
-    called as episodes finish. Agents go on from a kept run where the configurations name
-    one (`RunConfig.trained`, `trained_agents`); with `keep_agents` the batch's agents (of
-    one configuration) are saved to `directory` for such runs."""
-    base = configs[0]
-    agent = trained_agents(configs, directory) if base.trained else make_agent(*configs)
-    seeds = [seed for config in configs for seed in config.seeds]
-    _, results = run(base, agent=agent, seeds=seeds, progress=progress, learn=base.learn,
-                     greedy=base.greedy, batch=configs)
+    """Run several configurations as one batch of agents, or a family (`families`: the
+    longest run, the others its checkpoints); one tidy table per configuration, equal to
+    running each alone (agents are independent; a budget cuts a run without changing what
+    came before). `progress(agent_episodes)` is called as episodes finish. Agents go on
+    from a kept run where the configurations name one (`RunConfig.trained`,
+    `trained_agents`); with `keep_agents` each configuration's agents are saved to
+    `directory` for such runs."""
+    family = len({config.budget for config in configs}) > 1
+    base = max(configs, key=lambda config: config.budget) if family else configs[0]
+    joined = [base] if family else configs
+    agent = trained_agents(joined, directory) if base.trained else make_agent(*joined)
+    ended = {}
+    checkpoints = {config.budget: functools.partial(_remember, ended, config.key)
+                   for config in configs if config is not base} if family else None
+    _, results = run(base, agent=agent, seeds=[seed for config in joined for seed in config.seeds],
+                     progress=progress, learn=base.learn, greedy=base.greedy, batch=joined,
+                     checkpoints=checkpoints)
     if results.interrupted:
         raise KeyboardInterrupt
+    if family:
+        _remember(ended, base.key, agent, results)
+        pieces = [(config, *ended[config.key]) for config in configs]
+    else:
+        starts = np.cumsum([0] + [config.agents for config in configs])
+        pieces = [(config, agent, results.agents(start, start + config.agents))
+                  for config, start in zip(configs, starts)]
     if keep_agents:
-        agent_io.save(RunStore.agents_file(directory, base.key), agent,
-                      {"config": dataclasses.asdict(base)})
-    tables, start = [], 0
-    for config in configs:
-        tables.append(results_table(config, results.agents(start, start + config.agents)))
-        start += config.agents
-    return tables
+        for config, agents, _ in pieces:
+            agent_io.save(RunStore.agents_file(directory, config.key), agents,
+                          {"config": dataclasses.asdict(config)})
+    return [results_table(config, results) for config, _, results in pieces]
+
+
+def _remember(ended: dict, key: str, agents, results) -> None:
+    ended[key] = (agents, results)
 
 
 def results_table(config: RunConfig, results) -> pd.DataFrame:
@@ -160,7 +196,8 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
     claiming each as it starts it), then waits for those, polling every `wait_seconds`, and
     takes over any whose process is gone.
 
-    With `keep_agents`, each run is a batch of its own whose agents are kept beside its
+    With `keep_agents`, each run is a batch of its own (or of its family, `families`: runs
+    that differ in their budget only, computed as one) whose agents are kept beside its
     table (`RunStore.agents_path`; a run is finished once both are there), for runs that
     go on with them (`RunConfig.trained`: an evaluation, `learn=False, greedy=True`), which
     read them from the same directory.
@@ -176,7 +213,7 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
         print(line, file=sys.stderr)
     pending = [config for config in configs if not store.finished(config)]
     total, left = _agent_episodes(configs), _agent_episodes(pending)
-    queue, computed = batches(pending, 1 if keep_agents else MAX_BATCH_AGENTS), 0
+    queue, computed = families(pending) if keep_agents else batches(pending), 0
     options = (str(out_dir), keep_agents)
     # the tables of a finished batch are written while the next batch computes
     with tqdm.tqdm(total=total, initial=total - left, desc=description, unit="agent-episode",

@@ -83,3 +83,50 @@ def test_a_budgeted_runs_table_keeps_the_episodes_it_ran(tmp_path):
     assert computed == 1 and table["steps"].notna().all()
     assert table.groupby("seed")["steps"].sum().tolist() == [900, 900]
     assert table["truncated"].groupby(table["seed"]).last().all()  # each cut at the budget
+
+
+def _dqn(budget, agents=2):
+    return RunConfig(task="mountain_car.cost_to_go", learner="dqn_jax", agents=agents,
+                     episodes=300, seed=0, timesteps=3000, buffer_size=1000, learning_starts=100,
+                     net_arch="16,16", task_options={"time_limit": 40.0}, budget=budget)
+
+
+@pytest.mark.skipif(jax_population.missing_jax(), reason=f"JAX is not installed ({jax_population.EXTRA})")
+def test_a_family_of_budgets_is_computed_as_one_run_and_gives_each_run_bit_for_bit(tmp_path):
+    """The runs of a population learner that differ in their budget only are one run, the
+    longest, the others its checkpoints (`runners.sweep.families`): each one's table and
+    kept agents are those of the run computed alone, and the ledger has one line for them.
+    The budgets fall inside the first chunk, on a chunk's end, and across chunks."""
+    from lwrl.runners.population import CHUNK
+    from lwrl.runners.store import RunStore, ledger_lines
+    from lwrl.runners.sweep import families, run_sweep
+    configs = [_dqn(budget) for budget in (300, CHUNK, 2 * CHUNK + 77)]
+    assert families(configs + [_dqn(300, agents=3)]) == [configs, [_dqn(300, agents=3)]]
+    together, alone = tmp_path / "together", tmp_path / "alone"
+    table, computed = run_sweep(configs, str(together), keep_agents=True)
+    assert computed == 3 and len(ledger_lines(together)) == 1
+    for config in configs:
+        run_sweep([config], str(alone), keep_agents=True)
+    assert len(ledger_lines(alone)) == 3
+    for config in configs:
+        mine, theirs = (RunStore(directory).read([config]) for directory in (together, alone))
+        assert mine.groupby("seed")["steps"].sum().tolist() == [config.budget] * 2
+        assert mine.equals(theirs)
+        with np.load(RunStore.agents_file(together, config.key)) as a, \
+                np.load(RunStore.agents_file(alone, config.key)) as b:
+            assert sorted(a.files) == sorted(b.files)
+            for name in a.files:
+                np.testing.assert_array_equal(a[name], b[name], err_msg=name)
+
+
+@pytest.mark.skipif(jax_population.missing_jax(), reason=f"JAX is not installed ({jax_population.EXTRA})")
+@pytest.mark.parametrize("smaller", [0, 500, 900, 2.5])
+def test_a_checkpoint_is_a_smaller_budget(smaller):
+    one_line_error(lambda: run(_dqn(500), checkpoints={smaller: print}),
+                   "a checkpoint is a budget of steps from 1 to the run's budget (500) exclusive")
+
+
+def test_only_a_population_learner_takes_checkpoints():
+    one_line_error(lambda: run(RunConfig(task="mountain_car.cost_to_go", budget=900),
+                               checkpoints={100: print}),
+                   "checkpoints are taken by population learners only; sarsa is not one")

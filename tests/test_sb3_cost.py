@@ -143,3 +143,19 @@ def test_on_mujocos_model_the_configurations_are_those_of_its_tasks(tmp_path):
     found, = twin_cost.deep_configurations(str(tmp_path), "mujoco")
     assert (found.task, found.label, found.index, found.key) == ("pendulum.swingup", "dqn", 0,
                                                                  pendulum.key)
+
+
+def test_runs_given_on_the_way_by_a_longer_run_count_once(tmp_path):
+    """A row's fractions computed as one family (`runners.sweep.families`): the ledger line
+    that names them makes the shorter ones given on the way; a line joining runs of one
+    budget, or of other settings, gives none."""
+    row = next(row for row in protocol.rows(TASK) if row.label == "dqn")
+    settings = search.configurations(TASK, row)
+    fractions = [protocol.training(TASK, row, settings[0], 0, protocol.AGENTS, fraction)
+                 for fraction in protocol.FRACTIONS]
+    other = protocol.training(TASK, row, settings[1], 0, protocol.AGENTS, 0.1)
+    ledger = [{"runs": [config.key for config in fractions[1:]], "cpu_s": 1.0},
+              {"runs": [fractions[0].key, other.key], "cpu_s": 1.0}]
+    (tmp_path / "compute.jsonl").write_text("".join(json.dumps(line) + "\n" for line in ledger))
+    assert twin_cost.on_the_way(str(tmp_path), fractions + [other]) == {
+        fractions[1].key, fractions[2].key}

@@ -6,7 +6,8 @@ batches, Ray), into one directory `OUT`:
    greedy evaluation; each configuration is scored by its agents' mean final normalised
    score, and the row takes the best;
 3. the rows: the chosen configuration trained by `protocol.AGENTS` agents for each fraction of
-   the budget (`protocol.FRACTIONS`), each evaluated greedily.
+   the budget (`protocol.FRACTIONS`), each evaluated greedily (a deep row's fractions
+   computed as one run, the longest, `runners.sweep.families`).
 
 Every run's per-episode table is `OUT/runs/<key>.csv.gz`; the kept agents
 (`<key>.agents.npz`) are needed only until a run's evaluation is written: a training whose

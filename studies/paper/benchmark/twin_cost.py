@@ -10,6 +10,7 @@ import os
 import numpy as np
 
 from lwrl.runners.store import RunStore, ledger_lines
+from lwrl.runners.sweep import family_key
 from lwrl.studies.paper.benchmark import evaluation, protocol, search
 
 SB3_COST = "sb3_cost.json"
@@ -86,9 +87,13 @@ def sentence(out_dir: str) -> str:
     if not any(c.key in measured for c in found):
         return ("What the deep rows would have cost with Stable-Baselines3 alone is not "
                 f"measured: `python -m benchmarks.sb3_cost {out_dir}` measures it.")
+    given = on_the_way(out_dir, [config for c in found for config in c.trainings])
     twin, steps, rows = {}, {"training": 0, "greedy evaluation": 0}, {}
     for c in (c for c in found if c.key in measured):
         for config in c.trainings + c.evaluations:
+            if config.key in given:
+                twin[config.key] = 0.0
+                continue
             table = store.read([config])
             twin[config.key] = twin_cpu_s(config, table, measured[c.key])
             steps["greedy evaluation" if config.greedy else "training"] += int(table["steps"].sum())
@@ -109,10 +114,28 @@ def sentence(out_dir: str) -> str:
             "of CPU for their " + " and ".join(f"{n:,} agent-steps of {kind}"
                                                for kind, n in steps.items())
             + " (" + ", ".join(f"{label} {seconds / 3600:.2f} h" for label, seconds in rows.items())
-            + f"){partial}; {against}. Each configuration's twin trained one agent with its "
+            + f"){partial}; {against}." + (
+                f" {len(given)} runs, given on the way by a longer run of theirs (a row's "
+                "fractions of the budget, `runners.sweep.families`), count nothing more on "
+                "either side." if given else "")
+            + " Each configuration's twin trained one agent with its "
             "settings on its task: its CPU per step of warm-up before learning starts, of "
             "learning, and of greedy evaluation, each times the runs' steps of that kind "
             f"(`{SB3_COST}`, measured by {commands}).")
+
+
+def on_the_way(out_dir: str, configs) -> set:
+    """The keys of the runs of `configs` that a ledger line computed with a longer run of
+    their family (`runners.sweep.families`: the same settings, a larger budget), as its
+    checkpoints: their steps are the longer run's first."""
+    by_key = {config.key: config for config in configs}
+    given = set()
+    for line in ledger_lines(out_dir):
+        mine = [by_key[key] for key in line["runs"] if key in by_key]
+        given |= {config.key for config in mine if any(
+            family_key(other) == family_key(config) and other.budget > config.budget
+            for other in mine if other.budget is not None and config.budget is not None)}
+    return given
 
 
 def ledger_cpu_s(out_dir: str, runs: set) -> tuple:
