@@ -97,6 +97,34 @@ def test_the_status_of_an_empty_directory_is_that_nothing_ran(tmp_path, capsys):
     assert status == 2 and len(err) == 1 and "unknown benchmark task" in err[0]
 
 
+def test_the_status_says_what_the_trainings_left_will_cost_from_the_ledger(tmp_path):
+    """Mountain-Car's DQN: two search runs in the ledger, at 1 and 3 ms of CPU per agent-step
+    (3 agents x 100 000 steps: 300 s and 900 s); their tables not being here, the 16 runs are
+    left, at their mean, 2 ms (16 x 600 s = 2.7 h); the rows, one run of 20 agents' budget at
+    the first's rate or the second's (2 000 s = 33 min, or 1.7 h). A line joining a family
+    counts its longest run."""
+    import json
+    budget = protocol.BUDGETS[TASK]
+    runs = search.runs(TASK)
+    first, second = runs["dqn", 0], runs["dqn", 1]
+    ledger = [{"runs": [first.key], "cpu_s": 1e-3 * 3 * budget},
+              {"runs": [second.key], "cpu_s": 3e-3 * 3 * budget}]
+    (tmp_path / "compute.jsonl").write_text("".join(json.dumps(line) + "\n" for line in ledger))
+    line, = (line for line in progress.task_lines(TASK, str(tmp_path)) if "  dqn " in line)
+    assert line.endswith("its rows wait for every row's search (they will take 33 min to 1.7 h "
+                         "of CPU, by the configuration chosen); about 2.7 h of CPU of trainings "
+                         "left (its search's)")
+    assert progress.cpu_per_agent_step(str(tmp_path), [first, second]) == {
+        first.key: pytest.approx(1e-3), second.key: pytest.approx(3e-3)}
+    row = next(row for row in protocol.rows(TASK) if row.label == "dqn")
+    fractions = list(study.row_trainings(TASK, row, 0).values())
+    assert progress.cpu_left(fractions, 1e-3) == pytest.approx(1e-3 * 20 * budget)
+    (tmp_path / "compute.jsonl").write_text(json.dumps({"runs": [c.key for c in fractions],
+                                                        "cpu_s": 7.0}) + "\n")
+    assert progress.cpu_per_agent_step(str(tmp_path), fractions) == {
+        fractions[-1].key: pytest.approx(7.0 / (20 * budget))}
+
+
 def test_the_best_mean_is_chosen_a_diverged_agent_the_worst_and_the_first_on_a_tie():
     scores = {("a", 0): np.array([0.5, 0.5]), ("a", 1): np.array([0.9, 0.2]),
               ("b", 0): np.array([0.1, 0.1]), ("b", 1): np.array([2.0, np.nan]),

@@ -1,12 +1,19 @@
 """How far the second benchmark has got in a directory, read from its files alone (nothing is
 run, claimed or written): per task the reference rows, per row its search's trainings and
 greedy evaluations, then its rows' (`study`'s steps 1 to 3), and what the ledger counts.
+Where the ledger has what a row's search runs cost, a row's line also says what CPU its
+trainings left will take, each at the CPU per agent-step of its configuration's search run
+(a row's at its chosen one's; before the choice, the span over its configurations): an
+estimate, as a population of 20 agents may cost less per agent than one of 3.
 A study that takes several working sessions is resumed by the same `lwrl bench run`; this
 says what that command has left to do. `lwrl bench status`."""
 
 import os
 
-from lwrl.runners.store import RunStore, compute_spent
+import numpy as np
+
+from lwrl.runners.store import RunStore, compute_spent, ledger_lines
+from lwrl.runners.sweep import families, family_key
 from lwrl.studies.paper.benchmark import evaluation, protocol, search, study
 
 
@@ -30,6 +37,27 @@ def _chosen(task: str, out_dir: str, plant: str, runs: dict, store: RunStore):
     return study.choose(study.scored(task, tables, reference))
 
 
+def cpu_per_agent_step(out_dir: str, configs) -> dict:
+    """`{key: CPU seconds per agent-step}` of the runs of `configs` that a line of the ledger
+    computed alone or as the longest of its family (`runners.sweep.families`): the line's
+    CPU over the run's agents times its budget."""
+    by_key = {config.key: config for config in configs}
+    rates = {}
+    for line in ledger_lines(out_dir):
+        mine = [by_key[key] for key in line["runs"] if key in by_key]
+        if mine and len(mine) == len(line["runs"]) and all(c.budget for c in mine):
+            longest = max(mine, key=lambda config: config.budget)
+            if len(mine) == 1 or all(family_key(c) == family_key(longest) for c in mine):
+                rates[longest.key] = line["cpu_s"] / (longest.agents * longest.budget)
+    return rates
+
+
+def cpu_left(pending, rate: float) -> float:
+    """CPU seconds the `pending` trainings would take at `rate` per agent-step: a family's
+    (`runners.sweep.families`) its longest run's steps."""
+    return sum(rate * max(c.agents * c.budget for c in family) for family in families(pending))
+
+
 def task_lines(task: str, out_dir: str, plant: str = "analytic") -> list:
     """The lines of one task (see the module)."""
     store = RunStore(out_dir, make=False)
@@ -37,21 +65,47 @@ def task_lines(task: str, out_dir: str, plant: str = "analytic") -> list:
     lines = [f"{task} ({plant} plant): reference rows {'written' if written else 'not run yet'}"]
     runs = search.runs(task, plant)
     chosen = _chosen(task, out_dir, plant, runs, store)
+    rates = cpu_per_agent_step(out_dir, runs.values())
     for row in protocol.rows(task):
         mine = [config for (label, _), config in runs.items() if label == row.label]
         trained, evaluated = _counts(store, mine)
+        measured = [rates[config.key] for config in mine if config.key in rates]
+        pending = [config for config in mine if not _done(store, config)]
+        left = cpu_left(pending, float(np.mean(measured))) if measured else None
         text = (f"  {row.label:<20} search {trained}/{len(mine)} trained, "
                 f"{evaluated}/{len(mine)} evaluated; ")
         if chosen is None:
             text += "its rows wait for every row's search"
+            costs = [cpu_left(study.row_trainings(task, row, i, plant).values(), rates[config.key])
+                     for (label, i), config in runs.items()
+                     if label == row.label and config.key in rates]
+            if costs:
+                span = dict.fromkeys((duration(min(costs)), duration(max(costs))))
+                text += f" (they will take {' to '.join(span)} of CPU, by the configuration chosen)"
         else:
             trainings = list(study.row_trainings(task, row, chosen[row.label], plant).values())
             trained, evaluated = _counts(store, trainings)
             text += (f"configuration {chosen[row.label]} chosen; rows ({protocol.AGENTS} agents "
                      f"at {len(trainings)} fractions) {trained}/{len(trainings)} trained, "
                      f"{evaluated}/{len(trainings)} evaluated")
+            rate = rates.get(runs[row.label, chosen[row.label]].key)
+            pending = [config for config in trainings if not _done(store, config)]
+            left = cpu_left(pending, rate) if rate is not None else None
+        if left:
+            text += (f"; about {duration(left)} of CPU of trainings left"
+                     + (" (its search's)" if chosen is None else ""))
         lines.append(text)
     return lines
+
+
+def duration(seconds: float) -> str:
+    """`seconds` in hours from an hour on, else in whole minutes (at least one)."""
+    return f"{seconds / 3600:.1f} h" if seconds >= 3600 else f"{max(1, round(seconds / 60))} min"
+
+
+def _done(store: RunStore, training) -> bool:
+    """Whether `training` needs no computing: its table is written, or its evaluation."""
+    return store.path(training).exists() or store.finished(evaluation.evaluation(training))
 
 
 def lines(tasks, out_dir: str, plant: str = "analytic") -> list:
