@@ -28,6 +28,9 @@ class EpisodeResults:
     physical: dict = dataclasses.field(default_factory=dict)
     """`{name: (B, K) values}` of the physical parameters drawn per episode (`randomise`,
     `tasks.randomisation`; NaN where not run); empty where none was drawn."""
+    earlier_compute: tuple = (0.0, 0.0)
+    """`(wall, CPU)` seconds earlier processes spent on the run before it went on from the
+    state they kept (`runners.resume`); zeros for a run computed in one go."""
 
     @classmethod
     def empty(cls, agents: int, episodes: int) -> "EpisodeResults":

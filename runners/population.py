@@ -54,6 +54,7 @@ import numpy as np
 
 from lwrl import kernels, tasks
 from lwrl.runners.episodes import EpisodeResults, episode_starts, step_budget
+from lwrl.runners.resume import Resume
 from lwrl.settings import check_count
 from lwrl.tasks.commands import check_kinds, commands
 from lwrl.tasks.randomisation import check_ranges, draws
@@ -69,7 +70,7 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
                    greedy: bool = False, progress=None, record=(), plant: str = "analytic",
                    integrator: str = "semi_implicit", equations: str = "paper", params=None,
                    observation_noise=None, action_delay=0, action_noise=0.0, randomise=None,
-                   budget=None, checkpoints=None, **task_options) -> EpisodeResults:
+                   budget=None, checkpoints=None, resume=None, **task_options) -> EpisodeResults:
     """Run `agent` (a population learner's agents, `agent.jax_population.PopulationAgents`)
     for `episodes` episodes each on `domain.task`'s JAX plant, agent b from `seeds[b]`'s
     starts with the physical parameter values of row b of `params` (`{name: value or B
@@ -80,7 +81,9 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
     episode that spends them cut there, truncated, as `run_compiled` cuts it (the learner
     sees that step as it would without the budget, so what came before is the same);
     `checkpoints`: `{smaller budget: call(agents, results)}`, each called with a copy of the
-    agents and the results the run with that budget would end with (see the module). A
+    agents and the results the run with that budget would end with (see the module);
+    `resume`: `(path, run key)` where the run keeps its state as it goes and from which a
+    later call of the same run goes on (`runners.resume`). A
     one-line ValueError for a bad option and for what the path does not
     run: a plant but those of `lwrl.jax` (`PLANTS`), recordings, and on the mjx plant,
     whose one model is compiled at the run's parameter values, values that differ between
@@ -118,10 +121,20 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
                                          bool(learn), bool(greedy), agent.continuous)
     step = _CHUNKS[shape]
     carry = _first_carry(env, agent, starts, sensors, episodes)
-    chunk = lambda carry, limit: step(carry, program.hyper, physical, starts, sensors,
-                                      jnp.asarray(min(limit, np.iinfo(np.int32).max), jnp.int32))
+    limit = lambda steps: jnp.asarray(min(steps, np.iinfo(np.int32).max), jnp.int32)
+    chunk = lambda carry, steps: step(carry, program.hyper, physical, starts, sensors, limit(steps))
     budget = step_budget(budget)
     pending = sorted(_check_checkpoints(checkpoints or {}, budget))
+    kept = None
+    if resume is not None:
+        path, key = resume
+        kept = Resume(path, key, step, carry, (program.hyper, physical, starts, sensors,
+                                               limit(budget)))
+        resumed = kept.load(carry, pending[0] if pending else None)
+        if resumed is not None:
+            carry = resumed
+            if progress is not None:
+                progress(int(np.asarray(carry["done"]).sum()))
     interrupted = False
     try:
         while pending or _any(carry["active"]):
@@ -134,10 +147,15 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
             carry = chunk(carry, budget)
             if progress is not None:
                 progress(int(np.asarray(carry["done"]).sum()) - before)
+            if kept is not None and kept.due():
+                kept.keep(carry)
     except KeyboardInterrupt:
         interrupted = True
     _, results = _ended(agent, carry, episodes)
     results.interrupted = interrupted
+    if kept is not None:
+        kept.keep(carry) if interrupted else kept.remove()
+        results.earlier_compute = kept.earlier
     return results
 
 

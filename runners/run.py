@@ -99,8 +99,8 @@ def drawn_values(config, options: dict, seeds, results: EpisodeResults) -> dict:
 
 
 def run(config, agent: Agents | None = None, learn: bool = True, greedy: bool = False,
-        progress=None, record=(), seeds=None, batch=None,
-        checkpoints=None) -> tuple[Agents, EpisodeResults]:
+        progress=None, record=(), seeds=None, batch=None, checkpoints=None,
+        resume=None) -> tuple[Agents, EpisodeResults]:
     """Run a `RunConfig`: the compiled loop where it runs the plant and the learner, else
     the batched stepper. Returns the agents (new ones unless given) and their results, with
     recordings of the `(agent, episode)` pairs in `record`. `learn=False` runs without
@@ -110,16 +110,19 @@ def run(config, agent: Agents | None = None, learn: bool = True, greedy: bool = 
     sensors (`environment_options`), for batches that join several configurations. The
     values drawn per episode (`randomise`) are in `results.physical`. `checkpoints`
     (`{smaller budget: call(agents, results)}`, population learners only) gives on the way
-    the runs of `config` with smaller budgets (`runners.population.run_population`)."""
+    the runs of `config` with smaller budgets (`runners.population.run_population`), and
+    `resume` (a path, population learners only) keeps the run's state there as it goes, for
+    a later call to go on from (`runners.resume`)."""
     agent = make_agent(config) if agent is None else agent
     seeds = config.seeds if seeds is None else list(seeds)
     domain, task = config.domain, config.task_name
     options = environment_options(batch or [config])
     if config.actions != "discrete":
         options["actions"] = config.actions
-    if checkpoints and not agent.learner.population:
-        raise ValueError(f"checkpoints are taken by population learners only; {config.learner} "
-                         "is not one")
+    for name, given in (("checkpoints", checkpoints), ("resume", resume)):
+        if given and not agent.learner.population:
+            raise ValueError(f"{name} is for population learners only; {config.learner} "
+                             "is not one")
 
     def drawn(results):
         results.physical = drawn_values(config, options, seeds, results)
@@ -131,6 +134,7 @@ def run(config, agent: Agents | None = None, learn: bool = True, greedy: bool = 
                                  budget=config.budget,
                                  checkpoints={smaller: _after(call, drawn) for smaller, call
                                               in (checkpoints or {}).items()},
+                                 resume=None if resume is None else (resume, config.key),
                                  plant=config.plant_name, **config.plant_options,
                                  **config.task_options, **options)
     elif agent.learner.compiles and compiles(domain, config.plant_name):

@@ -86,6 +86,12 @@ class RunStore:
         """Where the agents of the run `key` of the sweep in `out_dir` are kept."""
         return pathlib.Path(out_dir) / "runs" / f"{key}.agents.npz"
 
+    @staticmethod
+    def resume_file(out_dir, key: str) -> pathlib.Path:
+        """Where the run `key` of the sweep in `out_dir` keeps its state while it runs
+        (`runners.resume`: population runs)."""
+        return pathlib.Path(out_dir) / "runs" / f"{key}.resume.npz"
+
     def finished(self, config) -> bool:
         return self.path(config).exists() and (
             not self.keep_agents or self.agents_file(self.directory.parent, config.key).exists())

@@ -5,7 +5,8 @@ the run's name and a hash of its whole configuration; the file appears whole (wr
 temporary name, then renamed) only once the run has finished (`runners.store`). Running the
 same sweep again skips every run whose file exists, so an interrupted sweep (Ctrl-C, kill,
 power cut) resumes where it stopped and recomputes nothing that finished (a batch that was
-running when interrupted runs again whole); a damaged file is set aside and its run
+running when interrupted runs again whole, but for a population learner's, which goes on
+from the state it keeps every few minutes, `runners.resume`); a damaged file is set aside and its run
 computed again; two processes sweeping into one directory share the batches. A diverged
 run is a finished run: its agents' `diverged` column says so.
 
@@ -112,30 +113,37 @@ def run_batch(configs, progress=None, directory=None, keep_agents: bool = False)
     base = max(configs, key=lambda config: config.budget) if family else configs[0]
     joined = [base] if family else configs
     agent = trained_agents(joined, directory) if base.trained else make_agent(*joined)
-    ended = {}
-    checkpoints = {config.budget: functools.partial(_remember, ended, config.key)
+    population = directory is not None and agent.learner.population
+    tables = {}
+    checkpoints = {config.budget: functools.partial(_finish, tables, config, directory,
+                                                    keep_agents)
                    for config in configs if config is not base} if family else None
     _, results = run(base, agent=agent, seeds=[seed for config in joined for seed in config.seeds],
                      progress=progress, learn=base.learn, greedy=base.greedy, batch=joined,
-                     checkpoints=checkpoints)
-    if results.interrupted:
+                     checkpoints=checkpoints,
+                     resume=RunStore.resume_file(directory, base.key) if population else None)
+    if results.interrupted:  # a population run keeps its state and what it spent to go on
         raise KeyboardInterrupt
-    if family:
-        _remember(ended, base.key, agent, results)
-        pieces = [(config, *ended[config.key]) for config in configs]
-    else:
-        starts = np.cumsum([0] + [config.agents for config in configs])
-        pieces = [(config, agent, results.agents(start, start + config.agents))
-                  for config, start in zip(configs, starts)]
+    if any(results.earlier_compute):  # what the processes stopped before this one spent
+        RunStore(directory).record_compute(configs, *results.earlier_compute)
+    starts = np.cumsum([0] + [config.agents for config in joined])
+    for config, start in zip(joined, starts):
+        _finish(tables, config, directory, keep_agents, agent,
+                results.agents(start, start + config.agents), write=False)
+    return [tables[config.key] for config in configs]
+
+
+def _finish(tables: dict, config, directory, keep_agents: bool, agents, results,
+            write: bool = True) -> None:
+    """Keep `config`'s table in `tables`, and with `keep_agents` save its `agents`; with
+    `write`, its table is written at once too (a family's checkpoint: what a stop of the
+    longer run later would otherwise lose)."""
+    tables[config.key] = results_table(config, results)
     if keep_agents:
-        for config, agents, _ in pieces:
-            agent_io.save(RunStore.agents_file(directory, config.key), agents,
-                          {"config": dataclasses.asdict(config)})
-    return [results_table(config, results) for config, _, results in pieces]
-
-
-def _remember(ended: dict, key: str, agents, results) -> None:
-    ended[key] = (agents, results)
+        agent_io.save(RunStore.agents_file(directory, config.key), agents,
+                      {"config": dataclasses.asdict(config)})
+    if write and directory is not None:
+        RunStore(directory).write(config, tables[config.key])
 
 
 def results_table(config: RunConfig, results) -> pd.DataFrame:

@@ -126,7 +126,7 @@ def test_a_checkpoint_is_a_smaller_budget(smaller):
                    "a checkpoint is a budget of steps from 1 to the run's budget (500) exclusive")
 
 
-def test_only_a_population_learner_takes_checkpoints():
-    one_line_error(lambda: run(RunConfig(task="mountain_car.cost_to_go", budget=900),
-                               checkpoints={100: print}),
-                   "checkpoints are taken by population learners only; sarsa is not one")
+@pytest.mark.parametrize("option", [{"checkpoints": {100: print}}, {"resume": "r.npz"}])
+def test_only_a_population_learner_takes_checkpoints_or_resumes(option):
+    one_line_error(lambda: run(RunConfig(task="mountain_car.cost_to_go", budget=900), **option),
+                   f"{next(iter(option))} is for population learners only; sarsa is not one")

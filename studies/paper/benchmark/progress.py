@@ -38,9 +38,10 @@ def _chosen(task: str, out_dir: str, plant: str, runs: dict, store: RunStore):
 
 
 def cpu_per_agent_step(out_dir: str, configs) -> dict:
-    """`{key: CPU seconds per agent-step}` of the runs of `configs` that a line of the ledger
-    computed alone or as the longest of its family (`runners.sweep.families`): the line's
-    CPU over the run's agents times its budget."""
+    """`{key: CPU seconds per agent-step}` of the runs of `configs` that lines of the ledger
+    computed alone or as the longest of its family (`runners.sweep.families`): their CPU (a
+    stopped run's earlier processes' line too, `runners.resume`) over the run's agents
+    times its budget."""
     by_key = {config.key: config for config in configs}
     rates = {}
     for line in ledger_lines(out_dir):
@@ -48,7 +49,8 @@ def cpu_per_agent_step(out_dir: str, configs) -> dict:
         if mine and len(mine) == len(line["runs"]) and all(c.budget for c in mine):
             longest = max(mine, key=lambda config: config.budget)
             if len(mine) == 1 or all(family_key(c) == family_key(longest) for c in mine):
-                rates[longest.key] = line["cpu_s"] / (longest.agents * longest.budget)
+                rates[longest.key] = (rates.get(longest.key, 0.0)
+                                      + line["cpu_s"] / (longest.agents * longest.budget))
     return rates
 
 
