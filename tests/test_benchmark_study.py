@@ -77,9 +77,11 @@ def test_a_tiny_benchmark_runs_resumes_and_needs_no_kept_agents_once_evaluated(t
     assert "](figures/mountain_car.cost_to_go-curves.png)" in text
     status = progress.task_lines(TASK, str(tmp_path))
     assert status[0].endswith("reference rows written") and len(status) == 1 + len(labels)
-    assert all(f"search 2/2 trained, 2/2 evaluated; configuration {third.chosen[label]} chosen; "
-               "rows (2 agents at 4 fractions) 4/4 trained, 4/4 evaluated" in line
-               for label, line in zip(labels, status[1:]))
+    for label, line in zip(labels, status[1:]):
+        score = np.mean(third.search_scores[label, third.chosen[label]])
+        assert (f"search 2/2 trained, 2/2 evaluated; configuration {third.chosen[label]} chosen, "
+                f"search score {score:.2f}; rows (2 agents at 4 fractions) 4/4 trained, "
+                "4/4 evaluated") in line
     assert (tmp_path / "figures" / "mountain_car.cost_to_go-curves.png").exists()
 
 

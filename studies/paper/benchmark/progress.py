@@ -1,6 +1,8 @@
 """How far the second benchmark has got in a directory, read from its files alone (nothing is
 run, claimed or written): per task the reference rows, per row its search's trainings and
-greedy evaluations, then its rows' (`study`'s steps 1 to 3), and what the ledger counts.
+greedy evaluations, the configuration it chose with its search score (the mean normalised
+score of its search agents, by which it was chosen), then its rows' (`study`'s steps 1 to
+3), and what the ledger counts.
 Where the ledger has what a row's search runs cost, a row's line also says what CPU its
 trainings left will take, each at the CPU per agent-step of its configuration's search run
 (a row's at its chosen one's; before the choice, the span over its configurations): an
@@ -26,15 +28,17 @@ def _counts(store: RunStore, configs) -> tuple:
 
 
 def _chosen(task: str, out_dir: str, plant: str, runs: dict, store: RunStore):
-    """Each row's chosen configuration (`study.choose`), or None while a search evaluation
-    or the reference rows are missing."""
+    """`({label: i}, {(label, i): search agents' scores})`: each row's chosen configuration
+    (`study.choose`) and every configuration's normalised scores, or `(None, None)` while a
+    search evaluation or the reference rows are missing."""
     path = os.path.join(out_dir, study.REFERENCES, f"{task}-{plant}.csv.gz")
     evaluations = {name: evaluation.evaluation(config) for name, config in runs.items()}
     if not os.path.exists(path) or not all(map(store.finished, evaluations.values())):
-        return None
+        return None, None
     reference = study.references(task, out_dir, plant)  # written: read, not run
     tables = {name: store.read([config]) for name, config in evaluations.items()}
-    return study.choose(study.scored(task, tables, reference))
+    scores = study.scored(task, tables, reference)
+    return study.choose(scores), scores
 
 
 def cpu_per_agent_step(out_dir: str, configs) -> dict:
@@ -66,7 +70,7 @@ def task_lines(task: str, out_dir: str, plant: str = "analytic") -> list:
     written = os.path.exists(os.path.join(out_dir, study.REFERENCES, f"{task}-{plant}.csv.gz"))
     lines = [f"{task} ({plant} plant): reference rows {'written' if written else 'not run yet'}"]
     runs = search.runs(task, plant)
-    chosen = _chosen(task, out_dir, plant, runs, store)
+    chosen, scores = _chosen(task, out_dir, plant, runs, store)
     rates = cpu_per_agent_step(out_dir, runs.values())
     for row in protocol.rows(task):
         mine = [config for (label, _), config in runs.items() if label == row.label]
@@ -87,7 +91,9 @@ def task_lines(task: str, out_dir: str, plant: str = "analytic") -> list:
         else:
             trainings = list(study.row_trainings(task, row, chosen[row.label], plant).values())
             trained, evaluated = _counts(store, trainings)
-            text += (f"configuration {chosen[row.label]} chosen; rows ({protocol.AGENTS} agents "
+            mean = np.mean(scores[row.label, chosen[row.label]])
+            text += (f"configuration {chosen[row.label]} chosen, search score {mean:.2f}; "
+                     f"rows ({protocol.AGENTS} agents "
                      f"at {len(trainings)} fractions) {trained}/{len(trainings)} trained, "
                      f"{evaluated}/{len(trainings)} evaluated")
             rate = rates.get(runs[row.label, chosen[row.label]].key)
