@@ -51,7 +51,8 @@ def build_parser() -> Parser:
 
 def main(argv=None) -> int:
     """Run one command: 0 when it succeeded, 2 for bad input (one line on standard error),
-    1 when an output could not be written after the work, 130 when interrupted."""
+    1 when an output could not be written after the work, 130 when interrupted (143 when
+    stopped by SIGTERM)."""
     parser = build_parser()
     given = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(bench.legacy(given))
@@ -59,7 +60,7 @@ def main(argv=None) -> int:
     output.INTERRUPTS = output.Interrupts(args.command)
     with output.INTERRUPTS:
         try:
-            return args.run(args) or 0
+            return output.INTERRUPTS.status(args.run(args) or 0)
         except ValueError as error:
             print(f"lwrl {args.command}: error: {error}", file=sys.stderr)
             return 2
@@ -72,7 +73,7 @@ def main(argv=None) -> int:
             return 2
         except KeyboardInterrupt:
             print(f"lwrl {args.command}: interrupted", file=sys.stderr)
-            return 130
+            return output.INTERRUPTS.status(130)
         finally:
             outputs.release_claims()  # the command's outputs are in place, or will not be
 

@@ -27,39 +27,52 @@ class Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
+SIGNALS = (signal.SIGINT, signal.SIGTERM)
+"""What stops a command as Ctrl-C does: Ctrl-C itself, and `kill`'s default signal (which a
+scheduler or the end of a session sends before it kills)."""
+
+
 class Interrupts:
-    """Ctrl-C while a command runs (`main` installs it on the main thread): the first press
-    says at once that the work stops, and stops it (a KeyboardInterrupt, which the run loops
-    turn into results marked interrupted); later presses, and any press while outputs are
-    written (`writing()`), say so and are ignored, so that no output is left half-written."""
+    """Ctrl-C (or SIGTERM) while a command runs (`main` installs it on the main thread): the
+    first says at once that the work stops, and stops it (a KeyboardInterrupt, which the run
+    loops turn into results marked interrupted, a population run keeping its state to go on
+    from); later ones, and any while outputs are written (`writing()`), say so and are
+    ignored, so that no output is left half-written. `signum`: the signal that stopped it."""
 
     def __init__(self, command: str):
         self.command = command
         self.stopping = False
+        self.signum = None
         self.writing_depth = 0
-        self._previous = None
+        self._previous = {}
 
     def _handle(self, signum, frame):
         if self.stopping or self.writing_depth:
             print(f"lwrl {self.command}: still writing what finished; please wait",
                   file=sys.stderr, flush=True)
             return
-        self.stopping = True
+        self.stopping, self.signum = True, signum
         print(f"lwrl {self.command}: stopping (the episodes in progress end, then what finished "
               "is written; Ctrl-C again is ignored)", file=sys.stderr, flush=True)
         raise KeyboardInterrupt
 
     def __enter__(self):
         if threading.current_thread() is threading.main_thread():
-            self._previous = signal.signal(signal.SIGINT, self._handle)
+            self._previous = {signum: signal.signal(signum, self._handle) for signum in SIGNALS}
         return self
 
     def __exit__(self, *exc):
-        if self._previous is not None:
+        for signum, previous in self._previous.items():
             # After a press the process is on its way out: a late press must not end it
             # with a traceback while it exits.
-            signal.signal(signal.SIGINT, signal.SIG_IGN if self.stopping else self._previous)
+            signal.signal(signum, signal.SIG_IGN if self.stopping else previous)
         return False
+
+    def status(self, status: int) -> int:
+        """A command's exit status: an interrupted one's (130) as the shell gives a process
+        ended by the signal that stopped it, 128 + its number (130 for Ctrl-C, 143 for
+        SIGTERM)."""
+        return 128 + self.signum if status == 130 and self.signum is not None else status
 
     @contextlib.contextmanager
     def writing(self):

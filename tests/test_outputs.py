@@ -107,10 +107,12 @@ def test_agent_files_are_checked_on_load(tmp_path, capsys):
         assert status == 2 and len(err) == 1 and "is not an lwrl agent file" in err[0], err
 
 
-@pytest.mark.parametrize("presses", [1, 2])
-def test_ctrl_c_stops_the_work_and_writes_what_finished(tmp_path, presses):
-    """The first Ctrl-C says at once that the run stops, and it stops; a second is ignored
-    while what finished is written; the episodes and the agents are written whole."""
+@pytest.mark.parametrize("stop, presses", [(signal.SIGINT, 1), (signal.SIGINT, 2),
+                                           (signal.SIGTERM, 1)])
+def test_ctrl_c_stops_the_work_and_writes_what_finished(tmp_path, stop, presses):
+    """The first Ctrl-C (or SIGTERM, as `kill` sends) says at once that the run stops, and it
+    stops; a second is ignored while what finished is written; the episodes and the agents
+    are written whole; the status is 128 + the signal's number."""
     out, save = tmp_path / "run", tmp_path / "agents.npz"
     process = subprocess.Popen(
         [sys.executable, "-m", "lwrl.cli", "train", "cartpole.balance", "--plant", "analytic",
@@ -119,10 +121,10 @@ def test_ctrl_c_stops_the_work_and_writes_what_finished(tmp_path, presses):
     assert "episodes" in process.stdout.readline()  # the run's header: training starts
     time.sleep(3.0)
     for _ in range(presses):
-        process.send_signal(signal.SIGINT)
+        process.send_signal(stop)
         time.sleep(0.3)
     stdout, stderr = process.communicate(timeout=120)
-    assert process.returncode == 130, stderr
+    assert process.returncode == 128 + stop, stderr
     assert "lwrl train: stopping" in stderr
     assert "Traceback" not in stderr
     episodes = (out / "episodes.csv").read_text().splitlines()
