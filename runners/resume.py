@@ -34,6 +34,16 @@ EVERY_SECONDS = 600.0
 """The least wall time between two saves of a running run's state."""
 
 
+def kept_steps(path):
+    """The steps per agent of the state kept at `path` (the most any agent has taken), or
+    None where there is none (or it says nothing of them)."""
+    try:
+        with np.load(path, allow_pickle=False) as archive:  # reads the document alone
+            return json.loads(str(archive["document"])).get("steps")
+    except (OSError, EOFError, ValueError, KeyError):
+        return None
+
+
 class Resume:
     """The kept state of one run at `path` (see the module); `identity` names the run (its
     key), `program` is the jitted chunk and `arguments` its arguments after the carry."""
@@ -86,7 +96,7 @@ class Resume:
         leaves = [np.asarray(leaf) for leaf in jax.tree.leaves(carry)]
         wall_s, cpu_s = self.spent()
         document = {"identity": self.identity, "leaves": len(leaves), "wall_s": wall_s,
-                    "cpu_s": cpu_s}
+                    "cpu_s": cpu_s, "steps": int(np.asarray(carry["spent"]).max())}
         with outputs.atomic_write(self.path, "wb") as file:
             np.savez(file, document=np.array(json.dumps(document)),
                      **{f"leaf{i}": leaf for i, leaf in enumerate(leaves)})

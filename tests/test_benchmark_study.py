@@ -106,6 +106,8 @@ def test_the_status_says_what_the_trainings_left_will_cost_from_the_ledger(tmp_p
     the first's rate or the second's (2 000 s = 33 min, or 1.7 h). A line joining a family
     counts its longest run."""
     import json
+
+    from lwrl.runners.store import RunStore
     budget = protocol.BUDGETS[TASK]
     runs = search.runs(TASK)
     first, second = runs["dqn", 0], runs["dqn", 1]
@@ -121,6 +123,13 @@ def test_the_status_says_what_the_trainings_left_will_cost_from_the_ledger(tmp_p
     row = next(row for row in protocol.rows(TASK) if row.label == "dqn")
     fractions = list(study.row_trainings(TASK, row, 0).values())
     assert progress.cpu_left(fractions, 1e-3) == pytest.approx(1e-3 * 20 * budget)
+    kept = RunStore.resume_file(tmp_path, fractions[-1].key)  # the family's run, under way
+    kept.parent.mkdir()
+    np.savez(kept, document=np.array(json.dumps({"steps": 30_000})))
+    assert progress.kept(str(tmp_path), fractions) == (
+        f" (its run under way kept at 30,000 of {budget:,} steps)")
+    assert progress.cpu_left(fractions, 1e-3, str(tmp_path)) == pytest.approx(
+        1e-3 * 20 * (budget - 30_000))
     (tmp_path / "compute.jsonl").write_text(json.dumps({"runs": [c.key for c in fractions],
                                                         "cpu_s": 7.0}) + "\n")
     assert progress.cpu_per_agent_step(str(tmp_path), fractions) == {

@@ -9,6 +9,8 @@ import pytest
 
 from lwrl.agent import jax_population
 from lwrl.runners.config import RunConfig
+from lwrl.runners.population import CHUNK
+from lwrl.runners.resume import kept_steps
 from lwrl.runners.run import run
 from lwrl.runners.store import RunStore, ledger_lines
 
@@ -43,7 +45,7 @@ def test_a_stopped_run_goes_on_from_its_kept_state_to_the_same_numbers(tmp_path)
     path = tmp_path / "run.resume.npz"
     whole_agents, whole = run(dqn())
     _, stopped = run(dqn(), resume=path, progress=stop_at(2))
-    assert stopped.interrupted and path.exists()
+    assert stopped.interrupted and kept_steps(path) == 2 * CHUNK
     agents, resumed = run(dqn(), resume=path)
     assert not resumed.interrupted and not path.exists()
     same(resumed, whole)
@@ -67,7 +69,6 @@ def test_a_kept_state_of_another_run_or_past_a_checkpoint_is_not_used(tmp_path):
 
 
 def test_a_stopped_family_keeps_its_checkpoints_and_computes_the_rest(tmp_path):
-    from lwrl.runners.population import CHUNK
     from lwrl.runners.sweep import run_batch, run_sweep
     configs = [dqn(300), dqn(CHUNK), dqn(2 * CHUNK + 77)]
     with pytest.raises(KeyboardInterrupt):

@@ -14,6 +14,7 @@ import os
 
 import numpy as np
 
+from lwrl.runners.resume import kept_steps
 from lwrl.runners.store import RunStore, compute_spent, ledger_lines
 from lwrl.runners.sweep import families, family_key
 from lwrl.studies.paper.benchmark import evaluation, protocol, search, study
@@ -58,10 +59,31 @@ def cpu_per_agent_step(out_dir: str, configs) -> dict:
     return rates
 
 
-def cpu_left(pending, rate: float) -> float:
+def cpu_left(pending, rate: float, out_dir=None) -> float:
     """CPU seconds the `pending` trainings would take at `rate` per agent-step: a family's
-    (`runners.sweep.families`) its longest run's steps."""
-    return sum(rate * max(c.agents * c.budget for c in family) for family in families(pending))
+    (`runners.sweep.families`) its longest run's steps, less those the state it keeps in
+    `out_dir` has taken (`runners.resume`)."""
+    return sum(rate * longest.agents * (longest.budget - (taken or 0))
+               for longest, taken in _under_way(pending, out_dir))
+
+
+def kept(out_dir: str, pending) -> str:
+    """What the pending trainings' kept states say (`runners.resume`): the steps each one's
+    longest run has taken, or nothing."""
+    said = [f"{taken:,} of {longest.budget:,} steps"
+            for longest, taken in _under_way(pending, out_dir) if taken is not None]
+    return f" (its run under way kept at {', '.join(said)})" if said else ""
+
+
+def _under_way(pending, out_dir) -> list:
+    """`[(longest run, steps its kept state has taken or None)]`, one per family of
+    `pending` (`runners.sweep.families`); None for all without `out_dir`."""
+    result = []
+    for family in families(pending):
+        longest = max(family, key=lambda config: config.budget)
+        path = RunStore.resume_file(out_dir, longest.key) if out_dir else None
+        result.append((longest, kept_steps(path) if path else None))
+    return result
 
 
 def task_lines(task: str, out_dir: str, plant: str = "analytic") -> list:
@@ -98,7 +120,8 @@ def task_lines(task: str, out_dir: str, plant: str = "analytic") -> list:
                      f"{evaluated}/{len(trainings)} evaluated")
             rate = rates.get(runs[row.label, chosen[row.label]].key)
             pending = [config for config in trainings if not _done(store, config)]
-            left = cpu_left(pending, rate) if rate is not None else None
+            text += kept(out_dir, pending)
+            left = cpu_left(pending, rate, out_dir) if rate is not None else None
         if left:
             text += (f"; about {duration(left)} of CPU of trainings left"
                      + (" (its search's)" if chosen is None else ""))
