@@ -34,14 +34,16 @@ EVERY_SECONDS = 600.0
 """The least wall time between two saves of a running run's state."""
 
 
-def kept_steps(path):
-    """The steps per agent of the state kept at `path` (the most any agent has taken), or
-    None where there is none (or it says nothing of them)."""
+def kept(path) -> dict:
+    """What the state kept at `path` says of its run: `steps` (per agent, the most any agent
+    has taken), and the `wall_s` and `cpu_s` spent to get there; `{}` where nothing is kept
+    (an archive written before it said its steps says no `steps`)."""
     try:
         with np.load(path, allow_pickle=False) as archive:  # reads the document alone
-            return json.loads(str(archive["document"])).get("steps")
+            document = json.loads(str(archive["document"]))
     except (OSError, EOFError, ValueError, KeyError):
-        return None
+        return {}
+    return {name: document[name] for name in ("steps", "wall_s", "cpu_s") if name in document}
 
 
 class Resume:

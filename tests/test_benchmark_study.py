@@ -125,11 +125,11 @@ def test_the_status_says_what_the_trainings_left_will_cost_from_the_ledger(tmp_p
     assert progress.cpu_left(fractions, 1e-3) == pytest.approx(1e-3 * 20 * budget)
     kept = RunStore.resume_file(tmp_path, fractions[-1].key)  # the family's run, under way
     kept.parent.mkdir()
-    np.savez(kept, document=np.array(json.dumps({"steps": 30_000})))
-    assert progress.kept(str(tmp_path), fractions) == (
+    np.savez(kept, document=np.array(json.dumps({"steps": 30_000, "cpu_s": 1200.0})))
+    assert progress.under_way(str(tmp_path), fractions) == (
         f" (its run under way kept at 30,000 of {budget:,} steps)")
-    assert progress.cpu_left(fractions, 1e-3, str(tmp_path)) == pytest.approx(
-        1e-3 * 20 * (budget - 30_000))
+    assert progress.cpu_left(fractions, 1e-3, str(tmp_path)) == pytest.approx(  # its own 2 ms
+        1200.0 / 30_000 * (budget - 30_000))
     (tmp_path / "compute.jsonl").write_text(json.dumps({"runs": [c.key for c in fractions],
                                                         "cpu_s": 7.0}) + "\n")
     assert progress.cpu_per_agent_step(str(tmp_path), fractions) == {

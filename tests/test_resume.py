@@ -10,7 +10,7 @@ import pytest
 from lwrl.agent import jax_population
 from lwrl.runners.config import RunConfig
 from lwrl.runners.population import CHUNK
-from lwrl.runners.resume import kept_steps
+from lwrl.runners.resume import kept
 from lwrl.runners.run import run
 from lwrl.runners.store import RunStore, ledger_lines
 
@@ -45,7 +45,7 @@ def test_a_stopped_run_goes_on_from_its_kept_state_to_the_same_numbers(tmp_path)
     path = tmp_path / "run.resume.npz"
     whole_agents, whole = run(dqn())
     _, stopped = run(dqn(), resume=path, progress=stop_at(2))
-    assert stopped.interrupted and kept_steps(path) == 2 * CHUNK
+    assert stopped.interrupted and kept(path)["steps"] == 2 * CHUNK
     agents, resumed = run(dqn(), resume=path)
     assert not resumed.interrupted and not path.exists()
     same(resumed, whole)

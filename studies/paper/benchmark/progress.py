@@ -5,8 +5,9 @@ score of its search agents, by which it was chosen), then its rows' (`study`'s s
 3), and what the ledger counts.
 Where the ledger has what a row's search runs cost, a row's line also says what CPU its
 trainings left will take, each at the CPU per agent-step of its configuration's search run
-(a row's at its chosen one's; before the choice, the span over its configurations): an
-estimate, as a population of 20 agents may cost less per agent than one of 3.
+(a row's at its chosen one's; before the choice, the span over its configurations; a run
+under way at its own so far, from the state it keeps): an estimate, as a population of 20
+agents may cost less per agent than one of 3.
 A study that takes several working sessions is resumed by the same `lwrl bench run`; this
 says what that command has left to do. `lwrl bench status`."""
 
@@ -14,7 +15,7 @@ import os
 
 import numpy as np
 
-from lwrl.runners.resume import kept_steps
+from lwrl.runners.resume import kept
 from lwrl.runners.store import RunStore, compute_spent, ledger_lines
 from lwrl.runners.sweep import families, family_key
 from lwrl.studies.paper.benchmark import evaluation, protocol, search, study
@@ -61,29 +62,30 @@ def cpu_per_agent_step(out_dir: str, configs) -> dict:
 
 def cpu_left(pending, rate: float, out_dir=None) -> float:
     """CPU seconds the `pending` trainings would take at `rate` per agent-step: a family's
-    (`runners.sweep.families`) its longest run's steps, less those the state it keeps in
-    `out_dir` has taken (`runners.resume`)."""
-    return sum(rate * longest.agents * (longest.budget - (taken or 0))
-               for longest, taken in _under_way(pending, out_dir))
+    (`runners.sweep.families`) its longest run's steps; for a run under way (its state kept
+    in `out_dir`, `runners.resume`) the steps it has left, at its own rate so far."""
+    total = 0.0
+    for longest, state in _under_way(pending, out_dir):
+        taken = state.get("steps") or 0
+        own = state["cpu_s"] / (longest.agents * taken) if taken else rate
+        total += own * longest.agents * (longest.budget - taken)
+    return total
 
 
-def kept(out_dir: str, pending) -> str:
+def under_way(out_dir: str, pending) -> str:
     """What the pending trainings' kept states say (`runners.resume`): the steps each one's
     longest run has taken, or nothing."""
-    said = [f"{taken:,} of {longest.budget:,} steps"
-            for longest, taken in _under_way(pending, out_dir) if taken is not None]
+    said = [f"{state['steps']:,} of {longest.budget:,} steps"
+            for longest, state in _under_way(pending, out_dir) if "steps" in state]
     return f" (its run under way kept at {', '.join(said)})" if said else ""
 
 
 def _under_way(pending, out_dir) -> list:
-    """`[(longest run, steps its kept state has taken or None)]`, one per family of
-    `pending` (`runners.sweep.families`); None for all without `out_dir`."""
-    result = []
-    for family in families(pending):
-        longest = max(family, key=lambda config: config.budget)
-        path = RunStore.resume_file(out_dir, longest.key) if out_dir else None
-        result.append((longest, kept_steps(path) if path else None))
-    return result
+    """`[(longest run, what its kept state says)]`, one per family of `pending`
+    (`runners.sweep.families`); nothing kept without `out_dir`."""
+    return [(longest, kept(RunStore.resume_file(out_dir, longest.key)) if out_dir else {})
+            for longest in (max(family, key=lambda config: config.budget)
+                            for family in families(pending))]
 
 
 def task_lines(task: str, out_dir: str, plant: str = "analytic") -> list:
@@ -120,7 +122,7 @@ def task_lines(task: str, out_dir: str, plant: str = "analytic") -> list:
                      f"{evaluated}/{len(trainings)} evaluated")
             rate = rates.get(runs[row.label, chosen[row.label]].key)
             pending = [config for config in trainings if not _done(store, config)]
-            text += kept(out_dir, pending)
+            text += under_way(out_dir, pending)
             left = cpu_left(pending, rate, out_dir) if rate is not None else None
         if left:
             text += (f"; about {duration(left)} of CPU of trainings left"
