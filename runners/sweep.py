@@ -90,6 +90,20 @@ def families(configs) -> list:
     return list(groups.values())
 
 
+def longest(family):
+    """The run of a family (`families`) that computes the others: the one of largest budget."""
+    return max(family, key=lambda config: config.budget)
+
+
+def given_on_the_way(batch) -> set:
+    """The keys of the runs of `batch` (those one ledger line names, `RunStore.record_compute`)
+    that a longer run of their family among them gave on the way: the batch computed their
+    steps as that run's first."""
+    return {config.key for config in batch if config.budget is not None and any(
+        other.budget is not None and other.budget > config.budget
+        and family_key(other) == family_key(config) for other in batch)}
+
+
 def trained_agents(configs, directory):
     """The agents of a batch of configurations that go on with the agents of the run
     `configs[0].trained` (kept in `directory`, `RunStore.agents_path`): each configuration's
@@ -110,7 +124,7 @@ def run_batch(configs, progress=None, directory=None, keep_agents: bool = False)
     `trained_agents`); with `keep_agents` each configuration's agents are saved to
     `directory` for such runs."""
     family = len({config.budget for config in configs}) > 1
-    base = max(configs, key=lambda config: config.budget) if family else configs[0]
+    base = longest(configs) if family else configs[0]
     joined = [base] if family else configs
     agent = trained_agents(joined, directory) if base.trained else make_agent(*joined)
     population = directory is not None and agent.learner.population

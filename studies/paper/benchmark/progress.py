@@ -17,7 +17,7 @@ import numpy as np
 
 from lwrl.runners.resume import kept
 from lwrl.runners.store import RunStore, compute_spent, ledger_lines
-from lwrl.runners.sweep import families, family_key
+from lwrl.runners.sweep import families, given_on_the_way, longest
 from lwrl.studies.paper.benchmark import evaluation, protocol, search, study
 
 
@@ -52,11 +52,11 @@ def cpu_per_agent_step(out_dir: str, configs) -> dict:
     rates = {}
     for line in ledger_lines(out_dir):
         mine = [by_key[key] for key in line["runs"] if key in by_key]
-        if mine and len(mine) == len(line["runs"]) and all(c.budget for c in mine):
-            longest = max(mine, key=lambda config: config.budget)
-            if len(mine) == 1 or all(family_key(c) == family_key(longest) for c in mine):
-                rates[longest.key] = (rates.get(longest.key, 0.0)
-                                      + line["cpu_s"] / (longest.agents * longest.budget))
+        given = given_on_the_way(mine)
+        computed = [config for config in mine if config.key not in given]
+        if len(mine) == len(line["runs"]) and len(computed) == 1 and computed[0].budget:
+            run, = computed
+            rates[run.key] = rates.get(run.key, 0.0) + line["cpu_s"] / (run.agents * run.budget)
     return rates
 
 
@@ -65,27 +65,26 @@ def cpu_left(pending, rate: float, out_dir=None) -> float:
     (`runners.sweep.families`) its longest run's steps; for a run under way (its state kept
     in `out_dir`, `runners.resume`) the steps it has left, at its own rate so far."""
     total = 0.0
-    for longest, state in _under_way(pending, out_dir):
+    for run, state in _under_way(pending, out_dir):
         taken = state.get("steps") or 0
-        own = state["cpu_s"] / (longest.agents * taken) if taken else rate
-        total += own * longest.agents * (longest.budget - taken)
+        own = state["cpu_s"] / (run.agents * taken) if taken else rate
+        total += own * run.agents * (run.budget - taken)
     return total
 
 
 def under_way(out_dir: str, pending) -> str:
     """What the pending trainings' kept states say (`runners.resume`): the steps each one's
     longest run has taken, or nothing."""
-    said = [f"{state['steps']:,} of {longest.budget:,} steps"
-            for longest, state in _under_way(pending, out_dir) if "steps" in state]
+    said = [f"{state['steps']:,} of {run.budget:,} steps"
+            for run, state in _under_way(pending, out_dir) if "steps" in state]
     return f" (its run under way kept at {', '.join(said)})" if said else ""
 
 
 def _under_way(pending, out_dir) -> list:
     """`[(longest run, what its kept state says)]`, one per family of `pending`
     (`runners.sweep.families`); nothing kept without `out_dir`."""
-    return [(longest, kept(RunStore.resume_file(out_dir, longest.key)) if out_dir else {})
-            for longest in (max(family, key=lambda config: config.budget)
-                            for family in families(pending))]
+    return [(run, kept(RunStore.resume_file(out_dir, run.key)) if out_dir else {})
+            for run in map(longest, families(pending))]
 
 
 def task_lines(task: str, out_dir: str, plant: str = "analytic") -> list:
@@ -99,12 +98,12 @@ def task_lines(task: str, out_dir: str, plant: str = "analytic") -> list:
     for row in protocol.rows(task):
         mine = [config for (label, _), config in runs.items() if label == row.label]
         trained, evaluated = _counts(store, mine)
-        measured = [rates[config.key] for config in mine if config.key in rates]
-        pending = [config for config in mine if not _done(store, config)]
-        left = cpu_left(pending, float(np.mean(measured))) if measured else None
         text = (f"  {row.label:<20} search {trained}/{len(mine)} trained, "
                 f"{evaluated}/{len(mine)} evaluated; ")
         if chosen is None:
+            measured = [rates[config.key] for config in mine if config.key in rates]
+            pending = [config for config in mine if not _done(store, config)]
+            left = cpu_left(pending, float(np.mean(measured))) if measured else None
             text += "its rows wait for every row's search"
             costs = [cpu_left(study.row_trainings(task, row, i, plant).values(), rates[config.key])
                      for (label, i), config in runs.items()

@@ -10,7 +10,7 @@ import os
 import numpy as np
 
 from lwrl.runners.store import RunStore, ledger_lines
-from lwrl.runners.sweep import family_key
+from lwrl.runners.sweep import given_on_the_way
 from lwrl.studies.paper.benchmark import evaluation, protocol, search
 
 SB3_COST = "sb3_cost.json"
@@ -129,13 +129,8 @@ def on_the_way(out_dir: str, configs) -> set:
     their family (`runners.sweep.families`: the same settings, a larger budget), as its
     checkpoints: their steps are the longer run's first."""
     by_key = {config.key: config for config in configs}
-    given = set()
-    for line in ledger_lines(out_dir):
-        mine = [by_key[key] for key in line["runs"] if key in by_key]
-        given |= {config.key for config in mine if any(
-            family_key(other) == family_key(config) and other.budget > config.budget
-            for other in mine if other.budget is not None and config.budget is not None)}
-    return given
+    return set().union(*(given_on_the_way([by_key[key] for key in line["runs"] if key in by_key])
+                         for line in ledger_lines(out_dir)))
 
 
 def ledger_cpu_s(out_dir: str, runs: set) -> tuple:
