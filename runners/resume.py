@@ -28,7 +28,6 @@ import time
 import numpy as np
 
 from lwrl import outputs
-from lwrl.runners.store import cpu
 
 EVERY_SECONDS = 600.0
 """The least wall time between two saves of a running run's state."""
@@ -53,6 +52,8 @@ class Resume:
     def __init__(self, path, run: str, program, template: dict, arguments: tuple):
         import jax
         import jaxlib
+
+        from lwrl.runners.store import cpu  # pandas, the sweep's: not needed to import this
         self.path = pathlib.Path(path)
         text = program.lower(template, *arguments).as_text()
         self.identity = {"run": run, "program": hashlib.sha1(text.encode()).hexdigest(),

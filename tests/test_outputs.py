@@ -155,6 +155,29 @@ def test_what_hid_its_cause_now_names_it(tmp_path, capsys):
     assert status == 2 and "needs about" in err[0] and not (tmp_path / "compare").exists()
 
 
+EXTRAS_ONLY = ("pandas", "jax", "jaxlib", "torch", "stable_baselines3", "ray", "gymnasium",
+               "matplotlib", "serial")
+"""Packages that only the extras install (the core's dependencies do not pull them)."""
+
+
+def test_the_first_command_runs_on_the_core_install(tmp_path):
+    """The README's first command, `lwrl train mountain_car.cost_to_go` after `pip install
+    -e .`: in a process where none of the extras' packages import, a short run of it
+    trains and exits 0."""
+    code = ("import sys, importlib.abc\n"
+            "class Extras(importlib.abc.MetaPathFinder):\n"
+            "    def find_spec(self, name, path=None, target=None):\n"
+            f"        if name.split('.')[0] in {EXTRAS_ONLY!r}:\n"
+            "            raise ImportError(f'No module named {name!r}', name=name)\n"
+            "sys.meta_path.insert(0, Extras())\n"
+            "from lwrl.cli.main import main\n"
+            "sys.exit(main(['train', 'mountain_car.cost_to_go', '--episodes', '2',\n"
+            "               '--agents', '2']))\n")
+    result = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                            text=True, timeout=300)
+    assert result.returncode == 0, result.stderr[-2000:]
+
+
 def test_a_missing_extra_is_named(monkeypatch, capsys):
     """Without pandas (the 'paper' extra) the studies' commands say what to install."""
     import builtins
