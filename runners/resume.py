@@ -24,6 +24,7 @@ import hashlib
 import json
 import pathlib
 import time
+from importlib import metadata
 
 import numpy as np
 
@@ -51,13 +52,13 @@ class Resume:
 
     def __init__(self, path, run: str, program, template: dict, arguments: tuple):
         import jax
-        import jaxlib
 
         from lwrl.runners.store import cpu  # pandas, the sweep's: not needed to import this
         self.path = pathlib.Path(path)
         text = program.lower(template, *arguments).as_text()
         self.identity = {"run": run, "program": hashlib.sha1(text.encode()).hexdigest(),
-                         "jax": jax.__version__, "jaxlib": jaxlib.__version__, "cpu": cpu()}
+                         "jax": jax.__version__, "jaxlib": metadata.version("jaxlib"),
+                         "cpu": cpu()}
         self.earlier = (0.0, 0.0)
         self._started = (time.perf_counter(), time.process_time())
         self._saved = time.perf_counter()

@@ -85,6 +85,8 @@ def test_a_tiny_benchmark_runs_resumes_and_needs_no_kept_agents_once_evaluated(t
     assert (tmp_path / "figures" / "mountain_car.cost_to_go-curves.png").exists()
 
 
+@pytest.mark.skipif(jax_population.missing_jax(),
+                    reason="the deep rows' settings are the JAX populations': pip install 'lwrl[jax]'")
 def test_the_status_of_an_empty_directory_is_that_nothing_ran(tmp_path, capsys):
     """`lwrl bench status` reads the directory only: nothing run, nothing written; a task
     that is not the benchmark's is one line and status 2."""
@@ -99,6 +101,8 @@ def test_the_status_of_an_empty_directory_is_that_nothing_ran(tmp_path, capsys):
     assert status == 2 and len(err) == 1 and "unknown benchmark task" in err[0]
 
 
+@pytest.mark.skipif(jax_population.missing_jax(),
+                    reason="the deep rows' settings are the JAX populations': pip install 'lwrl[jax]'")
 def test_the_status_says_what_the_trainings_left_will_cost_from_the_ledger(tmp_path):
     """Mountain-Car's DQN: two search runs in the ledger, at 1 and 3 ms of CPU per agent-step
     (3 agents x 100 000 steps: 300 s and 900 s); their tables not being here, the 16 runs are
