@@ -99,9 +99,11 @@ def document(judged: list, command: str, seconds: float, figure_dir: str, out_di
     """The report's Markdown, its figures written to `figure_dir`."""
     columns = rivals(judged)
     lines = ["# The second benchmark: the light-weight claim by a reviewer's rule", "",
-             f"Written by `{command}`; the calls that computed its runs took {seconds / 60:.1f} "
-             "min of wall time. The rule is docs/FINDINGS.md's (\"The light-weight claim judged "
-             "again\"), written before the runs.", "", cost_line(out_dir), "",
+             f"Written by `{command}`; its calls that ran to the end took {seconds / 60:.1f} "
+             "min of wall time (calls interrupted before them, whose finished runs they resumed "
+             "from, are counted by the ledger below). The rule is docs/FINDINGS.md's (\"The "
+             "light-weight claim judged again\"), written before the runs.", "",
+             cost_line(out_dir), "",
              "| task | verdict | " + " | ".join(f"against {rival}" for rival in columns) + " |",
              "|---|---|" + "---|" * len(columns)]
     for j in judged:
