@@ -28,11 +28,12 @@ LEDGER = "compute.jsonl"
 
 
 def compute_spent(out_dir) -> dict:
-    """What the ledger of `out_dir` (`RunStore.record_compute`) counts: `runs` (computed
-    runs it names), `wall_s` and `cpu_s` (summed over its batches), `hosts`; zeros where it
-    has none."""
+    """What the ledger of `out_dir` (`RunStore.record_compute`) counts: `runs` (the computed
+    runs it names, each once: a run stopped and resumed has a line for the processes before
+    the one that ended it, `runners.resume`), `wall_s` and `cpu_s` (summed over its lines),
+    `hosts`; zeros where it has none."""
     entries = ledger_lines(out_dir)
-    return {"runs": sum(len(entry["runs"]) for entry in entries),
+    return {"runs": len(ledger_runs(entries)),
             "wall_s": float(sum(entry["wall_s"] for entry in entries)),
             "cpu_s": float(sum(entry["cpu_s"] for entry in entries)),
             "hosts": list(dict.fromkeys(entry["host"] for entry in entries))}
@@ -42,6 +43,12 @@ def ledger_lines(out_dir) -> list:
     """The ledger of `out_dir` (`RunStore.record_compute`), a dict per computed batch."""
     path = pathlib.Path(out_dir) / LEDGER
     return [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
+
+
+def ledger_runs(lines) -> list:
+    """The keys of the runs that ledger `lines` name, each once, in the order they first
+    appear."""
+    return list(dict.fromkeys(key for line in lines for key in line["runs"]))
 
 
 SIMD = {"avx512f": "AVX-512", "avx2": "AVX2", "fma": "FMA", "asimd": "NEON"}

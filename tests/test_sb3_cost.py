@@ -82,35 +82,57 @@ def test_every_configuration_is_measured_once_and_a_rerun_measures_what_is_missi
     assert again[written["ppo"][0].key] == measured[written["ppo"][0].key]
 
 
+RATES = {"warm_up": 0.36, "learning": 3.6, "greedy": 0.036}
+COMMAND = "python -m benchmarks.sb3_cost X"
+
+
+def priced(tmp_path, ledger: list) -> tuple:
+    """`(runs, measured rates, the report's cost line)`: a DQN and a PPO row's runs, their
+    twins' rates (`RATES`; DQN warms up for 1000 steps), and the ledger's lines `ledger`
+    (`runs` as run labels: `dqn`, `dqn greedy`, or another run's key)."""
+    written = write_runs(tmp_path)
+    measured = {training.key: {"plant": training.plant, "twin": label, "warm_up_steps": warm_up,
+                               "cpu_s_per_step": RATES, "command": COMMAND}
+                for (label, (training, _)), warm_up in zip(written.items(), (1000, 0))}
+    (tmp_path / twin_cost.SB3_COST).write_text(json.dumps(measured))
+    keys = {"dqn": written["dqn"][0].key, "dqn greedy": written["dqn"][1].key}
+    lines = [dict(line, runs=[keys.get(run, run) for run in line["runs"]]) for line in ledger]
+    (tmp_path / "compute.jsonl").write_text("".join(json.dumps(line) + "\n" for line in lines))
+    return written, measured, report.cost_line(str(tmp_path))
+
+
 def test_the_report_multiplies_each_runs_steps_by_its_configurations_rates(tmp_path):
     """DQN: 3 agents x (1000 warm-up steps at 0.36 s + 600 learning at 3.6 s) + 1200 greedy
     at 0.036 s = 7603.2 s; PPO, no warm-up: 4800 x 3.6 + 1200 x 0.036 = 17323.2 s; 6.92 h
     in all. The ledger's line of DQN's training (the other names a run of no deep row) cost
     2 h on JAX; its estimate is 7560 s, 2.10 h."""
-    written = write_runs(tmp_path)
-    rates = {"warm_up": 0.36, "learning": 3.6, "greedy": 0.036}
-    command = "python -m benchmarks.sb3_cost X"
-    measured = {training.key: {"plant": training.plant, "twin": label, "warm_up_steps": warm_up,
-                               "cpu_s_per_step": rates, "command": command}
-                for (label, (training, _)), warm_up in zip(written.items(), (1000, 0))}
-    (tmp_path / twin_cost.SB3_COST).write_text(json.dumps(measured))
-    ledger = [{"runs": [written["dqn"][0].key], "wall_s": 100.0, "cpu_s": 7200.0, "host": "h"},
-              {"runs": [written["dqn"][1].key, "another-run"], "wall_s": 1.0, "cpu_s": 1.0,
-               "host": "h"}]
-    (tmp_path / "compute.jsonl").write_text("".join(json.dumps(line) + "\n" for line in ledger))
-    line = report.cost_line(str(tmp_path))
+    written, measured, line = priced(tmp_path, [
+        {"runs": ["dqn"], "wall_s": 100.0, "cpu_s": 7200.0, "host": "h"},
+        {"runs": ["dqn greedy", "another-run"], "wall_s": 1.0, "cpu_s": 1.0, "host": "h"}])
     assert "3 of the 4 runs in `runs/`" in line
     assert ("the deep rows would have cost about 6.92 h of CPU for their 9,600 agent-steps of "
             "training and 2,400 agent-steps of greedy evaluation (dqn 2.11 h, ppo 4.81 h)") in line
     assert ("the ledger counts 1 of their 4 runs, which cost 2.00 h of CPU and would have cost "
             "about 2.10 h") in line
-    assert f"measured by `{command}`" in line
+    assert f"measured by `{COMMAND}`" in line
     configurations = twin_cost.deep_configurations(str(tmp_path))
     assert [(c.label, c.index, len(c.trainings), len(c.evaluations)) for c in configurations] == [
         ("dqn", 0, 1, 1), ("ppo", 0, 1, 1)]
     table = RunStore(tmp_path).read([written["ppo"][0]])
     assert np.isclose(twin_cost.twin_cpu_s(written["ppo"][0], table, measured[written["ppo"][0].key]),
                       3 * 1600 * 3.6)
+
+
+def test_a_run_resumed_across_processes_counts_once_with_every_processs_cpu(tmp_path):
+    """A run stopped and resumed has two lines (`runners.resume`): the earlier processes'
+    hour and this one's two. It is one run of the ledger's, of 3 h of CPU, whose twin
+    would have cost 2.10 h, not twice that."""
+    _, _, line = priced(tmp_path, [
+        {"runs": ["dqn"], "wall_s": 50.0, "cpu_s": 3600.0, "host": "h"},
+        {"runs": ["dqn"], "wall_s": 100.0, "cpu_s": 7200.0, "host": "h"}])
+    assert "1 of the 4 runs in `runs/`, 0.04 h of wall time and 3.00 h of CPU" in line
+    assert ("the ledger counts 1 of their 4 runs, which cost 3.00 h of CPU and would have cost "
+            "about 2.10 h") in line
 
 
 def test_without_measurements_the_report_gives_the_command(tmp_path):

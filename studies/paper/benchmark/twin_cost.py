@@ -9,7 +9,7 @@ import os
 
 import numpy as np
 
-from lwrl.runners.store import RunStore, ledger_lines
+from lwrl.runners.store import RunStore, ledger_lines, ledger_runs
 from lwrl.runners.sweep import given_on_the_way
 from lwrl.studies.paper.benchmark import evaluation, protocol, search
 
@@ -135,6 +135,7 @@ def on_the_way(out_dir: str, configs) -> set:
 
 def ledger_cpu_s(out_dir: str, runs: set) -> tuple:
     """`(CPU seconds, run keys)` of the lines of `out_dir`'s ledger (`RunStore.record_compute`)
-    that name runs of `runs` only."""
+    that name runs of `runs` only: the seconds of every such line, each run once
+    (`ledger_runs`)."""
     mine = [line for line in ledger_lines(out_dir) if set(line["runs"]) <= runs]
-    return sum(line["cpu_s"] for line in mine), [key for line in mine for key in line["runs"]]
+    return sum(line["cpu_s"] for line in mine), ledger_runs(mine)
