@@ -171,6 +171,19 @@ def test_the_measure_is_each_agents_mean_over_its_episodes():
     assert ev.task_measure("pendulum.swingup") == ev.UPTIME
 
 
+def test_an_agent_that_diverged_has_no_measure_or_with_the_rows_the_worst():
+    """Seed 1 diverged in training: its greedy episodes have no measure. NaN (the search's),
+    or the worst outcome of an episode: the 1 000-step cap, 0 s up (the rows')."""
+    table = pd.DataFrame({"seed": [1, 1, 2, 2], "episode": [1, 2, 1, 2],
+                          "steps": [np.nan, np.nan, 10.0, 30.0],
+                          "uptime_s": [np.nan, np.nan, 5.0, 15.0]})
+    np.testing.assert_array_equal(ev.measure(table, "acrobot.swingup"), [np.nan, 20.0])
+    np.testing.assert_array_equal(ev.measure(table, "acrobot.swingup", diverged_as_worst=True),
+                                  [1000.0, 20.0])
+    np.testing.assert_array_equal(ev.measure(table, "cartpole.balance", diverged_as_worst=True),
+                                  [0.0, 10.0])
+
+
 @pytest.mark.parametrize("call, fragments", [
     (lambda: ev.measure(pd.DataFrame(), "cartpole.swing"), ("unknown task 'swing'", "balance")),
     (lambda: ev.episode_options("hopper.hop"), ("unknown domain 'hopper'", "cartpole")),

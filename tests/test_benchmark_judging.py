@@ -4,6 +4,8 @@ far cheaper paper's agent gets yes, a clearly worse one no, one better but not 1
 cheaper partly; Holm's correction runs across the whole family; the compute to the level
 counts the first evaluation that reaches it, and the whole budget where none does."""
 
+import dataclasses
+
 import numpy as np
 
 from lwrl.studies.paper.benchmark import judging, protocol
@@ -128,3 +130,28 @@ def test_the_report_judges_every_task_with_holm_across_them_and_aggregates(tmp_p
     for r in runs:  # each task's search drawn, as Jordan et al. (2020) look at it
         assert (tmp_path / "figures" / f"{r.task}-sensitivity.png").exists()
         assert f"figures/{r.task}-sensitivity.png" in text
+
+
+def test_the_report_says_which_agents_diverged_in_the_rows_and_the_search():
+    """Two of the paper's 20 agents at half the budget diverged: the rows' line names them
+    at the cart-pole's worst outcome, 0 s up. In the search, one configuration lost one of
+    its three agents and another all three."""
+    import pandas as pd
+
+    from lwrl.studies.paper.benchmark import report, study
+    scores = rows(paper=0.9, dqn=0.5, ppo=0.1)
+    search_scores = {("paper", 0): np.array([0.2, np.nan, 0.4]),
+                     ("paper", 1): np.full(3, np.nan), ("paper", 2): np.array([0.1, 0.3, 0.5])}
+    runs = study.TaskRuns("cartpole.balance", {}, search_scores, {"paper": 2}, scores, {},
+                          pd.DataFrame(), {("paper", 0.5): 2, ("dqn", 1.0): 0})
+    assert report.diverged_line(runs) == (
+        "Agents that diverged in training (weights no longer finite: they act no more) count "
+        "the worst outcome of every episode, 0 (mean up-time per episode (s)): paper at 0.5, "
+        "2 of 20.")
+    assert report.diverged_line(dataclasses.replace(runs, diverged={})) == (
+        "No row's agent diverged in training.")
+    table = report.search_lines(runs)
+    assert "| paper | 0 | 0.30 [0.20, 0.40] (1 of 3 diverged) |  |" in table
+    assert "| paper | 1 | — (3 of 3 diverged) |  |" in table
+    assert "| paper | 2 | 0.30 [0.10, 0.50] | **yes** |" in table
+    assert "ranks last" in table[0]

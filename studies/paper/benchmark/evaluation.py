@@ -100,9 +100,18 @@ def evaluate_references(task: str, agents: int = 20, plant: str = "analytic") ->
             for row, table in run_references(task, agents, plant).items()}
 
 
-def measure(results: pd.DataFrame, task: str) -> np.ndarray:
+def measure(results: pd.DataFrame, task: str, diverged_as_worst: bool = False) -> np.ndarray:
     """One number per agent, in seed order: the mean over its episodes of `task`'s measure
     (`task_measure`) in `results`, one run's per-episode table with a `seed` column and the
-    measure's (`EpisodeResults.columns`, `runners.sweep.results_table`)."""
+    measure's (`EpisodeResults.columns`, `runners.sweep.results_table`). An agent whose
+    learning diverged in training acts no more, and its episodes have no measure: NaN, or
+    with `diverged_as_worst` the worst outcome of an episode (`worst`)."""
     column = task_measure(task).column
-    return results.groupby("seed", sort=True)[column].mean().to_numpy()
+    values = results.groupby("seed", sort=True)[column].mean().to_numpy()
+    return np.where(np.isnan(values), worst(task), values) if diverged_as_worst else values
+
+
+def worst(task: str) -> float:
+    """The worst measure of an evaluation episode of `task`: 0 s up, or `STEP_CAP` steps
+    (the goal not reached)."""
+    return 0.0 if task_measure(task).higher_is_better else float(STEP_CAP)

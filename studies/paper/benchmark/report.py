@@ -173,7 +173,7 @@ def task_section(j: Judged, curve_images=(), sensitivity_images=()) -> list:
         lines.append(f"| {label} | " + " | ".join(cells)
                      + f" | {compute.reached} of {compute.agents} | {compute.steps.text(0)} | {cpu} "
                      f"| {macs} |")
-    lines += ["", *curve_images, "", f"**Verdict: {j.verdict}.**", ""]
+    lines += ["", diverged_line(runs), "", *curve_images, "", f"**Verdict: {j.verdict}.**", ""]
     for c in j.comparisons:
         light = protocol.light(c.task)
         who = "paper's agent" if light == protocol.LIGHT["discrete"] else light
@@ -184,14 +184,31 @@ def task_section(j: Judged, curve_images=(), sensitivity_images=()) -> list:
     return lines
 
 
+def diverged_line(runs) -> str:
+    """Which rows' agents diverged in training, each counted at the task's worst outcome
+    (`study.TaskRuns.diverged`, `evaluation.worst`)."""
+    counts = [f"{label} at {fraction:g}, {n} of {len(runs.scores[label, fraction])}"
+              for (label, fraction), n in runs.diverged.items() if n]
+    if not counts:
+        return "No row's agent diverged in training."
+    return ("Agents that diverged in training (weights no longer finite: they act no more) "
+            f"count the worst outcome of every episode, {evaluation.worst(runs.task):g} "
+            f"({evaluation.task_measure(runs.task).label}): " + "; ".join(counts) + ".")
+
+
 def search_lines(runs) -> list:
-    """Every configuration's score, the chosen one marked (`search`)."""
+    """Every configuration's score, with how many of its agents diverged, the chosen one
+    marked (`search`)."""
     lines = [f"Search ({search.CONFIGURATIONS} configurations x {search.AGENTS} agents, seeds "
-             f"{search.SEEDS[0]} to {search.SEEDS[-1]}):", "",
+             f"{search.SEEDS[0]} to {search.SEEDS[-1]}; a configuration with an agent that "
+             "diverged in training ranks last, its score the other agents' mean, — where "
+             "every one diverged):", "",
              "| row | configuration | normalised score | chosen |", "|---|---|---|---|"]
     for (label, i), values in sorted(runs.search_scores.items()):
         mark = "**yes**" if runs.chosen.get(label) == i else ""
-        lines.append(f"| {label} | {i} | {statistics.mean_interval(values).text(2)} | {mark} |")
+        diverged = int(np.isnan(values).sum())
+        note = f" ({diverged} of {len(values)} diverged)" if diverged else ""
+        lines.append(f"| {label} | {i} | {statistics.mean_interval(values).text(2)}{note} | {mark} |")
     return lines
 
 

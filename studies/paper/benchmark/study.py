@@ -44,11 +44,14 @@ class TaskRuns:
     chosen: dict
     """`{label: i}`: the configuration each row took."""
     scores: dict
-    """`{(label, fraction): (agents,) normalised scores}` of the rows."""
+    """`{(label, fraction): (agents,) normalised scores}` of the rows, an agent that diverged
+    in training at the task's worst outcome (`evaluation.worst`)."""
     trainings: dict
     """`{(label, fraction): RunConfig}` of the rows' trainings."""
     tables: pd.DataFrame
     """Every training and evaluation table the study read, the rows' and the search's."""
+    diverged: dict = dataclasses.field(default_factory=dict)
+    """`{(label, fraction): agents}` of the rows that diverged in training."""
 
 
 def references(task: str, out_dir: str, plant: str = "analytic", agents: int = protocol.AGENTS) -> dict:
@@ -100,13 +103,19 @@ def study_task(task: str, out_dir: str, plant: str = "analytic", sweep=None) -> 
     trainings = {(row.label, fraction): config for row in protocol.rows(task)
                  for fraction, config in row_trainings(task, row, chosen[row.label], plant).items()}
     evaluated, row_tables = train_and_evaluate(trainings, out_dir, sweep, f"{task}: rows")
-    return TaskRuns(task, reference, search_scores, chosen, scored(task, evaluated, reference),
-                    trainings, pd.concat([search_tables, row_tables], ignore_index=True))
+    diverged = {name: int(np.isnan(evaluation.measure(table, task)).sum())
+                for name, table in evaluated.items()}
+    return TaskRuns(task, reference, search_scores, chosen,
+                    scored(task, evaluated, reference, diverged_as_worst=True), trainings,
+                    pd.concat([search_tables, row_tables], ignore_index=True), diverged)
 
 
-def scored(task: str, evaluated: dict, reference: dict) -> dict:
-    """`{name: (agents,) normalised scores}` of the evaluation tables `{name: table}`."""
-    return {name: normalised(task, evaluation.measure(table, task), reference)
+def scored(task: str, evaluated: dict, reference: dict, diverged_as_worst: bool = False) -> dict:
+    """`{name: (agents,) normalised scores}` of the evaluation tables `{name: table}`: an
+    agent that diverged in training NaN (the search's: `choose` ranks its configuration
+    last), or with `diverged_as_worst` (the rows') the task's worst outcome
+    (`evaluation.measure`)."""
+    return {name: normalised(task, evaluation.measure(table, task, diverged_as_worst), reference)
             for name, table in evaluated.items()}
 
 
