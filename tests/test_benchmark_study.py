@@ -50,6 +50,7 @@ def test_a_tiny_benchmark_runs_resumes_and_needs_no_kept_agents_once_evaluated(t
     assert (tmp_path / "costs.json").exists()
     runs = len(list((tmp_path / "runs").glob("*.csv.gz")))
     assert f"{runs} of the {runs} runs in `runs/`" in text  # the ledger counts every run
+    assert "Every run is on the analytic plant." in text
     first = study.study_task(TASK, str(tmp_path), sweep={"workers": 1})
     labels = [row.label for row in protocol.rows(TASK)]
     assert set(first.chosen) == set(labels) and len(first.search_scores) == 2 * len(labels)
@@ -251,4 +252,6 @@ def test_a_tiny_benchmark_on_mujocos_model_trains_the_deep_rows_on_mjx(tiny_mujo
     assert runs.trainings["dqn", 1.0].plant == "mjx"
     assert set(runs.tables["plant"]) == {"mujoco", "mjx"}
     assert (tmp_path / "references" / "pendulum.swingup-mujoco.csv.gz").exists()
-    assert "| pendulum.swingup | **" in open(path).read()
+    text = open(path).read()
+    assert "| pendulum.swingup | **" in text
+    assert "The runs are on the mujoco plant (paper); the mjx plant (dqn)." in text

@@ -102,7 +102,8 @@ def document(judged: list, command: str, seconds: float, figure_dir: str, out_di
              f"Written by `{command}`; its calls that ran to the end took {seconds / 60:.1f} "
              "min of wall time (calls interrupted before them, whose finished runs they resumed "
              "from, are counted by the ledger below). The rule is docs/FINDINGS.md's (\"The "
-             "light-weight claim judged again\"), written before the runs.", "",
+             "light-weight claim judged again\"), written before the runs. " + plants_line(judged),
+             "",
              cost_line(out_dir), "",
              "| task | verdict | " + " | ".join(f"against {rival}" for rival in columns) + " |",
              "|---|---|" + "---|" * len(columns)]
@@ -116,6 +117,19 @@ def document(judged: list, command: str, seconds: float, figure_dir: str, out_di
         lines += task_section(j, markdown_images(curves(j, figure_dir), out_dir),
                               markdown_images(sensitivity.figure(j.runs, figure_dir), out_dir))
     return "\n".join(lines) + "\n"
+
+
+def plants_line(judged: list) -> str:
+    """On which plants the rows' trainings ran (`RunConfig.plant`): one, or each with its
+    rows (MuJoCo's model: the deep rows on MJX, the others on MuJoCo)."""
+    rows = {}
+    for j in judged:
+        for (label, _), config in j.runs.trainings.items():
+            rows.setdefault(config.plant, {})[label] = None
+    if len(rows) == 1:
+        return f"Every run is on the {next(iter(rows))} plant."
+    return "The runs are on " + "; ".join(f"the {plant} plant ({', '.join(labels)})"
+                                         for plant, labels in rows.items()) + "."
 
 
 def cost_line(out_dir: str) -> str:
