@@ -51,7 +51,7 @@ class TaskRuns:
     tables: pd.DataFrame
     """Every training and evaluation table the study read, the rows' and the search's."""
     diverged: dict = dataclasses.field(default_factory=dict)
-    """`{(label, fraction): agents}` of the rows that diverged in training."""
+    """`{(label, fraction): count}`: how many of each row's agents diverged in training."""
 
 
 def references(task: str, out_dir: str, plant: str = "analytic", agents: int = protocol.AGENTS) -> dict:
