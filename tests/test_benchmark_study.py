@@ -83,6 +83,11 @@ def test_a_tiny_benchmark_runs_resumes_and_needs_no_kept_agents_once_evaluated(t
         assert (f"search 2/2 trained, 2/2 evaluated; configuration {third.chosen[label]} chosen, "
                 f"search score {score:.2f}; rows (2 agents at 4 fractions) 4/4 trained, "
                 "4/4 evaluated") in line
+    late = evaluation.evaluation(search.runs(TASK)[labels[1], 1])
+    (tmp_path / "runs" / f"{late.key}.csv.gz").unlink()  # one row's search not evaluated whole
+    whole, unfinished = progress.task_lines(TASK, str(tmp_path))[1:]
+    assert f"configuration {third.chosen[labels[0]]} chosen" in whole  # chosen before the other
+    assert "search 2/2 trained, 1/2 evaluated; its rows wait for every row's search" in unfinished
     assert (tmp_path / "figures" / "mountain_car.cost_to_go-curves.png").exists()
 
 

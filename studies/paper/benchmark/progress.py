@@ -1,8 +1,9 @@
 """How far the second benchmark has got in a directory, read from its files alone (nothing is
 run, claimed or written): per task the reference rows, per row its search's trainings and
-greedy evaluations, the configuration it chose with its search score (the mean normalised
-score of its search agents, by which it was chosen), then its rows' (`study`'s steps 1 to
-3), and what the ledger counts.
+greedy evaluations, once they are all written the configuration it chose with its search
+score (the mean normalised score of its search agents, by which it was chosen), then its
+rows' (`study`'s steps 1 to 3; `lwrl bench run` starts the rows after every row's search),
+and what the ledger counts.
 Where the ledger has what a row's search runs cost, a row's line also says what CPU its
 trainings left will take, each at the CPU per agent-step of its configuration's search run
 (a row's at its chosen one's; before the choice, the span over its configurations; a run
@@ -30,16 +31,17 @@ def _counts(store: RunStore, configs) -> tuple:
 
 
 def _chosen(task: str, out_dir: str, plant: str, runs: dict, store: RunStore):
-    """`({label: i}, {(label, i): search agents' scores})`: each row's chosen configuration
-    (`study.choose`) and every configuration's normalised scores, or `(None, None)` while a
-    search evaluation or the reference rows are missing."""
+    """`({label: i}, {(label, i): search agents' scores})`: the chosen configuration
+    (`study.choose`) of each row whose search is evaluated whole, and those configurations'
+    normalised scores; nothing while the reference rows are missing."""
     path = os.path.join(out_dir, study.REFERENCES, f"{task}-{plant}.csv.gz")
     evaluations = {name: evaluation.evaluation(config) for name, config in runs.items()}
-    if not os.path.exists(path) or not all(map(store.finished, evaluations.values())):
-        return None, None
+    unfinished = {label for (label, _), run in evaluations.items() if not store.finished(run)}
+    whole = {name: run for name, run in evaluations.items() if name[0] not in unfinished}
+    if not os.path.exists(path) or not whole:
+        return {}, {}
     reference = study.references(task, out_dir, plant)  # written: read, not run
-    tables = {name: store.read([config]) for name, config in evaluations.items()}
-    scores = study.scored(task, tables, reference)
+    scores = study.scored(task, {name: store.read([run]) for name, run in whole.items()}, reference)
     return study.choose(scores), scores
 
 
@@ -100,7 +102,7 @@ def task_lines(task: str, out_dir: str, plant: str = "analytic") -> list:
         trained, evaluated = _counts(store, mine)
         text = (f"  {row.label:<20} search {trained}/{len(mine)} trained, "
                 f"{evaluated}/{len(mine)} evaluated; ")
-        if chosen is None:
+        if row.label not in chosen:
             measured = [rates[config.key] for config in mine if config.key in rates]
             pending = [config for config in mine if not _done(store, config)]
             left = cpu_left(pending, float(np.mean(measured))) if measured else None
@@ -125,7 +127,7 @@ def task_lines(task: str, out_dir: str, plant: str = "analytic") -> list:
             left = cpu_left(pending, rate, out_dir) if rate is not None else None
         if left:
             text += (f"; about {duration(left)} of CPU of trainings left"
-                     + (" (its search's)" if chosen is None else ""))
+                     + (" (its search's)" if row.label not in chosen else ""))
         lines.append(text)
     return lines
 
