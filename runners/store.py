@@ -27,12 +27,13 @@ from lwrl import outputs
 LEDGER = "compute.jsonl"
 
 
-def compute_spent(out_dir) -> dict:
-    """What the ledger of `out_dir` (`RunStore.record_compute`) counts: `runs` (the computed
-    runs it names, each once: a run stopped and resumed has a line for the processes before
-    the one that ended it, `runners.resume`), `wall_s` and `cpu_s` (summed over its lines),
-    `hosts`; zeros where it has none."""
-    entries = ledger_lines(out_dir)
+def compute_spent(out_dir, runs=None) -> dict:
+    """What the ledger of `out_dir` (`RunStore.record_compute`) counts, of its lines that name
+    runs of the keys `runs` only where given: `runs` (the computed runs they name, each once:
+    a run stopped and resumed has a line for the processes before the one that ended it,
+    `runners.resume`), `wall_s` and `cpu_s` (summed over the lines), `hosts`; zeros where
+    there are none."""
+    entries = [entry for entry in ledger_lines(out_dir) if runs is None or set(entry["runs"]) <= runs]
     return {"runs": len(ledger_runs(entries)),
             "wall_s": float(sum(entry["wall_s"] for entry in entries)),
             "cpu_s": float(sum(entry["cpu_s"] for entry in entries)),

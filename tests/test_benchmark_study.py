@@ -49,7 +49,7 @@ def test_a_tiny_benchmark_runs_resumes_and_needs_no_kept_agents_once_evaluated(t
     assert (tmp_path / "figures" / f"{TASK}-curves.png").exists()
     assert (tmp_path / "costs.json").exists()
     runs = len(list((tmp_path / "runs").glob("*.csv.gz")))
-    assert f"{runs} of the {runs} runs in `runs/`" in text  # the ledger counts every run
+    assert f"{runs} of the report's {runs} runs in `runs/`" in text  # the ledger counts each
     assert "Every run is on the analytic plant." in text
     first = study.study_task(TASK, str(tmp_path), sweep={"workers": 1})
     labels = [row.label for row in protocol.rows(TASK)]

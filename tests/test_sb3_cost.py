@@ -115,6 +115,12 @@ def test_the_report_multiplies_each_runs_steps_by_its_configurations_rates(tmp_p
     assert ("the ledger counts 1 of their 4 runs, which cost 2.00 h of CPU and would have cost "
             "about 2.10 h") in line
     assert f"measured by `{COMMAND}`" in line
+    assert report.cost_line(str(tmp_path), [TASK]) == line  # a report of this task alone
+    extra = dict(measured[written["dqn"][0].key], twin="sac", command="python -m elsewhere")
+    (tmp_path / twin_cost.SB3_COST).write_text(json.dumps({**measured, "another-run": extra}))
+    assert report.cost_line(str(tmp_path)) == line  # a twin of no run here is not named
+    assert report.cost_line(str(tmp_path), ["acrobot.swingup"]).endswith(
+        "not counted. No deep row's run is in `runs/`.")  # of other tasks: none of these runs
     configurations = twin_cost.deep_configurations(str(tmp_path))
     assert [(c.label, c.index, len(c.trainings), len(c.evaluations)) for c in configurations] == [
         ("dqn", 0, 1, 1), ("ppo", 0, 1, 1)]
@@ -165,6 +171,7 @@ def test_on_mujocos_model_the_configurations_are_those_of_its_tasks(tmp_path):
     found, = twin_cost.deep_configurations(str(tmp_path), "mujoco")
     assert (found.task, found.label, found.index, found.key) == ("pendulum.swingup", "dqn", 0,
                                                                  pendulum.key)
+    assert twin_cost.deep_configurations(str(tmp_path), "mujoco", ["cartpole.balance"]) == []
 
 
 def test_runs_given_on_the_way_by_a_longer_run_count_once(tmp_path):

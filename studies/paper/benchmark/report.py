@@ -104,7 +104,8 @@ def document(judged: list, command: str, seconds: float, figure_dir: str, out_di
              "from, are counted by the ledger below). The rule is docs/FINDINGS.md's (\"The "
              "light-weight claim judged again\"), written before the runs. " + plants_line(judged),
              "",
-             cost_line(out_dir), "",
+             cost_line(out_dir, [j.runs.task for j in judged],
+                       set().union(*(j.runs.tables["run"] for j in judged))), "",
              "| task | verdict | " + " | ".join(f"against {rival}" for rival in columns) + " |",
              "|---|---|" + "---|" * len(columns)]
     for j in judged:
@@ -132,17 +133,20 @@ def plants_line(judged: list) -> str:
                                          for plant, labels in rows.items()) + "."
 
 
-def cost_line(out_dir: str) -> str:
-    """What the runs in `out_dir/runs` cost, as far as its ledger counts them
-    (`runners.store.compute_spent`: a line per computed batch, kept across interruptions),
-    then what the deep rows would have cost with Stable-Baselines3 alone (`twin_cost`)."""
-    spent = compute_spent(out_dir)
-    total = len(glob.glob(os.path.join(out_dir, "runs", "*.csv.gz")))
+def cost_line(out_dir: str, tasks=None, runs=None) -> str:
+    """What the runs in `out_dir/runs` (those of the keys `runs` where given: the report's)
+    cost, as far as its ledger counts them (`runners.store.compute_spent`: a line per
+    computed batch, kept across interruptions), then what the deep rows (of `tasks` where
+    given) would have cost with Stable-Baselines3 alone (`twin_cost`)."""
+    spent = compute_spent(out_dir, runs)
+    files = {os.path.basename(path)[:-len(".csv.gz")]
+             for path in glob.glob(os.path.join(out_dir, "runs", "*.csv.gz"))}
+    held = f"the {len(files)} runs" if runs is None else f"the report's {len(files & runs)} runs"
     counted = (f"{spent['wall_s'] / 3600:.2f} h of wall time and {spent['cpu_s'] / 3600:.2f} h "
                f"of CPU on {', '.join(spent['hosts'])}" if spent["runs"] else "nothing")
     return (f"What the runs cost, from `compute.jsonl` (a line per computed batch): "
-            f"{spent['runs']} of the {total} runs in `runs/`, {counted}; runs computed before "
-            f"the ledger was kept are not counted. {twin_cost.sentence(out_dir)}")
+            f"{spent['runs']} of {held} in `runs/`, {counted}; runs computed before "
+            f"the ledger was kept are not counted. {twin_cost.sentence(out_dir, tasks)}")
 
 
 def aggregates_section(judged: list, figure_dir: str, out_dir: str) -> list:

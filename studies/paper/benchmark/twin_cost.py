@@ -34,14 +34,15 @@ class DeepConfiguration:
     evaluations: tuple
 
 
-def deep_configurations(out_dir: str, plant: str = "analytic") -> list:
+def deep_configurations(out_dir: str, plant: str = "analytic", tasks=None) -> list:
     """Every configuration of a deep row (`protocol.deep`) of every benchmark task on `plant`
     (`protocol.tasks_on`; the benchmark's plant, whose deep rows may train on another,
-    `protocol.row_plant`) of which `out_dir/runs` holds a run, its runs made as the study makes them
-    (`search.runs`, `protocol.training`, `evaluation.evaluation`)."""
+    `protocol.row_plant`), or of those of `tasks`, of which `out_dir/runs` holds a run, its
+    runs made as the study makes them (`search.runs`, `protocol.training`,
+    `evaluation.evaluation`)."""
     store = RunStore(out_dir)
     found = []
-    for task in protocol.tasks_on(plant):
+    for task in (task for task in protocol.tasks_on(plant) if tasks is None or task in tasks):
         searched = search.runs(task, plant)
         for row in protocol.rows(task):
             if row.label not in protocol.deep(task):
@@ -72,10 +73,11 @@ def twin_cpu_s(config, table, measured: dict) -> float:
     return float(warm.sum()) * rate["warm_up"] + float((steps - warm).sum()) * rate["learning"]
 
 
-def sentence(out_dir: str) -> str:
-    """What the deep rows' runs in `out_dir/runs` would have cost on their Stable-Baselines3
-    twins (`twin_cpu_s` of every run of a configuration `SB3_COST` holds) against what the
-    ledger counts of them (`ledger_cpu_s`), or the command that measures it."""
+def sentence(out_dir: str, tasks=None) -> str:
+    """What the deep rows' runs in `out_dir/runs` (of `tasks` only, where given) would have
+    cost on their Stable-Baselines3 twins (`twin_cpu_s` of every run of a configuration
+    `SB3_COST` holds) against what the ledger counts of them (`ledger_cpu_s`), or the command
+    that measures it."""
     path = os.path.join(out_dir, SB3_COST)
     measured = {}
     if os.path.exists(path):
@@ -83,7 +85,9 @@ def sentence(out_dir: str) -> str:
             measured = json.load(file)
     store = RunStore(out_dir)
     found = [c for plant in sorted({entry["plant"] for entry in measured.values()})
-             for c in deep_configurations(out_dir, plant)]
+             for c in deep_configurations(out_dir, plant, tasks)]
+    if measured and not found:
+        return "No deep row's run is in `runs/`."
     if not any(c.key in measured for c in found):
         return ("What the deep rows would have cost with Stable-Baselines3 alone is not "
                 f"measured: `python -m benchmarks.sb3_cost {out_dir}` measures it.")
@@ -107,8 +111,9 @@ def sentence(out_dir: str) -> str:
     partial = (f" ({len([c for c in found if c.key in measured])} of the {len(found)} "
                "configurations measured: the others' runs are not counted)"
                if len(twin) < len(deep_runs) else "")
-    names = ", ".join(dict.fromkeys(f"`{entry['twin']}`" for entry in measured.values()))
-    commands = ", ".join(dict.fromkeys(f"`{entry['command']}`" for entry in measured.values()))
+    used = [measured[c.key] for c in found if c.key in measured]
+    names = ", ".join(dict.fromkeys(f"`{entry['twin']}`" for entry in used))
+    commands = ", ".join(dict.fromkeys(f"`{entry['command']}`" for entry in used))
     return (f"With Stable-Baselines3 alone (the JAX learners' twins {names}, torch on one "
             f"thread) the deep rows would have cost about {sum(twin.values()) / 3600:.2f} h "
             "of CPU for their " + " and ".join(f"{n:,} agent-steps of {kind}"
