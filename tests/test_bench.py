@@ -3,6 +3,8 @@ on every task, the light-weight claim's rule says what docs/FINDINGS.md says, ca
 counts an exported controller's instructions, and bad input is one line."""
 
 import dataclasses
+import json
+import os
 import shutil
 
 import numpy as np
@@ -149,3 +151,21 @@ def test_a_row_whose_agents_have_no_c_controller_is_costed_without_one(tmp_path)
     costs = bench_costs.measure_cell(config, "dqn", str(tmp_path / "c"), quick=True)
     assert costs["cpu_s_per_learning_step"] > 0 and "c_code_bytes" not in costs
     assert costs["c_controller"].startswith("none: ") and "no C controller" in costs["c_controller"]
+
+
+def die(*cell):
+    """A cost measurement whose process dies (as one killed or crashed would)."""
+    os._exit(9)
+
+
+def test_a_measurement_whose_process_dies_stops_with_what_was_measured_kept(tmp_path, monkeypatch):
+    """A cell measured before is kept; the next one's process dies: one error naming it, not
+    a wait for a result that will never come, and `costs.json` as it was."""
+    kept, lost = (RunConfig(task="mountain_car.cost_to_go", alpha=alpha) for alpha in (1.0, 2.0))
+    measured = {kept.key: {"task": "mountain_car.cost_to_go", "label": "kept", "cpu": 1.0}}
+    (tmp_path / "costs.json").write_text(json.dumps(measured))
+    monkeypatch.setattr(bench_costs, "measure_cell", die)
+    cells = [("mountain_car.cost_to_go", "kept", kept), ("mountain_car.cost_to_go", "lost", lost)]
+    with pytest.raises(RuntimeError, match="measuring the costs of lost on mountain_car"):
+        bench_costs.measure_all(cells, str(tmp_path))
+    assert json.loads((tmp_path / "costs.json").read_text()) == measured

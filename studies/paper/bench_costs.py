@@ -32,6 +32,8 @@ import shutil
 import subprocess
 import tempfile
 import time
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 
@@ -185,7 +187,8 @@ def measure_cell(config, label: str, c_dir: str | None, quick: bool) -> dict:
 
 def measure_all(cells, out_dir: str, quick: bool = False) -> dict:
     """`{run key: costs}` of every cell, measured where `costs.json` in `out_dir` does not
-    hold them yet (it is rewritten after each)."""
+    hold them yet (it is rewritten after each), each in a fresh process (a RuntimeError
+    where that process dies, killed or crashed, rather than waiting for it)."""
     path = os.path.join(out_dir, "costs.json")
     costs = {}
     if os.path.isfile(path):
@@ -196,8 +199,13 @@ def measure_all(cells, out_dir: str, quick: bool = False) -> dict:
         if config.key in costs:
             continue
         c_dir = (os.path.join(out_dir, "controllers", f"{task}-{label}") if label in EXPORTED else None)
-        with context.Pool(1, maxtasksperchild=1) as pool:
-            measured = pool.apply(measure_cell, (config, label, c_dir, quick))
+        with ProcessPoolExecutor(1, mp_context=context) as pool:
+            try:
+                measured = pool.submit(measure_cell, config, label, c_dir, quick).result()
+            except BrokenProcessPool:
+                raise RuntimeError(f"the process measuring the costs of {label} on {task} died "
+                                   f"without a result; the costs measured before it are in "
+                                   f"{path}") from None
         costs[config.key] = {"task": task, "label": label, **measured}
         with outputs.atomic_write(path) as file:
             json.dump(costs, file, indent=1)
