@@ -105,7 +105,7 @@ def document(judged: list, command: str, seconds: float, figure_dir: str, out_di
              "light-weight claim judged again\"), written before the runs. " + plants_line(judged),
              "",
              cost_line(out_dir, [j.runs.task for j in judged],
-                       set().union(*(j.runs.tables["run"] for j in judged))), "",
+                       set().union(*(j.runs.tables.get("run", ()) for j in judged))), "",
              "| task | verdict | " + " | ".join(f"against {rival}" for rival in columns) + " |",
              "|---|---|" + "---|" * len(columns)]
     for j in judged:
