@@ -9,8 +9,10 @@ import time
 import pandas as pd
 import pytest
 
+from lwrl.agent import jax_population
 from lwrl.runners import sweep
 from lwrl.runners.config import RunConfig
+from lwrl.runners.store import RunStore
 from lwrl.studies.paper.items import ITEMS
 from lwrl.studies.paper.reproduce import reproduce
 
@@ -107,6 +109,23 @@ def test_ray_backend_gives_the_local_results(tmp_path):
     on_ray, computed = sweep.run_sweep(configs, str(tmp_path / "ray"), backend="ray")
     assert computed == 2
     pd.testing.assert_frame_equal(local, on_ray)
+
+
+@pytest.mark.skipif(importlib.util.find_spec("ray") is None or jax_population.missing_jax(),
+                    reason="Ray and JAX are optional extras: pip install -e '.[ray,jax]'")
+def test_ray_backend_gives_the_local_results_of_population_runs_with_their_agents(tmp_path):
+    """The benchmark's deep trainings (JAX populations, their agents kept for the greedy
+    evaluations) on Ray, where they run side by side: the local tables, the agents kept."""
+    configs = [RunConfig(task="mountain_car.cost_to_go", learner="dqn_jax", net_arch="8",
+                         timesteps=400, learning_starts=10, batch_size=4, buffer_size=64,
+                         agents=2, seed=seed, task_options={"time_limit": 2.0})
+               for seed in (0, 10)]
+    local, _ = sweep.run_sweep(configs, str(tmp_path / "local"), keep_agents=True)
+    on_ray, computed = sweep.run_sweep(configs, str(tmp_path / "ray"), backend="ray",
+                                       keep_agents=True)
+    assert computed == 2
+    pd.testing.assert_frame_equal(local, on_ray)
+    assert all(RunStore.agents_file(tmp_path / "ray", config.key).exists() for config in configs)
 
 
 def test_batched_runs_equal_runs_alone(tmp_path):
