@@ -33,7 +33,8 @@ def compute_spent(out_dir, runs=None) -> dict:
     a run stopped and resumed has a line for the processes before the one that ended it,
     `runners.resume`), `wall_s` and `cpu_s` (summed over the lines), `hosts`; zeros where
     there are none."""
-    entries = [entry for entry in ledger_lines(out_dir) if runs is None or set(entry["runs"]) <= runs]
+    entries = [entry for entry in ledger_lines(out_dir)
+               if runs is None or set(entry["runs"]) <= runs]
     return {"runs": len(ledger_runs(entries)),
             "wall_s": float(sum(entry["wall_s"] for entry in entries)),
             "cpu_s": float(sum(entry["cpu_s"] for entry in entries)),
