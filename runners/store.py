@@ -33,18 +33,19 @@ def compute_spent(out_dir, runs=None) -> dict:
     a run stopped and resumed has a line for the processes before the one that ended it,
     `runners.resume`), `wall_s` and `cpu_s` (summed over the lines), `hosts`; zeros where
     there are none."""
-    entries = [entry for entry in ledger_lines(out_dir)
-               if runs is None or set(entry["runs"]) <= runs]
+    entries = ledger_lines(out_dir, runs)
     return {"runs": len(ledger_runs(entries)),
             "wall_s": float(sum(entry["wall_s"] for entry in entries)),
             "cpu_s": float(sum(entry["cpu_s"] for entry in entries)),
             "hosts": list(dict.fromkeys(entry["host"] for entry in entries))}
 
 
-def ledger_lines(out_dir) -> list:
-    """The ledger of `out_dir` (`RunStore.record_compute`), a dict per computed batch."""
+def ledger_lines(out_dir, runs=None) -> list:
+    """The ledger of `out_dir` (`RunStore.record_compute`), a dict per computed batch; where
+    `runs` (run keys) is given, only the lines that name none but those runs."""
     path = pathlib.Path(out_dir) / LEDGER
-    return [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
+    lines = [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
+    return [line for line in lines if runs is None or set(line["runs"]) <= runs]
 
 
 def ledger_runs(lines) -> list:

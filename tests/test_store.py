@@ -59,10 +59,10 @@ def test_the_ledger_counts_each_computed_batch_once_across_calls(tmp_path):
     sweep.run_sweep(grid((0.25, 4.0)), tmp_path)
     lines = RunStore(tmp_path).ledger.read_text().splitlines()
     assert len(lines) == 2 and compute_spent(tmp_path)["runs"] == 5
-    second = set(json.loads(lines[1])["runs"])  # the lines of these runs only: the second
-    assert compute_spent(tmp_path, second) == {
-        "runs": 2, "wall_s": json.loads(lines[1])["wall_s"], "cpu_s": json.loads(lines[1])["cpu_s"],
-        "hosts": first["hosts"]}
+    line = json.loads(lines[1])
+    second = set(line["runs"])  # the lines of these runs only: the second
+    assert compute_spent(tmp_path, second) == {"runs": 2, "wall_s": line["wall_s"],
+                                               "cpu_s": line["cpu_s"], "hosts": first["hosts"]}
     assert compute_spent(tmp_path, second - {min(second)})["runs"] == 0  # a line is whole
     assert all(json.loads(line)["cpu"] == cpu() for line in lines)  # what JAX's numbers depend on
     assert compute_spent(tmp_path / "nowhere") == {"runs": 0, "wall_s": 0.0, "cpu_s": 0.0,

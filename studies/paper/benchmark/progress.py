@@ -52,11 +52,11 @@ def cpu_per_agent_step(out_dir: str, configs) -> dict:
     times its budget."""
     by_key = {config.key: config for config in configs}
     rates = {}
-    for line in ledger_lines(out_dir):
-        mine = [by_key[key] for key in line["runs"] if key in by_key]
+    for line in ledger_lines(out_dir, set(by_key)):
+        mine = [by_key[key] for key in line["runs"]]
         given = given_on_the_way(mine)
         computed = [config for config in mine if config.key not in given]
-        if len(mine) == len(line["runs"]) and len(computed) == 1 and computed[0].budget:
+        if len(computed) == 1 and computed[0].budget:
             run, = computed
             rates[run.key] = rates.get(run.key, 0.0) + line["cpu_s"] / (run.agents * run.budget)
     return rates

@@ -142,5 +142,5 @@ def ledger_cpu_s(out_dir: str, runs: set) -> tuple:
     """`(CPU seconds, run keys)` of the lines of `out_dir`'s ledger (`RunStore.record_compute`)
     that name runs of `runs` only: the seconds of every such line, each run once
     (`ledger_runs`)."""
-    mine = [line for line in ledger_lines(out_dir) if set(line["runs"]) <= runs]
+    mine = ledger_lines(out_dir, runs)
     return sum(line["cpu_s"] for line in mine), ledger_runs(mine)
