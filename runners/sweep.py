@@ -99,9 +99,11 @@ def given_on_the_way(batch) -> set:
     """The keys of the runs of `batch` (those one ledger line names, `RunStore.record_compute`)
     that a longer run of their family among them gave on the way: the batch computed their
     steps as that run's first."""
-    return {config.key for config in batch if config.budget is not None and any(
-        other.budget is not None and other.budget > config.budget
-        and family_key(other) == family_key(config) for other in batch)}
+    budgets = [(config, family_key(config)) for config in batch if config.budget is not None]
+    longest = {}
+    for config, family in budgets:
+        longest[family] = max(longest.get(family, config.budget), config.budget)
+    return {config.key for config, family in budgets if config.budget < longest[family]}
 
 
 def trained_agents(configs, directory):

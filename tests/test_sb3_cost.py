@@ -120,7 +120,7 @@ def test_the_report_multiplies_each_runs_steps_by_its_configurations_rates(tmp_p
     (tmp_path / twin_cost.SB3_COST).write_text(json.dumps({**measured, "another-run": extra}))
     assert report.cost_line(str(tmp_path)) == line  # a twin of no run here is not named
     assert report.cost_line(str(tmp_path), ["acrobot.swingup"]).endswith(
-        "not counted. No deep row's run is in `runs/`.")  # of other tasks: none of these runs
+        "as that run's first steps. No deep row's run is in `runs/`.")  # of other tasks: none of these
     configurations = twin_cost.deep_configurations(str(tmp_path))
     assert [(c.label, c.index, len(c.trainings), len(c.evaluations)) for c in configurations] == [
         ("dqn", 0, 1, 1), ("ppo", 0, 1, 1)]
@@ -188,3 +188,19 @@ def test_runs_given_on_the_way_by_a_longer_run_count_once(tmp_path):
     (tmp_path / "compute.jsonl").write_text("".join(json.dumps(line) + "\n" for line in ledger))
     assert twin_cost.on_the_way(str(tmp_path), fractions + [other]) == {
         fractions[1].key, fractions[2].key}
+
+
+def test_checkpoints_written_before_an_interruption_are_given_on_the_way(tmp_path):
+    """A family stopped after its shorter fractions were written and resumed to its end
+    (`runners.resume`): no ledger line names the shorter runs, whose steps are the longest
+    run's first, so they count nothing on the twin's side either; a run no line names
+    without a longer run of its family stays counted."""
+    row = next(row for row in protocol.rows(TASK) if row.label == "dqn")
+    settings = search.configurations(TASK, row)
+    fractions = [protocol.training(TASK, row, settings[0], 0, protocol.AGENTS, fraction)
+                 for fraction in protocol.FRACTIONS]
+    alone = protocol.training(TASK, row, settings[1], 0, protocol.AGENTS, 0.1)
+    ledger = [{"runs": [fractions[-1].key], "cpu_s": 2.0}, {"runs": [fractions[-1].key], "cpu_s": 1.0}]
+    (tmp_path / "compute.jsonl").write_text("".join(json.dumps(line) + "\n" for line in ledger))
+    assert twin_cost.on_the_way(str(tmp_path), fractions + [alone]) == {
+        config.key for config in fractions[:-1]}

@@ -145,8 +145,9 @@ def cost_line(out_dir: str, tasks=None, runs=None) -> str:
     counted = (f"{spent['wall_s'] / 3600:.2f} h of wall time and {spent['cpu_s'] / 3600:.2f} h "
                f"of CPU on {', '.join(spent['hosts'])}" if spent["runs"] else "nothing")
     return (f"What the runs cost, from `compute.jsonl` (a line per computed batch): "
-            f"{spent['runs']} of {held} in `runs/`, {counted}; runs computed before "
-            f"the ledger was kept are not counted. {twin_cost.sentence(out_dir, tasks)}")
+            f"{spent['runs']} of {held} in `runs/`, {counted}; a run it does not name was "
+            "computed before the ledger was kept, or on the way by a longer run of its "
+            f"family, as that run's first steps. {twin_cost.sentence(out_dir, tasks)}")
 
 
 def aggregates_section(judged: list, figure_dir: str, out_dir: str) -> list:

@@ -130,12 +130,21 @@ def sentence(out_dir: str, tasks=None) -> str:
 
 
 def on_the_way(out_dir: str, configs) -> set:
-    """The keys of the runs of `configs` that a ledger line computed with a longer run of
-    their family (`runners.sweep.families`: the same settings, a larger budget), as its
-    checkpoints: their steps are the longer run's first."""
+    """The keys of the runs of `configs` whose steps are a longer run's first
+    (`runners.sweep.families`: the same settings, a larger budget, the longer run's
+    checkpoints): those a ledger line names with a longer run of their family, and those no
+    line names where a longer run of their family is among `configs` (written at its
+    checkpoint by a process stopped before that run ended, `runners.resume`, or before the
+    ledger was kept: Stable-Baselines3 keeping its checkpoints computes them on the way as
+    well). A run a line names apart from its family was computed on its own, and counts on
+    both sides."""
     by_key = {config.key: config for config in configs}
-    return set().union(*(given_on_the_way([by_key[key] for key in line["runs"] if key in by_key])
-                         for line in ledger_lines(out_dir)))
+    lines = ledger_lines(out_dir)
+    named = set(ledger_runs(lines))
+    together = set().union(*(given_on_the_way([by_key[key] for key in line["runs"] if key in by_key])
+                             for line in lines))
+    unnamed = given_on_the_way(list(by_key.values())) - named
+    return together | unnamed
 
 
 def ledger_cpu_s(out_dir: str, runs: set) -> tuple:
