@@ -15,6 +15,8 @@
 - `available_memory()` and `check_memory(needed, what)`: refuse a batch that would not fit.
 - `BackgroundWriter`: outputs written on a thread of their own while the work goes on, every
   one on disk, or its error raised, before the writer is done.
+- `write_table(table, path)`: a table written whole as CSV (gzip'd for `.gz`), the same
+  bytes each time it is written.
 
 Every room may use it; it imports no other part of lwrl.
 """
@@ -57,6 +59,16 @@ def atomic_path(path):
     finally:
         if os.path.exists(temporary):
             os.unlink(temporary)
+
+
+def write_table(table, path) -> None:
+    """`table` (a pandas DataFrame) written whole (`atomic_path`) as CSV without its index,
+    gzip'd where `path` ends in `.gz` with a header that keeps neither the time nor the
+    temporary file's name (RFC 1952's MTIME 0, no FNAME): a table written again, by a study
+    that resumes, is the same file byte for byte."""
+    gzipped = {"method": "gzip", "mtime": 0, "filename": ""} if str(path).endswith(".gz") else None
+    with atomic_path(path) as temporary, open(temporary, "wb") as file:
+        table.to_csv(file, index=False, compression=gzipped)
 
 
 @contextlib.contextmanager

@@ -141,8 +141,7 @@ class RunStore:
             file.write(line)
 
     def write(self, config, table: pd.DataFrame) -> None:
-        with outputs.atomic_path(self.path(config)) as temporary:
-            table.to_csv(temporary, index=False, compression="gzip")
+        outputs.write_table(table, self.path(config))
 
     def read(self, configs) -> pd.DataFrame:
         """The runs' tables, one after the other; a table written before one of its run's

@@ -195,3 +195,26 @@ def test_a_missing_extra_is_named(monkeypatch, capsys):
     status, _, err = run_cli(["reproduce", "fig3", "--quick"], capsys)
     assert status == 2 and err == ["lwrl reproduce: error: lwrl reproduce needs the 'paper' extra "
                                    "(pandas is missing): pip install -e '.[paper]'"]
+
+
+def test_a_table_written_again_is_the_same_file(tmp_path, monkeypatch):
+    """gzip keeps the time of writing and the file's name in its header unless told not to
+    (`outputs.write_table`, which writes through a temporary name): a committed run's table
+    written again by a resumed study leaves the file as it was."""
+    import gzip
+
+    import pandas as pd
+
+    table = pd.DataFrame({"seed": [0, 1], "steps": [120, 95]})
+    written = []
+    for now in (1_000_000_000.0, 1_700_000_000.0):
+        monkeypatch.setattr(gzip.time, "time", lambda now=now: now)
+        path = tmp_path / f"{int(now)}.csv.gz"
+        outputs.write_table(table, path)
+        written.append(path.read_bytes())
+    assert written[0] == written[1]
+    assert pd.read_csv(tmp_path / "1000000000.csv.gz").equals(table)
+    table.to_csv(tmp_path / "by-pandas.csv.gz", index=False, compression="gzip")
+    assert (tmp_path / "by-pandas.csv.gz").read_bytes() != written[0]  # the check can fail
+    outputs.write_table(table, tmp_path / "plain.csv")
+    assert (tmp_path / "plain.csv").read_text() == "seed,steps\n0,120\n1,95\n"

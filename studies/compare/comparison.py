@@ -144,6 +144,4 @@ def write_tables(open_result: ol.OpenLoop, closed_result: cl.ClosedLoop, out_dir
                         ("energy.csv", open_result.energy),
                         ("episodes.csv.gz", closed_result.episodes),
                         ("transfer.csv", closed_result.transfer)):
-        with outputs.atomic_path(os.path.join(out_dir, name)) as temporary:
-            table.to_csv(temporary, index=False,
-                         compression="gzip" if name.endswith(".gz") else None)
+        outputs.write_table(table, os.path.join(out_dir, name))

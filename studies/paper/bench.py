@@ -60,8 +60,7 @@ def bench(tasks, labels, out_dir: str, plant: str = "analytic", agents: int = 5,
     computed += more + rows
     label_of = {config.key: label for _, label, config in cells}
     results.insert(1, "label", results["run"].map(label_of))
-    with outputs.atomic_path(os.path.join(out_dir, "results.csv.gz")) as temporary:
-        results.to_csv(temporary, index=False, compression="gzip")
+    outputs.write_table(results, os.path.join(out_dir, "results.csv.gz"))
     from lwrl.studies.paper import bench_costs, bench_report
     costs = bench_costs.measure_all(cells, out_dir, quick=quick)
     seconds = time.perf_counter() - started

@@ -204,8 +204,7 @@ def run_and_keep(configs, key: str, out_dir: str, item_dir: str, kind: str, timi
 def keep_table(results, configs, item_dir: str, kind: str) -> None:
     """Write a sweep's tidy table and configurations into `item_dir` (`run_and_keep`)."""
     table = f"{kind}.csv.gz" if kind else "results.csv.gz"
-    with outputs.atomic_path(os.path.join(item_dir, table)) as temporary:
-        results.to_csv(temporary, index=False, compression="gzip")
+    outputs.write_table(results, os.path.join(item_dir, table))
     sweep.write_configs(configs, os.path.join(item_dir, f"{kind}-configs.jsonl" if kind
                                               else "configs.jsonl"))
 

@@ -79,8 +79,7 @@ def score(paths, out_dir: str, plant: str = "analytic") -> list:
         task, learner = str(table["task"].iloc[0]), str(table["learner"].iloc[0])
         target = os.path.join(out_dir, OUTSIDE, f"{learner}-{task}.csv.gz")
         os.makedirs(os.path.dirname(target), exist_ok=True)
-        with outputs.atomic_path(target) as temporary:
-            table.to_csv(temporary, index=False, compression="gzip")
+        outputs.write_table(table, target)
         for (name, fraction), values in outside.scores(table, study.references(task, out_dir, plant)).items():
             lines.append(f"{name} on {task} after {fraction:g} of the budget: normalised score "
                          f"{mean_interval(values).text(2)}")

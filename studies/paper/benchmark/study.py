@@ -62,8 +62,7 @@ def references(task: str, out_dir: str, plant: str = "analytic", agents: int = p
         tables = evaluation.run_references(task, agents, plant)
         table = pd.concat([t.assign(row=row) for row, t in tables.items()], ignore_index=True)
         os.makedirs(os.path.dirname(path), exist_ok=True)
-        with outputs.atomic_path(path) as temporary:
-            table.to_csv(temporary, index=False, compression="gzip")
+        outputs.write_table(table, path)
     table = pd.read_csv(path)
     return {row: evaluation.measure(part, task) for row, part in table.groupby("row")}
 
