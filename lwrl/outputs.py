@@ -61,21 +61,21 @@ def atomic_path(path):
             os.unlink(temporary)
 
 
-def write_table(table, path) -> None:
-    """`table` (a pandas DataFrame) written whole (`atomic_path`) as CSV without its index,
-    gzip'd where `path` ends in `.gz` with a header that keeps neither the time nor the
-    temporary file's name (RFC 1952's MTIME 0, no FNAME): a table written again, by a study
-    that resumes, is the same file byte for byte."""
-    gzipped = {"method": "gzip", "mtime": 0, "filename": ""} if str(path).endswith(".gz") else None
-    with atomic_path(path) as temporary, open(temporary, "wb") as file:
-        table.to_csv(file, index=False, compression=gzipped)
-
-
 @contextlib.contextmanager
 def atomic_write(path, mode: str = "w", **options):
     """An open file for `path`, written under a temporary name (`atomic_path`)."""
     with atomic_path(path) as temporary, open(temporary, mode, **options) as file:
         yield file
+
+
+def write_table(table, path) -> None:
+    """`table` (a pandas DataFrame) written whole (`atomic_write`) as CSV without its index,
+    gzip'd where `path` ends in `.gz` with a header that keeps neither the time nor the
+    temporary file's name (RFC 1952's MTIME 0, no FNAME): a table written again, by a study
+    that resumes, is the same file byte for byte."""
+    gzipped = {"method": "gzip", "mtime": 0, "filename": ""} if str(path).endswith(".gz") else None
+    with atomic_write(path, "wb") as file:
+        table.to_csv(file, index=False, compression=gzipped)
 
 
 def _exchange(first: pathlib.Path, second: pathlib.Path) -> bool:
