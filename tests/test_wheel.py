@@ -63,6 +63,17 @@ def test_the_wheel_holds_lwrl_only(installed):
     assert len(names) == len(set(names))  # each room once, though lwrl/<room> links to it
 
 
+def test_the_wheel_holds_every_subpackage_of_the_tree(installed):
+    """`[tool.setuptools] packages` is a list kept by hand: a subpackage left out of it is
+    missing from the wheel (its command fails there while it works in the checkout)."""
+    names = zipfile.ZipFile(installed[0]).namelist()
+    tree = {os.path.relpath(folder, ROOT) for folder, _, files in
+            os.walk(ROOT / "lwrl", followlinks=True)  # lwrl/<room> links to the room
+            if "__init__.py" in files}
+    assert "lwrl/studies/paper/items" in tree
+    assert tree - {name.rsplit("/", 1)[0] for name in names if name.endswith("/__init__.py")} == set()
+
+
 def test_site_packages_gains_lwrl_only(installed):
     wheel, added = installed[0], installed[4]
     assert added == {"lwrl", wheel.name.split("-py")[0] + ".dist-info"}, added
