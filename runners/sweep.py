@@ -96,9 +96,9 @@ def longest(family):
 
 
 def given_on_the_way(batch) -> set:
-    """The keys of the runs of `batch` (those one ledger line names, `RunStore.record_compute`)
-    that a longer run of their family among them gave on the way: the batch computed their
-    steps as that run's first."""
+    """The keys of the runs of `batch` that a longer run of their family among them gives on
+    the way: where `batch` is what one ledger line names (`RunStore.record_compute`), the
+    batch computed their steps as that run's first."""
     budgets = [(config, family_key(config)) for config in batch if config.budget is not None]
     longest = {}
     for config, family in budgets:
