@@ -89,6 +89,7 @@ from gymnasium.vector.utils import batch_space
 from lwrl import models, tasks
 from lwrl.tasks.batched import BatchedEnv
 from lwrl.tasks.drawing import Painter
+from lwrl.tasks.spaces import Discrete
 from lwrl.tasks.task_definition import check_finite_state
 
 NAMESPACE = "lwrl"
@@ -129,20 +130,12 @@ _REGISTERED = {**{id_: (*names, "discrete") for id_, names in ENVIRONMENTS.items
 """`(domain, task, plant, actions)` of every registered id."""
 
 
-def observation_bounds(definition) -> tuple:
-    """`(low, high)` float64 arrays that hold every observation of an episode of the task,
-    the terminal one included: the task's own `bounds`."""
-    low, high = definition.bounds
-    return np.array(low, dtype=np.float64), np.array(high, dtype=np.float64)
-
-
-def action_space(definition) -> spaces.Space:
-    """`Discrete(n)` of the task's action indices, or with continuous actions the float64
-    `Box` of shape (1,) of the actuator's range (`TaskDefinition.control_range`)."""
-    if definition.continuous:
-        low, high = definition.control_range
-        return spaces.Box(low, high, shape=(1,), dtype=np.float64)
-    return spaces.Discrete(definition.num_actions)
+def gymnasium_space(space) -> spaces.Space:
+    """The Gymnasium space of a task's space (`tasks.spaces`): `Discrete(n)`, or a float64
+    `Box` (the plants' type, so that an action reaches the plant unrounded)."""
+    if isinstance(space, Discrete):
+        return spaces.Discrete(space.n)
+    return spaces.Box(np.array(space.low), np.array(space.high), dtype=np.float64)
 
 
 def _describe(domain: str, task: str, plant: str, actions: str) -> str:
@@ -164,7 +157,7 @@ class SuiteEnv(gymnasium.Env):
     `SuiteEnv(domain, task, plant=None, render_mode=None, actions="discrete", **options)`
     takes the arguments of `tasks.load` except `seed` (seed with `reset(seed=...)`).
     `dm_env` is the wrapped dm_env environment, `definition` the task's `TaskDefinition`,
-    `actions` its kind of action (`discrete` or `continuous`), `step_limit` its truncation
+    `task_spec` its `tasks.spaces.TaskSpec` (the spaces come from it), `actions` its kind of action (`discrete` or `continuous`), `step_limit` its truncation
     step (`inf` for none).
     """
 
@@ -197,11 +190,10 @@ class SuiteEnv(gymnasium.Env):
         self._painter = painter(domain, render_mode)
         self._window = _Window(f"lwrl {domain}.{task} ({plant})", self.metadata["render_fps"]) \
             if render_mode == "human" else None
-        self.action_space = action_space(definition)
-        low, high = observation_bounds(definition)
+        self.task_spec = tasks.spec_of(definition)
+        self.action_space = gymnasium_space(self.task_spec.action)
         noisy = self.suite_task.disturbances.sigma_observation[0] > 0
-        low[noisy], high[noisy] = -np.inf, np.inf
-        self.observation_space = spaces.Box(low, high, dtype=np.float64)
+        self.observation_space = gymnasium_space(self.task_spec.observation.unbounded_where(noisy))
         self._spec = None
         self._episode_over = True
         self._started = False
@@ -407,13 +399,13 @@ class SuiteVectorEnv(VectorEnv):
         self.domain, self.task_name, self.plant = single.domain, single.task_name, single.plant
         self.actions = single.actions
         self.options, self.definition = single.options, single.definition
+        self.task_spec = single.task_spec
+        self.single_action_space = single.action_space
+        self.single_observation_space = single.observation_space
         single.close()
         self.num_envs = int(num_envs)
         self.render_mode = None
-        self.single_action_space = action_space(self.definition)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        low, high = observation_bounds(self.definition)
-        self.single_observation_space = spaces.Box(low, high, dtype=np.float64)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.metadata = {**self.metadata, "render_fps": 1.0 / self.definition.control_timestep}
         self._batched: BatchedEnv | None = None

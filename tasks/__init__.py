@@ -43,6 +43,7 @@ from lwrl.tasks import disturbances  # noqa: E402
 from lwrl.tasks.base import SuiteTask  # noqa: E402
 from lwrl.tasks.task_definition import ACTIONS, TaskDefinition  # noqa: E402
 from lwrl.tasks.domain_contract import Domain  # noqa: E402
+from lwrl.tasks.spaces import Box, Discrete, TaskSpec  # noqa: E402
 from lwrl.outside import admitted  # noqa: E402
 
 DOMAIN_MODULES = ("mountain_car", "pendulum", "cartpole", "acrobot")
@@ -167,6 +168,28 @@ def definition(domain_name: str, task: str, **options) -> TaskDefinition:
     """The array functions of a task (start, observation, reward, termination, up-time), with
     its kind of action (`actions`)."""
     return resolve(domain_name, task, None, **options)[0]
+
+
+def spec_of(definition: TaskDefinition) -> TaskSpec:
+    """What a learner may know of the task `definition` (`tasks.spaces.TaskSpec`): its
+    observation bounds, its actions (`Discrete` of its controls, or with continuous actions
+    a `Box` of the actuator's range), state names, timestep, step limit and physical
+    parameters' values by name."""
+    if definition.continuous:
+        low, high = definition.control_range
+        action = Box((low,), (high,))
+    else:
+        action = Discrete(definition.num_actions)
+    names = domain(definition.domain).parameters.names
+    return TaskSpec(definition.name, Box(*definition.bounds), action, definition.state_names,
+                    definition.control_timestep, definition.step_limit,
+                    dict(zip(names, definition.physical)))
+
+
+def spec(name: str, **options) -> TaskSpec:
+    """The `TaskSpec` of the task `DOMAIN.TASK` with its options (`definition`'s), e.g.
+    `spec("pendulum.swingup", actions="continuous")`."""
+    return spec_of(definition(*split_name(name), **options))
 
 
 def load(domain_name: str, task: str, plant=None, seed=None, *, task_kwargs=None,

@@ -332,3 +332,36 @@ def test_bad_input_gets_one_line(call, message):
     with pytest.raises(ValueError) as error:
         call()
     assert message in str(error.value) and "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize("name", tasks.TASK_NAMES)
+@pytest.mark.parametrize("actions", ACTIONS)
+def test_gymnaxs_spaces_are_the_tasks_spec(name, actions):
+    env, params = lwrl.jax.make(name, actions=actions)
+    spec = tasks.spec(name, actions=actions)
+    assert env.action_space(params) == spec.action
+    assert env.observation_space(params) == spec.observation
+
+
+def test_the_continuous_action_space_follows_params():
+    env, params = lwrl.jax.make("pendulum.swingup", actions="continuous")
+    torque = tasks.domain("pendulum").parameters.index.torque
+    assert env.action_space(params.at[torque].set(2.0)) == tasks.spec(
+        "pendulum.swingup", actions="continuous", params={"torque": 2.0}).action
+
+
+def test_observation_noise_unbounds_the_observation_space():
+    env, params = lwrl.jax.make("cartpole.balance", observation_noise={"pole_angle": 0.01})
+    space = env.observation_space(params)
+    opened = [name for name, low in zip(env.definition.state_names, space.low) if low == -np.inf]
+    assert "pole_angle" in opened and "cart_position" not in opened
+
+
+def test_makes_example_runs():
+    import doctest
+
+    from lwrl.jax import environment
+    finder, runner = doctest.DocTestFinder(), doctest.DocTestRunner(verbose=False)
+    for test in finder.find(environment.make, "make", globs={}):
+        runner.run(test)
+    assert runner.failures == 0 and runner.tries > 5

@@ -36,6 +36,7 @@ from lwrl import tasks
 from lwrl.jax.translate import as_jax
 from lwrl.tasks.integrators import check_integrator
 from lwrl.tasks.plants import check_equations
+from lwrl.tasks.spaces import Box, Discrete
 from lwrl.tasks.task_definition import advance_episode
 
 
@@ -178,11 +179,28 @@ class Environment:
         """`(low, high)`: the actuator's range at the parameter values `params` `(P,)` (None:
         `default_params`), `TaskDefinition.control_range_at` traced (the lowest and the
         highest discrete control, so it moves with the parameters that set them). A
-        continuous action is clipped to it, and the action noise in either kind; gymnax's
-        `action_space(params)` would be a Box on it, of shape () (or (1,))."""
+        continuous action is clipped to it, and the action noise in either kind
+        (`action_space(params)` is the Box on it)."""
         controls = self._controls_at(self.check_params(
             self.default_params if params is None else params))
         return controls[0], controls[-1]
+
+    def action_space(self, params=None):
+        """gymnax's `action_space(params)` (`tasks.spaces`): `Discrete(A)` of the task's
+        action indices, or with continuous actions the `Box` of shape (1,) of the actuator's
+        range at `params` (None: `default_params`; concrete values, outside `jit`: a space
+        is a description, not an array)."""
+        if not self.definition.continuous:
+            return Discrete(self.num_actions)
+        low, high = self.action_range(params)
+        return Box((float(low),), (float(high),))
+
+    def observation_space(self, params=None):
+        """gymnax's `observation_space(params)` (`tasks.spaces`): the `Box` of the task's
+        bounds (`TaskDefinition.bounds`, the same at every `params`), unbounded in the
+        variables `make`'s sensors add noise to."""
+        noisy = np.asarray(self.default_sensors.observation_noise) > 0
+        return tasks.spec_of(self.definition).observation.unbounded_where(noisy)
 
     def _controls_at(self, params):
         """`(A,)`: each discrete action's control at the parameter values `params` `(P,)`,
@@ -342,6 +360,25 @@ def make(name: str, dtype=None, integrator: str = "semi_implicit", equations: st
     of `tasks.disturbances` (`default_sensors`), with the noise drawn from the step's JAX
     key; `env.sensors(...)` gives others, per environment of a batch. A one-line
     ValueError names what is allowed for an unknown task, option or value.
+
+    Example: one random-action episode step by step, then 16 agents' steps in one program.
+
+    >>> import jax
+    >>> jax.config.update("jax_enable_x64", True)  # before any array: the plant's float64
+    >>> import lwrl.jax
+    >>> env, params = lwrl.jax.make("cartpole.balance")
+    >>> env.action_space(params), env.observation_space(params).shape
+    (Discrete(n=2), (4,))
+    >>> key = jax.random.key(0)
+    >>> obs, state = env.reset(key, params)
+    >>> obs, state, reward, terminated, truncated, info = env.step(key, state, 1, params)
+    >>> keys = jax.random.split(key, 16)
+    >>> obs, states = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
+    >>> actions = jax.numpy.zeros(16, dtype=int)
+    >>> step = jax.jit(jax.vmap(env.step, in_axes=(0, 0, 0, None)))
+    >>> obs, states, reward, terminated, truncated, info = step(keys, states, actions, params)
+    >>> obs.shape
+    (16, 4)
     """
     domain_name, task = tasks.split_name(name)
     domain = tasks.domain(domain_name)
