@@ -116,7 +116,7 @@ class Learner:
     tuned: Mapping = dataclasses.field(default_factory=dict)
     """`{Gymnasium environment id: {setting: value}}`: settings tuned for the learner
     elsewhere (rl-baselines3-zoo's), which a study takes on the domains tuned as that
-    environment (`Domain.tuned_as`); empty: the task's defaults are its own."""
+    environment (`agent.zoo.TUNED_AS`); empty: the task's defaults are its own."""
 
     actions: str = "discrete"
     """The kind of action its step returns (`tasks.commands`): `discrete`, an index into

@@ -1,7 +1,7 @@
 """Learning on an emulated microcontroller: the C learner on a Cortex-M4 under QEMU.
 
 `run_device(task)` writes a device program (the C learner of `export.learner`, a new agent
-for the task with its settings, the task's plant in C, `Domain.c_plant`, and a loop over
+for the task with its settings, the task's plant in C (`export.c_plants`), and a loop over
 episodes that prints each one's steps), builds it twice from the same sources:
 
 - for the host, with the system C compiler and its C library (`io_host.c`: stdout);
@@ -46,6 +46,7 @@ from lwrl import tasks
 from lwrl.agent.streams import SPLITMIX64
 from lwrl.export import learner
 from lwrl.export.c import DTYPES, _literal, compile_in, find_compiler, template
+from lwrl.export.c_plants import C_PLANTS
 
 CROSS = {"arm-none-eabi-gcc": "gcc-arm-none-eabi", "arm-none-eabi-size": "binutils-arm-none-eabi",
          "qemu-system-arm": "qemu-system-arm"}
@@ -90,16 +91,12 @@ def check_tools(needed=tuple(CROSS)) -> None:
 
 def plant_header(task: str, **options) -> str:
     """`lwrl_plant.h` for `task` (DOMAIN.TASK) with its `options` (`params`, ...): the
-    domain's plant in C (`Domain.c_plant`) with the task's parameter values and the
+    domain's plant in C (`export.c_plants`) with the task's parameter values and the
     domain's constants, its controls and step limit, in the template
     `templates/device/plant.h.in`; a one-line error for a domain without one."""
     domain_name, task_name = tasks.split_name(task)
     domain = tasks.domain(domain_name)
-    plant = domain.c_plant
-    if plant is None:
-        having = [name for name, other in tasks.DOMAINS.items() if other.c_plant is not None]
-        raise ValueError(f"{domain_name} has no plant in C; the device programs run the domains "
-                         f"that have one: {', '.join(having)}")
+    plant = C_PLANTS.of(domain_name)
     definition = tasks.definition(domain_name, task_name, **options)
     parameters = dict(zip((p.name for p in domain.parameters.items), definition.physical))
     values = {name: _literal(float(value), "double")

@@ -44,7 +44,7 @@ registers them again if needed and is idempotent.
 - **info**: `uptime_s` (the episode's up-time so far, in seconds; `None` for Mountain-Car,
   which has none: the dm_env's NaN would make `check_env`'s determinism check fail, since
   NaN != NaN), `steps` (steps of the episode) and `plant`.
-- **Rendering** (`tasks.drawing.Painter`): `render_mode="rgb_array"` makes `render()` return
+- **Rendering** (`viz.drawing.Painter`): `render_mode="rgb_array"` makes `render()` return
   the state as a `(240, 320, 3)` uint8 frame: MuJoCo's picture from the model's first
   camera for the domains with an MJCF model, on either plant (OpenGL: a display, or
   `MUJOCO_GL=egl` set before importing lwrl, headless), and for Mountain-Car the hill and
@@ -88,7 +88,8 @@ from gymnasium.vector.utils import batch_space
 
 from lwrl import models, tasks
 from lwrl.tasks.batched import BatchedEnv
-from lwrl.tasks.drawing import Painter
+from lwrl.viz import scenes
+from lwrl.viz.drawing import Painter
 from lwrl.tasks.spaces import Discrete
 from lwrl.tasks.task_definition import check_finite_state
 
@@ -338,7 +339,8 @@ def painter(domain: str, render_mode) -> Painter | None:
         raise ValueError(f"render_mode={render_mode!r} draws {domain}'s MuJoCo model with OpenGL, "
                          "which this process has not: set MUJOCO_GL=egl (headless; Debian's "
                          "libegl1 libegl-mesa0) before importing lwrl, or run where a display is")
-    return Painter(None if model is None else models.read(model), tasks.domain(domain).drawing)
+    return Painter(None if model is None else models.read(model),
+                   scenes.drawing_of(domain) if model is None else None)
 
 
 class _Window:

@@ -22,6 +22,7 @@ import json
 
 from lwrl import agent, tasks
 from lwrl.agent.learner_contract import LearnerSettings, TaskInfo
+from lwrl.agent.zoo import TUNED_AS
 from lwrl.settings import (LATE, SCALARS, WHEN_SET, base_type, check_choices, check_count,
                            default_of, fill, setting)
 from lwrl.tasks.commands import check_kinds
@@ -42,10 +43,12 @@ def task_defaults(task: str) -> dict:
 
 def tuned_settings(task: str, learner: str) -> dict:
     """The settings tuned elsewhere for `learner` on `task` (DOMAIN.TASK): its `tuned` set
-    for the Gymnasium environment the domain is tuned as (`Domain.tuned_as`); {} where
+    for the Gymnasium environment the domain is tuned as (`agent.zoo.TUNED_AS`); {} where
     there is none (the task's defaults, then the learner's, stand)."""
-    domain = tasks.domain(tasks.split_name(task)[0])
-    return dict(agent.learner(learner).tuned.get(domain.tuned_as, {}))
+    domain = tasks.split_name(task)[0]
+    if domain not in TUNED_AS:
+        return {}
+    return dict(agent.learner(learner).tuned.get(TUNED_AS[domain], {}))
 
 
 def task_info(task: str, task_options: dict | None = None,

@@ -29,17 +29,13 @@ Task `cost_to_go`:
 - **Agent** (the paper's best, Fig. 3): NRBF 8 x 8 over x in [-1.2, 0.5], v in
   [-0.07, 0.07]; replacing traces, alpha 3.9, lambda 0.9, epsilon 0 (SPEC.md's reading);
   30 agents x 40 episodes.
-- **Drawn** as the hill z = sin(3x), x in [-1.2, 0.5], in the x-z plane, with the goal flag,
-  the left wall and the car moving along the hill.
-- **In C** (`C_PLANT`): the step and the start in double, for the programs that learn on an
-  emulated microcontroller (`lwrl device`).
 """
 
 import numpy as np
 from numba.extending import register_jitable
 
 from lwrl.kernels import copy_into
-from lwrl.tasks.domain_contract import Box, Classical, CPlant, Domain, Drawing, Line
+from lwrl.tasks.domain_contract import Domain
 from lwrl.tasks.parameters import Parameter, Parameters
 from lwrl.tasks.task_definition import RunDefaults, TaskDefinition, step_limit
 from lwrl.tasks.physics import AnalyticPhysics
@@ -129,26 +125,6 @@ def initial_states(rng: np.random.Generator, count: int) -> np.ndarray:
     return rng.uniform((MIN_POSITION, -MAX_SPEED), (GOAL_POSITION, MAX_SPEED), size=(count, 2))
 
 
-C_PLANT = CPlant(
-    start="""\
-    state[0] = $min_position + ($goal_position - ($min_position)) * unit[0];
-    state[1] = -$max_speed + ($max_speed - (-$max_speed)) * unit[1];""",
-    step="""\
-    /* v' = clip(v + k a - g cos(3x), -vmax, vmax); x' = max(x + v', xmin), v' = 0 at the wall */
-    double velocity = state[1] + $thrust * control - $gravity * cos(3.0 * state[0]);
-    double unclipped;
-    velocity = velocity > -$max_speed ? velocity : -$max_speed;
-    velocity = velocity < $max_speed ? velocity : $max_speed;
-    unclipped = state[0] + velocity;
-    state[0] = unclipped > $min_position ? unclipped : $min_position;
-    state[1] = velocity * (double)(unclipped >= $min_position); /* the wall stops the car */
-    *terminal = state[0] > $goal_position; /* the goal; reward -1 per step, 0 into the goal */
-    return (double)*terminal - 1.0;""",
-    constants={"min_position": MIN_POSITION, "goal_position": GOAL_POSITION,
-               "max_speed": MAX_SPEED})
-"""`step`, `outcome` and `initial_states` in C, operation for operation, for the device
-programs."""
-
 BOUNDS = ((MIN_POSITION, -MAX_SPEED), (GOAL_POSITION + MAX_SPEED, MAX_SPEED))
 """Every observation of an episode: the goal step moves at most MAX_SPEED past the goal."""
 PAPER_AGENT = RunDefaults(n=8, low=(MIN_POSITION, -MAX_SPEED), high=(GOAL_POSITION, MAX_SPEED),
@@ -186,61 +162,7 @@ class Physics(AnalyticPhysics):
         return float(np.sin(3.0 * self.position()))
 
 
-def thrust_along_velocity(state, p) -> float:
-    """The classical controller's thrust a at one state `(2,)`: +1 where v >= 0, else -1.
-
-    Energy pumping: the thrust's work k a v per step is then k |v| >= 0, so the car's energy
-    (v^2 / 2 + (g / 3) sin 3x per unit mass, the slope being sin 3x) grows as fast as the
-    thrust can make it, whatever the parameters `p`, and the swings grow until one clears the
-    right hill. At v = 0 it pushes forward, toward the goal: at the left wall, which stops
-    the car, that is the only way out; elsewhere v = 0 lasts one step."""
-    del p
-    return 1.0 if state[1] >= 0.0 else -1.0
-
-
-CLASSICAL = Classical(
-    control=thrust_along_velocity,
-    source="energy pumping, a = sign(v) (SPEC.md, \"The benchmark's protocol\"): the thrust's "
-           "power k a v is then k |v|, the most the actuator can give",
-    summary="full thrust along the velocity, forward at rest")
-"""Mountain-Car's classical controller: from the paper's random starts (seeded) it reaches
-the goal within 200 steps (tests/test_classical.py)."""
-
-
-def altitude(x) -> np.ndarray:
-    """The hill's altitude sin(3x)."""
-    return np.sin(3.0 * np.asarray(x, dtype=np.float64))
-
-
-def car_poses(states) -> dict:
-    """`{"car": (translation (T, 3), quaternion (T, 4) x-first)}`: the car at (x, 0, sin 3x),
-    pitched along the slope 3 cos(3x)."""
-    x = np.asarray(states, dtype=np.float64)[:, 0]
-    translation = np.stack([x, np.zeros_like(x), altitude(x)], axis=1)
-    pitch = -np.arctan(3.0 * np.cos(3.0 * x))  # about +y: a rising slope lifts the nose
-    zeros = np.zeros_like(x)
-    return {"car": (translation, np.stack([zeros, np.sin(pitch / 2), zeros, np.cos(pitch / 2)], axis=1))}
-
-
-def _drawing() -> Drawing:
-    """The hill, the goal flag, the left wall, and the car's body."""
-    x = np.linspace(MIN_POSITION, GOAL_POSITION, 200)
-    goal_z, wall_z = float(altitude(GOAL_POSITION)), float(altitude(MIN_POSITION))
-    grey, car = (110, 110, 110), (0.06, 0.04, 0.03)
-    return Drawing(
-        fixed={
-            "hill": Line(np.stack([x, np.zeros_like(x), altitude(x)], axis=1), 0.008, (90, 160, 90)),
-            "goal": (Box((0.004, 0.004, 0.12), (GOAL_POSITION, 0.0, goal_z + 0.12), grey),
-                     Box((0.05, 0.004, 0.03), (GOAL_POSITION + 0.05, 0.0, goal_z + 0.21), (240, 200, 40))),
-            "wall": Box((0.01, 0.05, 0.15), (MIN_POSITION - 0.01, 0.0, wall_z + 0.1), grey),
-        },
-        bodies={"car": {"body": Box(car, (0.0, 0.0, car[2]), (200, 60, 50))}},
-        poses=car_poses, eye=((-0.35, -2.2, 0.3), (-0.35, 0.0, 0.0)))
-
-
 DOMAIN = Domain(
     name="mountain_car", tasks={"cost_to_go": cost_to_go},
     plants=DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=Physics,
-                        parameters=PARAMETERS, euler=False, analytic_options=()),
-    value_axes=("position", "velocity"), drawing=_drawing(), c_plant=C_PLANT,
-    robustness_axes=("gravity", "thrust"), tuned_as="MountainCar-v0", classical=CLASSICAL)
+                        parameters=PARAMETERS, euler=False, analytic_options=()))

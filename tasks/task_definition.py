@@ -204,7 +204,7 @@ class TaskDefinition:
         """The index of the action whose control (`controls`, or `controls_at(physical)`
         with rows `(..., P)`) is nearest to `control` (a number, or an array `(...)`: an
         int array then), the lower index on a tie: how a discrete task runs a continuous
-        controller (`Domain.classical`), bang-bang where the actions are the actuator's two
+        controller (the benchmark's classical controllers), bang-bang where the actions are the actuator's two
         limits. A one-line ValueError unless `control` is finite."""
         try:
             value = np.asarray(control, dtype=np.float64)

@@ -18,9 +18,10 @@ from lwrl.agent.linear import FEATURE_MAPS
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 FLOORS = {"kernels": 0, "outputs": 0, "settings": 0, "outside": 0, "models": 0, "agent": 1,
-          "tasks": 1, "analysis": 2, "gym": 2, "jax": 2, "viz": 3, "runners": 4, "adapters": 5,
+          "tasks": 1, "analysis": 2, "jax": 2, "viz": 3, "gym": 4, "runners": 4, "adapters": 5,
           "export": 5, "studies": 6, "cli": 7}
-"""Room -> floor. `gym` is `lwrl/gym.py`, the suite's Gymnasium face (it reads `tasks`), and
+"""Room -> floor. `gym` is `lwrl/gym.py`, the suite's Gymnasium face (it reads `tasks`, and
+`viz.scenes` for what `render()` draws), and
 `jax` is `lwrl/jax/`, the suite in JAX (it reads `tasks` too);
 `kernels`, `outputs`, `settings` and `outside` (`lwrl/kernels.py`, `lwrl/outputs.py`,
 `lwrl/settings.py`, `lwrl/outside.py`), the cache of compiled kernels, the writing of whole
@@ -34,8 +35,15 @@ the repository's root would shadow the library for code run from there)."""
 ISOLATED = {"agent": {"kernels", "outputs", "settings", "outside"},
             "tasks": {"models", "kernels", "outputs", "outside"}}
 """Rooms that may import only these others: the learner sees arrays only."""
-NAMING_DOMAINS_ALLOWED = ("studies/paper/",)
-"""The paper's study names the tasks of its figures as data: the one exception."""
+DOMAIN_FACTS = ("viz/scenes/", "export/c_plants/", "studies/compare/domains.py",
+                "studies/robustness/domains.py", "studies/paper/benchmark/classical/",
+                "agent/zoo.py")
+"""Each part's facts about the domains (`lwrl.outside.DomainFacts`: the viewer's scenes, the
+plants in C, the plant comparison's tolerances, the robustness axes, the benchmark's
+classical controllers, the zoo's counterparts) name the domains they are about, and their
+parameters and state variables."""
+NAMING_DOMAINS_ALLOWED = ("studies/paper/", *DOMAIN_FACTS)
+"""The paper's study names the tasks of its figures as data, and the parts' facts."""
 NAMING_LEARNERS_ALLOWED = ("agent/", "studies/paper/")
 """Where a learner or a feature map may be named: its own room, and the paper's study,
 whose items are about the paper's learners (NRBF against CMAC, the traces, Table 1's
@@ -184,7 +192,8 @@ def parameter_mentions(path: pathlib.Path) -> list:
             and id(node) not in prose and node.value in names]
 
 
-@pytest.mark.parametrize("path", files_outside("tasks/"), ids=lambda p: str(p.relative_to(ROOT)))
+@pytest.mark.parametrize("path", files_outside("tasks/", *DOMAIN_FACTS),
+                         ids=lambda p: str(p.relative_to(ROOT)))
 def test_no_room_but_tasks_names_a_parameter(path):
     """A domain's physical parameters are named in its module alone (`PARAMETERS`); other
     rooms read `Domain.parameters`, so adding a parameter touches no other room."""
@@ -202,24 +211,18 @@ def test_the_check_finds_a_parameter_named_in_code(tmp_path):
 
 @pytest.mark.parametrize("name", list(tasks.DOMAINS))
 def test_every_domain_fills_its_contract(name):
-    """Each domain gives what the other rooms look up: tasks with bounds, defaults and angles
-    over its state variables, value axes, a drawing or a model, and comparison settings for
-    a MuJoCo plant."""
+    """Each domain gives its physics: tasks with bounds, defaults and angles over its state
+    variables (what other parts know of it is theirs: tests/test_domain_facts.py)."""
     domain = tasks.domain(name)
     assert domain.name == name and domain.tasks
-    assert (domain.model is None) == (domain.drawing is not None), "a model or a drawing"
-    assert (domain.model is None) == (domain.comparison is None), "compared where it has a model"
     for task in domain.tasks:
         definition = tasks.definition(name, task)
         state_names = definition.state_names
-        assert set(domain.value_axes) <= set(state_names) and len(domain.value_axes) == 2
         assert set(definition.angles) <= set(state_names)
         low, high = definition.bounds
         assert len(low) == len(high) == len(state_names) and np.all(np.less(low, high))
         defaults = definition.defaults
         assert len(defaults.low) == len(defaults.high) == len(state_names)
-        if domain.comparison is not None:
-            assert set(domain.comparison.tolerances) <= set(state_names)
 
 
 def learner_names() -> tuple:

@@ -23,12 +23,15 @@ from lwrl import tasks
 from lwrl.cli import main as cli
 from lwrl.studies.compare import open_loop
 from lwrl.studies.compare.comparison import replay
+from lwrl.studies.compare.domains import COMPARISONS
 from lwrl.viz import names
 
 SEEDS = range(5)
 STEPS = 50
-TASKS = tuple(name for name in tasks.TASK_NAMES if "mujoco" in tasks.PLANTS[tasks.split_name(name)[0]])
-"""The tasks with a MuJoCo plant: those `lwrl compare` compares."""
+TASKS = tuple(name for name in tasks.TASK_NAMES if "mujoco" in tasks.PLANTS[tasks.split_name(name)[0]]
+              and tasks.split_name(name)[0] in COMPARISONS)
+"""The tasks with a MuJoCo plant and the comparison's tolerances: those `lwrl compare`
+compares."""
 
 
 @pytest.fixture(scope="module", params=TASKS)
@@ -44,9 +47,9 @@ def pair(result, plant, against):
 def angle_column(task):
     """The column of the largest error in the first second of the task's first angle (the
     pendulum's, the pole's, the shoulder's), or of its first compared variable where it has
-    no angle (`Domain.comparison`)."""
+    no angle (`studies.compare.domains`)."""
     definition = tasks.definition(*tasks.split_name(task))
-    compared = tuple(tasks.domain(definition.domain).comparison.tolerances)
+    compared = tuple(COMPARISONS.of(definition.domain).tolerances)
     return f"{(definition.angles or compared)[0]}_max_1_s"
 
 

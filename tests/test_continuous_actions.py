@@ -17,6 +17,8 @@ import pytest
 from dm_env import specs, test_utils
 
 from lwrl import tasks
+from lwrl.studies.compare.domains import COMPARISONS
+from lwrl.studies.robustness.domains import ROBUSTNESS
 from lwrl.tasks.batched import LAST, BatchedEnv
 from conftest import TASK_PLANTS, off_nominal, one_line_error
 
@@ -27,6 +29,9 @@ MODEL_DOMAINS = [name for name, domain in tasks.DOMAINS.items() if domain.model]
 PLANT_TOLERANCES = {"cartpole": 1e-13, "pendulum": 5e-11, "acrobot": 1e-13}
 """tests/test_plant_check.py's bounds on |MuJoCo - analytic| over 50 random-action steps
 (`plant_tolerance`)."""
+OUTSIDE_TOLERANCE = 1e-6
+"""The bound on |MuJoCo - analytic| of a domain of another package that declares no plant
+comparison (`plant_tolerance`), in its state's units."""
 PAPER_RANGES = {"mountain_car": (-1.0, 1.0), "pendulum": (-5.0, 5.0), "cartpole": (-10.0, 10.0),
                 "acrobot": (-1.0, 1.0)}
 """The actuator's range of each of lwrl's own domains at the paper's values."""
@@ -34,11 +39,13 @@ PAPER_RANGES = {"mountain_car": (-1.0, 1.0), "pendulum": (-5.0, 5.0), "cartpole"
 
 def plant_tolerance(domain: str) -> float:
     """The bound on |MuJoCo - analytic| of `PLANT_TOLERANCES`, or for a domain of another
-    package (`tasks.ENTRY_POINT_GROUP`) the smallest of its declared plant comparison's
-    tolerances (`Domain.comparison`)."""
+    package (`tasks.ENTRY_POINT_GROUP`) the smallest of its plant comparison's tolerances
+    (`studies.compare.domains`) where it declares one, else `OUTSIDE_TOLERANCE`."""
     if domain in PLANT_TOLERANCES:
         return PLANT_TOLERANCES[domain]
-    return min(tasks.domain(domain).comparison.tolerances.values())
+    if domain in COMPARISONS:
+        return min(COMPARISONS[domain].tolerances.values())
+    return OUTSIDE_TOLERANCE
 
 
 def short(domain: str, task: str) -> dict:
@@ -253,11 +260,12 @@ def test_the_plants_agree_under_continuous_actions(domain):
 
 def every_option(domain: str) -> dict:
     """Noise on the first and last state variables, a delay of two steps, action noise of 0.3
-    times the range's top, and the parameter that sets the range (the last robustness axis:
-    the torque, the force, Mountain-Car's thrust gain) drawn anew for each episode."""
+    times the range's top, and a parameter drawn anew for each episode: the robustness
+    study's last axis where the domain has one (the torque, the force, Mountain-Car's thrust
+    gain), else its last parameter."""
     definition = tasks.definition(domain, next(iter(tasks.domain(domain).tasks)))
     names, parameters = definition.state_names, tasks.domain(domain).parameters
-    name = tasks.domain(domain).robustness_axes[-1]
+    name = (ROBUSTNESS[domain].axes if domain in ROBUSTNESS else parameters.names)[-1]
     nominal = parameters.items[parameters.position(name)].nominal
     return {"observation_noise": {names[0]: 0.01, names[-1]: 0.2}, "action_delay": 2,
             "action_noise": 0.3 * definition.control_range[1],

@@ -92,8 +92,10 @@ def test_the_plant_header_is_the_domains_c_plant_at_the_tasks_parameters():
     assert "parameter values of mountain_car.cost_to_go: thrust 0.001, gravity 0.0025" in header
     other = device.plant_header(MOUNTAIN_CAR, params={"gravity": 0.003})
     assert "0.001 * control - 0.003 * cos(3.0 * state[0])" in other and "gravity 0.003" in other
-    with pytest.raises(ValueError, match="^pendulum has no plant in C; the device programs run "
-                                         "the domains that have one: mountain_car$"):
+    with pytest.raises(ValueError, match=r"^no plant in C for the domain 'pendulum' \(the domains "
+                                         r"with one: mountain_car\); an installed package adds "
+                                         r"one with an entry point 'pendulum = module:attribute' "
+                                         r"of the group 'lwrl.c_plants'$"):
         device.plant_header("pendulum.swingup")
 
 

@@ -57,18 +57,16 @@ IDS = ["lwrl/toy_mass-reach-mujoco-v0", "lwrl/toy_mass-reach-analytic-v0",
 """The toy's Gymnasium ids: its task on each plant of a single environment, with discrete
 actions and with continuous ones."""
 CONTRACT = ("test_architecture.py", "test_suite.py", "test_batched.py", "test_disturbances.py",
-            "test_continuous_actions.py", "test_parameters.py", "test_classical.py",
-            "test_run.py", "test_viz.py", "test_conventions.py", "test_compare.py",
-            "test_benchmark_evaluation.py", "test_gymnasium_envs.py", "test_gymnasium_render.py",
-            "test_gymnasium_vector.py", "test_jax_tasks.py", "test_mjx_plant.py",
-            "test_learners.py")
+            "test_continuous_actions.py", "test_parameters.py", "test_run.py", "test_viz.py",
+            "test_conventions.py", "test_domain_facts.py", "test_gymnasium_envs.py",
+            "test_gymnasium_render.py", "test_gymnasium_vector.py", "test_jax_tasks.py",
+            "test_mjx_plant.py", "test_learners.py")
 """The test files that hold every domain, task and plant of the registry to the suite's
 contract, each parametrised over the registry as it collects: the domain's declarations,
 the dm_env environments on each plant and the batch, the sensors and the actuator,
-continuous actions, the parameters and the MJCF model set to them, the classical controller,
-the run paths and their recordings, the viewer, the plant comparison, the benchmark's
-reference rows, Gymnasium (single, rendered, vector), the JAX and MJX plants, and the
-learners on the task."""
+continuous actions, the parameters and the MJCF model set to them, the run paths and their
+recordings, the viewer, the parts' facts it has, Gymnasium (single, rendered, vector), the
+JAX and MJX plants, and the learners on the task."""
 LEARNERS = ("sarsa", "actor_critic", "ase_ace")
 """The learners the contract runs on the toy (the learner contract's checks of every
 learner on every task are tests/test_learners.py's): the default's compiled loop on
@@ -195,6 +193,43 @@ def test_lwrl_train_and_eval_run_the_installed_task(site, tmp_path):
                                      dtype=np.float64).reshape(-1, 3)
                             for static, batch in chunks["scene/mass"] if not static])
     np.testing.assert_allclose(moved[:, 0], np.concatenate(positions).ravel(), atol=1e-6)
+
+
+LACKS = """
+from lwrl.export import device
+from lwrl.studies.paper.benchmark.references import ClassicalPolicy
+from lwrl.studies.robustness import plan
+from lwrl import tasks
+
+definition = tasks.definition("toy_mass", "reach")
+for ask in (lambda: device.plant_header("toy_mass.reach"),
+            lambda: ClassicalPolicy(definition, [definition.physical]),
+            lambda: plan.axes("toy_mass.reach")):
+    try:
+        ask()
+    except ValueError as error:
+        print(error)
+"""
+
+
+@pytest.mark.slow
+def test_what_the_toy_brings_no_facts_for_is_refused_in_one_line(site, tmp_path):
+    """The toy is a spec and its physics: the device programs' plant in C, the benchmark's
+    classical controller, the robustness axes and the plant comparison's tolerances are
+    each asked for and refused in one line naming the entry-point group to add one under;
+    the command exits with status 2."""
+    asked = child(site, "-c", LACKS)
+    assert asked.returncode == 0, asked.stderr
+    groups = ["lwrl.c_plants", "lwrl.classical", "lwrl.robustness"]
+    lines = asked.stdout.splitlines()
+    assert len(lines) == len(groups)
+    for line, group in zip(lines, groups):
+        assert "'toy_mass'" in line and f"of the group '{group}'" in line
+    compared = child(site, "-m", "lwrl.cli", "compare", "toy_mass.reach", "--out",
+                     str(tmp_path / "compare"))
+    assert compared.returncode == 2 and not compared.stdout.strip(), compared.stdout
+    assert "of the group 'lwrl.plant_comparisons'" in compared.stderr
+    assert len(compared.stderr.strip().splitlines()) == 1, compared.stderr
 
 
 GYMNASIUM = """

@@ -24,6 +24,7 @@ from lwrl.runners import sweep
 from lwrl.runners.config import RunConfig, task_info
 from lwrl.runners.run import environment_options, make_agent, run, run_batched, run_compiled, run_dm_env
 from lwrl.studies.robustness import controller, plan, study
+from lwrl.studies.robustness.domains import ROBUSTNESS
 from lwrl.tasks.batched import BatchedEnv
 from lwrl.tasks.randomisation import check_ranges, draws
 from conftest import off_nominal, run_cli
@@ -247,11 +248,12 @@ def test_the_c_controller_acts_as_the_python_agent(tmp_path):
 def test_each_domain_names_its_robustness_parameters():
     """One or two of its parameters, as the robustness page (docs/guide/robustness.md)
     lists them."""
-    for domain in tasks.DOMAINS.values():
-        assert 1 <= len(domain.robustness_axes) <= 2
-        assert set(domain.robustness_axes) <= set(domain.parameters.names)
-    listed = "; ".join(f"{name} " + " x ".join(f"`{axis}`" for axis in domain.robustness_axes)
-                       for name, domain in tasks.DOMAINS.items())
+    for name, domain in tasks.DOMAINS.items():
+        axes = ROBUSTNESS.of(name).axes
+        assert 1 <= len(axes) <= 2
+        assert set(axes) <= set(domain.parameters.names)
+    listed = "; ".join(f"{name} " + " x ".join(f"`{axis}`" for axis in ROBUSTNESS.of(name).axes)
+                       for name in tasks.DOMAINS)
     page = (pathlib.Path(__file__).resolve().parents[1] / "docs" / "guide" / "robustness.md")
     assert listed in " ".join(page.read_text().split())
 

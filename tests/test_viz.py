@@ -22,7 +22,7 @@ import rerun as rr
 from lwrl import tasks
 from lwrl.cli import main as cli
 from lwrl.runners.config import RunConfig, task_defaults
-from lwrl.tasks import mountain_car
+from lwrl.viz.scenes import mountain_car
 from lwrl.runners.recording import EpisodeRecording
 from lwrl.runners.run import EpisodeResults, make_agent
 from lwrl.viz import names, scene, value

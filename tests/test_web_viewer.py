@@ -21,7 +21,7 @@ import psutil
 import pytest
 
 from lwrl.runners.config import RunConfig
-from lwrl.viz import names
+from lwrl.viz import scenes
 from lwrl.viz import rerun as viz
 
 BROWSERS = ("chromium", "chromium-browser", "google-chrome")
@@ -145,7 +145,7 @@ def test_web_viewer_shows_the_scene_and_the_plots_in_chromium(chromium, tmp_path
     agent, results = run(config, record=[(0, 0), (0, 2)])
     path = tmp_path / "run.rrd"
     send_run(config, results, agent, rrd_path=path)
-    hill = names.domain(config.task).drawing.fixed["hill"].color
+    hill = scenes.drawing_of("mountain_car").fixed["hill"].color
     server = subprocess.Popen(
         [sys.executable, "-m", "lwrl.cli", "view", str(path), "--web", "--port", str(viz.free_port())],
         stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,

@@ -6,7 +6,7 @@ plane) with their rgba colours and logged once, static, in its body's frame unde
 state of an episode, computed from the recorded states: `qpos` is the state's positions (the
 state vector interleaves qpos and qvel joint by joint, for both plants), and the poses are
 MuJoCo's forward kinematics of it. A domain without an MJCF model brings its own `Drawing`
-(`tasks.domain_contract`): boxes and lines, fixed or on moving bodies, and the bodies' poses.
+(its scene's, `viz.scenes`): boxes and lines, fixed or on moving bodies, and the bodies' poses.
 
 `body_poses` evaluates MuJoCo's kinematics (`mj_kinematics`: body offsets, then each joint's
 slide or rotation about its anchor) over all the states at once in NumPy; it is checked
@@ -19,9 +19,8 @@ import numpy as np
 import rerun as rr
 
 from lwrl import models
-from lwrl.tasks.domain_contract import Line
-from lwrl.tasks.drawing import boxes_of, qpos_of, quat_mul, quat_rotate
-from lwrl.viz import names
+from lwrl.viz import names, scenes
+from lwrl.viz.drawing import Line, boxes_of, qpos_of, quat_mul, quat_rotate
 from lwrl.viz.columns import episode_indexes, log_static, send
 
 PLANE_EXTENT = 5.0
@@ -235,7 +234,7 @@ def log_model_geometry(rec: rr.RecordingStream, model: mujoco.MjModel) -> list[s
 
 
 def shape_archetype(shape):
-    """A `Line` as LineStrips3D, a `Box` or a tuple of boxes as solid Boxes3D."""
+    """A `Line` as LineStrips3D, a `Block` or a tuple of blocks as solid Boxes3D."""
     if isinstance(shape, Line):
         return rr.LineStrips3D([shape.points], radii=shape.radius, colors=shape.color)
     boxes = boxes_of(shape)
@@ -259,7 +258,7 @@ def log_task_scene(rec: rr.RecordingStream, task: str) -> list[str]:
     log_static(rec, names.SCENE, rr.ViewCoordinates.RIGHT_HAND_Z_UP)
     if has_model(task):
         return log_model_geometry(rec, load_model(task))
-    return log_drawing(rec, names.domain(task).drawing)
+    return log_drawing(rec, scenes.drawing_of(names.domain_of(task)))
 
 
 def scene_poses(task: str, states, model: mujoco.MjModel | None = None,
@@ -274,7 +273,7 @@ def scene_poses(task: str, states, model: mujoco.MjModel | None = None,
         return {names.body_path(body_name(model, b), root): (xpos[:, b], _xyzw(xquat[:, b]))
                 for b in moving_bodies(model)}
     return {names.body_path(body): pose
-            for body, pose in names.domain(task).drawing.poses(states).items()}
+            for body, pose in scenes.drawing_of(names.domain_of(task)).poses(states).items()}
 
 
 def log_scene_poses(rec: rr.RecordingStream, recording, model: mujoco.MjModel | None = None,
@@ -307,7 +306,7 @@ def eye(task: str) -> tuple[tuple, tuple]:
     camera, or the drawing's eye."""
     if has_model(task):
         return camera_eye(load_model(task))
-    return names.domain(task).drawing.eye
+    return scenes.drawing_of(names.domain_of(task)).eye
 
 
 __all__ = ["body_poses", "body_poses_mujoco", "camera_eye", "eye", "has_model", "load_model",

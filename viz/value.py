@@ -1,6 +1,6 @@
 """The value function over a 2-D grid of states, as images.
 
-For a task's two plotted state variables (its domain's `value_axes`: e.g. position or angle
+For a task's two plotted state variables (its scene's `value_axes`, `viz.scenes`: e.g. position or angle
 across, velocity up; the other variables held at 0, e.g. the cart-pole's slice over pole
 angle and angular velocity at x = x_dot = 0), a `size x size` grid of cell-centre states
 over the learner's value box (`Agents.value_box`: a feature map's normalisation ranges, the
@@ -23,7 +23,7 @@ import dataclasses
 import numpy as np
 import rerun as rr
 
-from lwrl.viz import names
+from lwrl.viz import names, scenes
 from lwrl.viz.columns import episode_indexes, log_static, one_row, send
 
 GRID = 100
@@ -33,7 +33,8 @@ GRID = 100
 def value_axes(task: str) -> tuple[int, int]:
     """The indices of the two state variables across (u) and up (v) a task's images."""
     state_names = names.task_definition(task).state_names
-    return tuple(state_names.index(name) for name in names.domain(task).value_axes)
+    return tuple(state_names.index(name)
+                 for name in scenes.value_axes(names.domain_of(task), state_names))
 
 # Viridis, sampled at 0, 1/8, ..., 1.
 _VIRIDIS = np.array([(68, 1, 84), (71, 44, 122), (59, 81, 139), (44, 113, 142), (33, 144, 141),

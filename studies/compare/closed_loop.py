@@ -15,6 +15,7 @@ from lwrl import tasks
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import run
 from lwrl.runners.sweep import results_table
+from lwrl.studies.compare.domains import COMPARISONS
 
 PLANTS = ("mujoco", "semi_implicit", "explicit")
 """The plants agents learn on: MuJoCo (Euler) and the analytic plant in both Euler readings."""
@@ -25,7 +26,7 @@ EVAL_SEED = 1_000_000
 def eval_episodes_of(task: str) -> int:
     """Greedy episodes per agent and plant: the domain's `transfer_episodes` (fewer where
     the start is fixed and a greedy agent's episodes repeat)."""
-    return tasks.domain(tasks.split_name(task)[0]).comparison.transfer_episodes
+    return COMPARISONS.of(tasks.split_name(task)[0]).transfer_episodes
 
 
 def measure(task: str) -> tuple[str, str]:

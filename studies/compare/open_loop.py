@@ -10,7 +10,7 @@ The plants, named as in the report:
   section 4.3) with Euler's method in its two readings (`tasks.integrators`).
 
 Divergence is measured on the configuration variables the domain names with their
-tolerances (`Domain.comparison`; its angles wrapped to [-π, π] before differencing); a trial leaves the tolerance at
+tolerances (`studies.compare.domains`; its angles wrapped to [-π, π] before differencing); a trial leaves the tolerance at
 the first step where some variable's error exceeds it. Energy is the mechanical energy of
 the MJCF model (`mujoco.mj_energyPos` + `mj_energyVel`), whose masses and lengths are the
 paper's.
@@ -26,6 +26,7 @@ from lwrl import models
 from lwrl import tasks
 from lwrl.tasks.integrators import INTEGRATORS
 from lwrl.tasks.plants import MujocoPlant
+from lwrl.studies.compare.domains import COMPARISONS
 
 REFERENCE = "reference"
 REFERENCE_CHECK = "reference_2x"
@@ -45,7 +46,7 @@ MuJoCo against the analytic plant with its scheme, and the reference against its
 def tolerances(domain: str) -> dict:
     """`{variable: error}`: the configuration variables compared and the error (rad, m) a
     plant may have before it counts as having left the reference (the domain's)."""
-    return dict(tasks.domain(domain).comparison.tolerances)
+    return dict(COMPARISONS.of(domain).tolerances)
 
 
 def reference_model(domain: str, substeps: int) -> mujoco.MjModel:
@@ -115,7 +116,7 @@ def energy(domain: str, states: np.ndarray) -> np.ndarray:
 def energy_starts(definition, seeds) -> np.ndarray:
     """Starts of the zero-action energy trials, one per seed: the domain's `rest_start`
     where its task's start is an equilibrium zero action never leaves, else the task's."""
-    rest_start = tasks.domain(definition.domain).comparison.rest_start
+    rest_start = COMPARISONS.of(definition.domain).rest_start
     return np.array([definition.initial_states(np.random.default_rng(seed), 1)[0]
                      if rest_start is None else rest_start(np.random.default_rng(seed))
                      for seed in seeds])

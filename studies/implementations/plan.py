@@ -16,6 +16,7 @@ import numpy as np
 
 from lwrl import agent as learners
 from lwrl import tasks
+from lwrl.agent.zoo import TUNED_AS
 from lwrl.runners.config import RunConfig, task_defaults, tuned_settings
 
 PLANT = "analytic"
@@ -129,8 +130,8 @@ class Cell:
 
 
 def tuned_as(task: str) -> str:
-    """The Gymnasium environment whose tuned sets the task's domain takes (`Domain.tuned_as`)."""
-    return tasks.domain(tasks.split_name(task)[0]).tuned_as
+    """The Gymnasium environment whose tuned sets the task's domain takes (`agent.zoo`)."""
+    return TUNED_AS.of(tasks.split_name(task)[0])
 
 
 def protocol(task: str, budgets: dict, episodes: int | None, time_limit: float | None) -> tuple:

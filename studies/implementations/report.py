@@ -303,7 +303,7 @@ def write(cells, results, costs: dict, timings: dict, initialisations: dict, out
                               (c.task, c.episodes, tuple(sorted(c.task_options.items()))) for c in cells))
               + ".", *actions_lines(cells),
               f"- Settings: rl-baselines3-zoo's tuned set for the environment each domain is "
-              f"tuned as (`Domain.tuned_as`; {ZOO}), the same for both implementations "
+              f"tuned as (`agent.zoo.TUNED_AS`; {ZOO}), the same for both implementations "
               "(`runners.config.tuned_settings` of the reference learner), each task's section "
               "lists them field by field; the fields the zoo does not set keep the learners' "
               "defaults, SB3's." + untuned(cells),

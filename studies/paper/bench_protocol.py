@@ -9,7 +9,7 @@ CMAC (Mountain-Car, Fig. 2) and ASE/ACE (the cart-pole, Table 1) stand beside it
 Every learner takes the settings tuned for it elsewhere (`runners.config.tuned_settings`):
 DQN and PPO rl-baselines3-zoo's (`Learner.tuned`, `agent.stable_baselines.ZOO` says from
 where and what does not carry over) for the environment each domain is tuned as
-(`Domain.tuned_as`: MountainCar-v0 for Mountain-Car, CartPole-v1 for the cart-pole,
+(`agent.zoo.TUNED_AS`: MountainCar-v0 for Mountain-Car, CartPole-v1 for the cart-pole,
 Acrobot-v1 for the acrobot and, as the zoo's only discrete swing-up, for the pendulum).
 """
 

@@ -5,7 +5,7 @@ learner of continuous actions on the task made with them (`Learner.actions`, the
 `actions`), is trained twice, with the settings tuned for it elsewhere where it has them
 (`runners.config.tuned_settings`: rl-baselines3-zoo's for DQN and PPO, where `lwrl bench`'s
 search starts), else the task's defaults: on the
-paper's plant, and with the domain's robustness parameters (`Domain.robustness_axes`) drawn
+paper's plant, and with the domain's robustness parameters (`studies.robustness.domains`) drawn
 uniformly for every episode between `TRAINING_FACTORS` times their paper values (domain
 randomisation). A learner that runs only in the stepped loop trains `STEPPED_AGENTS` agents
 at most, under the benchmark's protocol where the command sets no episodes
@@ -40,6 +40,7 @@ from lwrl import agent as learners
 from lwrl import tasks
 from lwrl.agent import LEARNERS
 from lwrl.runners.config import RunConfig, task_defaults, task_info, tuned_settings
+from lwrl.studies.robustness.domains import ROBUSTNESS
 
 FACTORS = (0.25, 0.5, 1.0, 2.0, 4.0)
 """Each axis of the parameter grid, times the paper's value."""
@@ -67,7 +68,7 @@ class Cell:
     paper values, observation noise at `noise` of each span, a delay of `delay` steps."""
 
     factors: tuple
-    """One factor per robustness parameter (`Domain.robustness_axes`)."""
+    """One factor per robustness parameter (`Robustness.axes`)."""
     noise: float = 0.0
     delay: int = 0
 
@@ -80,9 +81,10 @@ class Cell:
 
 def axes(task: str) -> tuple:
     """The task's robustness parameters (`Parameter`s of its domain), one or two."""
-    domain = tasks.domain(tasks.split_name(task)[0])
-    return tuple(domain.parameters.items[domain.parameters.position(name)]
-                 for name in domain.robustness_axes)
+    name = tasks.split_name(task)[0]
+    parameters = tasks.domain(name).parameters
+    return tuple(parameters.items[parameters.position(axis)]
+                 for axis in ROBUSTNESS.of(name).axes)
 
 
 def cells(task: str, quick: bool = False) -> list:
@@ -204,9 +206,8 @@ def evaluation(task: str, trained: RunConfig, cell: Cell, episodes: int,
 
 
 def evaluation_episodes(task: str, quick: bool = False) -> int:
-    """Greedy episodes per agent and cell: the plant comparison's transfer episodes where
-    the domain has them (fewer where the start is deterministic), else 10."""
+    """Greedy episodes per agent and cell: the domain's (`Robustness.evaluation_episodes`,
+    fewer where the start is deterministic)."""
     if quick:
         return QUICK["evaluation_episodes"]
-    comparison = tasks.domain(tasks.split_name(task)[0]).comparison
-    return comparison.transfer_episodes if comparison else 10
+    return ROBUSTNESS.of(tasks.split_name(task)[0]).evaluation_episodes

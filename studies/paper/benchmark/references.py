@@ -1,6 +1,6 @@
 """The benchmark's two reference rows (docs/FINDINGS.md, "The light-weight claim judged again:
 the second benchmark's rule"): a random policy, the 0 of the normalised score, and the
-domain's classical controller (`Domain.classical`), its 1.
+domain's classical controller (`studies.paper.benchmark.classical`), its 1.
 
 Both are `Agents` (`agent.learner_contract`) that `runners.stepped.run_batched` runs as it
 runs a learner's, on the same environments, seeds and episodes; but they are no learner:
@@ -32,6 +32,7 @@ import numpy as np
 from lwrl import tasks
 from lwrl.agent.learner_contract import Agents
 from lwrl.settings import check_count
+from lwrl.studies.paper.benchmark.classical import CLASSICAL
 from lwrl.tasks.batched import BatchedEnv
 from lwrl.tasks.task_definition import TaskDefinition
 
@@ -105,7 +106,7 @@ class RandomPolicy(ReferencePolicy):
 
 
 class ClassicalPolicy(ReferencePolicy):
-    """The domain's classical controller (`Domain.classical`, its `source` says whose) on
+    """The domain's classical controller (`classical.CLASSICAL`, its `source` says whose) on
     `definition`'s task: agent b takes the action nearest
     (`TaskDefinition.nearest_action`) the control wanted at its observation and its
     episode's physical parameter values, as tests/test_classical.py runs it, or on a task
@@ -117,9 +118,7 @@ class ClassicalPolicy(ReferencePolicy):
     reference knows the plant; a learner is not told."""
 
     def __init__(self, definition: TaskDefinition, physical: np.ndarray):
-        classical = tasks.domain(definition.domain).classical
-        if classical is None:
-            raise ValueError(f"the {definition.domain} domain has no classical controller")
+        classical = CLASSICAL.of(definition.domain)
         count = len(tasks.domain(definition.domain).parameters.items)
         if np.ndim(physical) != 2 or np.shape(physical)[1] != count:
             raise ValueError(f"physical must have shape (B, {count}), one row of parameter "

@@ -32,8 +32,10 @@ Task `reach`:
 - **Up-time**: seconds within the target.
 - **Agent** (this package's defaults): NRBF 8 x 8 over x in [-1, 1], v in [-2, 2];
   replacing traces, alpha 0.5, lambda 0.9, epsilon 0.1; 10 agents x 100 episodes.
-- **Compared** (`lwrl compare`): the position, within 1e-6 m of the reference; 10 greedy
-  episodes per agent and plant in transfer (the starts are random).
+
+It is a task's spec and physics, nothing else: it brings no classical controller, plant in C,
+plant comparison, robustness axes or scene, and the parts that need one refuse it in one line
+(a package may add each through that part's entry-point group).
 """
 
 import importlib.resources
@@ -42,7 +44,7 @@ import numpy as np
 from numba.extending import register_jitable
 
 from lwrl.kernels import copy_into
-from lwrl.tasks.domain_contract import Classical, Domain, PlantComparison
+from lwrl.tasks.domain_contract import Domain
 from lwrl.tasks.integrators import euler
 from lwrl.tasks.parameters import Parameter, Parameters
 from lwrl.tasks.physics import physics_classes
@@ -144,22 +146,6 @@ def reach(time_limit: float = TIME_LIMIT, params=None) -> TaskDefinition:
         physical=tuple(PARAMETERS.values(params).tolist()))
 
 
-FREQUENCY = 2.0
-"""The classical controller's closed-loop natural frequency (rad/s)."""
-
-
-def pd_control(state, p) -> float:
-    """The classical controller's force at one state `(2,)`: u = -m (w^2 x + 2 w v), which
-    places the closed loop's poles at a double -w (critically damped), within +-F."""
-    force = -p[P.mass] * (FREQUENCY * FREQUENCY * state[0] + 2.0 * FREQUENCY * state[1])
-    return float(min(max(force, -p[P.force]), p[P.force]))
-
-
-CLASSICAL = Classical(
-    control=pd_control, source="pole placement on m x_dd = u (a PD law)",
-    summary="a critically damped PD law, u = -m (w^2 x + 2 w v) within +-F")
-
-
 class _Accessors:
     """One-line accessors named after the quantities, for both plants."""
 
@@ -185,9 +171,5 @@ DOMAIN = Domain(
     name="toy_mass", tasks={"reach": reach},
     plants=DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=AnalyticPhysicsToyMass,
                         parameters=PARAMETERS, analytic_options=("integrator",),
-                        mujoco_physics=MujocoPhysicsToyMass, model=MODEL, edit_model=edit_model),
-    value_axes=("position", "velocity"),
-    comparison=PlantComparison(tolerances={"position": 1e-6}, transfer_episodes=10),
-    robustness_axes=("mass", "force"), classical=CLASSICAL)
-"""The toy domain: its task, its plants and what lwrl's rooms look up (no drawing: the viewer
-draws the model; no plant in C, no Gymnasium environment it is tuned as)."""
+                        mujoco_physics=MujocoPhysicsToyMass, model=MODEL, edit_model=edit_model))
+"""The toy domain: its task and its plants."""

@@ -1,6 +1,9 @@
 """Pictures of a domain's states: what the Rerun viewer (`viz.scene`) and Gymnasium's
 `render()` (`lwrl.gym`) both draw from.
 
+- `Block`, `Line`, `Drawing`: the shapes of a domain drawn without an MJCF model
+  (`viz.scenes`).
+
 - `quat_mul`, `quat_rotate`: (w, x, y, z) quaternion algebra for poses.
 - `qpos_of(model, states)`: the joint positions of states that interleave qpos and qvel joint
   by joint (both plants' state vectors do).
@@ -14,11 +17,46 @@
   seen from its `eye` through a pinhole camera, painted in NumPy (no OpenGL).
 """
 
+import dataclasses
 import math
+from typing import Callable, Mapping
 
 import numpy as np
 
-from lwrl.tasks.domain_contract import Box, Drawing, Line
+
+@dataclasses.dataclass(frozen=True)
+class Block:
+    """A solid block (a box) the viewer draws: half sizes and centre (x, y, z), colour (r, g, b)."""
+
+    half_size: tuple
+    center: tuple
+    color: tuple
+
+
+@dataclasses.dataclass(frozen=True)
+class Line:
+    """A polyline the viewer draws: points `(n, 3)`, radius, colour (r, g, b)."""
+
+    points: np.ndarray
+    radius: float
+    color: tuple
+
+
+@dataclasses.dataclass(frozen=True)
+class Drawing:
+    """The 3-D scene of a domain without an MJCF model (z up, in the task's units).
+
+    `fixed` shapes are drawn once in the world; `bodies` maps a moving body's name to its
+    shapes in the body's frame; `poses(states (T, d))` gives each body's
+    `(translation (T, 3), quaternion (T, 4) x-first)`; `eye` is the default camera
+    `(position, look_target)`. Domains with a model are drawn from its geoms and cameras.
+    """
+
+    fixed: Mapping
+    bodies: Mapping
+    poses: Callable
+    eye: tuple
+
 
 MARGIN = 0.05
 """The share of a Drawing's picture left free on each side of its fixed shapes."""
@@ -56,8 +94,8 @@ def qpos_of(model, states) -> np.ndarray:
 
 
 def boxes_of(shape) -> tuple:
-    """The boxes of a Drawing's shape: a `Box`, or a tuple of them."""
-    return (shape,) if isinstance(shape, Box) else tuple(shape)
+    """The blocks of a Drawing's shape: a `Block`, or a tuple of them."""
+    return (shape,) if isinstance(shape, Block) else tuple(shape)
 
 
 def _place(shape, translation, rotation) -> list:
