@@ -5,14 +5,14 @@ Numba caches only module-level functions whose file it can stamp, and it checks 
 that file alone: a change in a function the kernel calls, in another file, would leave a
 stale kernel in its cache. So each kernel is written out as a module of its own,
 `<cache>/<sources>/<name>.py`, where `<sources>` is a digest of the sources the kernel
-depends on (`dependencies`), lwrl's, numba's, NumPy's and Python's versions: a change to any
-of them gives a new directory, compiled afresh, and a change anywhere else (the command
-line's help, a study) leaves the kernel where it is.
+depends on (`dependencies`, lwrl's version among them), numba's, NumPy's and Python's
+versions: a change to any of them gives a new directory, compiled afresh, and a change
+anywhere else (the command line's help, a study) leaves the kernel where it is.
 
 What a kernel depends on is read from the code, not listed: the modules of its template and
-bindings, this module (which writes the kernel's module), and every module they import,
-transitively, within lwrl and within the packages the template and bindings come from. A
-compiled function resolves the names it calls in its module's globals, which its module's
+bindings, this module (which writes the kernel's module), lwrl's `__init__` (which holds its
+version), and every module they import, transitively, within lwrl and within the packages
+the template and bindings come from. A compiled function resolves the names it calls in its module's globals, which its module's
 imports bind, so a function the kernel can reach is defined in one of these files. The
 imports are read from each file's syntax tree at any depth (a function's local import too),
 but not under `if TYPE_CHECKING:`, which never runs; a module imported by name at run time
@@ -66,8 +66,6 @@ import numba
 import numba.core.caching
 import numba.extending
 import numpy as np
-
-import lwrl
 
 _LOCK = threading.Lock()
 _DIGESTS: dict[tuple, str] = {}
@@ -134,12 +132,12 @@ def imported_names(name: str, path: pathlib.Path) -> set:
 
 
 def dependencies(modules) -> dict:
-    """`{module name: source file}` of the modules `modules`, this module and every module
-    they import, transitively, within lwrl and the top-level packages of `modules` (see the
-    module's docstring)."""
+    """`{module name: source file}` of the modules `modules`, this module, lwrl's own
+    `__init__` (which holds its version) and every module they import, transitively, within
+    lwrl and the top-level packages of `modules` (see the module's docstring)."""
     roots = {name.split(".")[0] for name in modules} | {"lwrl"}
     found: dict = {}
-    waiting = [*modules, __name__]
+    waiting = [*modules, __name__, "lwrl"]
     while waiting:
         name = waiting.pop()
         if name in found or name.split(".")[0] not in roots:
@@ -153,13 +151,12 @@ def dependencies(modules) -> dict:
 
 
 def sources_digest(modules=()) -> str:
-    """A digest of the sources `modules` depend on (`dependencies`) and of lwrl's and the
-    compiler's versions."""
+    """A digest of the sources `modules` depend on (`dependencies`, lwrl's version among
+    them) and of the compiler's versions."""
     key = tuple(sorted(modules))
     if key not in _DIGESTS:
         digest = hashlib.sha256()
-        for part in (lwrl.__version__, numba.__version__, np.__version__,
-                     platform.python_version(), sys.platform):
+        for part in (numba.__version__, np.__version__, platform.python_version(), sys.platform):
             digest.update(part.encode())
         for name, path in dependencies(key).items():
             digest.update(name.encode())
