@@ -4,9 +4,20 @@ A kernel is a plain Python function (its template) that numba compiles with `nog
 Numba caches only module-level functions whose file it can stamp, and it checks the stamp of
 that file alone: a change in a function the kernel calls, in another file, would leave a
 stale kernel in its cache. So each kernel is written out as a module of its own,
-`<cache>/<sources>/<name>.py`, where `<sources>` is a digest of every lwrl source file (and
-of the modules its bindings come from), numba's, NumPy's and Python's versions: any change
-to the code gives a new directory, compiled afresh.
+`<cache>/<sources>/<name>.py`, where `<sources>` is a digest of the sources the kernel
+depends on (`dependencies`, lwrl's version among them), numba's, NumPy's and Python's
+versions: a change to any of them gives a new directory, compiled afresh, and a change
+anywhere else (the command line's help, a study) leaves the kernel where it is.
+
+What a kernel depends on is read from the code, not listed: the modules of its template and
+bindings, this module (which writes the kernel's module), lwrl's `__init__` (which holds its
+version), and every module they import, transitively, within lwrl and within the packages
+the template and bindings come from. A compiled function resolves the names it calls in its module's globals, which its module's
+imports bind, so a function the kernel can reach is defined in one of these files. The
+imports are read from each file's syntax tree at any depth (a function's local import too),
+but not under `if TYPE_CHECKING:`, which never runs; a module imported by name at run time
+(`importlib.import_module`, the registries') is not a static import, and a kernel reaches
+such a module's functions only through its bindings, which are roots themselves.
 
 The generated module takes the template's module's globals, then the `bindings`
 (`{global name: function}`, e.g. the task's `transition` for the compiled loop), so the
@@ -38,6 +49,7 @@ writing leaves the old file or the new one, never part of one. The generated mod
 compiled from its text, not through a `.pyc`.
 """
 
+import ast
 import hashlib
 import importlib.util
 import inspect
@@ -67,31 +79,87 @@ def cache_root() -> pathlib.Path:
     return pathlib.Path(base) / "lwrl" / "kernels"
 
 
-def _source_files(modules) -> list:
-    """The `.py` files of lwrl (the package and every subpackage it maps) and of `modules`."""
-    import lwrl
+def _module_file(name: str) -> pathlib.Path | None:
+    """The source file of the module `name`, found without importing it (a module already
+    imported gives its own); None for a name that is not a module with a `.py` source (a
+    function imported from a module, a compiled extension)."""
+    module = sys.modules.get(name)
+    if module is not None:
+        file = getattr(module, "__file__", None)
+        return pathlib.Path(file) if file and file.endswith(".py") else None
+    parent, _, last = name.rpartition(".")
+    if not parent:
+        spec = importlib.util.find_spec(name)  # a top-level name: imports nothing
+        return pathlib.Path(spec.origin) if spec and (spec.origin or "").endswith(".py") else None
+    package = _module_file(parent)
+    if package is None or package.name != "__init__.py":
+        return None
+    for candidate in (package.parent / f"{last}.py", package.parent / last / "__init__.py"):
+        if candidate.is_file():
+            return candidate
+    return None
 
-    roots = [pathlib.Path(path) for path in lwrl.__path__]
-    for room in lwrl.SUBPACKAGES:
-        spec = importlib.util.find_spec(f"lwrl.{room}")
-        if spec is not None:
-            roots += [pathlib.Path(path) for path in (spec.submodule_search_locations
-                                                      or [spec.origin or ""]) if path]
-    files = {path.resolve() for root in roots
-             for path in ([root] if root.suffix == ".py" else root.rglob("*.py"))}
-    files |= {pathlib.Path(inspect.getfile(sys.modules[name])).resolve() for name in modules}
-    return sorted(files)
+
+def _type_checking(test: ast.expr) -> bool:
+    """True for the test of `if TYPE_CHECKING:` (or `typing.TYPE_CHECKING`)."""
+    return getattr(test, "id", getattr(test, "attr", None)) == "TYPE_CHECKING"
+
+
+def _import_nodes(nodes):
+    """The import statements in `nodes`, at any depth, but those under `if TYPE_CHECKING:`."""
+    for node in nodes:
+        if isinstance(node, ast.If) and _type_checking(node.test):
+            yield from _import_nodes(node.orelse)
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            yield node
+        else:
+            yield from _import_nodes(ast.iter_child_nodes(node))
+
+
+def imported_names(name: str, path: pathlib.Path) -> set:
+    """The dotted names the module `name` (its source at `path`) imports: `import a.b` gives
+    `a.b`; `from a import b` gives `a` and `a.b` (which is a module or a name in `a`)."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    found = set()
+    for node in _import_nodes([ast.parse(path.read_bytes())]):
+        if isinstance(node, ast.Import):
+            found |= {alias.name for alias in node.names}
+        else:
+            base = importlib.util.resolve_name("." * node.level + (node.module or ""), package) \
+                if node.level else node.module
+            found |= {base} | {f"{base}.{alias.name}" for alias in node.names if alias.name != "*"}
+    return found
+
+
+def dependencies(modules) -> dict:
+    """`{module name: source file}` of the modules `modules`, this module, lwrl's own
+    `__init__` (which holds its version) and every module they import, transitively, within
+    lwrl and the top-level packages of `modules` (see the module's docstring)."""
+    roots = {name.split(".")[0] for name in modules} | {"lwrl"}
+    found: dict = {}
+    waiting = [*modules, __name__, "lwrl"]
+    while waiting:
+        name = waiting.pop()
+        if name in found or name.split(".")[0] not in roots:
+            continue
+        path = _module_file(name)
+        if path is None:
+            continue
+        found[name] = path
+        waiting += imported_names(name, path)
+    return dict(sorted(found.items()))
 
 
 def sources_digest(modules=()) -> str:
-    """A digest of lwrl's sources, of `modules`' files and of the compiler's versions."""
+    """A digest of the sources `modules` depend on (`dependencies`, lwrl's version among
+    them) and of the compiler's versions."""
     key = tuple(sorted(modules))
     if key not in _DIGESTS:
         digest = hashlib.sha256()
         for part in (numba.__version__, np.__version__, platform.python_version(), sys.platform):
             digest.update(part.encode())
-        for path in _source_files(key):
-            digest.update(str(path.name).encode())
+        for name, path in dependencies(key).items():
+            digest.update(name.encode())
             digest.update(path.read_bytes())
         _DIGESTS[key] = digest.hexdigest()[:16]
     return _DIGESTS[key]
@@ -178,9 +246,8 @@ class _HealingCache(numba.core.caching.FunctionCache):
                          f"{' '.join(str(error).split())}); it runs compiled in memory")
 
 
-def _load(name: str, template, bindings: dict, helpers: dict, runtime: bool):
+def _load(name: str, template, bindings: dict, helpers: dict, runtime: bool, modules: set):
     """The kernel's numba dispatcher: from its module in the cache, or compiled in memory."""
-    modules = {template.__module__} | {function.__module__ for function in bindings.values()}
     path = cache_root() / sources_digest(modules) / f"{name}.py"
     text = kernel_source(template, bindings, helpers, runtime)
     report = _Report(name)
@@ -217,13 +284,18 @@ class Kernel:
         self._dispatcher = None
 
     @property
+    def modules(self) -> set:
+        """The modules of the template and of the bindings: the roots of its `dependencies`."""
+        return {self.template.__module__} | {function.__module__ for function in self.bindings.values()}
+
+    @property
     def dispatcher(self):
         """The numba dispatcher (its `stats` count cache hits and misses)."""
         if self._dispatcher is None:
             with _LOCK:
                 if self._dispatcher is None:
                     self._dispatcher = _load(self.name, self.template, self.bindings,
-                                             self.helpers, self.runtime)
+                                             self.helpers, self.runtime, self.modules)
         return self._dispatcher
 
     def __call__(self, *args):

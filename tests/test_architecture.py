@@ -2,13 +2,21 @@
 from each other, nothing outside `tasks/` knows a domain by name and nothing outside `agent/`
 knows a learner or a feature map by name.
 
-The rooms and their floors (docs/ARCHITECTURE.md): a module may import its own room and the
-rooms on lower floors only.
+The rules on imports are import-linter's contracts in pyproject.toml (`[tool.importlinter]`):
+the floors (a layers contract: a module may import its own room and the rooms on lower floors
+only), what `agent` and `tasks` may import, and the studies kept apart. Import-linter checks
+them over the graph grimp reads from lwrl/, indirect imports included; docs/ARCHITECTURE.md
+draws the same floors, and a test holds the drawing to the contract.
 """
 
 import ast
 import importlib
+import os
 import pathlib
+import re
+import subprocess
+import sys
+import tomllib
 
 import numpy as np
 import pytest
@@ -17,9 +25,19 @@ from lwrl import agent, tasks
 from lwrl.agent.linear import FEATURE_MAPS
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-FLOORS = {"kernels": 0, "outputs": 0, "settings": 0, "outside": 0, "models": 0, "agent": 1,
-          "tasks": 1, "analysis": 2, "jax": 2, "viz": 3, "gym": 4, "runners": 4, "adapters": 5,
-          "export": 5, "studies": 6, "cli": 7}
+IMPORT_CONTRACTS = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["importlinter"]
+"""import-linter's configuration: the root package and the contracts."""
+
+
+def floors(layers) -> dict:
+    """`{room: floor}` of a layers contract's `layers`, the highest floor first and the
+    rooms of one floor separated by `|` (independent: they do not import each other)."""
+    return {room.strip(): floor for floor, layer in enumerate(reversed(layers))
+            for room in layer.split("|")}
+
+
+FLOORS = floors(next(contract["layers"] for contract in IMPORT_CONTRACTS["contracts"]
+                     if contract["id"] == "floors"))
 """Room -> floor. `gym` is `lwrl/gym.py`, the suite's Gymnasium face (it reads `tasks`, and
 `viz.scenes` for what `render()` draws), and
 `jax` is `lwrl/jax/`, the suite in JAX (it reads `tasks` too);
@@ -32,9 +50,6 @@ LWRL_MODULES = ("gym", "kernels", "outputs", "settings", "outside")
 LWRL_PACKAGES = ("jax",)
 """The rooms that are a package inside `lwrl/` (not a top-level folder: a folder `jax/` at
 the repository's root would shadow the library for code run from there)."""
-ISOLATED = {"agent": {"kernels", "outputs", "settings", "outside"},
-            "tasks": {"models", "kernels", "outputs", "outside"}}
-"""Rooms that may import only these others: the learner sees arrays only."""
 DOMAIN_FACTS = ("viz/scenes/", "export/c_plants/", "studies/compare/domains.py",
                 "studies/robustness/domains.py", "studies/paper/benchmark/classical/",
                 "agent/zoo.py")
@@ -67,47 +82,68 @@ def package_files() -> list:
                   if path.exists())
 
 
-def lwrl_imports(tree: ast.AST) -> list:
-    """`(line, dotted module)` of every import of an lwrl module (at any depth of the file)."""
-    found = []
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            found += [(node.lineno, alias.name) for alias in node.names if alias.name.startswith("lwrl")]
-        elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith("lwrl"):
-            if node.module == "lwrl":  # from lwrl import tasks, models
-                found += [(node.lineno, f"lwrl.{alias.name}") for alias in node.names]
-            else:
-                found.append((node.lineno, node.module))
-    return found
-
-
-def imported_room(module: str) -> str:
-    return module.split(".")[1] if module.count(".") >= 1 else "lwrl"
-
-
 def test_the_package_files_are_found():
     rooms = {room_of(path) for path in package_files()}
     assert rooms == set(FLOORS), rooms
 
 
-@pytest.mark.parametrize("path", package_files(), ids=lambda p: str(p.relative_to(ROOT)))
-def test_imports_point_down(path):
-    """A module imports its own room and lower floors only; `agent` imports no other room and
-    `tasks` only `models`; one study never imports another."""
-    room = room_of(path)
-    tree = ast.parse(path.read_text())
-    for line, module in lwrl_imports(tree):
-        if module == "lwrl":  # the namespace itself, which imports no room but on demand
-            continue
-        target = imported_room(module)
-        where = f"{path.relative_to(ROOT)}:{line} imports {module}"
-        assert target in FLOORS, where
-        assert target == room or FLOORS[target] < FLOORS[room], f"{where}: an import up the house"
-        if room in ISOLATED and target != room:
-            assert target in ISOLATED[room], f"{where}: {room} may import only {ISOLATED[room] or 'itself'}"
-        if room == "studies" and target == "studies":
-            mine, theirs = path.relative_to(ROOT / "studies").parts[0], module.split(".")[2]
-            assert theirs == mine.removesuffix(".py"), f"{where}: a study borrows from another"
+def lint_imports(cwd: pathlib.Path, pythonpath: pathlib.Path | None = None) -> subprocess.CompletedProcess:
+    """import-linter's check of pyproject.toml's contracts over the package `lwrl` that a
+    process in `cwd` imports (the one at `pythonpath`, if given)."""
+    environment = {**os.environ, **({"PYTHONPATH": str(pythonpath)} if pythonpath else {})}
+    return subprocess.run([sys.executable, "-c", "import sys; from importlinter.cli import "
+                           "lint_imports; sys.exit(lint_imports(sys.argv[1], no_cache=True, "
+                           "no_logo=True))", str(ROOT / "pyproject.toml")],
+                          cwd=cwd, env=environment, capture_output=True, text=True, timeout=300)
+
+
+def test_imports_point_down():
+    """A module imports its own room and lower floors only, directly or through others;
+    `agent` imports no other room but `kernels`, `outputs`, `settings` and `outside`, and
+    `tasks` only `models`, `kernels`, `outputs` and `outside`; one study never imports another."""
+    result = lint_imports(ROOT)
+    assert result.returncode == 0, result.stdout[-5000:] + result.stderr[-2000:]
+    assert f"Contracts: {len(IMPORT_CONTRACTS['contracts'])} kept, 0 broken." in result.stdout
+
+
+def test_the_contracts_find_an_import_that_breaks_them(tmp_path):
+    """The contracts are not blind: in a package `lwrl` of empty rooms, a task that imports
+    the runners and the settings, a learner that imports a model, a study that imports
+    another and a room no floor holds break every one."""
+    package = tmp_path / "lwrl"
+    for room in FLOORS:
+        (package / room).mkdir(parents=True)
+        (package / room / "__init__.py").write_text("")
+    (package / "__init__.py").write_text("")
+    (package / "tasks" / "__init__.py").write_text("import lwrl.runners\nimport lwrl.settings\n")
+    (package / "agent" / "__init__.py").write_text("from lwrl import models\n")
+    for study in ("paper", "compare"):
+        (package / "studies" / study).mkdir()
+    (package / "studies" / "paper" / "__init__.py").write_text("from lwrl.studies.compare import x\n")
+    (package / "studies" / "compare" / "__init__.py").write_text("x = 1\n")
+    (package / "attic.py").write_text("")
+    result = lint_imports(tmp_path, pythonpath=tmp_path)
+    assert result.returncode == 1, result.stdout[-3000:] + result.stderr[-2000:]
+    assert "lwrl.tasks -> lwrl.runners" in result.stdout and "lwrl.attic" in result.stdout
+    assert "lwrl.tasks -> lwrl.settings" in result.stdout
+    assert "lwrl.agent -> lwrl.models" in result.stdout
+    assert "lwrl.studies.paper -> lwrl.studies.compare" in result.stdout
+    assert f"Contracts: 0 kept, {len(IMPORT_CONTRACTS['contracts'])} broken." in result.stdout
+
+
+def test_the_map_in_architecture_md_is_the_contract():
+    """docs/ARCHITECTURE.md's drawing of the house puts each room on the floor the layers
+    contract gives it, and draws every room."""
+    drawing = (ROOT / "docs" / "ARCHITECTURE.md").read_text().split("```")[1]
+    drawn, floor = {}, None
+    for line in drawing.splitlines():
+        heading = re.match(r" (?:floor (\d+)|outside) ", line)
+        if heading:
+            floor = int(heading.group(1)) if heading.group(1) else None
+        room = re.match(r"(?: floor \d+| outside| {8})   (\S+)", line)
+        if room and floor is not None:
+            drawn[room.group(1).removeprefix("lwrl/").removesuffix("/").removesuffix(".py")] = floor
+    assert drawn == FLOORS
 
 
 def docstring_nodes(tree: ast.AST) -> set:

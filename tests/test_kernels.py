@@ -89,6 +89,80 @@ def test_the_cache_follows_the_sources(tmp_path, monkeypatch):
     assert kernels.sources_digest() != before
 
 
+PROBE_PACKAGE = {
+    "__init__.py": "",
+    "template.py": "from typing import TYPE_CHECKING\n"
+                   "from kernel_probe_package.helper import twice\n"
+                   "from kernel_probe_package import scale\n"
+                   "if TYPE_CHECKING:\n"
+                   "    from kernel_probe_package import annotations\n"
+                   "def doubled(x):\n"
+                   "    return twice(x) * scale.FACTOR\n",
+    "helper.py": "def twice(x):\n"
+                 "    from kernel_probe_package.deep import ONE\n"
+                 "    return 2 * x * ONE\n",
+    "deep.py": "ONE = 1\n",
+    "scale.py": "FACTOR = 1\n",
+    "annotations.py": "Number = float\n",
+    "command.py": '"""Help: double a number."""\nfrom kernel_probe_package.template import doubled\n',
+}
+
+
+@pytest.fixture
+def probe_package(tmp_path, monkeypatch):
+    """A package whose `template` calls `helper`, which imports `deep` in its body; `scale`
+    is imported with `from`, `annotations` for type checkers only, and `command` (a command
+    line's module) imports the template."""
+    package = tmp_path / "kernel_probe_package"
+    package.mkdir()
+    for name, text in PROBE_PACKAGE.items():
+        (package / name).write_text(text)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    return package
+
+
+def key_after(package, monkeypatch, edited: str) -> str:
+    """The template's kernel key after a line is added to the module `edited`."""
+    path = package / f"{edited}.py"
+    path.write_text(path.read_text() + "EDITED = True\n")
+    monkeypatch.setattr(kernels, "_DIGESTS", {})
+    return kernels.sources_digest(["kernel_probe_package.template"])
+
+
+def test_a_kernel_s_key_digests_what_it_depends_on_and_nothing_else(probe_package, monkeypatch):
+    """An edit to a module the kernel reaches moves its key; an edit elsewhere (a command's
+    help, a module imported for type checkers only) leaves it where it was."""
+    assert set(kernels.dependencies(["kernel_probe_package.template"])) == {
+        "kernel_probe_package", "kernel_probe_package.template", "kernel_probe_package.helper",
+        "kernel_probe_package.deep", "kernel_probe_package.scale", *kernels.dependencies([])}
+    monkeypatch.setattr(kernels, "_DIGESTS", {})
+    key = kernels.sources_digest(["kernel_probe_package.template"])
+    for elsewhere in ("command", "annotations"):
+        assert key_after(probe_package, monkeypatch, elsewhere) == key, elsewhere
+    for reached in ("template", "helper", "deep", "scale"):
+        moved = key_after(probe_package, monkeypatch, reached)
+        assert moved != key, reached
+        key = moved
+
+
+def test_the_compiled_loop_depends_on_its_task_learner_and_loop_alone():
+    """The loop of Mountain-Car and Sarsa is keyed by what it can call: no command, study,
+    viewer, other domain or other learner's file is in its key, so editing one compiles
+    nothing again."""
+    from lwrl.agent.sarsa import LEARNER
+    from lwrl.runners.compiled import compiled_loop
+    from lwrl.tasks import mountain_car
+
+    loop = compiled_loop(mountain_car.cost_to_go(), LEARNER)
+    found = set(kernels.dependencies(loop.modules))
+    assert {"lwrl.runners.compiled", "lwrl.tasks.mountain_car", "lwrl.agent.sarsa",
+            "lwrl.tasks.disturbances", "lwrl.runners.episodes", "lwrl.kernels"} <= found
+    rooms = {name.split(".")[1] for name in found if name != "lwrl"}
+    assert rooms <= {"runners", "tasks", "agent", "models", "kernels", "settings", "outside"}, rooms
+    assert not found & {"lwrl.runners.run", "lwrl.runners.sweep", "lwrl.tasks.cartpole",
+                        "lwrl.tasks.pendulum", "lwrl.agent.actor_critic", "lwrl.agent.dqn"}
+
+
 def test_kernel_names_are_file_names():
     with pytest.raises(ValueError, match="letters, digits and _"):
         kernels.kernel("../evil", lambda: None)
