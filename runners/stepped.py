@@ -34,6 +34,12 @@ def run_dm_env(env, agent: Agents, episodes: int, learn: bool = True,
                        episodes, learn=learn, greedy=greedy)
 
 
+class CutShort(Exception):
+    """What an agent or an environment raises when it can go no further (the device behind a
+    link gone silent, `export.link.LinkLost`): `run_batched` stops there as at Ctrl-C, the
+    finished episodes kept, the one under way left out, the results marked interrupted."""
+
+
 def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = True,
                 progress=None, record=(), greedy: bool = False, budget=None) -> EpisodeResults:
     """B agents of any learner on a batched environment of B copies (a `BatchedEnv`, or
@@ -97,7 +103,7 @@ def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = Tru
             ts = env.step(commands(env.control_range, actions) if agent.continuous else actions)
             spent += running & ~ts.first()
             returns = np.where(ts.first(), 0.0, returns + ts.reward)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, CutShort):
         results.interrupted = True
     if recording:
         results.recordings = recordings(tape, definition, env.plant_name, env.seeds)
