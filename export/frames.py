@@ -110,8 +110,8 @@ class Layout(struct.Struct):
         return found
 
 
-HEADER = Layout("HEADER", ("magic", "B"), ("version", "B"), ("kind", "B"), ("length", "B"),
-                ("step", "I"))
+HEADER = Layout("HEADER", ("magic", "B"), ("version", "B"), ("kind", "B"),
+                ("payload_length", "B"), ("step", "I"))
 OBSERVATION_PART = Layout("OBSERVATION", ("flags", "B"), ("reward", "d"))
 """An observation's payload before its d observed variables."""
 ACTION_INDEX = Layout("ACTION_INDEX", ("kind", "B"), ("action", "i"))

@@ -412,8 +412,8 @@ def test_against_a_silent_noisy_or_wrong_device_the_session_ends_in_one_line(ser
 def test_a_device_that_stalls_mid_episode_and_returns_within_the_window_goes_on(tmp_path,
                                                                                 capsys):
     """The device program behind a pseudo-terminal goes silent for 0.6 s in the first
-    episode (three deadlines of 0.2 s, the watchdog's misses, but less than its 1 s): the
-    session goes on, every episode runs, the missed deadlines are counted."""
+    episode (two or three deadlines of 0.2 s, the watchdog's misses, but less than its
+    1 s): the session goes on, every episode runs, the missed deadlines are counted."""
     pytest.importorskip("serial", reason="--port needs pyserial (the serial extra)")
     import json
 
@@ -424,7 +424,8 @@ def test_a_device_that_stalls_mid_episode_and_returns_within_the_window_goes_on(
     assert status == 0, error
     session = json.loads((tmp_path / "run" / "session.json").read_text())
     assert session["complete"] and session["episodes_finished"] == 2
-    assert session["link"]["missed"] >= 2
+    # the stall's deadlines missed, and only those: every other answer is taken as it comes
+    assert 2 <= session["link"]["missed"] <= 10 and session["link"]["exchanges"] == 82
 
 
 def test_a_device_that_stalls_for_good_cuts_the_session_short_and_what_finished_is_kept(

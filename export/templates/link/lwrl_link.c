@@ -94,7 +94,7 @@ static void resync(lwrl_link_reader *reader)
 /* The length of the frame begun at b, its header read. */
 static uint16_t frame_length(const uint8_t *b)
 {
-    return (uint16_t)LWRL_LINK_FRAME(b[LWRL_LINK_HEADER_LENGTH]);
+    return (uint16_t)LWRL_LINK_FRAME(b[LWRL_LINK_HEADER_PAYLOAD_LENGTH]);
 }
 
 /* 1: buffer[0 .. used) holds a whole valid frame; 0: it may become one; -1: it cannot. */
@@ -105,7 +105,7 @@ static int check(const lwrl_link_reader *reader)
     if (reader->used < LWRL_LINK_HEADER_SIZE)
         return 0;
     if (b[LWRL_LINK_HEADER_VERSION] != LWRL_LINK_VERSION
-        || !fits(b[LWRL_LINK_HEADER_KIND], b[LWRL_LINK_HEADER_LENGTH]))
+        || !fits(b[LWRL_LINK_HEADER_KIND], b[LWRL_LINK_HEADER_PAYLOAD_LENGTH]))
         return -1;
     end = frame_length(b);
     if (reader->used < end)
@@ -138,7 +138,7 @@ int lwrl_link_feed(lwrl_link_reader *reader, uint8_t byte, lwrl_link_message *ou
     while (reader->used > 0 && (state = check(reader)) != 0) {
         const uint8_t *b = reader->buffer;
         const uint8_t *p = b + PAYLOAD;
-        uint8_t kind = b[LWRL_LINK_HEADER_KIND], length = b[LWRL_LINK_HEADER_LENGTH];
+        uint8_t kind = b[LWRL_LINK_HEADER_KIND], length = b[LWRL_LINK_HEADER_PAYLOAD_LENGTH];
         uint16_t end = frame_length(b);
         int taken = 0; /* the kind of the frame taken */
         if (state < 0) {
@@ -177,7 +177,7 @@ static int seal(uint32_t step, uint8_t kind, int length, uint8_t *out)
     out[LWRL_LINK_HEADER_MAGIC] = LWRL_LINK_MAGIC;
     out[LWRL_LINK_HEADER_VERSION] = LWRL_LINK_VERSION;
     out[LWRL_LINK_HEADER_KIND] = kind;
-    out[LWRL_LINK_HEADER_LENGTH] = (uint8_t)length;
+    out[LWRL_LINK_HEADER_PAYLOAD_LENGTH] = (uint8_t)length;
     write_le(out + LWRL_LINK_HEADER_STEP, step, 4);
     write_le(out + PAYLOAD + length, lwrl_link_crc16(out + 1, (uint16_t)(PAYLOAD - 1 + length)),
              LWRL_LINK_CRC_SIZE);
