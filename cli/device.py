@@ -86,7 +86,8 @@ def add_parser(commands) -> None:
     hil.add_argument("--baud", type=fields.positive_int, default=115_200,
                      help="the port's baud rate (default 115200)")
     files = hil.add_argument_group("outputs")
-    files.add_argument("--out", metavar="DIR", help="write config.json and episodes.csv here")
+    files.add_argument("--out", metavar="DIR", help="write config.json, episodes.csv and "
+                                                    "session.json here")
     files.add_argument("--save", metavar="PATH", help="save the device's weights as an agent (.npz)")
     files.add_argument("--rrd", metavar="PATH", help="save episodes to a Rerun recording")
     files.add_argument("--log-episodes", default="every:20", metavar="WHICH",
@@ -244,8 +245,8 @@ def run_hil(args) -> int:
             return [f"the recording {args.rrd} ({len(results.recordings)} episodes)"]
         written.write(f"--rrd {args.rrd}", record_run)
     finished = int(np.isfinite(results.steps).sum())
-    session = {"complete": not results.interrupted, "episodes_finished": finished,
-               "ended": link.lost or ("interrupted" if results.interrupted else "every episode ran"),
+    ended = link.lost or ("interrupted" if results.interrupted else "every episode ran")
+    session = {"complete": not results.interrupted, "episodes_finished": finished, "ended": ended,
                "link": {field: value for field, value in vars(link.counts).items()
                         if field != "round_trips"}}
     output.write_out_and_save(written, args, config, results, twin,
@@ -255,8 +256,8 @@ def run_hil(args) -> int:
     if link.lost is None:
         return 130 if results.interrupted else status
     print(f"lwrl {args.command}: error: {link.lost}; the session was cut short: "
-          f"{finished} of {args.episodes} episodes finished (written), the one under way left "
-          "out", file=sys.stderr)
+          f"{finished} of {args.episodes} episodes finished, the one under way left out",
+          file=sys.stderr)
     return 1
 
 

@@ -151,6 +151,7 @@ def reals(data: bytes) -> tuple:
 
 
 def packed_reals(values) -> bytes:
+    """`values` as doubles, little-endian."""
     return struct.pack(f"<{len(values)}d", *values)
 
 
@@ -186,7 +187,7 @@ class Frame:
 
     def describe(self) -> str:
         """`an action frame of step 7`."""
-        kind = KINDS.get(self.kind, f"kind-{self.kind}")
+        kind = KINDS[self.kind]
         return f"{'an' if kind[0] in 'aeiou' else 'a'} {kind} frame of step {self.step}"
 
 

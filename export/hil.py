@@ -17,16 +17,17 @@ input and output: the same pipes reach the emulated board.
 `run_session` is the host's side: a handshake first (`export.link.HostLink.handshake`: the
 device's identity must be the one the host expects of the program it would build for the
 task, seed and arithmetic, or the session is refused in one line naming both), then lwrl's
-stepped loop (`runners.stepped.run_batched`) on
-the task's plant, the device in it as the agent (`DeviceAgent`): every observation sent,
-the episode's first flagged START, a terminal one TERMINAL, the last of an episode cut by
-its time limit TRUNCATED; the device answers each, and the episode goes on with its action.
-A missed deadline holds the previous action, as an actuator would, and is counted; the
-link's watchdog ends the session when the device has sent no valid frame for its window
-and as many deadlines in a row have passed (`export.link.LinkLost`, a `CutShort`): the
-episodes that finished are kept, the one under way left out. At each episode's end the
-host fetches the device's weights by frames. The episodes are what every run records (`EpisodeResults`: steps, return, up-time, truncated, diverged; recordings of
-the episodes asked for), and the weights load in `lwrl eval` as a saved agent's."""
+stepped loop (`runners.stepped.run_batched`) on the task's plant, the device in it as the
+agent (`DeviceAgent`): every observation sent, the episode's first flagged START, a
+terminal one TERMINAL, the last of an episode cut by its time limit TRUNCATED; the device
+answers each, and the episode goes on with its action. A missed deadline holds the
+previous action, as an actuator would, and is counted; the link's watchdog ends the
+session when the device has sent no valid frame for its window and as many deadlines in a
+row have passed (`export.link.LinkLost`, a `runners.stepped.CutShort`): the episodes that
+finished are kept, the one under way left out. At each episode's end the host fetches the
+device's weights by frames. The episodes are what every run records (`EpisodeResults`:
+steps, return, up-time, truncated, diverged; recordings of the episodes asked for), and
+the weights load in `lwrl eval` as a saved agent's."""
 
 import os
 import string

@@ -6,9 +6,9 @@ between, and a watchdog that ends the session when the device is gone.
 `read(size)` that returns what came within `port.timeout` seconds (fewer bytes, or none, at
 the timeout), a settable `timeout` and, where the port has it, `in_waiting` (pyserial's
 `read` waits for all `size` bytes until the timeout: the host asks for the bytes waiting,
-or for one, so that an answer is taken when it comes, not at the deadline). `serial.Serial` is one (a real board, or QEMU's
-UART on a pty); `PipePort` is another, over a child process's standard input and output
-(a device program built for the host).
+or for one, so that an answer is taken when it comes, not at the deadline).
+`serial.Serial` is one (a real board, or QEMU's UART on a pty); `PipePort` is another,
+over a child process's standard input and output (a device program built for the host).
 
 `handshake(identity)` opens a session: it says hello with the identity the host expects
 (`frames.Hello`), again at each deadline while the device starts up, and takes the
@@ -192,7 +192,8 @@ class HostLink:
                                                f"{self.reader.foreign_version} of the link's "
                                                f"protocol; this host speaks version {VERSION}")
         if frames:
-            self._heard_at, self._since, self._last = time.monotonic(), len(self.reader.buffer), frames[-1]
+            self._heard_at, self._last = time.monotonic(), frames[-1]
+            self._since = len(self.reader.buffer)
         else:
             self._since += len(chunk)
         self._frames += frames

@@ -291,7 +291,7 @@ FRAMES = st.one_of(
               STEPS, st.lists(DOUBLES, max_size=8), DOUBLES),
     st.builds(lambda step, value: Action(step, value).frame(), STEPS,
               st.one_of(st.integers(-2 ** 31, 2 ** 31 - 1), DOUBLES)),
-    st.builds(lambda step, offset: Request(step, offset).frame(), STEPS, st.integers(0, 2 ** 32 - 1)),
+    st.builds(lambda step, offset: Request(step, offset).frame(), STEPS, STEPS),
     st.builds(lambda step, values: Weights(step, 100, 0, False, tuple(values)).frame(), STEPS,
               st.lists(DOUBLES, min_size=1, max_size=30)),
     st.builds(lambda step, task: Hello(step, Identity(task, 2, DISCRETE, 3, "float", 7)).frame(),
@@ -322,7 +322,8 @@ def read_in_pieces(data: bytes, cuts) -> tuple:
     """The frames a reader gives for `data` fed in the pieces between `cuts`, and the reader."""
     reader = FrameReader()
     bounds = [0, *sorted(cut % (len(data) + 1) for cut in cuts), len(data)]
-    found = [frame for start, stop in zip(bounds, bounds[1:]) for frame in reader.feed(data[start:stop])]
+    found = [frame for start, stop in zip(bounds, bounds[1:])
+             for frame in reader.feed(data[start:stop])]
     return found, reader
 
 
@@ -349,7 +350,8 @@ def test_the_reader_never_fails_and_takes_only_frames_whose_crc_holds(data, cuts
 
 
 @settings(deadline=None)
-@given(st.lists(st.tuples(NOISE, FRAMES), max_size=6), NOISE, st.lists(st.integers(0, 4000), max_size=6))
+@given(st.lists(st.tuples(NOISE, FRAMES), max_size=6), NOISE,
+       st.lists(st.integers(0, 4000), max_size=6))
 def test_every_valid_frame_in_noise_is_found(pieces, last_noise, cuts):
     """Valid frames with noise before and between them, fed in any pieces, the link then
     going on (`TAIL`): the reader gives every one of them, in order (and perhaps a frame the

@@ -219,8 +219,8 @@ def test_a_device_that_comes_back_within_the_window_goes_on_and_one_that_does_no
 
 
 def test_a_device_of_another_protocol_version_is_one_line():
-    """A device that answers in version 1 of the protocol (this host speaks 2): the host says so at once, in one
-    line, rather than wait for answers it cannot read."""
+    """A device that answers in version 1 of the protocol (this host speaks 2): the host
+    says so at once, in one line, rather than wait for answers it cannot read."""
     from lwrl.export import frames
     from lwrl.export.link import ProtocolMismatch
 
