@@ -204,8 +204,8 @@ class HostLink:
         if self._in_row >= self.misses and silent >= self.window:
             raise self._lose(LinkLost, f"{self.name} has sent no valid frame for {silent:.1f} s "
                                        f"and missed {self._in_row} deadlines in a row (the "
-                                       f"watchdog's limits: {self.window:g} s and {self.misses}); "
-                                       f"{self._heard()}")
+                                       f"watchdog ends a session after {self.window:g} s and "
+                                       f"{self.misses}); {self._heard()}")
 
     def _heard(self) -> str:
         """What was last heard from the device, for the watchdog's line."""
