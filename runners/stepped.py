@@ -48,7 +48,9 @@ def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = Tru
     agent at most (None: no budget), the episode that spends them cut there, truncated, as
     `run_compiled` cuts it. The
     `(agent, episode)` pairs in `record` are recorded step by step (`results.recordings`), as
-    `run_compiled` records them; recording needs a `BatchedEnv`."""
+    `run_compiled` records them; recording needs a `BatchedEnv`. Ctrl-C, or a `CutShort`
+    from the agent or the environment, stops it with the finished episodes kept, the
+    results marked `interrupted`."""
     episodes = check_count("episodes", episodes, 1)
     if isinstance(env, BatchedEnv):
         check_kinds(*kind_of(agent), env.definition, "run_batched")
