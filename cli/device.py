@@ -4,16 +4,21 @@
     lwrl device costs DOMAIN.TASK... [--real R] [--mhz F]
     lwrl device hil DOMAIN.TASK [--plant P] [--episodes K] [--seed S] [--env-seed E]
                     [--emulated | --port PORT [--baud B]] [--realtime] [--real R]
-                    [--time-limit SECONDS] [--timeout T] [--out DIR] [--save PATH]
+                    [--time-limit SECONDS] [--timeout T] [--link-timeout W]
+                    [--link-misses M] [--out DIR] [--save PATH]
                     [--rrd PATH [--log-episodes WHICH]] [--force]
 
 `hil` puts the learner in the loop over the device link (docs/guide/device-link.md): the
 host steps the task's plant (MuJoCo's where the task has it), the C learner acts, built for
 this machine, (`--emulated`) on the emulated Cortex-M4 with its UART as the link, or
 (`--port`) on a board behind a serial port that runs the device program; `--realtime`
-paces the plant at its control period. It prints each episode and what the link carried,
-and writes what `lwrl train` writes: `--out` config.json and episodes.csv, `--save` the
-device's weights (fetched by frames; they load in `lwrl eval`), `--rrd` a recording.
+paces the plant at its control period. A session opens with a handshake that refuses
+another program in one line, and ends, with the episodes that finished written and exit
+status 1, when the device has sent no valid frame for `--link-timeout` seconds and
+`--link-misses` deadlines in a row have passed. It prints each episode and what the link
+carried, and writes what `lwrl train` writes: `--out` config.json and episodes.csv (and
+session.json: whether the session ran whole, and what the link did), `--save` the device's
+weights (fetched by frames; they load in `lwrl eval`), `--rrd` a recording.
 
 `run` builds the task's learner with its plant in C for the host and for a bare-metal
 Cortex-M4, runs both (the M4 under qemu-system-arm, mps2-an386) and prints the steps per
@@ -22,11 +27,14 @@ per decision (export/device.py). Needs gcc-arm-none-eabi, libnewlib-arm-none-eab
 qemu-system-arm and, for `costs`, valgrind.
 """
 
+import sys
 import time
+
+import numpy as np
 
 from lwrl import outputs
 from lwrl.cli import fields, output
-from lwrl.export import device
+from lwrl.export import device, frames
 
 
 def add_parser(commands) -> None:
@@ -65,6 +73,11 @@ def add_parser(commands) -> None:
     hil.add_argument("--timeout", type=fields.finite_number, default=1.0,
                      help="seconds an answer may take before the step is a missed deadline "
                           "(default 1; with --realtime, the control period)")
+    hil.add_argument("--link-timeout", type=fields.finite_number, default=5.0, metavar="W",
+                     help="end the session when the device has sent no valid frame for W "
+                          "seconds and --link-misses deadlines in a row have passed (default 5)")
+    hil.add_argument("--link-misses", type=fields.positive_int, default=3, metavar="M",
+                     help="missed deadlines in a row the watchdog also waits for (default 3)")
     hil.add_argument("--realtime", action="store_true",
                      help="pace the plant at the task's control period; an answer that comes "
                           "later is a missed deadline, the previous action held")
@@ -73,7 +86,8 @@ def add_parser(commands) -> None:
     hil.add_argument("--baud", type=fields.positive_int, default=115_200,
                      help="the port's baud rate (default 115200)")
     files = hil.add_argument_group("outputs")
-    files.add_argument("--out", metavar="DIR", help="write config.json and episodes.csv here")
+    files.add_argument("--out", metavar="DIR", help="write config.json, episodes.csv and "
+                                                    "session.json here")
     files.add_argument("--save", metavar="PATH", help="save the device's weights as an agent (.npz)")
     files.add_argument("--rrd", metavar="PATH", help="save episodes to a Rerun recording")
     files.add_argument("--log-episodes", default="every:20", metavar="WHICH",
@@ -127,17 +141,18 @@ BITS_PER_BYTE = 10
 """A serial byte on the wire: 8N1, a start bit, 8 data bits and a stop bit."""
 
 
-def needed_baud(definition, continuous: bool) -> float:
+def needed_baud(expected, period: float) -> float:
     """The baud rate the link needs for one observation and its answer per control period
-    (`export.frames`: 8 + 9 + 8 d + 2 bytes out, 8 + 5 or 9 + 2 back)."""
-    per_step = 8 + 9 + 8 * len(definition.state_names) + 2 + 8 + (9 if continuous else 5) + 2
-    return BITS_PER_BYTE * per_step / definition.control_timestep
+    `period` (seconds) to the device program of identity `expected` (`frames.step_bytes`:
+    its observed variables, its kind of action)."""
+    continuous = expected.action_kind == frames.CONTINUOUS
+    return BITS_PER_BYTE * frames.step_bytes(expected.observations, continuous) / period
 
 
-def open_port(args, definition):
+def open_port(args, definition, expected):
     """The serial port `--port` at `--baud`, opened for this command alone; one line if it
-    cannot be, or cannot carry the task's frames."""
-    needed = needed_baud(definition, False)
+    cannot be, or cannot carry the frames of the device program of identity `expected`."""
+    needed = needed_baud(expected, definition.control_timestep)
     if args.baud < needed:
         raise ValueError(f"--baud {args.baud} cannot carry {definition.name}'s frames at one step "
                          f"per {definition.control_timestep * 1000:g} ms: they need at least "
@@ -165,8 +180,9 @@ def run_hil(args) -> int:
     started = time.perf_counter()
     domain, name = tasks.split_name(args.task)
     definition, plant, _ = tasks.resolve(domain, name, args.plant)
-    if not args.timeout > 0:
-        raise ValueError(f"--timeout must be a positive number of seconds; got {args.timeout:g}")
+    for flag, value in (("--timeout", args.timeout), ("--link-timeout", args.link_timeout)):
+        if not value > 0:
+            raise ValueError(f"{flag} must be a positive number of seconds; got {value:g}")
     if args.port and args.emulated:
         raise ValueError("--port and --emulated name two devices; give one")
     record = []
@@ -179,9 +195,12 @@ def run_hil(args) -> int:
     check_outputs(args)
     args.real = args.real or ("float" if args.emulated or args.port else "double")
     options = {} if args.time_limit is None else {"time_limit": args.time_limit}
+    name = (f"the board at {args.port} ({args.baud} baud)" if args.port
+            else "the emulated board" if args.emulated else "the device program")
     with tempfile.TemporaryDirectory() as build:
         if args.port:
-            port, device_process = open_port(args, definition), None
+            expected = hil.identity(args.task, args.seed, args.real)
+            port, device_process = open_port(args, definition, expected), None
         else:
             command = (hil.build_emulated_program(args.task, build, seed=args.seed,
                                                   dtype=args.real, count=True)
@@ -191,10 +210,11 @@ def run_hil(args) -> int:
                                               stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
             port = PipePort(device_process)
         try:
-            link = HostLink(port, args.timeout)
+            link = HostLink(port, args.timeout, args.link_timeout, args.link_misses, name)
             results, device_agent, twin = hil.run_session(
                 link, args.task, args.episodes, seed=args.seed, plant=plant,
-                env_seed=args.env_seed, realtime=args.realtime, record=record, **options)
+                env_seed=args.env_seed, realtime=args.realtime, record=record,
+                dtype=args.real, **options)
             instructions = (hil.counted_instructions(device_process, build) if args.emulated
                             else None)
         finally:
@@ -224,15 +244,25 @@ def run_hil(args) -> int:
                 rerun_options.send_run(config, results, twin, rrd_path=temporary)
             return [f"the recording {args.rrd} ({len(results.recordings)} episodes)"]
         written.write(f"--rrd {args.rrd}", record_run)
-    output.write_out_and_save(written, args, config, results, twin, "the device's weights as an agent")
+    finished = int(np.isfinite(results.steps).sum())
+    ended = link.lost or ("interrupted" if results.interrupted else "every episode ran")
+    session = {"complete": not results.interrupted, "episodes_finished": finished, "ended": ended,
+               "link": {field: value for field, value in vars(link.counts).items()
+                        if field != "round_trips"}}
+    output.write_out_and_save(written, args, config, results, twin,
+                              "the device's weights as an agent", {"session": session})
     output.done(started, written.written, results.interrupted)
-    return 130 if results.interrupted else written.report()
+    status = written.report()
+    if link.lost is None:
+        return 130 if results.interrupted else status
+    print(f"lwrl {args.command}: error: {link.lost}; the session was cut short: "
+          f"{finished} of {args.episodes} episodes finished, the one under way left out",
+          file=sys.stderr)
+    return 1
 
 
 def link_report(counts, device_agent, definition) -> str:
     """What the link carried and how fast, in a few lines."""
-    import numpy as np
-
     trips = np.array(counts.round_trips or [np.nan]) * 1e6
     per_step = (counts.bytes_sent + counts.bytes_received) / max(counts.exchanges, 1)
     period = definition.control_timestep
@@ -242,7 +272,7 @@ def link_report(counts, device_agent, definition) -> str:
              f"largest {np.max(trips):.0f} us",
              f"{per_step:.0f} bytes a step, {BITS_PER_BYTE * per_step / period:,.0f} baud at one "
              f"step per {period * 1000:g} ms (8N1: 10 bits a byte); {counts.bytes_fetched} bytes "
-             "fetching the weights at the episodes' ends"]
+             f"fetching the weights at the episodes' ends, {counts.bytes_handshake} the handshake"]
     if device_agent.period is not None:
         lines.append(f"real time: {device_agent.overruns} periods the host overran")
     return "\n".join(lines)

@@ -6,6 +6,7 @@ import argparse
 import dataclasses
 import contextlib
 import importlib
+import json
 import os
 import signal
 import sys
@@ -173,24 +174,31 @@ RUN_FILES = ("config.json", "episodes.csv")
 """What `--out DIR` holds."""
 
 
-def write_run(out: str, config, results) -> list:
-    """`--out DIR`: the run's config.json and episodes.csv, put in place together
-    (`outputs.atomic_directory`); returns their paths."""
+def write_run(out: str, config, results, extra=None) -> list:
+    """`--out DIR`: the run's config.json and episodes.csv, and `NAME.json` for each record
+    of `extra` (`{NAME: a JSON value}`), put in place together (`outputs.atomic_directory`);
+    returns their paths."""
+    names = [*RUN_FILES, *(f"{name}.json" for name in extra or {})]
     with outputs.atomic_directory(out) as staging:
         with outputs.atomic_write(staging / RUN_FILES[0]) as file:
             file.write(config.to_json() + "\n")
         summary.write_csv(staging / RUN_FILES[1], results, config.seeds)
-    return [os.path.join(out, name) for name in RUN_FILES]
+        for name, value in (extra or {}).items():
+            with outputs.atomic_write(staging / f"{name}.json") as file:
+                file.write(json.dumps(value, indent=2) + "\n")
+    return [os.path.join(out, name) for name in names]
 
 
-def write_out_and_save(written, args, config, results, agent, what: str) -> None:
+def write_out_and_save(written, args, config, results, agent, what: str, extra=None) -> None:
     """`--out DIR` (`write_run`) and `--save PATH` (the agents, `what` in the report) of a
-    run, each through `written` (an `Outputs`), so that one failing loses neither other."""
+    run, each through `written` (an `Outputs`), so that one failing loses neither other;
+    `extra`: further records of the run (`{NAME: a JSON value}`), NAME.json in DIR and in
+    the saved agents' metadata."""
     if args.out:
-        written.write(f"--out {args.out}", lambda: write_run(args.out, config, results))
+        written.write(f"--out {args.out}", lambda: write_run(args.out, config, results, extra))
     if args.save:
         def save():
-            agent_io.save(args.save, agent, {"config": dataclasses.asdict(config)})
+            agent_io.save(args.save, agent, {"config": dataclasses.asdict(config), **(extra or {})})
             return [f"{what} to {args.save}"]
         written.write(f"--save {args.save}", save)
 

@@ -5,22 +5,32 @@ The device program (`link_main.c`, package data under `templates/link/`) is the 
 (`export.learner`, from `lwrl learner`) behind the link's C side: for each observation
 frame it calls `lwrl_begin` (a frame flagged START) or `lwrl_learn` with the frame's reward
 and TERMINAL flag, and answers with the action of the frame's step; a frame of the step it
-answered last (a duplicate) gets that answer again and teaches it nothing twice.
+answered last (a duplicate) gets that answer again and teaches it nothing twice. A hello
+gets its identity (`identity`: the task, the learner's dimensions, arithmetic and build,
+`link_identity.h` written beside it), and a hello for another program leaves it acting on
+nothing until one for it comes.
 `build_host_program` builds it for this machine, whose standard input and output are its
 link (`export.link.PipePort`); `build_emulated_program` for the bare-metal Cortex-M4 of
 `export.device`, its link UART0 of QEMU's mps2-an386, which QEMU puts on its own standard
 input and output: the same pipes reach the emulated board.
 
-`run_session` is the host's side: lwrl's stepped loop (`runners.stepped.run_batched`) on
-the task's plant, the device in it as the agent (`DeviceAgent`): every observation sent,
-the episode's first flagged START, a terminal one TERMINAL, the last of an episode cut by
-its time limit TRUNCATED; the device answers each, and the episode goes on with its action.
-A missed deadline holds the previous action, as an actuator would, and is counted. At each
-episode's end the host fetches the device's weights by frames. The episodes are what every
-run records (`EpisodeResults`: steps, return, up-time, truncated, diverged; recordings of
-the episodes asked for), and the weights load in `lwrl eval` as a saved agent's."""
+`run_session` is the host's side: a handshake first (`export.link.HostLink.handshake`: the
+device's identity must be the one the host expects of the program it would build for the
+task, seed and arithmetic, or the session is refused in one line naming both), then lwrl's
+stepped loop (`runners.stepped.run_batched`) on the task's plant, the device in it as the
+agent (`DeviceAgent`): every observation sent, the episode's first flagged START, a
+terminal one TERMINAL, the last of an episode cut by its time limit TRUNCATED; the device
+answers each, and the episode goes on with its action. A missed deadline holds the
+previous action, as an actuator would, and is counted; the link's watchdog ends the
+session when the device has sent no valid frame for its window and as many deadlines in a
+row have passed (`export.link.LinkLost`, a `runners.stepped.CutShort`): the episodes that
+finished are kept, the one under way left out. At each episode's end the host fetches the
+device's weights by frames. The episodes are what every run records (`EpisodeResults`:
+steps, return, up-time, truncated, diverged; recordings of the episodes asked for), and
+the weights load in `lwrl eval` as a saved agent's."""
 
 import os
+import string
 import subprocess
 import time
 import types
@@ -33,7 +43,7 @@ from lwrl.export import frames, learner
 from lwrl.export.c import compile_in, find_compiler
 from lwrl.export.device import (BOARD, COMMON_FLAGS, M4_FLAGS, M4_LINK, build_plugin,
                                 check_tools, read_instructions, write_fixed_files)
-from lwrl.export.frames import Observation
+from lwrl.export.frames import CONTINUOUS, DISCRETE, Identity, Observation
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent
 from lwrl.runners.stepped import run_batched
@@ -45,16 +55,55 @@ IO = {"host": "link_io_host.c", "emulated": "link_io_uart.c"}
 """Where each build's bytes go: standard input and output, or the emulated board's UART."""
 
 
-def write_program(task: str, build, seed: int, dtype: str, target: str, **settings) -> None:
+IDENTITY_HEADER = string.Template("""\
+/* The device program's identity at the handshake (lwrl.export.hil.write_program):
+ * $described. */
+#ifndef LWRL_LINK_IDENTITY_H
+#define LWRL_LINK_IDENTITY_H
+
+#include <stdint.h>
+
+#define LWRL_LINK_TASK "$task"
+#define LWRL_LINK_BUILD UINT64_C(0x$build) /* the learner's build: its C source's digest */
+
+#endif /* LWRL_LINK_IDENTITY_H */
+""")
+"""`link_identity.h`: what `link_main.c` says of itself beside the learner's own macros."""
+
+
+def write_program(task: str, build, seed: int, dtype: str, target: str, **settings) -> Identity:
     """The device program's sources for `target` (`IO`) in `build`: the C learner of a new
     agent of `task` seeded with `seed` (`settings`: a `RunConfig`'s) in `dtype`, the link's
-    C side, the program and its I/O."""
+    C side, the program, its identity (`IDENTITY_HEADER`) and its I/O; the identity."""
     source = learner.from_task(task, seed=seed, **settings)
-    learner.write_learner(source, build, dtype)
+    program = identity_of(source, learner.write_learner(source, build, dtype))
+    program.payload()  # a task's name an identity cannot carry: one line
     frames.write_c(build)
     for name in (*PROGRAM, IO[target]):
         with open(os.path.join(build, name), "w") as file:
             file.write(resources.files(__package__).joinpath("templates", "link", name).read_text())
+    with open(os.path.join(build, "link_identity.h"), "w") as file:
+        file.write(IDENTITY_HEADER.substitute(described=program.describe(), task=program.task,
+                                              build=f"{program.build:016X}"))
+    return program
+
+
+def identity_of(source, written: dict) -> Identity:
+    """The identity of the device program around the C learner of `source` (a
+    `learner.LearnerSource`), as `learner.render_learner` or `write_learner` gave it
+    (`written`)."""
+    agents = source.agents
+    return Identity(source.task, len(source.state_names),
+                    CONTINUOUS if agents.continuous else DISCRETE,
+                    1 if agents.continuous else agents.num_actions, written["dtype"],
+                    written["build"])
+
+
+def identity(task: str, seed: int = 0, dtype: str = "double", **settings) -> Identity:
+    """The identity the device program `write_program` writes for `task`, `seed`, `dtype`
+    and `settings` says at the handshake: what the host expects of it."""
+    source = learner.from_task(task, seed=seed, **settings)
+    return identity_of(source, learner.render_learner(source, dtype)[1])
 
 
 SOURCES = ("lwrl_learner.c", "lwrl_link.c", "link_main.c")
@@ -121,11 +170,6 @@ def counted_instructions(process, build) -> int:
     return read_instructions(os.path.join(build, PLUGIN_LOG))
 
 
-STARTUP = 30.0
-"""Seconds the first answer may take: the device starting up (QEMU boots the emulated board
-in about a second)."""
-
-
 class DeviceAgent:
     """The learner on the device as the stepped loop's agent, a batch of one
     (`runners.stepped.run_batched`'s interface): each `step` sends the time step's
@@ -182,11 +226,9 @@ class DeviceAgent:
         return self.action.copy()
 
     def _deadline(self, first: bool) -> float | None:
-        """Seconds the answer may take: `STARTUP` for the session's first, the link's
-        timeout, or in real time what is left of the control period, after waiting for
-        its start."""
-        if self.frame_step == 1:
-            return STARTUP
+        """Seconds the answer may take: the link's timeout, or in real time what is left of
+        the control period, after waiting for its start (the handshake waited for the
+        device to start up)."""
         if self.period is None:
             return None
         now = time.monotonic()
@@ -221,15 +263,18 @@ def twin_of(task: str, seed: int, plant, **task_options):
 
 
 def run_session(link, task: str, episodes: int, seed: int = 0, plant=None, env_seed: int = 0,
-                realtime: bool = False, record=(), **task_options):
+                realtime: bool = False, record=(), dtype: str = "double", **task_options):
     """`episodes` episodes of `task` on `plant` (the domain's first by default; the plant
     seeded with `env_seed` as lwrl's loops seed an environment; `task_options` the task's,
     e.g. `time_limit`) with the device behind `link` acting, a `DeviceAgent` of the learner
-    seeded with `seed`; real time at the task's control period with `realtime`; `record`:
-    the `(0, episode)` pairs recorded, as `run_batched` records them. Returns the episodes
-    (`EpisodeResults`), the `DeviceAgent` (its counts) and the twin `Agents` holding the
-    device's last weights (saved, it loads in `lwrl eval`)."""
+    seeded with `seed` in `dtype`, after a handshake that refuses any other program;
+    real time at the task's control period with `realtime`; `record`: the `(0, episode)`
+    pairs recorded, as `run_batched` records them. Returns the episodes (`EpisodeResults`,
+    marked interrupted where the link's watchdog cut the session short: `link.lost` says
+    why), the `DeviceAgent` (its counts) and the twin `Agents` holding the device's last
+    weights, those of the last episode that finished (saved, it loads in `lwrl eval`)."""
     domain, name = tasks.split_name(task)
+    link.handshake(identity(task, seed, dtype))
     config, twin = twin_of(task, seed, plant, **task_options)
     env = BatchedEnv(domain, name, config.plant_name, [env_seed], **task_options)
     device = DeviceAgent(link, twin, env, env.definition.control_timestep if realtime else None)

@@ -180,18 +180,35 @@ def _fields(source: LearnerSource, form: LearnerForm, dtype: str, parts: dict) -
         zero=_literal(0.0, dtype), one=_literal(1.0, dtype), splitmix=splitmix_c(form.stream))
 
 
+def build_digest(texts: dict) -> int:
+    """A learner's build: the first 8 bytes of the SHA-256 of its header's and source's
+    texts (`render_learner`), as an unsigned big-endian integer; the same agent, settings
+    and arithmetic give the same build, any other a different one (but with odds of 2^-64)."""
+    digest = hashlib.sha256("".join(texts[name] for name in (HEADER, SOURCE)).encode())
+    return int.from_bytes(digest.digest()[:8], "big")
+
+
+def render_learner(source: LearnerSource, dtype: str = "float", ram=None) -> tuple:
+    """`({file name: text}, what write_learner returns but the paths)` for `source`'s agent
+    in `dtype` (see `write_learner`)."""
+    _check_dtype(dtype)
+    form = source.form
+    parts = check_fits(form, dtype, ram)
+    fields = _fields(source, form, dtype, parts)
+    texts = {HEADER: template(f"{form.template}.h").substitute(fields),
+             SOURCE: template(f"{form.template}.c").substitute(fields)}
+    return texts, {"dtype": dtype, "task": source.task, "summary": form.summary,
+                   "seed": int(fields["seed"]), "weights": fields["num_weights"], "ram": parts,
+                   "build": build_digest(texts)}
+
+
 def write_learner(source: LearnerSource, out_dir, dtype: str = "float", ram=None) -> dict:
     """Write `lwrl_learner.c` and `lwrl_learner.h` for `source`'s agent in `dtype` into
     `out_dir` (created if needed; the files replaced). Refuses, in one line, a learner with
     no C form, one whose RAM exceeds `ram` bytes (None: no limit), and weights or constants
     that do not fit `dtype`. Returns `source`, `header` (paths), `dtype`, `task`,
-    `summary`, `seed` (`LWRL_SEED`), `weights` (their count) and `ram` (`ram_bytes`)."""
-    _check_dtype(dtype)
-    form = source.form
-    parts = check_fits(form, dtype, ram)
-    fields = _fields(source, form, dtype, parts)
-    paths = write_files(out_dir, {HEADER: template(f"{form.template}.h").substitute(fields),
-                                  SOURCE: template(f"{form.template}.c").substitute(fields)})
-    return {"source": paths[SOURCE], "header": paths[HEADER], "dtype": dtype, "task": source.task,
-            "summary": form.summary, "seed": int(fields["seed"]), "weights": fields["num_weights"],
-            "ram": parts}
+    `summary`, `seed` (`LWRL_SEED`), `weights` (their count), `ram` (`ram_bytes`) and
+    `build` (`build_digest`)."""
+    texts, written = render_learner(source, dtype, ram)
+    paths = write_files(out_dir, texts)
+    return {"source": paths[SOURCE], "header": paths[HEADER], **written}

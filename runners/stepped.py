@@ -34,6 +34,12 @@ def run_dm_env(env, agent: Agents, episodes: int, learn: bool = True,
                        episodes, learn=learn, greedy=greedy)
 
 
+class CutShort(Exception):
+    """What an agent or an environment raises when it can go no further (the device behind a
+    link gone silent, `export.link.LinkLost`): `run_batched` stops there as at Ctrl-C, the
+    finished episodes kept, the one under way left out, the results marked interrupted."""
+
+
 def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = True,
                 progress=None, record=(), greedy: bool = False, budget=None) -> EpisodeResults:
     """B agents of any learner on a batched environment of B copies (a `BatchedEnv`, or
@@ -42,7 +48,9 @@ def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = Tru
     agent at most (None: no budget), the episode that spends them cut there, truncated, as
     `run_compiled` cuts it. The
     `(agent, episode)` pairs in `record` are recorded step by step (`results.recordings`), as
-    `run_compiled` records them; recording needs a `BatchedEnv`."""
+    `run_compiled` records them; recording needs a `BatchedEnv`. Ctrl-C, or a `CutShort`
+    from the agent or the environment, stops it with the finished episodes kept, the
+    results marked `interrupted`."""
     episodes = check_count("episodes", episodes, 1)
     if isinstance(env, BatchedEnv):
         check_kinds(*kind_of(agent), env.definition, "run_batched")
@@ -97,7 +105,7 @@ def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = Tru
             ts = env.step(commands(env.control_range, actions) if agent.continuous else actions)
             spent += running & ~ts.first()
             returns = np.where(ts.first(), 0.0, returns + ts.reward)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, CutShort):
         results.interrupted = True
     if recording:
         results.recordings = recordings(tape, definition, env.plant_name, env.seeds)

@@ -68,7 +68,7 @@ def test_duplicated_observations_teach_the_device_nothing_twice(tmp_path):
     from tests.test_link import FaultyPort
 
     task = "mountain_car.cost_to_go"
-    faults = {step: "duplicate" for step in (0, 5, 77)}
+    faults = {write: "duplicate" for write in (1, 5, 77)}  # write 0 is the handshake's hello
     with device_link(build_host_program(task, tmp_path, seed=3),
                      lambda port: FaultyPort(port, faults)) as link:
         results, _, _ = run_session(link, task, 2, seed=3, env_seed=11)
@@ -149,6 +149,7 @@ def test_lwrl_device_hil_says_in_one_line_what_it_cannot_do(capsys):
     from lwrl.cli.main import main
 
     for argv, words in ((["--timeout", "0"], "--timeout must be a positive number"),
+                        (["--link-timeout", "-1"], "--link-timeout must be a positive number"),
                         (["--port", "/dev/no-such-port", "--emulated"], "give one"),
                         (["--port", "/dev/no-such-port", "--baud", "300"],
                          "need at least 500 baud"),
@@ -186,7 +187,7 @@ def test_the_emulated_board_learns_over_its_uart_what_the_host_build_learns(tmp_
         build.mkdir()
         with device_link(target(task, build, seed=3, dtype="float")) as link:
             results, _, twin = run_session(link, task, 2, seed=3, plant=plant, env_seed=11,
-                                           **options)
+                                           dtype="float", **options)
             if target is not build_host_program:
                 instructions = counted_instructions(link.port.process, build)
         assert link.counts.missed == 0 and link.counts.late == 0
@@ -242,3 +243,219 @@ def test_a_device_that_restarts_mid_episode_begins_anew_and_the_session_goes_on(
     assert results.steps.shape == (1, 2) and np.all(results.steps > 0)
     assert not np.array_equal(twin.arrays.weights, agent.arrays.weights)
     assert device.held == 0
+
+
+def test_the_device_program_and_the_host_refuse_each_other_when_they_are_other_programs(tmp_path):
+    """The device program of seed 3's learner, and a host that expects seed 4's: the host
+    refuses it in one line naming both builds; the device, told another program's hello,
+    acts on no observation, and acts again once told its own."""
+    from lwrl.export.frames import Observation
+    from lwrl.export.hil import identity
+    from lwrl.export.link import IdentityMismatch
+
+    task = "mountain_car.cost_to_go"
+    own, other = identity(task, 3, "double"), identity(task, 4, "double")
+    assert own.build != other.build and own.task == other.task
+    with device_link(build_host_program(task, tmp_path, seed=3), timeout=0.5) as link:
+        with pytest.raises(IdentityMismatch) as error:
+            run_session(link, task, 1, seed=4, env_seed=11)
+        assert f"runs {own.describe()}; this host expects {other.describe()}" in str(error.value)
+        assert link.exchange(Observation(1, (-0.5, 0.0), start=True)) is None
+        assert link.handshake(own, step=2) == own
+        assert link.exchange(Observation(3, (-0.5, 0.0), start=True)) is not None
+
+
+def test_the_baud_rate_needed_counts_the_programs_own_action_frames():
+    """The check of --baud reads the frames' sizes from their layout and the program's kind
+    of action: Mountain-Car's 2 variables at a step a second need 500 baud with an index
+    (35 + 15 bytes), 540 with a continuous action (35 + 19)."""
+    from lwrl.cli.device import needed_baud
+    from lwrl.export.frames import CONTINUOUS, DISCRETE, Identity
+
+    discrete = Identity("mountain_car.cost_to_go", 2, DISCRETE, 3, "float", 0)
+    continuous = Identity("mountain_car.cost_to_go", 2, CONTINUOUS, 1, "float", 0)
+    assert needed_baud(discrete, 1.0) == 500 and needed_baud(continuous, 1.0) == 540
+
+
+class PtyDevice:
+    """A pseudo-terminal (`os.openpty`) whose far end plays a device, `serve(master, stop)`
+    in a thread; its near end (`name`) is the serial port `lwrl device hil --port` opens."""
+
+    def __init__(self, serve):
+        import os
+        import threading
+        import tty
+
+        self.master, self.slave = os.openpty()
+        tty.setraw(self.slave)  # no echo, no line editing, before pyserial sets it so too
+        self.name = os.ttyname(self.slave)
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=serve, args=(self.master, self.stop), daemon=True)
+
+    def __enter__(self):
+        self.thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        import os
+
+        self.stop.set()
+        self.thread.join(10)
+        os.close(self.master)
+        os.close(self.slave)
+
+
+def host_bytes(master, wait=0.01) -> bytes:
+    """What the host wrote to the pseudo-terminal, within `wait` seconds (b"" if nothing)."""
+    import os
+    import select
+
+    ready, _, _ = select.select([master], [], [], wait)
+    return os.read(master, 4096) if ready else b""
+
+
+def silent(master, stop):
+    while not stop.is_set():
+        host_bytes(master, 0.05)
+
+
+def noisy(master, stop):
+    import os
+    import random
+
+    noise = random.Random(5)
+    while not stop.is_set():
+        host_bytes(master)
+        os.write(master, bytes(noise.getrandbits(8) for _ in range(40)))
+
+
+def another_task(master, stop):
+    """Answers each hello with the identity of the pendulum's program."""
+    import os
+
+    from lwrl.export.frames import HELLO, IDENTITY, Frame, FrameReader
+    from lwrl.export.hil import identity
+
+    other, reader = identity("pendulum.swingup", 0, "float"), FrameReader()
+    while not stop.is_set():
+        for frame in reader.feed(host_bytes(master)):
+            if frame.kind == HELLO:
+                os.write(master, Frame(IDENTITY, frame.step, other.payload()).encode())
+
+
+def relay(command, stall_at, stall):
+    """A device that forwards the link to the device program `command` and back, and at
+    the `stall_at`-th observation goes silent, forwarding nothing either way, for `stall`
+    seconds (None: for good)."""
+    def serve(master, stop):
+        import os
+        import select
+
+        from lwrl.export.frames import OBSERVATION, FrameReader
+
+        process = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                   stderr=subprocess.DEVNULL)
+        reader, seen, stalled = FrameReader(), 0, False
+        try:
+            while not stop.is_set():
+                data = host_bytes(master)
+                seen += sum(f.kind == OBSERVATION for f in reader.feed(data))
+                if seen >= stall_at and not stalled:
+                    stop.wait(stall)  # silent: the host's bytes wait in the terminal
+                    stalled = True
+                process.stdin.write(data)
+                process.stdin.flush()
+                ready, _, _ = select.select([process.stdout], [], [], 0.0)
+                if ready:
+                    os.write(master, os.read(process.stdout.fileno(), 4096))
+        finally:
+            process.kill()
+            process.wait()
+    return serve
+
+
+def hil_on(pty, capsys, *flags, within=120.0):
+    """`lwrl device hil mountain_car.cost_to_go --port PTY` with short deadlines and
+    `flags`, run in a thread that must end within `within` seconds (a bound on its ending,
+    far above the times it is given); its exit status and standard error's lines."""
+    import threading
+
+    from lwrl.cli.main import main
+
+    done = {}
+    argv = ["device", "hil", "mountain_car.cost_to_go", "--port", pty.name, "--timeout", "0.2",
+            "--link-timeout", "1", *flags]
+    worker = threading.Thread(target=lambda: done.update(status=main(argv)), daemon=True)
+    worker.start()
+    worker.join(within)
+    assert not worker.is_alive(), "lwrl device hil did not end"
+    return done["status"], capsys.readouterr().err.strip().splitlines()
+
+
+@pytest.mark.parametrize("serve, words", [
+    (silent, "has sent no valid frame for"),
+    (noisy, "heard: noise ("),
+    (another_task, "runs pendulum.swingup (")])
+def test_against_a_silent_noisy_or_wrong_device_the_session_ends_in_one_line(serve, words,
+                                                                             capsys):
+    """A pseudo-terminal that is silent, that sends only noise, or whose program is the
+    pendulum's: the handshake never takes it, the command ends (within the watchdog's 1 s,
+    or at once for the wrong program) with one line naming the port and its baud, and exit
+    status 2; nothing is written."""
+    pytest.importorskip("serial", reason="--port needs pyserial (the serial extra)")
+    with PtyDevice(serve) as pty:
+        status, error = hil_on(pty, capsys)
+    assert status == 2 and len(error) == 1, error
+    assert f"the board at {pty.name} (115200 baud)" in error[0] and words in error[0]
+
+
+def test_a_device_that_stalls_mid_episode_and_returns_within_the_window_goes_on(tmp_path,
+                                                                                capsys):
+    """The device program behind a pseudo-terminal goes silent for 0.6 s in the first
+    episode (two or three deadlines of 0.2 s, the watchdog's misses, but less than its
+    1 s): the session goes on, every episode runs, the missed deadlines are counted."""
+    pytest.importorskip("serial", reason="--port needs pyserial (the serial extra)")
+    import csv
+    import json
+
+    program = build_host_program("mountain_car.cost_to_go", tmp_path / "build", dtype="float")
+    with PtyDevice(relay(program, 20, 0.6)) as pty:
+        status, error = hil_on(pty, capsys, "--episodes", "2", "--time-limit", "40",
+                               "--link-misses", "2", "--out", str(tmp_path / "run"))
+    assert status == 0, error
+    session = json.loads((tmp_path / "run" / "session.json").read_text())
+    with open(tmp_path / "run" / "episodes.csv") as file:
+        steps = [int(row["steps"]) for row in csv.DictReader(file)]
+    assert session["complete"] and session["episodes_finished"] == 2 and len(steps) == 2
+    # the stall's deadlines missed, and only those: every other answer is taken as it comes
+    assert 2 <= session["link"]["missed"] <= 10
+    assert session["link"]["exchanges"] == sum(steps) + 2
+
+
+def test_a_device_that_stalls_for_good_cuts_the_session_short_and_what_finished_is_kept(
+        tmp_path, capsys):
+    """The device goes silent for good in the second episode: the watchdog ends the session
+    with one line naming the port, its baud and the last frame heard; the first episode is
+    written whole, the second left empty, the session marked cut short, the weights those
+    of the first episode's end, and the exit status 1."""
+    pytest.importorskip("serial", reason="--port needs pyserial (the serial extra)")
+    import csv
+    import json
+
+    from lwrl.agent import io as agent_io
+
+    program = build_host_program("mountain_car.cost_to_go", tmp_path / "build", dtype="float")
+    out, saved = tmp_path / "run", tmp_path / "agent.npz"
+    with PtyDevice(relay(program, 50, None)) as pty:
+        status, error = hil_on(pty, capsys, "--episodes", "2", "--time-limit", "40",
+                               "--out", str(out), "--save", str(saved))
+    assert status == 1
+    assert f"the board at {pty.name} (115200 baud) has sent no valid frame" in error[-1]
+    assert "last heard: an action frame of step" in error[-1] and "cut short" in error[-1]
+    with open(out / "episodes.csv") as file:
+        steps = [row["steps"] for row in csv.DictReader(file)]
+    assert steps[0] == "40" and steps[1] == ""
+    session = json.loads((out / "session.json").read_text())
+    assert not session["complete"] and session["episodes_finished"] == 1
+    assert "no valid frame" in session["ended"]
+    assert agent_io.load(saved)[1]["session"] == session

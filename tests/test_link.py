@@ -1,6 +1,7 @@
 """The host's side of a session over the device link (`export.link`), against the device's C
 side built for the host, with faults injected on the way: it never hangs, never takes an
-answer to another step, and says what the link did."""
+answer to another step, and says what the link did; its handshake refuses another
+program and its watchdog ends a session whose device is gone, in one line."""
 
 import math
 import subprocess
@@ -8,7 +9,7 @@ import time
 
 import pytest
 
-from lwrl.export.frames import Observation
+from lwrl.export.frames import DISCRETE, IDENTITY, Frame, Identity, Observation
 from lwrl.export.link import HostLink, PipePort
 from tests.test_frames import c_echo
 
@@ -124,16 +125,107 @@ def test_a_restarted_device_and_a_restarted_host_go_on(device, tmp_path):
 def test_a_bad_timeout_is_one_line(device):
     with pytest.raises(ValueError, match="timeout must be a positive number"):
         HostLink(PipePort(device), 0)
+    with pytest.raises(ValueError, match="window must be a positive number"):
+        HostLink(PipePort(device), 1.0, window=-1.0)
+    with pytest.raises(ValueError, match="a whole number, at least 1"):
+        HostLink(PipePort(device), 1.0, misses=0)
+
+
+EXPECTED = Identity("mountain_car.cost_to_go", 2, DISCRETE, 3, "double", 12345)
+
+
+def test_the_handshake_takes_the_device_that_is_the_expected_program(device):
+    """The C side (a program that says back the identity it is told) answers the hello;
+    the handshake's bytes are counted apart from the steps'."""
+    link = HostLink(PipePort(device), TIMEOUT)
+    assert link.handshake(EXPECTED) == EXPECTED
+    assert link.counts.bytes_handshake > 0 and link.counts.bytes_sent == 0
+
+
+class ScriptedPort:
+    """A port whose device writes what `answer(data)` returns for each write (silence,
+    noise, frames), then sleeps through the read's timeout when it has nothing left."""
+
+    def __init__(self, answer):
+        self.answer, self.timeout, self.pending = answer, None, b""
+
+    def write(self, data):
+        self.pending += self.answer(data)
+        return len(data)
+
+    def read(self, size):
+        if not self.pending:
+            time.sleep(self.timeout or 0.0)
+        data, self.pending = self.pending[:size], self.pending[size:]
+        return data
+
+
+def test_a_device_of_another_program_is_refused_in_one_line_naming_both():
+    """A device that answers the hello with another task's identity: refused at once, the
+    line naming what the device runs and what the host expects."""
+    from lwrl.export.link import IdentityMismatch
+
+    other = Identity("pendulum.swingup", 3, DISCRETE, 3, "float", 999)
+    port = ScriptedPort(lambda data: Frame(IDENTITY, 0, other.payload()).encode())
+    link = HostLink(port, TIMEOUT)
+    with pytest.raises(IdentityMismatch) as error:
+        link.handshake(EXPECTED)
+    line = str(error.value)
+    assert "\n" not in line and line == link.lost
+    assert "runs pendulum.swingup (3 observed variables" in line
+    assert "expects mountain_car.cost_to_go (2 observed variables" in line
+
+
+@pytest.mark.parametrize("answer, heard", [(lambda data: b"", "heard: nothing"),
+                                           (lambda data: bytes(range(7)) * 9, "heard: noise (")])
+def test_the_watchdog_ends_a_session_whose_device_sends_nothing_valid(answer, heard):
+    """A silent device, and one that sends only noise: each exchange misses its deadline and
+    returns None until the device has sent no valid frame for the window and missed as many
+    deadlines in a row, then the session ends with one line saying what was heard; the
+    handshake's wait ends so too."""
+    from lwrl.export.link import LinkLost
+    from lwrl.runners.stepped import CutShort
+
+    link = HostLink(ScriptedPort(answer), 0.05, window=0.3, misses=3, name="the board at X")
+    with pytest.raises(LinkLost) as error:
+        for step in range(10_000):  # ends by the watchdog, long before
+            assert link.exchange(Observation(step, (0.0, 0.0))) is None
+    line = str(error.value)
+    assert isinstance(error.value, CutShort) and isinstance(error.value, ValueError)
+    assert line == link.lost and "\n" not in line and heard in line
+    assert line.startswith("the board at X has sent no valid frame for")
+    assert 3 <= link.counts.missed < 10_000
+    with pytest.raises(LinkLost, match="no valid frame"):
+        HostLink(ScriptedPort(answer), 0.05, window=0.3, misses=3).handshake(EXPECTED)
+
+
+def test_a_device_that_comes_back_within_the_window_goes_on_and_one_that_does_not_ends(device):
+    """The device's link drops five observations (0.5 s without a frame, more deadlines in a
+    row than `misses`, less than the window): the session goes on. Then it drops every one:
+    the watchdog ends the session, naming the last frame heard."""
+    from lwrl.export.link import LinkLost
+
+    faults = {step: "drop" for step in range(3, 8)}
+    port = FaultyPort(PipePort(device), faults)
+    link = HostLink(port, 0.1, window=1.5, misses=3)
+    answers = [link.exchange(o) for o in observations(12)]
+    assert [a is None for a in answers] == [3 <= step < 8 for step in range(12)]
+    assert link.counts.missed == 5 and link.lost is None
+    port.faults = {step: "drop" for step in range(12, 10_000)}
+    with pytest.raises(LinkLost) as error:
+        for step in range(12, 10_000):
+            link.exchange(Observation(step, (1.0,)))
+    assert "last heard: an action frame of step 11, then nothing" in str(error.value)
 
 
 def test_a_device_of_another_protocol_version_is_one_line():
-    """A device that answers in version 2 of the protocol: the host says so at once, in one
-    line, rather than wait for answers it cannot read."""
+    """A device that answers in version 1 of the protocol (this host speaks 2): the host
+    says so at once, in one line, rather than wait for answers it cannot read."""
     from lwrl.export import frames
     from lwrl.export.link import ProtocolMismatch
 
     answer = bytearray(frames.Action(0, 1).frame().encode())
-    answer[1] = 2
+    answer[1] = 1
     answer[-2:] = frames.CRC.pack(frames.crc16(bytes(answer[1:-2])))
 
     class OtherVersion:
@@ -147,4 +239,4 @@ def test_a_device_of_another_protocol_version_is_one_line():
 
     with pytest.raises(ProtocolMismatch) as error:
         HostLink(OtherVersion(), TIMEOUT).exchange(observations(1)[0])
-    assert "version 2" in str(error.value) and "\n" not in str(error.value)
+    assert "version 1" in str(error.value) and "\n" not in str(error.value)

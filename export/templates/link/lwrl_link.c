@@ -3,6 +3,8 @@
 
 #include "lwrl_link.h"
 
+#define PAYLOAD LWRL_LINK_HEADER_SIZE /* where a frame's payload starts */
+
 uint16_t lwrl_link_crc16(const uint8_t *data, uint16_t length)
 {
     uint16_t crc = 0xFFFFu;
@@ -22,50 +24,60 @@ void lwrl_link_reader_init(lwrl_link_reader *reader)
     reader->skipped = 0;
 }
 
-static uint32_t read_u32(const uint8_t *p)
+static uint64_t read_le(const uint8_t *p, int bytes)
 {
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+    uint64_t value = 0;
+    int i;
+    for (i = bytes - 1; i >= 0; i--)
+        value = value << 8 | p[i];
+    return value;
 }
 
 static double read_double(const uint8_t *p)
 {
-    uint64_t bits = 0;
+    uint64_t bits = read_le(p, LWRL_LINK_REAL_SIZE);
     double value;
-    int i;
-    for (i = 7; i >= 0; i--)
-        bits = bits << 8 | p[i];
     memcpy(&value, &bits, sizeof value);
     return value;
 }
 
-static void write_u32(uint8_t *p, uint32_t value)
+static void write_le(uint8_t *p, uint64_t value, int bytes)
 {
     int i;
-    for (i = 0; i < 4; i++)
+    for (i = 0; i < bytes; i++)
         p[i] = (uint8_t)(value >> (8 * i));
 }
 
 static void write_double(uint8_t *p, double value)
 {
     uint64_t bits;
-    int i;
     memcpy(&bits, &value, sizeof bits);
-    for (i = 0; i < 8; i++)
-        p[i] = (uint8_t)(bits >> (8 * i));
+    write_le(p, bits, LWRL_LINK_REAL_SIZE);
+}
+
+/* Whether `length` bytes of payload hold `fixed` bytes and then a whole number of reals,
+ * at most `most` of them. */
+static int fixed_and_reals(uint8_t length, int fixed, int most)
+{
+    return length >= fixed && (length - fixed) % LWRL_LINK_REAL_SIZE == 0
+           && (length - fixed) / LWRL_LINK_REAL_SIZE <= most;
 }
 
 /* Whether a payload of `length` bytes can be a frame of `kind` that this reader takes. */
 static int fits(uint8_t kind, uint8_t length)
 {
     if (kind == LWRL_LINK_ACTION)
-        return length == 5 || length == 9;
+        return length == LWRL_LINK_ACTION_INDEX_SIZE || length == LWRL_LINK_ACTION_VALUE_SIZE;
     if (kind == LWRL_LINK_REQUEST)
-        return length == 4;
-    if (length < 9 || (length - 9) % 8 != 0)
-        return 0;
+        return length == LWRL_LINK_REQUEST_SIZE;
+    if (kind == LWRL_LINK_HELLO || kind == LWRL_LINK_IDENTITY)
+        return length >= LWRL_LINK_IDENTITY_SIZE
+               && length <= LWRL_LINK_IDENTITY_SIZE + LWRL_LINK_MAX_TASK;
     if (kind == LWRL_LINK_WEIGHTS)
-        return length > 9 && (length - 9) / 8 <= LWRL_LINK_WEIGHTS_PER_FRAME;
-    return kind == LWRL_LINK_OBSERVATION && (length - 9) / 8 <= LWRL_LINK_MAX_DIM;
+        return length > LWRL_LINK_WEIGHTS_SIZE
+               && fixed_and_reals(length, LWRL_LINK_WEIGHTS_SIZE, LWRL_LINK_WEIGHTS_PER_FRAME);
+    return kind == LWRL_LINK_OBSERVATION
+           && fixed_and_reals(length, LWRL_LINK_OBSERVATION_SIZE, LWRL_LINK_MAX_DIM);
 }
 
 /* Drop the frame begun at buffer[0] and what follows it up to the next MAGIC. */
@@ -79,23 +91,43 @@ static void resync(lwrl_link_reader *reader)
     reader->used = (uint16_t)(reader->used - next);
 }
 
+/* The length of the frame begun at b, its header read. */
+static uint16_t frame_length(const uint8_t *b)
+{
+    return (uint16_t)LWRL_LINK_FRAME(b[LWRL_LINK_HEADER_PAYLOAD_LENGTH]);
+}
+
 /* 1: buffer[0 .. used) holds a whole valid frame; 0: it may become one; -1: it cannot. */
 static int check(const lwrl_link_reader *reader)
 {
     const uint8_t *b = reader->buffer;
     uint16_t end;
-    if (reader->used < LWRL_LINK_HEADER)
+    if (reader->used < LWRL_LINK_HEADER_SIZE)
         return 0;
-    if (b[1] != LWRL_LINK_VERSION || !fits(b[2], b[3]))
+    if (b[LWRL_LINK_HEADER_VERSION] != LWRL_LINK_VERSION
+        || !fits(b[LWRL_LINK_HEADER_KIND], b[LWRL_LINK_HEADER_PAYLOAD_LENGTH]))
         return -1;
-    end = (uint16_t)(LWRL_LINK_HEADER + b[3] + 2);
+    end = frame_length(b);
     if (reader->used < end)
         return 0;
-    return lwrl_link_crc16(b + 1, (uint16_t)(end - 3)) == (uint16_t)(b[end - 2] | b[end - 1] << 8)
+    return lwrl_link_crc16(b + 1, (uint16_t)(end - 1 - LWRL_LINK_CRC_SIZE))
+                   == (uint16_t)read_le(b + end - LWRL_LINK_CRC_SIZE, LWRL_LINK_CRC_SIZE)
            ? 1 : -1;
 }
 
-int lwrl_link_feed(lwrl_link_reader *reader, uint8_t byte, lwrl_link_observation *out)
+static void read_identity(const uint8_t *p, uint8_t length, lwrl_link_identity *out)
+{
+    int name = length - LWRL_LINK_IDENTITY_SIZE;
+    out->observations = p[LWRL_LINK_IDENTITY_OBSERVATIONS];
+    out->action_kind = p[LWRL_LINK_IDENTITY_ACTION_KIND];
+    out->actions = (uint16_t)read_le(p + LWRL_LINK_IDENTITY_ACTIONS, 2);
+    out->arithmetic = p[LWRL_LINK_IDENTITY_ARITHMETIC];
+    out->build = read_le(p + LWRL_LINK_IDENTITY_BUILD, 8);
+    memcpy(out->task, p + LWRL_LINK_IDENTITY_SIZE, (size_t)name);
+    out->task[name] = '\0';
+}
+
+int lwrl_link_feed(lwrl_link_reader *reader, uint8_t byte, lwrl_link_message *out)
 {
     int state, j;
     if (reader->used == 0 && byte != LWRL_LINK_MAGIC) {
@@ -105,24 +137,29 @@ int lwrl_link_feed(lwrl_link_reader *reader, uint8_t byte, lwrl_link_observation
     reader->buffer[reader->used++] = byte;
     while (reader->used > 0 && (state = check(reader)) != 0) {
         const uint8_t *b = reader->buffer;
-        uint16_t end = (uint16_t)(LWRL_LINK_HEADER + b[3] + 2);
+        const uint8_t *p = b + PAYLOAD;
+        uint8_t kind = b[LWRL_LINK_HEADER_KIND], length = b[LWRL_LINK_HEADER_PAYLOAD_LENGTH];
+        uint16_t end = frame_length(b);
         int taken = 0; /* the kind of the frame taken */
         if (state < 0) {
             resync(reader);
             continue;
         }
-        if (b[2] == LWRL_LINK_OBSERVATION) {
-            out->step = read_u32(b + 4);
-            out->flags = b[8];
-            out->dim = (uint8_t)((b[3] - 9) / 8);
-            out->reward = read_double(b + 9);
+        out->step = (uint32_t)read_le(b + LWRL_LINK_HEADER_STEP, 4);
+        if (kind == LWRL_LINK_OBSERVATION) {
+            out->flags = p[LWRL_LINK_OBSERVATION_FLAGS];
+            out->dim = (uint8_t)((length - LWRL_LINK_OBSERVATION_SIZE) / LWRL_LINK_REAL_SIZE);
+            out->reward = read_double(p + LWRL_LINK_OBSERVATION_REWARD);
             for (j = 0; j < out->dim; j++)
-                out->observation[j] = read_double(b + 17 + 8 * j);
-            taken = LWRL_LINK_OBSERVATION;
-        } else if (b[2] == LWRL_LINK_REQUEST) {
-            out->step = read_u32(b + 4);
-            out->offset = read_u32(b + 8);
-            taken = LWRL_LINK_REQUEST;
+                out->observation[j] = read_double(p + LWRL_LINK_OBSERVATION_SIZE
+                                                  + LWRL_LINK_REAL_SIZE * j);
+            taken = kind;
+        } else if (kind == LWRL_LINK_REQUEST) {
+            out->offset = (uint32_t)read_le(p, LWRL_LINK_REQUEST_SIZE);
+            taken = kind;
+        } else if (kind == LWRL_LINK_HELLO) {
+            read_identity(p, length, &out->identity);
+            taken = kind;
         }
         /* the frame is taken; bytes after it (read while resynchronising) stay */
         memmove(reader->buffer, reader->buffer + end, (size_t)(reader->used - end));
@@ -134,43 +171,62 @@ int lwrl_link_feed(lwrl_link_reader *reader, uint8_t byte, lwrl_link_observation
 }
 
 /* The header of a frame of `kind` and `length` bytes of payload, whose payload is already
- * at out + 8, and its CRC; returns the frame's length. */
+ * at out + PAYLOAD, and its CRC; returns the frame's length. */
 static int seal(uint32_t step, uint8_t kind, int length, uint8_t *out)
 {
-    uint16_t crc;
-    out[0] = LWRL_LINK_MAGIC;
-    out[1] = LWRL_LINK_VERSION;
-    out[2] = kind;
-    out[3] = (uint8_t)length;
-    write_u32(out + 4, step);
-    crc = lwrl_link_crc16(out + 1, (uint16_t)(7 + length));
-    out[8 + length] = (uint8_t)(crc & 0xFFu);
-    out[9 + length] = (uint8_t)(crc >> 8);
-    return 10 + length;
+    out[LWRL_LINK_HEADER_MAGIC] = LWRL_LINK_MAGIC;
+    out[LWRL_LINK_HEADER_VERSION] = LWRL_LINK_VERSION;
+    out[LWRL_LINK_HEADER_KIND] = kind;
+    out[LWRL_LINK_HEADER_PAYLOAD_LENGTH] = (uint8_t)length;
+    write_le(out + LWRL_LINK_HEADER_STEP, step, 4);
+    write_le(out + PAYLOAD + length, lwrl_link_crc16(out + 1, (uint16_t)(PAYLOAD - 1 + length)),
+             LWRL_LINK_CRC_SIZE);
+    return LWRL_LINK_FRAME(length);
 }
 
 int lwrl_link_action_index(uint32_t step, int32_t index, uint8_t *out)
 {
-    out[8] = 0;
-    write_u32(out + 9, (uint32_t)index);
-    return seal(step, LWRL_LINK_ACTION, 5, out);
+    out[PAYLOAD + LWRL_LINK_ACTION_INDEX_KIND] = LWRL_LINK_DISCRETE;
+    write_le(out + PAYLOAD + LWRL_LINK_ACTION_INDEX_ACTION, (uint32_t)index, 4);
+    return seal(step, LWRL_LINK_ACTION, LWRL_LINK_ACTION_INDEX_SIZE, out);
 }
 
 int lwrl_link_action_value(uint32_t step, double value, uint8_t *out)
 {
-    out[8] = 1;
-    write_double(out + 9, value);
-    return seal(step, LWRL_LINK_ACTION, 9, out);
+    out[PAYLOAD + LWRL_LINK_ACTION_VALUE_KIND] = LWRL_LINK_CONTINUOUS;
+    write_double(out + PAYLOAD + LWRL_LINK_ACTION_VALUE_ACTION, value);
+    return seal(step, LWRL_LINK_ACTION, LWRL_LINK_ACTION_VALUE_SIZE, out);
 }
 
 int lwrl_link_weights(uint32_t step, uint32_t total, uint32_t offset, int diverged,
                       const double *values, int count, uint8_t *out)
 {
+    uint8_t *p = out + PAYLOAD;
     int j;
-    write_u32(out + 8, total);
-    write_u32(out + 12, offset);
-    out[16] = diverged ? 1 : 0;
+    write_le(p + LWRL_LINK_WEIGHTS_TOTAL, total, 4);
+    write_le(p + LWRL_LINK_WEIGHTS_OFFSET, offset, 4);
+    p[LWRL_LINK_WEIGHTS_DIVERGED] = diverged ? 1 : 0;
     for (j = 0; j < count; j++)
-        write_double(out + 17 + 8 * j, values[j]);
-    return seal(step, LWRL_LINK_WEIGHTS, 9 + 8 * count, out);
+        write_double(p + LWRL_LINK_WEIGHTS_SIZE + LWRL_LINK_REAL_SIZE * j, values[j]);
+    return seal(step, LWRL_LINK_WEIGHTS, LWRL_LINK_WEIGHTS_SIZE + LWRL_LINK_REAL_SIZE * count, out);
+}
+
+int lwrl_link_identity_frame(uint32_t step, const lwrl_link_identity *identity, uint8_t *out)
+{
+    uint8_t *p = out + PAYLOAD;
+    size_t name = strlen(identity->task);
+    p[LWRL_LINK_IDENTITY_OBSERVATIONS] = identity->observations;
+    p[LWRL_LINK_IDENTITY_ACTION_KIND] = identity->action_kind;
+    write_le(p + LWRL_LINK_IDENTITY_ACTIONS, identity->actions, 2);
+    p[LWRL_LINK_IDENTITY_ARITHMETIC] = identity->arithmetic;
+    write_le(p + LWRL_LINK_IDENTITY_BUILD, identity->build, 8);
+    memcpy(p + LWRL_LINK_IDENTITY_SIZE, identity->task, name);
+    return seal(step, LWRL_LINK_IDENTITY, LWRL_LINK_IDENTITY_SIZE + (int)name, out);
+}
+
+int lwrl_link_same_identity(const lwrl_link_identity *a, const lwrl_link_identity *b)
+{
+    return a->observations == b->observations && a->action_kind == b->action_kind
+           && a->actions == b->actions && a->arithmetic == b->arithmetic && a->build == b->build
+           && strcmp(a->task, b->task) == 0;
 }
