@@ -11,7 +11,9 @@ or, without the import, `gymnasium.make("lwrl.gym:lwrl/cartpole-balance-mujoco-v
 entry points). Every `(domain, task, plant)` of the suite's dm_env environments
 (`tasks.ENVIRONMENT_PLANTS`) is registered as `lwrl/{domain}-{task}-{plant}-v0`
 (`ENV_IDS`), and beside it with continuous actions as
-`lwrl/{domain}-{task}-{plant}-continuous-v0` (`CONTINUOUS_ENV_IDS`); `register_envs()`
+`lwrl/{domain}-{task}-{plant}-continuous-v0` (`CONTINUOUS_ENV_IDS`); each task on its
+domain's default plant also as `lwrl/{domain}-{task}-v0` and `lwrl/{domain}-{task}-continuous-v0`
+(`DEFAULT_ENV_IDS`, e.g. `gymnasium.make("lwrl/pendulum-swingup-v0")`); `register_envs()`
 registers them again if needed and is idempotent.
 
 `SuiteEnv` wraps the suite's dm_env environment (`tasks.load`):
@@ -25,7 +27,10 @@ registers them again if needed and is idempotent.
   one-actuator tasks (Pendulum-v1) have it; float64, the plants' type, so that an action
   reaches the plant unrounded, as the dm_env environment's does (the Box takes float32
   arrays too). An action outside the range is clipped to it, as an actuator saturates
-  (Pendulum-v1 clips too); NaN or an infinity raises a `ValueError`.
+  (Pendulum-v1 clips too); NaN or an infinity raises a `ValueError`. For a learner that
+  expects actions in [-1, 1] (Stable-Baselines3's advice, which `check_env` warns of), wrap
+  the environment in Gymnasium's own `gymnasium.wrappers.RescaleAction(env, -1.0, 1.0)`:
+  it maps [-1, 1] affinely onto the actuator's range.
 - **Observations**: a float64 `Box` of shape `(d,)` in the order of the task's state names
   (`observation_names`), within the task's `bounds` (`TaskDefinition.bounds`, stated and
   argued in each domain's module), which hold the terminal observation too.
@@ -103,11 +108,13 @@ NO_OPENGL = ("disable", "disabled", "off", "false", "0")
 there is no display and the variable is unset)."""
 
 
-def env_id(domain: str, task: str, plant: str, actions: str = "discrete") -> str:
+def env_id(domain: str, task: str, plant: str | None, actions: str = "discrete") -> str:
     """The Gymnasium id of `domain.task` on `plant`, e.g. `lwrl/cartpole-balance-mujoco-v0`;
-    with continuous actions `lwrl/cartpole-balance-mujoco-continuous-v0`."""
+    with continuous actions `lwrl/cartpole-balance-mujoco-continuous-v0`; with no plant
+    (None) the id of the domain's default plant, `lwrl/cartpole-balance-v0`."""
     kind = "" if actions == "discrete" else f"-{actions}"
-    return f"{NAMESPACE}/{domain}-{task}-{plant}{kind}-v{VERSION}"
+    plant_part = "" if plant is None else f"-{plant}"
+    return f"{NAMESPACE}/{domain}-{task}{plant_part}{kind}-v{VERSION}"
 
 
 def _environments(actions: str) -> dict:
@@ -126,8 +133,18 @@ CONTINUOUS_ENVIRONMENTS = _environments("continuous")
 """`(domain, task, plant)` of each registered id of continuous actions."""
 CONTINUOUS_ENV_IDS = tuple(CONTINUOUS_ENVIRONMENTS)
 """The registered ids of continuous actions, one beside each of `ENV_IDS`."""
+DEFAULT_ENVIRONMENTS = {env_id(domain, task, None, actions): (domain, task,
+                                                               tasks.ENVIRONMENT_PLANTS[domain][0],
+                                                               actions)
+                        for actions in ("discrete", "continuous") for domain, task in tasks.ALL_TASKS}
+"""`(domain, task, plant, actions)` of each id without a plant, `lwrl/{domain}-{task}-v0` and
+`lwrl/{domain}-{task}-continuous-v0`: the task on its domain's default plant (MuJoCo where
+there is a model), as `tasks.load` takes it."""
+DEFAULT_ENV_IDS = tuple(DEFAULT_ENVIRONMENTS)
+"""The ids without a plant (`DEFAULT_ENVIRONMENTS`)."""
 _REGISTERED = {**{id_: (*names, "discrete") for id_, names in ENVIRONMENTS.items()},
-               **{id_: (*names, "continuous") for id_, names in CONTINUOUS_ENVIRONMENTS.items()}}
+               **{id_: (*names, "continuous") for id_, names in CONTINUOUS_ENVIRONMENTS.items()},
+               **DEFAULT_ENVIRONMENTS}
 """`(domain, task, plant, actions)` of every registered id."""
 
 
@@ -460,9 +477,10 @@ class SuiteVectorEnv(VectorEnv):
 
 
 def register_envs() -> tuple:
-    """Register every id of `ENV_IDS` and `CONTINUOUS_ENV_IDS` with Gymnasium (those not
-    registered yet), the latter with `actions="continuous"` among their kwargs; return
-    `ENV_IDS`. Calling it again does nothing."""
+    """Register every id of `ENV_IDS`, `CONTINUOUS_ENV_IDS` and `DEFAULT_ENV_IDS` with
+    Gymnasium (those not registered yet), those of continuous actions with
+    `actions="continuous"` among their kwargs; return `ENV_IDS`. Calling it again does
+    nothing."""
     for id_, (domain, task, plant, actions) in _REGISTERED.items():
         if id_ not in gymnasium.envs.registry:
             kind = {} if actions == "discrete" else {"actions": actions}

@@ -16,8 +16,8 @@ gymnasium = pytest.importorskip("gymnasium")
 from gymnasium.utils.env_checker import check_env  # noqa: E402
 
 from lwrl import tasks  # noqa: E402
-from lwrl.gym import (CONTINUOUS_ENV_IDS, ENV_IDS, SuiteEnv, SuiteVectorEnv, env_id,  # noqa: E402
-                      register_envs, render_modes)
+from lwrl.gym import (CONTINUOUS_ENV_IDS, DEFAULT_ENV_IDS, ENV_IDS, SuiteEnv,  # noqa: E402
+                      SuiteVectorEnv, env_id, register_envs, render_modes)
 
 # Any warning (Gymnasium's checkers warn rather than raise) fails these tests, unless a test
 # expects it.
@@ -501,6 +501,40 @@ def test_continuous_ids_are_registered_beside_the_discrete():
         env = gymnasium.make(id_)
         assert env.action_space == gymnasium.spaces.Box(low, high, (1,), np.float64)
         assert env.unwrapped.actions == "continuous"
+
+
+def test_each_task_has_an_id_without_a_plant_on_its_default_plant():
+    """lwrl/{domain}-{task}-v0 (and -continuous-v0) is the task on the domain's first plant,
+    as `tasks.load` takes it; kwargs cannot move it to another plant."""
+    assert len(DEFAULT_ENV_IDS) == 2 * len(tasks.ALL_TASKS)
+    for domain, task in tasks.ALL_TASKS:
+        for actions in ("discrete", "continuous"):
+            id_ = env_id(domain, task, None, actions)
+            assert id_ in DEFAULT_ENV_IDS and "--" not in id_
+            env = gymnasium.make(id_).unwrapped
+            assert (env.domain, env.task_name, env.actions) == (domain, task, actions)
+            assert env.plant == tasks.ENVIRONMENT_PLANTS[domain][0]
+    assert gymnasium.make("lwrl/pendulum-swingup-v0").unwrapped.plant == "mujoco"
+    with pytest.raises(ValueError, match="lwrl/pendulum-swingup-v0 is pendulum.swingup on the "
+                                         "mujoco plant; make.. kwargs asked for"):
+        gymnasium.make("lwrl/pendulum-swingup-v0", plant="analytic")
+
+
+@pytest.mark.parametrize("id_", ["lwrl/pendulum-swingup-continuous-v0",
+                                 "lwrl/cartpole-balance-continuous-v0"])
+def test_rescale_action_gives_a_learner_actions_in_minus_one_to_one(id_):
+    """Gymnasium's RescaleAction maps [-1, 1] onto the actuator's range: the checker's
+    normalisation advice goes, and -1, 0, +1 command the range's ends and its middle."""
+    env = gymnasium.wrappers.RescaleAction(gymnasium.make(id_), -1.0, 1.0)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(env)
+    assert not [w for w in caught if "normalis" in str(w.message).lower()
+                or "symmetric" in str(w.message).lower()], [str(w.message) for w in caught]
+    low, high = env.unwrapped.definition.control_range
+    assert env.action_space == gymnasium.spaces.Box(-1.0, 1.0, (1,), np.float64)
+    for action, control in ((-1.0, low), (0.0, (low + high) / 2), (1.0, high)):
+        assert env.action(np.array([action])) == pytest.approx([control])
 
 
 @pytest.mark.parametrize("id_", CONTINUOUS_ENV_IDS)
