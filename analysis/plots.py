@@ -60,6 +60,23 @@ def plot_learning_curve(results: pd.DataFrame, value: str, ylabel: str, title: s
     return figure, curve
 
 
+def plot_runs(runs: list, value: str, ylabel: str, log: bool = False):
+    """The learning curves of `runs`, `[(label, per-episode table)]` (each a run's
+    episodes.csv: a row per agent and episode), on one axes: each run's mean over its agents
+    per episode with its 95 % bootstrap interval over agents (`plot_learning_curve`); the
+    figure."""
+    figure, axes = plt.subplots(figsize=(7, 4))
+    for label, table in runs:
+        plot_learning_curve(table, value, ylabel, "", axes=axes, interval=True, label=label)
+    handles, labels = axes.get_legend_handles_labels()
+    keep = [i for i, text in enumerate(labels) if not text.startswith("95 %")]
+    axes.legend([handles[i] for i in keep], [labels[i] for i in keep], fontsize=8,
+                title="mean over agents, 95 % interval shaded", title_fontsize=8)
+    if log:
+        axes.set_yscale("log")
+    return figure
+
+
 @dataclasses.dataclass(frozen=True)
 class Evidence:
     """One judged quantity for `plot_claims`: our estimate beside what the claim accepts."""

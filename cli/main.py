@@ -8,6 +8,7 @@
     lwrl train dmc:DOMAIN.TASK|gym:ID [--low L,L,..] [--high H,H,..] [--actions V,V,...] ...
                                                    ... on dm_control's or Gymnasium's
     lwrl eval PATH [--episodes K] [--seed S]       run saved agents greedily
+    lwrl plot RUN_DIR... [--measure M] [--out PNG] learning curves with 95 % intervals
     lwrl reproduce {fig2,fig3,fig5,fig6,fig8,table1,all}... [--plant P] [--quick] [--out DIR]
                                                    the paper's figures and table, and a report
     lwrl compare DOMAIN.TASK [--seeds N] [--episodes K] [--out DIR] [--rrd PATH] [--quick]
@@ -31,13 +32,13 @@ function the command runs. Bad input ends with one line on standard error and ex
 import sys
 
 from lwrl import outputs
-from lwrl.cli import (bench, compare, device, evaluate, export, implementations, learner,
+from lwrl.cli import (bench, compare, device, evaluate, export, implementations, learner, plot,
                       reproduce, robustness, rollout, tasks, train, view)
 from lwrl.cli import output
 from lwrl.cli.output import Parser
 
-SUBCOMMANDS = (tasks, rollout, train, evaluate, reproduce, bench, implementations, compare,
-               robustness, export, learner, device, view)
+SUBCOMMANDS = (tasks, rollout, train, evaluate, plot, reproduce, bench, implementations,
+               compare, robustness, export, learner, device, view)
 
 
 def build_parser() -> Parser:

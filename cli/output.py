@@ -189,6 +189,29 @@ def write_run(out: str, config, results, extra=None) -> list:
     return [os.path.join(out, name) for name in names]
 
 
+def read_run(path: str) -> tuple:
+    """`(configuration, episodes)` of a run directory that `write_run` wrote: its config.json
+    as a dict and its episodes.csv as a table; a one-line ValueError for a directory that is
+    not one."""
+    import pandas as pd  # the 'paper' extra: only the commands that read runs need it
+
+    files = [os.path.join(path, name) for name in RUN_FILES]
+    if not all(os.path.isfile(file) for file in files):
+        raise ValueError(f"{path}: not a run directory (lwrl train --out DIR writes "
+                         f"{' and '.join(RUN_FILES)} there)")
+    try:
+        with open(files[0]) as file:
+            configuration = json.load(file)
+        episodes = pd.read_csv(files[1])
+    except (OSError, ValueError, UnicodeDecodeError) as error:
+        raise ValueError(f"{path}: unreadable run ({type(error).__name__})") from None
+    missing = {"task", "learner"} - set(configuration)
+    missing |= {"seed", "episode", "steps", "return", "uptime_s"} - set(episodes.columns)
+    if missing:
+        raise ValueError(f"{path}: not a run of lwrl train (missing {', '.join(sorted(missing))})")
+    return configuration, episodes
+
+
 def write_out_and_save(written, args, config, results, agent, what: str, extra=None) -> None:
     """`--out DIR` (`write_run`) and `--save PATH` (the agents, `what` in the report) of a
     run, each through `written` (an `Outputs`), so that one failing loses neither other;

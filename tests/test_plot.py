@@ -1,0 +1,42 @@
+"""`lwrl plot RUN_DIR...`: the learning curves of runs `lwrl train --out` wrote, with 95 %
+intervals over agents; bad input in one line, exit status 2."""
+
+import pytest
+from conftest import run_cli
+
+pytest.importorskip("matplotlib", reason="lwrl plot needs the paper extra")
+from lwrl.cli import plot  # noqa: E402
+
+
+def test_the_runs_curves_are_drawn_on_one_figure(tmp_path, capsys):
+    for name, alpha in (("a", "3.9"), ("b", "1.0")):
+        status, _, _ = run_cli(["train", "mountain_car.cost_to_go", "--agents", "3",
+                                "--episodes", "4", "--alpha", alpha,
+                                "--out", str(tmp_path / name)], capsys)
+        assert status == 0
+    status, out, _ = run_cli(["plot", str(tmp_path / "a"), str(tmp_path / "b"),
+                              "--out", str(tmp_path / "curves.png"), "--log"], capsys)
+    assert status == 0
+    for extension in ("png", "svg"):
+        path = tmp_path / f"curves.{extension}"
+        assert path.stat().st_size > 1000 and f"wrote {path}" in out
+    svg = (tmp_path / "curves.svg").read_text()
+    assert "a: sarsa on mountain_car.cost_to_go" in svg and "b: sarsa" in svg
+    assert "steps per episode" in svg
+
+
+def test_the_default_measure_is_the_up_time_where_every_task_keeps_one():
+    assert plot.default_measure(["pendulum.swingup", "cartpole.balance"]) == "uptime_s"
+    assert plot.default_measure(["pendulum.swingup", "mountain_car.cost_to_go"]) == "steps"
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["plot", "NO_SUCH_DIR"], "NO_SUCH_DIR: not a run directory (lwrl train --out DIR writes "
+                              "config.json and episodes.csv there)"),
+    (["plot", "RUN", "--out", "curves.svg"], "--out must name a .png file; got 'curves.svg'"),
+    (["plot", "RUN", "--measure", "reward"], "invalid choice: 'reward'"),
+])
+def test_bad_input_is_one_line_and_status_2(argv, message, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    status, _, err = run_cli(argv, capsys)
+    assert status == 2 and message in err[-1], err  # argparse's usage line may come before
