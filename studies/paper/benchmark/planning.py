@@ -1,0 +1,177 @@
+"""The numbers the third benchmark's rule is planned from (docs/FINDINGS.md, "The light-weight
+claim judged a third time: the third benchmark's rule"), read from a finished benchmark's
+committed tables (the second's, docs/benchmark2): per task and row, the standard deviation
+of the agents' final normalised scores, how many sit at the classical level, the smallest
+difference from the light-weight row that the one-sided test detects with 80 % power at the
+benchmark's agents per row after Holm over the family, and the agents a row needs to show
+non-inferiority at the margin (`analysis.power`); and from its ledger (`compute.jsonl`), the
+CPU seconds per agent-step of each task's learners, training and greedy evaluation apart,
+from which the third benchmark's compute is planned.
+
+    python -m lwrl.studies.paper.benchmark.planning docs/benchmark2 [--margin M]
+        [--family K] [--agents N] [--plant P]
+
+reads the runs only (`study.study_task` resumes from the committed tables and runs nothing
+where they are all there) and prints the tables in Markdown.
+"""
+
+import argparse
+import dataclasses
+import math
+import sys
+
+import numpy as np
+import pandas as pd
+
+from lwrl.analysis import power
+from lwrl.runners.store import RunStore, ledger_lines
+from lwrl.studies.paper.benchmark import protocol, study
+
+MARGIN = 0.1
+"""The non-inferiority margin on the normalised score the third benchmark's rule fixes."""
+FAMILY = 39
+"""The third benchmark's Holm family: the four discrete tasks and the three variants, each
+against five rivals (DQN, PPO, ARS, stream-Q(lambda), stream-AC(lambda)), and the continuous
+pendulum against four (SAC, TD3, ARS, stream-AC(lambda))."""
+SATURATED = 0.99
+"""A final normalised score at or above which an agent counts as at the classical level."""
+
+
+@dataclasses.dataclass(frozen=True)
+class RowPlan:
+    """One row of one task: its agents' final normalised scores' spread, the share at the
+    classical level at each fraction of the budget, and against the light-weight row the
+    difference detectable with `agents` agents a row and the agents needed at the margin."""
+
+    task: str
+    row: str
+    agents: int
+    mean: float
+    sd: float
+    saturated: dict
+    """`{fraction: agents with a normalised score >= SATURATED}`."""
+    detectable: float = math.nan
+    """The smallest difference the one-sided test detects with `power.POWER`, NaN for the
+    light-weight row itself."""
+    needed: float = math.nan
+    """The agents per row for non-inferiority at the margin with `power.POWER` where the true
+    difference is 0; inf where more than `power.MOST_AGENTS`, NaN for the light-weight row."""
+
+
+def plan_task(runs: study.TaskRuns, agents: int, margin: float = MARGIN,
+              family: int = FAMILY, alpha: float = 0.05) -> list:
+    """`RowPlan` of every row of `runs` (a finished task's `study.TaskRuns`), the light-weight
+    row first, each rival's against it with `agents` agents a row."""
+    final = protocol.FRACTIONS[-1]
+    light = protocol.light(runs.task)
+    labels = [label for label, fraction in runs.scores if fraction == final]
+    labels = [light] + [label for label in labels if label != light]
+    sd_light = spread(runs.scores[light, final])
+    plans = []
+    for label in labels:
+        values = np.asarray(runs.scores[label, final], dtype=float)
+        saturated = {fraction: int(np.sum(np.asarray(runs.scores[label, fraction]) >= SATURATED))
+                     for fraction in protocol.FRACTIONS if (label, fraction) in runs.scores}
+        plan = RowPlan(runs.task, label, len(values), float(np.mean(values)), spread(values),
+                       saturated)
+        if label != light:
+            sd = plan.sd
+            try:
+                needed = power.agents_needed(sd_light, sd, margin, alpha=alpha, family=family)
+            except ValueError:
+                needed = math.inf
+            plan = dataclasses.replace(
+                plan, detectable=power.detectable_difference(sd_light, sd, agents, agents,
+                                                             alpha, family),
+                needed=needed)
+        plans.append(plan)
+    return plans
+
+
+def spread(values) -> float:
+    """The standard deviation (n - 1) of the agents' scores."""
+    return float(np.std(np.asarray(values, dtype=float), ddof=1))
+
+
+def table(plans: list, agents: int, margin: float, family: int) -> str:
+    """The plans as a Markdown table."""
+    lines = [f"| task | row | mean | sd | at the classical level (of {plans[0].agents if plans else 0}) "
+             f"at {', '.join(f'{f:g}' for f in protocol.FRACTIONS)} | detectable at {agents} a row "
+             f"(Holm over {family}) | agents for margin {margin:g} |",
+             "|---|---|---|---|---|---|---|"]
+    for plan in plans:
+        shares = " / ".join(str(plan.saturated.get(f, "—")) for f in protocol.FRACTIONS)
+        detectable = "" if math.isnan(plan.detectable) else f"{plan.detectable:.2f}"
+        needed = ("" if math.isnan(plan.needed) else "more than "
+                  f"{power.MOST_AGENTS}" if math.isinf(plan.needed) else f"{plan.needed:.0f}")
+        lines.append(f"| {plan.task} | {plan.row} | {plan.mean:.2f} | {plan.sd:.3f} | {shares} | "
+                     f"{detectable} | {needed} |")
+    return "\n".join(lines)
+
+
+def ledger_rates(out_dir) -> pd.DataFrame:
+    """Per task, learner and kind of run (training, or greedy evaluation) that the ledger of
+    `out_dir` counts alone (its lines that name runs of that kind only; a line per computed
+    batch, `RunStore.record_compute`): the lines, their CPU seconds, the agent-steps of their
+    runs (the `steps` of every episode of their tables) and the CPU seconds per agent-step."""
+    runs = RunStore(out_dir, make=False).directory
+    counted = []
+    for line in ledger_lines(out_dir):
+        tables = [pd.read_csv(runs / f"{key}.csv.gz",
+                              usecols=["task", "actions", "learner", "greedy", "steps"])
+                  for key in line["runs"]]
+        kinds = {(t.task.iloc[0] + (protocol.CONTINUOUS if t.actions.iloc[0] == "continuous"
+                                    else ""), t.learner.iloc[0], bool(t.greedy.iloc[0]))
+                 for t in tables}
+        if len(kinds) == 1:
+            task, learner, greedy = kinds.pop()
+            counted.append({"task": task, "learner": learner,
+                            "run": "evaluation" if greedy else "training",
+                            "cpu_s": line["cpu_s"],
+                            "agent_steps": int(sum(t.steps.sum() for t in tables))})
+    if not counted:
+        return pd.DataFrame(columns=["task", "learner", "run", "lines", "cpu_s", "agent_steps",
+                                     "cpu_s_per_agent_step"])
+    rates = (pd.DataFrame(counted).groupby(["task", "learner", "run"], sort=True)
+             .agg(lines=("cpu_s", "size"), cpu_s=("cpu_s", "sum"),
+                  agent_steps=("agent_steps", "sum")).reset_index())
+    return rates.assign(cpu_s_per_agent_step=rates.cpu_s / rates.agent_steps)
+
+
+def rates_table(rates: pd.DataFrame) -> str:
+    """`ledger_rates` as a Markdown table."""
+    lines = ["| task | learner | run | ledger lines | CPU h | agent-steps | CPU µs per agent-step |",
+             "|---|---|---|---|---|---|---|"]
+    lines += [f"| {r.task} | {r.learner} | {r.run} | {r.lines} | {r.cpu_s / 3600:.2f} | "
+              f"{r.agent_steps:,} | {1e6 * r.cpu_s_per_agent_step:.1f} |"
+              for r in rates.itertuples()]
+    return "\n".join(lines)
+
+
+def main(argv=None) -> None:
+    """Print the plan of every task of the benchmark in `out_dir` on its plant."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("out_dir", help="a finished benchmark's directory (docs/benchmark2)")
+    parser.add_argument("--margin", type=float, default=MARGIN)
+    parser.add_argument("--family", type=int, default=FAMILY)
+    parser.add_argument("--agents", type=int, default=protocol.AGENTS)
+    parser.add_argument("--plant", default="analytic")
+    args = parser.parse_args(argv)
+    try:
+        power.check_margin(args.margin)
+        power.level(0.05, args.family)
+        if args.agents < 2:
+            raise ValueError(f"--agents must be at least 2; got {args.agents}")
+        plans = [plan for task in protocol.tasks_on(args.plant)
+                 for plan in plan_task(study.study_task(task, args.out_dir, args.plant),
+                                       args.agents, args.margin, args.family)]
+    except ValueError as error:
+        print(f"error: {error}", file=sys.stderr)
+        raise SystemExit(2)
+    print(table(plans, args.agents, args.margin, args.family))
+    print()
+    print(rates_table(ledger_rates(args.out_dir)))
+
+
+if __name__ == "__main__":
+    main()
