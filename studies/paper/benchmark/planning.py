@@ -4,12 +4,11 @@ committed tables (the second's, docs/benchmark2): per task and row, the standard
 of the agents' final normalised scores, how many sit at the classical level, the smallest
 difference from the light-weight row that the one-sided test detects with 80 % power at the
 benchmark's agents per row after Holm over the family, and the agents a row needs to show
-non-inferiority at the margin (`analysis.power`); and from its ledger (`compute.jsonl`), the
-CPU seconds per agent-step of each task's learners, training and greedy evaluation apart,
-from which the third benchmark's compute is planned.
+non-inferiority at the margin (`analysis.power`); and the third benchmark's compute, planned
+from its ledger (`compute_plan`).
 
     python -m lwrl.studies.paper.benchmark.planning docs/benchmark2 [--margin M]
-        [--family K] [--agents N] [--plant P]
+        [--family K] [--agents N] [--light-agents N] [--plant P]
 
 reads the runs only (`study.study_task` resumes from the committed tables and runs nothing
 where they are all there) and prints the tables in Markdown.
@@ -21,11 +20,9 @@ import math
 import sys
 
 import numpy as np
-import pandas as pd
 
 from lwrl.analysis import power
-from lwrl.runners.store import RunStore, ledger_lines
-from lwrl.studies.paper.benchmark import protocol, study
+from lwrl.studies.paper.benchmark import compute_plan, protocol, study
 
 MARGIN = 0.1
 """The non-inferiority margin on the normalised score the third benchmark's rule fixes."""
@@ -59,9 +56,10 @@ class RowPlan:
 
 
 def plan_task(runs: study.TaskRuns, agents: int, margin: float = MARGIN,
-              family: int = FAMILY, alpha: float = 0.05) -> list:
+              family: int = FAMILY, alpha: float = 0.05, light_agents: int | None = None) -> list:
     """`RowPlan` of every row of `runs` (a finished task's `study.TaskRuns`), the light-weight
-    row first, each rival's against it with `agents` agents a row."""
+    row first, each rival's against it with `agents` agents a rival row and `light_agents`
+    (default `agents`) in the light-weight row."""
     final = protocol.FRACTIONS[-1]
     light = protocol.light(runs.task)
     labels = [label for label, fraction in runs.scores if fraction == final]
@@ -81,8 +79,8 @@ def plan_task(runs: study.TaskRuns, agents: int, margin: float = MARGIN,
             except ValueError:
                 needed = math.inf
             plan = dataclasses.replace(
-                plan, detectable=power.detectable_difference(sd_light, sd, agents, agents,
-                                                             alpha, family),
+                plan, detectable=power.detectable_difference(sd_light, sd, light_agents or agents,
+                                                             agents, alpha, family),
                 needed=needed)
         plans.append(plan)
     return plans
@@ -93,10 +91,11 @@ def spread(values) -> float:
     return float(np.std(np.asarray(values, dtype=float), ddof=1))
 
 
-def table(plans: list, agents: int, margin: float, family: int) -> str:
+def table(plans: list, agents: int, margin: float, family: int, light_agents: int) -> str:
     """The plans as a Markdown table."""
     lines = [f"| task | row | mean | sd | at the classical level (of {plans[0].agents if plans else 0}) "
-             f"at {', '.join(f'{f:g}' for f in protocol.FRACTIONS)} | detectable at {agents} a row "
+             f"at {', '.join(f'{f:g}' for f in protocol.FRACTIONS)} | detectable at {agents} a "
+             f"rival row, {light_agents} light-weight "
              f"(Holm over {family}) | agents for margin {margin:g} |",
              "|---|---|---|---|---|---|---|"]
     for plan in plans:
@@ -109,68 +108,42 @@ def table(plans: list, agents: int, margin: float, family: int) -> str:
     return "\n".join(lines)
 
 
-def ledger_rates(out_dir) -> pd.DataFrame:
-    """Per task, learner and kind of run (training, or greedy evaluation) that the ledger of
-    `out_dir` counts alone (its lines that name runs of that kind only; a line per computed
-    batch, `RunStore.record_compute`): the lines, their CPU seconds, the agent-steps of their
-    runs (the `steps` of every episode of their tables) and the CPU seconds per agent-step."""
-    runs = RunStore(out_dir, make=False).directory
-    counted = []
-    for line in ledger_lines(out_dir):
-        tables = [pd.read_csv(runs / f"{key}.csv.gz",
-                              usecols=["task", "actions", "learner", "greedy", "steps"])
-                  for key in line["runs"]]
-        kinds = {(t.task.iloc[0] + (protocol.CONTINUOUS if t.actions.iloc[0] == "continuous"
-                                    else ""), t.learner.iloc[0], bool(t.greedy.iloc[0]))
-                 for t in tables}
-        if len(kinds) == 1:
-            task, learner, greedy = kinds.pop()
-            counted.append({"task": task, "learner": learner,
-                            "run": "evaluation" if greedy else "training",
-                            "cpu_s": line["cpu_s"],
-                            "agent_steps": int(sum(t.steps.sum() for t in tables))})
-    if not counted:
-        return pd.DataFrame(columns=["task", "learner", "run", "lines", "cpu_s", "agent_steps",
-                                     "cpu_s_per_agent_step"])
-    rates = (pd.DataFrame(counted).groupby(["task", "learner", "run"], sort=True)
-             .agg(lines=("cpu_s", "size"), cpu_s=("cpu_s", "sum"),
-                  agent_steps=("agent_steps", "sum")).reset_index())
-    return rates.assign(cpu_s_per_agent_step=rates.cpu_s / rates.agent_steps)
-
-
-def rates_table(rates: pd.DataFrame) -> str:
-    """`ledger_rates` as a Markdown table."""
-    lines = ["| task | learner | run | ledger lines | CPU h | agent-steps | CPU µs per agent-step |",
-             "|---|---|---|---|---|---|---|"]
-    lines += [f"| {r.task} | {r.learner} | {r.run} | {r.lines} | {r.cpu_s / 3600:.2f} | "
-              f"{r.agent_steps:,} | {1e6 * r.cpu_s_per_agent_step:.1f} |"
-              for r in rates.itertuples()]
-    return "\n".join(lines)
-
-
 def main(argv=None) -> None:
     """Print the plan of every task of the benchmark in `out_dir` on its plant."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("out_dir", help="a finished benchmark's directory (docs/benchmark2)")
     parser.add_argument("--margin", type=float, default=MARGIN)
     parser.add_argument("--family", type=int, default=FAMILY)
-    parser.add_argument("--agents", type=int, default=protocol.AGENTS)
+    parser.add_argument("--agents", type=int, default=protocol.AGENTS,
+                        help="agents per rival row")
+    parser.add_argument("--light-agents", type=int, default=None,
+                        help="agents of the light-weight row (default: --agents)")
     parser.add_argument("--plant", default="analytic")
+    parser.add_argument("--variants", nargs="*", default=list(compute_plan.VARIANT_TASKS),
+                        help="the base tasks of the third benchmark's variants")
     args = parser.parse_args(argv)
     try:
         power.check_margin(args.margin)
         power.level(0.05, args.family)
-        if args.agents < 2:
-            raise ValueError(f"--agents must be at least 2; got {args.agents}")
-        plans = [plan for task in protocol.tasks_on(args.plant)
-                 for plan in plan_task(study.study_task(task, args.out_dir, args.plant),
-                                       args.agents, args.margin, args.family)]
+        light_agents = args.light_agents or args.agents
+        if min(args.agents, light_agents) < 2:
+            raise ValueError(f"--agents and --light-agents must be at least 2; got "
+                             f"{args.agents} and {light_agents}")
+        task_runs = {task: study.study_task(task, args.out_dir, args.plant)
+                     for task in protocol.tasks_on(args.plant)}
+        plans = [plan for runs in task_runs.values()
+                 for plan in plan_task(runs, args.agents, args.margin, args.family,
+                                       light_agents=light_agents)]
+        rates = compute_plan.ledger_rates(args.out_dir)
+        planned = compute_plan.plan(task_runs, rates, args.variants)
     except ValueError as error:
         print(f"error: {error}", file=sys.stderr)
         raise SystemExit(2)
-    print(table(plans, args.agents, args.margin, args.family))
+    print(table(plans, args.agents, args.margin, args.family, light_agents))
     print()
-    print(rates_table(ledger_rates(args.out_dir)))
+    print(compute_plan.rates_table(rates))
+    print()
+    print(compute_plan.plan_table(planned))
 
 
 if __name__ == "__main__":
