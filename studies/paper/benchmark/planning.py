@@ -3,12 +3,13 @@ claim judged a third time: the third benchmark's rule"), read from a finished be
 committed tables (the second's, docs/benchmark2): per task and row, the standard deviation
 of the agents' final normalised scores, how many sit at the classical level, the smallest
 difference from the light-weight row that the one-sided test detects with 80 % power at the
-benchmark's agents per row after Holm over the family, and the agents a row needs to show
-non-inferiority at the margin (`analysis.power`); and the third benchmark's compute, planned
-from its ledger (`compute_plan`).
+benchmark's agents per row at the level the third benchmark's procedure starts it at
+(alpha / `FAMILY`), and the agents a row needs to show non-inferiority at the margin
+(`analysis.power`); and the third benchmark's compute, planned from its ledger
+(`compute_plan`).
 
     python -m lwrl.studies.paper.benchmark.planning docs/benchmark2 [--margin M]
-        [--family K] [--agents N] [--light-agents N] [--plant P]
+        [--family K] [--agents N] [--light-agents N] [--plant P] [--variants TASK...]
 
 reads the runs only (`study.study_task` resumes from the committed tables and runs nothing
 where they are all there) and prints the tables in Markdown.
@@ -26,10 +27,13 @@ from lwrl.studies.paper.benchmark import compute_plan, protocol, study
 
 MARGIN = 0.1
 """The non-inferiority margin on the normalised score the third benchmark's rule fixes."""
-FAMILY = 39
-"""The third benchmark's Holm family: the four discrete tasks and the three variants, each
-against five rivals (DQN, PPO, ARS, stream-Q(lambda), stream-AC(lambda)), and the continuous
-pendulum against four (SAC, TD3, ARS, stream-AC(lambda))."""
+FAMILY = 78
+"""The hypotheses the third benchmark's graphical Holm procedure starts with, each at
+alpha / FAMILY: "not worse" and "worse" for each of its 39 comparisons (the four discrete
+tasks and the three variants, each against five rivals: DQN, PPO, ARS, stream-Q(lambda),
+stream-AC(lambda); the continuous pendulum against four: SAC, TD3, ARS, stream-AC(lambda)).
+"Better" starts with none: it takes the level of its comparison's "not worse" once that is
+shown."""
 SATURATED = 0.99
 """A final normalised score at or above which an agent counts as at the classical level."""
 
@@ -96,7 +100,7 @@ def table(plans: list, agents: int, margin: float, family: int, light_agents: in
     lines = [f"| task | row | mean | sd | at the classical level (of {plans[0].agents if plans else 0}) "
              f"at {', '.join(f'{f:g}' for f in protocol.FRACTIONS)} | detectable at {agents} a "
              f"rival row, {light_agents} light-weight "
-             f"(Holm over {family}) | agents for margin {margin:g} |",
+             f"(at 0.05 / {family}) | agents for margin {margin:g} |",
              "|---|---|---|---|---|---|---|"]
     for plan in plans:
         shares = " / ".join(str(plan.saturated.get(f, "—")) for f in protocol.FRACTIONS)
