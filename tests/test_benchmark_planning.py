@@ -47,9 +47,15 @@ def test_pendulum_detectable_difference(plans):
                                        planning.FAMILY) > planning.MARGIN
 
 
-def test_bad_margin_is_one_line_and_status_2(capsys):
+@pytest.mark.parametrize("flags, words", [
+    (["--margin", "-0.1"], "margin"),
+    (["--family", "0"], "at least 1 test"),
+    (["--light-agents", "1"], "--light-agents must be at least 2"),
+    (["--variants", "cartpole.swing"], "unknown benchmark task"),
+])
+def test_bad_flag_is_one_line_and_status_2(capsys, flags, words):
     with pytest.raises(SystemExit) as exit_:
-        planning.main([str(BENCHMARK2), "--margin", "-0.1"])
+        planning.main([str(BENCHMARK2)] + flags)
     assert exit_.value.code == 2
     error = capsys.readouterr().err.strip()
-    assert error.startswith("error: ") and "margin" in error and "\n" not in error
+    assert error.startswith("error: ") and words in error and "\n" not in error

@@ -37,7 +37,8 @@ VERDICTS = 2
 LONGER = 4
 """The longest budget a row still rising at 1 times it is continued to, in budgets."""
 NEW_RIVALS = {"discrete": ("ars", "stream_q", "stream_ac"), "continuous": ("ars", "stream_ac")}
-"""The rows the third benchmark adds (the rivals issue's learners), by kind of action."""
+"""The rows the third benchmark adds (ARS, stream-Q(lambda), stream-AC(lambda)), by kind of
+action."""
 STAND_INS = {"cmac": "sarsa", "ase_ace": "sarsa", "ars": "ppo_jax", "stream_q": "ppo_jax",
              "stream_ac": "ppo_jax"}
 """`{learner: learner whose ledger rate it borrows}` for learners the ledger does not count:

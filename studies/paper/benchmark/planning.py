@@ -129,7 +129,9 @@ def main(argv=None) -> None:
     try:
         power.check_margin(args.margin)
         power.level(0.05, args.family)
-        light_agents = args.light_agents or args.agents
+        light_agents = args.agents if args.light_agents is None else args.light_agents
+        for task in args.variants:
+            protocol.check_task(task, args.plant)
         if min(args.agents, light_agents) < 2:
             raise ValueError(f"--agents and --light-agents must be at least 2; got "
                              f"{args.agents} and {light_agents}")
