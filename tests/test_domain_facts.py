@@ -10,6 +10,7 @@ from lwrl.export.c_plants import C_PLANTS
 from lwrl.outside import DomainFacts
 from lwrl.studies.compare.domains import COMPARISONS
 from lwrl.studies.paper.benchmark.classical import CLASSICAL
+from lwrl.studies.paper.benchmark.variants import RANDOMISED
 from lwrl.studies.robustness.domains import ROBUSTNESS
 from lwrl.viz import scenes
 
@@ -27,6 +28,7 @@ def test_lwrls_domains_have_every_parts_facts(domain):
     assert (scenes.SCENES.of(domain).drawing is None) == has_model, "a model or a drawing"
     assert (domain in COMPARISONS) == has_model, "compared where it has a model"
     assert domain in ROBUSTNESS and domain in CLASSICAL and domain in TUNED_AS
+    assert domain in RANDOMISED
 
 
 @pytest.mark.parametrize("domain", list(tasks.DOMAINS))
@@ -41,12 +43,14 @@ def test_every_entry_fits_its_domain(domain):
     if domain in ROBUSTNESS:
         assert 1 <= len(ROBUSTNESS[domain].axes) <= 2
         assert set(ROBUSTNESS[domain].axes) <= parameters
+    if domain in RANDOMISED:
+        assert set(RANDOMISED[domain]) <= parameters
     if domain in CLASSICAL:
         assert CLASSICAL[domain].summary.strip() and "\n" not in CLASSICAL[domain].summary
 
 
 @pytest.mark.parametrize("facts", [scenes.SCENES, C_PLANTS, COMPARISONS, ROBUSTNESS, CLASSICAL,
-                                   TUNED_AS], ids=lambda facts: facts.group)
+                                   RANDOMISED, TUNED_AS], ids=lambda facts: facts.group)
 def test_a_domain_without_an_entry_is_refused_in_one_line_naming_the_group(facts):
     with pytest.raises(ValueError) as error:
         facts.of("no_such_domain")

@@ -69,25 +69,26 @@ def evaluation(trained: RunConfig) -> RunConfig:
         budget=None)
 
 
-def evaluation_env(task: str, agents: int, plant: str) -> BatchedEnv:
+def evaluation_env(task: str, agents: int, plant: str, environment=None) -> BatchedEnv:
     """The environments of the evaluation of `agents` agents of seeds 0 up (`evaluation`'s
     seeds, starts and episodes) of `task` on `plant`, made with its kind of action
-    (`protocol.variant`)."""
+    (`protocol.variant`) and the environment options `environment` (`BatchedEnv`'s:
+    `randomise`, `observation_noise`, `action_delay`; none by default)."""
     name, actions = variant(task)
     domain, task_name = tasks.split_name(name)
     return BatchedEnv(domain, task_name, plant, [EVALUATION_SEED + b for b in range(agents)],
-                      actions=actions, **episode_options(task))
+                      actions=actions, **episode_options(task), **(environment or {}))
 
 
 def run_references(task: str, agents: int = 20, plant: str = "analytic",
-                   episodes: int = EPISODES) -> dict:
+                   episodes: int = EPISODES, environment=None) -> dict:
     """`{row: per-episode results}` of the reference rows (`references.ROWS`) on `task`:
     `agents` agents each, on the starts of the evaluation of agents of seeds 0 up
-    (`evaluation_env`), `episodes` episodes each; the results as a table of
-    `EpisodeResults.columns` (`seed` the environment's)."""
+    (`evaluation_env`, with the environment options `environment`), `episodes` episodes
+    each; the results as a table of `EpisodeResults.columns` (`seed` the environment's)."""
     tables = {}
     for row, make in ROWS.items():
-        env = evaluation_env(task, agents, plant)
+        env = evaluation_env(task, agents, plant, environment)
         results = run_batched(env, make(env), episodes, learn=False, greedy=True)
         tables[row] = pd.DataFrame(results.columns(env.seeds))
     return tables
