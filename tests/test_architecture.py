@@ -19,14 +19,15 @@ from lwrl.agent.linear import FEATURE_MAPS
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 FLOORS = {"kernels": 0, "outputs": 0, "settings": 0, "outside": 0, "models": 0, "agent": 1,
           "tasks": 1, "analysis": 2, "gym": 2, "jax": 2, "viz": 3, "runners": 4, "adapters": 5,
-          "export": 5, "studies": 6, "cli": 7}
+          "export": 5, "studies": 6, "cli": 7, "bench": 7}
 """Room -> floor. `gym` is `lwrl/gym.py`, the suite's Gymnasium face (it reads `tasks`), and
 `jax` is `lwrl/jax/`, the suite in JAX (it reads `tasks` too);
 `kernels`, `outputs`, `settings` and `outside` (`lwrl/kernels.py`, `lwrl/outputs.py`,
 `lwrl/settings.py`, `lwrl/outside.py`), the cache of compiled kernels, the writing of whole
 files, the settings dataclasses' metadata and the entry points through which other packages
-add to the registries, are there for every room."""
-LWRL_MODULES = ("gym", "kernels", "outputs", "settings", "outside")
+add to the registries, are there for every room. `bench` (`lwrl/bench.py`) is the second
+benchmark's face for any library's learner: it reads `studies`, as `cli` does."""
+LWRL_MODULES = ("gym", "kernels", "outputs", "settings", "outside", "bench")
 """The rooms that are one module of `lwrl/`."""
 LWRL_PACKAGES = ("jax",)
 """The rooms that are a package inside `lwrl/` (not a top-level folder: a folder `jax/` at
