@@ -61,10 +61,15 @@ def add_parser(commands) -> None:
     add_first(actions)
 
 
-def add_plant_and_out(parser, out: str, what: str) -> None:
-    """`--plant` and `--out DIR` (default `out`, described as `what`)."""
+def add_plant(parser) -> None:
+    """`--plant`: the plant of the tasks that have both."""
     parser.add_argument("--plant", choices=("analytic", "mujoco"), default="analytic",
                         help="plant of the tasks that have both")
+
+
+def add_plant_and_out(parser, out: str, what: str) -> None:
+    """`--plant` and `--out DIR` (default `out`, described as `what`)."""
+    add_plant(parser)
     parser.add_argument("--out", metavar="DIR", default=out, help=f"{what} (default: {out})")
 
 
@@ -116,8 +121,7 @@ def add_report(actions) -> None:
                     "configs.jsonl and a task's reference rows (references/TASK-PLANT.csv.gz), "
                     "as `lwrl bench run` writes them.")
     report.add_argument("directory", metavar="DIR", help="the benchmark's directory")
-    report.add_argument("--plant", choices=("analytic", "mujoco"), default="analytic",
-                        help="the plant whose tasks DIR holds (default: analytic)")
+    add_plant(report)
     report.set_defaults(run=run_report)
 
 
@@ -143,8 +147,7 @@ def add_evaluate(actions) -> None:
                             "0.25, 0.5, 1)")
     evaluate.add_argument("--learner", metavar="NAME", required=True,
                           help="the learner's name in the benchmark (letters, digits, _ . -)")
-    evaluate.add_argument("--plant", choices=("analytic", "mujoco"), default="analytic",
-                          help="plant of the tasks that have both")
+    add_plant(evaluate)
     evaluate.add_argument("--out", metavar="FILE",
                           help="the results file (default: LEARNER-TASK.csv.gz)")
     evaluate.add_argument("--force", action="store_true", help="replace --out if it exists")
@@ -162,8 +165,7 @@ def add_score(actions) -> None:
                     "keep them in the benchmark's directory, whose report lists them in its "
                     "leaderboard (`lwrl bench report DIR`). A refused file changes nothing.")
     score.add_argument("results", metavar="RESULTS", nargs="+", help="results files (CSV, .gz)")
-    score.add_argument("--plant", choices=("analytic", "mujoco"), default="analytic",
-                       help="plant of the tasks that have both")
+    add_plant(score)
     committed = {plant: committed_benchmark(plant) for plant in COMMITTED}
     score.add_argument("--out", metavar="DIR",
                        help="the benchmark directory (configs.jsonl and references/, as `lwrl "
