@@ -21,6 +21,7 @@ import time
 
 import lwrl
 from lwrl import outputs
+from lwrl.agent import io as agent_io
 from lwrl.cli import output, reproduce
 from lwrl.cli.output import Parser
 
@@ -134,8 +135,9 @@ def add_evaluate(actions) -> None:
                     "policy of any library, and write the results file `lwrl bench score` "
                     "takes, with the protocol's version and the digest of the starts it ran "
                     "from. A policy is a function of observations (a batch (n, d), or one (d,)) "
-                    "giving actions (an index; u in [-1, 1] on a continuous task), or an object "
-                    "with Stable-Baselines3's predict (studies/paper/benchmark/harness.py).")
+                    "giving actions (an index; u in [-1, 1] on a continuous task), an object "
+                    "with Stable-Baselines3's predict, or the saved agents of a learner of "
+                    "lwrl's registry (studies/paper/benchmark/harness.py).")
     evaluate.add_argument("task", metavar="TASK", help="the benchmark task (DOMAIN.TASK, or "
                           "DOMAIN.TASK-continuous)")
     given = evaluate.add_mutually_exclusive_group(required=True)
@@ -145,6 +147,9 @@ def add_evaluate(actions) -> None:
                        help="a function (seed, fraction) -> the policy of the agent of that seed "
                             "after that fraction of the budget (seeds 0 to 19; fractions 0.1, "
                             "0.25, 0.5, 1)")
+    given.add_argument("--saved", metavar="FRACTION=FILE", action="append",
+                       help="the saved agents (lwrl train --save) of seeds 0 to 19 after that "
+                            "fraction of the budget, once per fraction")
     evaluate.add_argument("--learner", metavar="NAME", required=True,
                           help="the learner's name in the benchmark (letters, digits, _ . -)")
     add_plant(evaluate)
@@ -280,6 +285,23 @@ def named(text: str, flag: str):
     return found
 
 
+def saved_files(given, fractions) -> dict:
+    """`{fraction: file}` of `--saved FRACTION=FILE` given once for each of `fractions`, or a
+    one-line ValueError."""
+    files = {}
+    for text in given:
+        fraction, _, path = text.partition("=")
+        try:
+            files[float(fraction)] = path
+        except ValueError:
+            raise ValueError(f"--saved must be FRACTION=FILE; got {text!r}") from None
+    if sorted(files) != sorted(fractions) or len(files) != len(given):
+        raise ValueError(f"--saved must give one file for each fraction "
+                         f"{', '.join(f'{f:g}' for f in fractions)}; got "
+                         f"{', '.join(f'{f:g}' for f in files) or 'none'}")
+    return files
+
+
 def run_evaluate(args) -> int:
     """Evaluate a policy by the protocol and write its results file."""
     harness, outside, protocol = output.study_modules(
@@ -294,6 +316,10 @@ def run_evaluate(args) -> int:
         policy = named(args.policy, "--policy")
         evaluations = [harness.evaluate(policy, args.task, None, fraction, args.plant)
                        for fraction in protocol.FRACTIONS]
+    elif args.saved:
+        evaluations = [harness.evaluate(agent_io.load(path)[0], args.task, None, fraction,
+                                        args.plant)
+                       for fraction, path in saved_files(args.saved, protocol.FRACTIONS).items()]
     else:
         agents = named(args.agents, "--agents")
         evaluations = [harness.evaluate(agents(seed, fraction), args.task, seed, fraction,

@@ -1,13 +1,18 @@
 """The protocol's greedy evaluation of any library's policy (studies/paper/benchmark/
 harness.py, `lwrl.bench`, `lwrl bench evaluate`): its episodes are the suite's own from the
 protocol's starts, a policy of a batch, of one observation, with SB3's `predict` or in JAX
-acts alike, and its results file is one `lwrl bench score` takes."""
+acts alike, saved agents act as the protocol evaluates them, and its results file is one
+`lwrl bench score` takes."""
 
 import numpy as np
 import pytest
 from conftest import one_line_error, run_cli
 
 from lwrl import bench, tasks
+from lwrl.agent import io as agent_io
+from lwrl.runners.config import RunConfig
+from lwrl.runners.run import make_agent
+from lwrl.runners.stepped import run_batched
 from lwrl.tasks.batched import flatten_observation
 from lwrl.studies.paper.benchmark import evaluation, harness, outside, protocol
 
@@ -129,3 +134,46 @@ def test_lwrl_bench_evaluate_writes_a_file_that_scores(tmp_path, monkeypatch, ca
                            (["--policy", "mine:act", "--learner", "paper"], "the name of a row")]:
         status, _, err = run_cli(["bench", "evaluate", TASK, "--learner", "x", *argv], capsys)
         assert status == 2 and len(err) == 1 and fragment in err[0], err
+
+
+@pytest.fixture
+def saved(tmp_path, monkeypatch):
+    """Two Mountain-Car agents of the paper's learner with weights of their own, the second
+    diverged in training, saved (`lwrl train --save`'s file); the protocol's agents two and
+    its cap 100 steps, so that it runs in seconds."""
+    monkeypatch.setattr(protocol, "AGENTS", 2)
+    monkeypatch.setattr(evaluation, "STEP_CAP", 100)
+    config = RunConfig(task=TASK, plant="analytic", agents=2, episodes=1)
+    agent = make_agent(config)
+    agent.weights[:] = np.random.default_rng(0).normal(size=agent.weights.shape)
+    agent.arrays.diverged[1] = True
+    path = tmp_path / "agents.npz"
+    agent_io.save(path, agent, {"config": {"task": TASK}})
+    return path
+
+
+def test_saved_agents_act_as_the_protocol_evaluates_them_a_diverged_one_at_the_worst(saved):
+    evaluated = harness.evaluate(agent_io.load(saved)[0], TASK)
+    env = evaluation.evaluation_env(TASK, 2, "analytic")
+    direct = run_batched(env, agent_io.load(saved)[0], evaluation.EPISODES, learn=False,
+                         greedy=True)
+    table = evaluated.table
+    assert table[table["seed"] == 0]["steps"].tolist() == direct.steps[0].tolist()
+    assert (table[table["seed"] == 1]["steps"] == 100).all()  # diverged: the worst, the cap
+    table = bench.results([harness.evaluate(agent_io.load(saved)[0], TASK, None, f)
+                           for f in protocol.FRACTIONS], "saved")
+    outside.check(table, "saved")  # the diverged agent's starts are the protocol's too
+    one_line_error(lambda: harness.evaluate(agent_io.load(saved)[0], TASK, seed=0),
+                   "saved agents are evaluated together")
+
+
+def test_lwrl_bench_evaluate_takes_saved_agents_for_each_fraction(saved, tmp_path, capsys):
+    given = [arg for f in protocol.FRACTIONS for arg in ("--saved", f"{f:g}={saved}")]
+    out = tmp_path / "saved.csv.gz"
+    status, _, err = run_cli(["bench", "evaluate", TASK, *given, "--learner", "saved", "--out",
+                              str(out)], capsys)
+    assert status == 0, err
+    assert len(outside.read(str(out))) == len(protocol.FRACTIONS) * 2 * evaluation.EPISODES
+    status, _, err = run_cli(["bench", "evaluate", TASK, *given[:-2], "--learner", "saved",
+                              "--out", str(tmp_path / "other.csv")], capsys)
+    assert status == 2 and "--saved must give one file for each fraction 0.1, 0.25, 0.5, 1" in err[0]

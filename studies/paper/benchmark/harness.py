@@ -10,7 +10,10 @@ A policy is what acts on observations (the task's, float64, `TaskDefinition.stat
 - an object with Stable-Baselines3's `predict(observations, deterministic=True)`, given a
   batch `(n, d)`;
 - a function (NumPy, JAX, ...) of a batch `(n, d)` giving `(n,)` actions, or of one
-  observation `(d,)` giving one action: the first call, on a batch, tells which.
+  observation `(d,)` giving one action: the first call, on a batch, tells which;
+- the saved agents of a learner of lwrl's registry, an entry point's among them
+  (`agent.io.load`, `lwrl train --save`), agent b the agent of seed b, evaluated together:
+  one that diverged in training counts the task's worst outcome, as a row's does.
 An action is the index of one of the task's actions, or on a task made with continuous
 actions (`DOMAIN.TASK-continuous`) a number u in [-1, 1] that the loop scales to the
 actuator's range (`tasks.commands`; beyond it, clipped), as lwrl's learners act.
@@ -21,9 +24,11 @@ import dataclasses
 import numpy as np
 import pandas as pd
 
-from lwrl.runners.stepped import run_batched
+from lwrl.agent.learner_contract import Agents
+from lwrl.runners.stepped import kind_of, run_batched
 from lwrl.studies.paper.benchmark import evaluation, outside, protocol
 from lwrl.studies.paper.benchmark.references import ReferencePolicy, discrete_actions
+from lwrl.tasks.commands import check_kinds
 from lwrl.tasks.task_definition import check_actions
 
 
@@ -83,25 +88,38 @@ class Acting:
 
 
 class PolicyAgents(ReferencePolicy):
-    """The agents of an evaluation acting by one policy (`Acting`), the first observation
-    of each of their episodes kept (`starts`): `Agents` as `run_batched` runs them, as the
-    reference rows are (`references`)."""
+    """The agents of an evaluation acting by one policy (`Acting`), or the saved agents of a
+    learner of lwrl's registry (`Agents`, `agent.io.load`: agent b the seed b's), the first
+    observation of each environment's first `EPISODES` episodes kept (`starts`): `Agents` as
+    `run_batched` runs them, as the reference rows are (`references`)."""
 
     def __init__(self, policy, env):
         definition = env.definition
         super().__init__(env.batch_size, discrete_actions(definition),
                          len(definition.state_names), definition.continuous)
-        self.act = Acting(policy)
+        self.saved = policy if isinstance(policy, Agents) else None
+        if self.saved is None:
+            self.act = Acting(policy)
+        else:
+            check_kinds(*kind_of(policy), definition, "the evaluation")
+            if policy.batch_size != env.batch_size:
+                raise ValueError(f"the saved agents are {policy.batch_size}; the evaluation "
+                                 f"takes {env.batch_size}, of seeds 0 to {env.batch_size - 1}")
+            self.arrays = policy.arrays  # a diverged agent acts no more
         self.starts = [[] for _ in range(env.batch_size)]
 
     def step(self, first, reward, discount, observation, active=None, learn=True,
              greedy=False) -> np.ndarray:
-        """The policy's action for each acting agent (`Agents.step`'s arguments; the others
-        act 0); a one-line ValueError for an action that is not the task's."""
+        """The policy's greedy action for each acting agent (`Agents.step`'s arguments; the
+        others act 0); a one-line ValueError for an action that is not the task's."""
         observation = self.check_observation(observation)
+        for b in np.flatnonzero(first):
+            if len(self.starts[b]) < evaluation.EPISODES:
+                self.starts[b].append(observation[b].copy())
+        if self.saved is not None:
+            return self.saved.step(first, reward, discount, observation, active=active,
+                                   learn=False, greedy=True)
         acting = self.acting(active)
-        for b in acting[np.asarray(first)[acting]]:
-            self.starts[b].append(observation[b].copy())
         actions = self.no_actions()
         if len(acting):
             actions[acting] = self._checked(self.act(observation[acting]), len(acting))
@@ -123,11 +141,14 @@ def evaluate(policy, task: str, seed=None, fraction: float = 1.0,
              plant: str = "analytic") -> Evaluation:
     """The protocol's greedy episodes of `policy` on `task` (a benchmark task,
     `protocol.BUDGETS`) on `plant`, as the agent of seed `seed` (0 to `protocol.AGENTS` - 1;
-    None: every agent acting by it) after `fraction` of the budget (`protocol.FRACTIONS`)."""
+    None: every agent acting by it) after `fraction` of the budget (`protocol.FRACTIONS`).
+    `policy` may also be the saved `Agents` of every seed (`seed` None)."""
     task = protocol.check_task(task, plant)
     if fraction not in protocol.FRACTIONS:
         raise ValueError(f"fraction must be one of {', '.join(map(str, protocol.FRACTIONS))}; "
                          f"got {fraction!r}")
+    if isinstance(policy, Agents) and seed is not None:
+        raise ValueError("saved agents are evaluated together, agent b as seed b: seed must be None")
     seeds = list(range(protocol.AGENTS)) if seed is None else [seed]
     if not all(isinstance(s, (int, np.integer)) and 0 <= s < protocol.AGENTS for s in seeds):
         raise ValueError(f"seed must be an integer 0 to {protocol.AGENTS - 1}; got {seed!r}")
@@ -135,9 +156,21 @@ def evaluate(policy, task: str, seed=None, fraction: float = 1.0,
     agents = PolicyAgents(policy, env)
     results = run_batched(env, agents, evaluation.EPISODES, learn=False, greedy=True)
     table = pd.DataFrame(results.columns(seeds))[["seed", "episode", "steps", "uptime_s"]]
-    table["steps"] = table["steps"].astype(np.int64)  # every episode ends: no budget
+    table = _worst_where_diverged(table, task, np.asarray(seeds)[agents.diverged])
     return Evaluation(task, plant, float(fraction), table.assign(fraction=float(fraction)),
                       {s: np.stack(agents.starts[b]) for b, s in enumerate(seeds)})
+
+
+def _worst_where_diverged(table: pd.DataFrame, task: str, diverged) -> pd.DataFrame:
+    """Every episode of the agents of the seeds `diverged` (saved agents that diverged in
+    training: they act no more) at the task's worst outcome, as the rows count them
+    (`evaluation.worst`): the cap's steps, 0 s up; steps as integers (every other episode
+    ends: no budget)."""
+    worst = table["seed"].isin(list(diverged))
+    table = table.assign(steps=table["steps"].where(~worst, evaluation.step_cap(task)))
+    if evaluation.task_measure(task).column == "uptime_s":
+        table["uptime_s"] = table["uptime_s"].where(~worst, 0.0)
+    return table.astype({"steps": np.int64})
 
 
 def results(evaluations, learner: str) -> pd.DataFrame:
