@@ -205,3 +205,10 @@ def test_a_folder_that_is_no_benchmark_is_refused_and_left_alone(tmp_path, capsy
 def test_the_scores_default_directory_is_the_committed_benchmark_in_the_checkout():
     assert bench.committed_benchmark("analytic") == str(COMMITTED)
     assert bench.committed_benchmark("mujoco") == str(COMMITTED / "mujoco")
+
+
+def test_outside_a_checkout_the_benchmark_directory_must_be_given(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(bench, "committed_benchmark", lambda plant: None)
+    results().to_csv(tmp_path / "toy.csv", index=False)
+    status, _, err = run_cli(["bench", "score", str(tmp_path / "toy.csv")], capsys)
+    assert status == 2 and len(err) == 1 and "--out: give the benchmark directory" in err[0]
