@@ -97,8 +97,8 @@ class PolicyAgents(ReferencePolicy):
         definition = env.definition
         super().__init__(env.batch_size, discrete_actions(definition),
                          len(definition.state_names), definition.continuous)
-        self.saved = policy if isinstance(policy, Agents) else None
-        if self.saved is None:
+        self.loaded = policy if isinstance(policy, Agents) else None
+        if self.loaded is None:
             self.act = Acting(policy)
         else:
             check_kinds(*kind_of(policy), definition, "the evaluation")
@@ -116,8 +116,8 @@ class PolicyAgents(ReferencePolicy):
         for b in np.flatnonzero(first):
             if len(self.starts[b]) < evaluation.EPISODES:
                 self.starts[b].append(observation[b].copy())
-        if self.saved is not None:
-            return self.saved.step(first, reward, discount, observation, active=active,
+        if self.loaded is not None:
+            return self.loaded.step(first, reward, discount, observation, active=active,
                                    learn=False, greedy=True)
         acting = self.acting(active)
         actions = self.no_actions()
