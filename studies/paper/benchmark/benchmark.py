@@ -86,10 +86,9 @@ def write_report(out_dir: str, command: str, plant: str, started: float, compute
             runs.outside.update(outside.scores(table, runs.references))
     write_held_configs(out_dir, task_runs, unfinished, plant)
     judged = report.judge(task_runs, measured_cpu(out_dir, cost_cells(task_runs)))
-    seconds = time.perf_counter() - started
     path = os.path.join(out_dir, "README.md")
     with outputs.atomic_write(path) as file:
-        file.write(report.document(judged, command, seconds, os.path.join(out_dir, FIGURES),
+        file.write(report.document(judged, command, started, os.path.join(out_dir, FIGURES),
                                    out_dir, list(unfinished.values())))
     return path
 

@@ -9,6 +9,7 @@ import dataclasses
 import glob
 import math
 import os
+import time
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -95,19 +96,14 @@ def aggregate_matrix(judged: list) -> dict:
             for label in labels}
 
 
-def document(judged: list, command: str, seconds: float, figure_dir: str, out_dir: str,
+def document(judged: list, command: str, started: float, figure_dir: str, out_dir: str,
              unfinished=()) -> str:
-    """The report's Markdown, its figures written to `figure_dir`: the call `command` took
-    `seconds` of wall time; `unfinished` names the directory's tasks whose runs are not all
+    """The report's Markdown, its figures written to `figure_dir`: the call `command` began
+    at `started` (`time.perf_counter()`), and the header states its wall time until the
+    document is made; `unfinished` names the directory's tasks whose runs are not all
     written (a line each)."""
     columns = rivals(judged)
-    lines = ["# The second benchmark: the light-weight claim by a reviewer's rule", "",
-             f"Written by `{command}` in {duration(seconds)} of wall time from the runs in its "
-             "directory, every task it holds (what computing the runs cost is the ledger's line "
-             "below; `lwrl bench report DIR` rewrites this from them alone). The rule is "
-             "docs/FINDINGS.md's (\"The light-weight claim judged again\"), written before the "
-             "runs. " + plants_line(judged),
-             "", *unfinished_lines(unfinished),
+    lines = ["", *unfinished_lines(unfinished),
              cost_line(out_dir, [j.runs.task for j in judged],
                        set().union(*(j.runs.tables.get("run", ()) for j in judged))), "",
              "| task | verdict | " + " | ".join(f"against {rival}" for rival in columns) + " |",
@@ -121,7 +117,14 @@ def document(judged: list, command: str, seconds: float, figure_dir: str, out_di
     for j in judged:
         lines += task_section(j, markdown_images(curves(j, figure_dir), out_dir),
                               markdown_images(sensitivity.figure(j.runs, figure_dir), out_dir))
-    return "\n".join(lines) + "\n"
+    seconds = time.perf_counter() - started  # the figures made: all but writing the file
+    header = ["# The second benchmark: the light-weight claim by a reviewer's rule", "",
+              f"Written by `{command}` in {duration(seconds)} of wall time from the runs in "
+              "its directory, every task it holds (what computing the runs cost is the "
+              "ledger's line below; `lwrl bench report DIR` rewrites this from them alone). "
+              "The rule is docs/FINDINGS.md's (\"The light-weight claim judged again\"), "
+              "written before the runs. " + plants_line(judged)]
+    return "\n".join(header + lines) + "\n"
 
 
 def duration(seconds: float) -> str:
