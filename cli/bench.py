@@ -3,23 +3,33 @@
     lwrl bench run TASK... [--plant P] [--out DIR] ...   the second benchmark (FINDINGS'
                                                          reviewer's rule), resumable
     lwrl bench status TASK... [--plant P] [--out DIR]    how far it has got (read only)
-    lwrl bench score RESULTS... [--out DIR]              an outside learner's results, checked
+    lwrl bench report DIR [--plant P]                    its report rewritten from DIR alone
+    lwrl bench evaluate TASK --policy M:F --learner NAME the protocol's greedy episodes of any
+                                                         library's policy, as a results file
+    lwrl bench score RESULTS... [--out DIR] [--replace]  an outside learner's results, checked
                                                          and placed in that benchmark
     lwrl bench first TASK... [--learners ...] ...        the first benchmark, kept with its
                                                          report; `lwrl bench TASK...` is it
 """
 
+import importlib
 import os
+import pathlib
 import shlex
+import sys
 import time
 
+import lwrl
 from lwrl import outputs
+from lwrl.agent import io as agent_io
 from lwrl.cli import output, reproduce
 from lwrl.cli.output import Parser
 
-ACTIONS = ("run", "status", "score", "first")
+ACTIONS = ("run", "status", "report", "evaluate", "score", "first")
 SECOND = "benchmark2"
 """The second benchmark's default directory."""
+COMMITTED = {"analytic": "docs/benchmark2", "mujoco": "docs/benchmark2/mujoco"}
+"""The committed second benchmark of each plant, in lwrl's checkout."""
 
 
 def legacy(argv: list) -> list:
@@ -37,21 +47,30 @@ def add_parser(commands) -> None:
                     "docs/FINDINGS.md's rule (one budget of steps per task, greedy "
                     "evaluations, random and classical rows, the same search for every "
                     "learner, 20 agents, Holm-corrected tests, the not-judged gate). "
-                    "`status`: how far it has got. `score`: an outside learner's results "
+                    "`status`: how far it has got. `report`: its report rewritten from its "
+                    "directory alone. `evaluate`: any library's policy evaluated as the "
+                    "protocol evaluates every row. `score`: an outside learner's results "
                     "placed in it. `first`: the first "
                     "benchmark (`lwrl bench TASK...`).")
     actions = bench.add_subparsers(dest="action", required=True, metavar="ACTION",
                                    parser_class=Parser)
     add_run(actions)
     add_status(actions)
+    add_report(actions)
+    add_evaluate(actions)
     add_score(actions)
     add_first(actions)
 
 
-def add_plant_and_out(parser, out: str, what: str) -> None:
-    """`--plant` and `--out DIR` (default `out`, described as `what`)."""
+def add_plant(parser) -> None:
+    """`--plant`: the plant of the tasks that have both."""
     parser.add_argument("--plant", choices=("analytic", "mujoco"), default="analytic",
                         help="plant of the tasks that have both")
+
+
+def add_plant_and_out(parser, out: str, what: str) -> None:
+    """`--plant` and `--out DIR` (default `out`, described as `what`)."""
+    add_plant(parser)
     parser.add_argument("--out", metavar="DIR", default=out, help=f"{what} (default: {out})")
 
 
@@ -93,16 +112,81 @@ def add_status(actions) -> None:
         "the benchmark's directory", run_status)
 
 
+def add_report(actions) -> None:
+    report = actions.add_parser(
+        "report", help="the second benchmark's report rewritten from its directory alone",
+        description="Rewrite the report (README.md, its figures, configs.jsonl) of the "
+                    "benchmark directory DIR from what it holds, computing nothing: every task "
+                    "with runs there, every outside row. A task whose runs are not all written "
+                    "is named in the report as such and not judged. A benchmark directory holds "
+                    "configs.jsonl and a task's reference rows (references/TASK-PLANT.csv.gz), "
+                    "as `lwrl bench run` writes them.")
+    report.add_argument("directory", metavar="DIR", help="the benchmark's directory")
+    add_plant(report)
+    report.set_defaults(run=run_report)
+
+
+def add_evaluate(actions) -> None:
+    evaluate = actions.add_parser(
+        "evaluate", help="any library's policy evaluated by the protocol, as a results file",
+        description="Run the second benchmark's greedy evaluation episodes (each agent's 10 "
+                    "episodes from the starts of its seed + 10000, capped at 1000 steps on the "
+                    "tasks measured in steps, the task's own episodes on the others) for a "
+                    "policy of any library, and write the results file `lwrl bench score` "
+                    "takes, with the protocol's version and the digest of the starts it ran "
+                    "from. A policy is a function of observations (a batch (n, d), or one (d,)) "
+                    "giving actions (an index; u in [-1, 1] on a continuous task), an object "
+                    "with Stable-Baselines3's predict, or the saved agents of a learner of "
+                    "lwrl's registry (studies/paper/benchmark/harness.py).")
+    evaluate.add_argument("task", metavar="TASK", help="the benchmark task (DOMAIN.TASK, or "
+                          "DOMAIN.TASK-continuous)")
+    given = evaluate.add_mutually_exclusive_group(required=True)
+    given.add_argument("--policy", metavar="MODULE:NAME",
+                       help="the policy every agent acts by, at every fraction of the budget")
+    given.add_argument("--agents", metavar="MODULE:NAME",
+                       help="a function (seed, fraction) -> the policy of the agent of that seed "
+                            "after that fraction of the budget (seeds 0 to 19; fractions 0.1, "
+                            "0.25, 0.5, 1)")
+    given.add_argument("--saved", metavar="FRACTION=FILE", action="append",
+                       help="the saved agents (lwrl train --save) of seeds 0 to 19 after that "
+                            "fraction of the budget, once per fraction")
+    evaluate.add_argument("--learner", metavar="NAME", required=True,
+                          help="the learner's name in the benchmark (letters, digits, _ . -)")
+    add_plant(evaluate)
+    evaluate.add_argument("--out", metavar="FILE",
+                          help="the results file (default: LEARNER-TASK.csv.gz)")
+    evaluate.add_argument("--force", action="store_true", help="replace --out if it exists")
+    evaluate.set_defaults(run=run_evaluate)
+
+
 def add_score(actions) -> None:
-    add_second(
-        actions, "score", "an outside learner's results, checked and placed in the benchmark",
-        "Check results files of a learner outside lwrl's registry against the second "
-        "benchmark's protocol (one CSV row per greedy evaluation episode: learner, task, "
-        "budget, fraction, seed, episode, steps, uptime_s; "
-        "studies/paper/benchmark/outside.py), print their normalised scores, and keep them "
-        "in the benchmark's directory, whose report places them.",
-        ("results", "RESULTS", "results files (CSV, .gz)"), "the benchmark's directory",
-        run_score)
+    score = actions.add_parser(
+        "score", help="an outside learner's results, checked and placed in the benchmark",
+        description="Check results files of a learner outside lwrl's registry against the "
+                    "second benchmark's protocol (one CSV row per greedy evaluation episode: "
+                    "learner, task, budget, fraction, seed, episode, steps, uptime_s, protocol, "
+                    "starts, as `lwrl bench evaluate` writes them; "
+                    "studies/paper/benchmark/outside.py), print their normalised scores, and "
+                    "keep them in the benchmark's directory, whose report lists them in its "
+                    "leaderboard (`lwrl bench report DIR`). A refused file changes nothing.")
+    score.add_argument("results", metavar="RESULTS", nargs="+", help="results files (CSV, .gz)")
+    add_plant(score)
+    committed = {plant: committed_benchmark(plant) for plant in COMMITTED}
+    score.add_argument("--out", metavar="DIR",
+                       help="the benchmark directory (configs.jsonl and references/, as `lwrl "
+                            "bench run` writes them; default, in lwrl's checkout: "
+                            f"{' or '.join(COMMITTED.values())} by --plant"
+                            + ("" if all(committed.values()) else "; required here") + ")")
+    score.add_argument("--replace", action="store_true",
+                       help="replace a learner's results already scored on its task")
+    score.set_defaults(run=run_score)
+
+
+def committed_benchmark(plant: str):
+    """The committed second benchmark on `plant` (`COMMITTED`) where lwrl runs from its
+    checkout, else None."""
+    path = pathlib.Path(lwrl.__file__).resolve().parent.parent / COMMITTED[plant]
+    return str(path) if (path / "configs.jsonl").is_file() else None
 
 
 def add_first(actions) -> None:
@@ -170,10 +254,92 @@ def run_status(args) -> int:
     return 0
 
 
+def run_report(args) -> int:
+    """Rewrite the report of the benchmark in DIR from what it holds."""
+    module, = output.study_modules("bench", "lwrl.studies.paper.benchmark.benchmark")
+    module.check_benchmark(args.directory, args.plant)
+    outputs.claim_output(args.directory, "DIR")
+    started = time.perf_counter()
+    path = module.rebuild(args.directory, shlex.join(["lwrl", *args.argv]), plant=args.plant)
+    output.done(started, [path, f"the figures in {os.path.join(args.directory, 'figures')}"])
+    return 0
+
+
+def named(text: str, flag: str):
+    """The object `MODULE:NAME` names (the current directory importable), or a one-line
+    ValueError."""
+    module, _, name = text.partition(":")
+    if not module or not name:
+        raise ValueError(f"{flag} must be MODULE:NAME (e.g. mypolicy:act); got {text!r}")
+    if os.getcwd() not in sys.path:
+        sys.path.insert(0, os.getcwd())
+    try:
+        found = importlib.import_module(module)
+    except ImportError as error:
+        raise ValueError(f"{flag}: cannot import {module} ({type(error).__name__}: {error})") from None
+    try:
+        for part in name.split("."):
+            found = getattr(found, part)
+    except AttributeError:
+        raise ValueError(f"{flag}: {module} has no {name}") from None
+    return found
+
+
+def saved_files(given, fractions) -> dict:
+    """`{fraction: file}` of `--saved FRACTION=FILE` given once for each of `fractions`, or a
+    one-line ValueError."""
+    files = {}
+    for text in given:
+        fraction, _, path = text.partition("=")
+        try:
+            files[float(fraction)] = path
+        except ValueError:
+            raise ValueError(f"--saved must be FRACTION=FILE; got {text!r}") from None
+    if sorted(files) != sorted(fractions) or len(files) != len(given):
+        raise ValueError(f"--saved must give one file for each fraction "
+                         f"{', '.join(f'{f:g}' for f in fractions)}; got "
+                         f"{', '.join(f'{f:g}' for f in files) or 'none'}")
+    return files
+
+
+def run_evaluate(args) -> int:
+    """Evaluate a policy by the protocol and write its results file."""
+    harness, outside, protocol = output.study_modules(
+        "bench", "lwrl.studies.paper.benchmark.harness", "lwrl.studies.paper.benchmark.outside",
+        "lwrl.studies.paper.benchmark.protocol")
+    protocol.check_task(args.task, args.plant)
+    outside.check_name(args.learner, "--learner")
+    out = args.out or f"{args.learner}-{args.task}.csv.gz"
+    outputs.check_file(out, "--out", args.force)
+    started = time.perf_counter()
+    if args.policy:
+        policy = named(args.policy, "--policy")
+        evaluations = [harness.evaluate(policy, args.task, None, fraction, args.plant)
+                       for fraction in protocol.FRACTIONS]
+    elif args.saved:
+        evaluations = [harness.evaluate(agent_io.load(path)[0], args.task, None, fraction,
+                                        args.plant)
+                       for fraction, path in saved_files(args.saved, protocol.FRACTIONS).items()]
+    else:
+        agents = named(args.agents, "--agents")
+        evaluations = [harness.evaluate(agents(seed, fraction), args.task, seed, fraction,
+                                        args.plant)
+                       for fraction in protocol.FRACTIONS for seed in range(protocol.AGENTS)]
+    outputs.write_table(harness.results(evaluations, args.learner), out)
+    output.done(started, [out])
+    return 0
+
+
 def run_score(args) -> int:
     """Check outside results, print their scores, keep them for the report."""
     module, = output.study_modules("bench", "lwrl.studies.paper.benchmark.benchmark")
+    if args.out is None:
+        args.out = committed_benchmark(args.plant)
+        if args.out is None:
+            raise ValueError("--out: give the benchmark directory (lwrl runs from no checkout "
+                             "holding the committed benchmark)")
+    module.check_benchmark(args.out, args.plant)
     output.claim_outputs(args, "out")
-    for line in module.score(args.results, args.out, plant=args.plant):
+    for line in module.score(args.results, args.out, plant=args.plant, replace=args.replace):
         print(line)
     return 0

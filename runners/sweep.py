@@ -280,4 +280,10 @@ def write_configs(configs, path: str) -> None:
     """Every run's full configuration, one JSON object per line, with its key."""
     with outputs.atomic_write(path) as file:
         for config in configs:
-            file.write(json.dumps({"run": config.key, **dataclasses.asdict(config)}) + "\n")
+            file.write(config_line(config))
+
+
+def config_line(config) -> str:
+    """A run's line of `write_configs`: its full configuration as one JSON object, with its
+    key."""
+    return json.dumps({"run": config.key, **dataclasses.asdict(config)}) + "\n"

@@ -210,6 +210,8 @@ SLOW = {
         "a robustness study of a JAX population learner: compiles its programs",
     r"test_robustness\.py::test_a_quick_study_trains_evaluates_and_reports_a_continuous":
         "a robustness study of the continuous actor-critic, its C controller compiled",
+    r"test_benchmark_report\.py::test_the_report_keeps_every_row": "writes the committed "
+        "benchmark's report twice (its figures, its bootstrap intervals)",
     r"test_benchmark_study\.py::test_a_tiny_continuous_benchmark": "a tiny benchmark of "
         "the continuous pendulum: trains the actor-critic and SAC, compiling its programs",
     r"test_benchmark_study\.py::test_the_pendulum_with_three_torques": "two tiny "

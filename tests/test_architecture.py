@@ -44,8 +44,9 @@ FLOORS = floors(next(contract["layers"] for contract in IMPORT_CONTRACTS["contra
 `kernels`, `outputs`, `settings` and `outside` (`lwrl/kernels.py`, `lwrl/outputs.py`,
 `lwrl/settings.py`, `lwrl/outside.py`), the cache of compiled kernels, the writing of whole
 files, the settings dataclasses' metadata and the entry points through which other packages
-add to the registries, are there for every room."""
-LWRL_MODULES = ("gym", "kernels", "outputs", "settings", "outside")
+add to the registries, are there for every room. `bench` (`lwrl/bench.py`) is the second
+benchmark's face for any library's learner: it reads `studies`, as `cli` does."""
+LWRL_MODULES = ("gym", "kernels", "outputs", "settings", "outside", "bench")
 """The rooms that are one module of `lwrl/`."""
 LWRL_PACKAGES = ("jax",)
 """The rooms that are a package inside `lwrl/` (not a top-level folder: a folder `jax/` at

@@ -5,6 +5,7 @@ cheaper partly; Holm's correction runs across the whole family; the compute to t
 counts the first evaluation that reaches it, and the whole budget where none does."""
 
 import dataclasses
+import time
 
 import numpy as np
 
@@ -123,7 +124,8 @@ def test_the_report_judges_every_task_with_holm_across_them_and_aggregates(tmp_p
     adjusted = [c.adjusted for j in judged for c in j.comparisons]
     np.testing.assert_allclose(adjusted, judging.verdicts.holm(ps).adjusted)
     assert [j.verdict for j in judged] == ["yes", "yes"]  # PPO at 0.1 is above random: judged
-    text = report.document(judged, "lwrl bench ...", 60.0, str(tmp_path / "figures"), str(tmp_path))
+    text = report.document(judged, "lwrl bench ...", time.perf_counter(), str(tmp_path / "figures"),
+                           str(tmp_path))
     assert "## Across tasks" in text and "| paper | " in text and "IQM" in text
     assert (tmp_path / "figures" / "aggregates.png").exists()
     assert (tmp_path / "figures" / "profiles.png").exists()

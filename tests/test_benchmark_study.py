@@ -6,6 +6,7 @@ computes nothing and gives the same scores, and neither does a third once the ke
 are gone (a fresh clone has the committed tables only)."""
 
 import dataclasses
+import time
 
 import numpy as np
 import pytest
@@ -71,7 +72,8 @@ def test_a_tiny_benchmark_runs_resumes_and_needs_no_kept_agents_once_evaluated(t
     assert third.chosen == first.chosen
     judged = report.judge([first], {(TASK, "paper"): 1e-6})
     assert judged[0].verdict == "not judged"  # no rival row ran
-    text = report.document(judged, "lwrl bench ...", 60.0, str(tmp_path / "figures"), str(tmp_path))
+    text = report.document(judged, "lwrl bench ...", time.perf_counter(), str(tmp_path / "figures"),
+                           str(tmp_path))
     assert "| mountain_car.cost_to_go | **not judged** |" in text
     assert all(f"\n| {label} | " in text for label in labels)
     assert text.count("| **yes** |") == len(labels)  # one chosen configuration per row

@@ -13,6 +13,7 @@ does not import another (tests/test_architecture.py), so the replacement is writ
 """
 
 import dataclasses
+import hashlib
 
 import numpy as np
 import pandas as pd
@@ -21,6 +22,7 @@ from lwrl import tasks
 from lwrl.runners.config import RunConfig
 from lwrl.runners.stepped import run_batched
 from lwrl.studies.paper.bench_protocol import STEPS, UPTIME, Measure
+from lwrl.studies.paper.benchmark import protocol
 from lwrl.studies.paper.benchmark.protocol import variant
 from lwrl.studies.paper.benchmark.references import ROWS
 from lwrl.tasks.batched import BatchedEnv
@@ -58,6 +60,41 @@ def episode_options(task: str) -> dict:
     return {"time_limit": STEP_CAP * task_definition(task).control_timestep}
 
 
+def step_cap(task: str) -> int:
+    """The most steps of an evaluation episode of `task`: `STEP_CAP` on a task measured in
+    steps, else its own episode's (`episode_options`)."""
+    if task_measure(task) == STEPS:
+        return STEP_CAP
+    return int(task_definition(task).step_limit)
+
+
+def episode_seconds(task: str) -> float:
+    """The length in seconds of an evaluation episode of `task` that runs to its end: the
+    most up-time an episode can count."""
+    return step_cap(task) * task_definition(task).control_timestep
+
+
+def starts(task: str, plant: str = "analytic") -> np.ndarray:
+    """`(protocol.AGENTS, EPISODES, d)`: the first observation of each evaluation episode of
+    each agent of seeds 0 up (`evaluation_env`'s, from the environments' own start streams,
+    which nothing but a new episode draws from)."""
+    env = evaluation_env(task, protocol.AGENTS, plant)
+    return np.stack([env.reset().observation for _ in range(EPISODES)], axis=1)
+
+
+def starts_digest(observations) -> str:
+    """A digest of evaluation starts `(agents, episodes, d)` (`starts`): SHA-256 of their
+    values rounded to 9 decimals, as float64, its first 16 hexadecimal digits."""
+    rounded = np.round(np.asarray(observations, dtype=np.float64), 9) + 0.0  # no -0.0
+    return hashlib.sha256(np.ascontiguousarray(rounded, dtype="<f8").tobytes()).hexdigest()[:16]
+
+
+def protocol_digest(task: str, plant: str = "analytic") -> str:
+    """The digest of the protocol's evaluation starts of `task` on `plant` (`starts`,
+    `starts_digest`)."""
+    return starts_digest(starts(task, plant))
+
+
 def evaluation(trained: RunConfig) -> RunConfig:
     """The greedy evaluation of the agents of the run `trained` as they ended it
     (`RunConfig.trained`, `Agents.take_over`), on its plant and environment: no learning,
@@ -69,15 +106,17 @@ def evaluation(trained: RunConfig) -> RunConfig:
         budget=None)
 
 
-def evaluation_env(task: str, agents: int, plant: str, environment=None) -> BatchedEnv:
-    """The environments of the evaluation of `agents` agents of seeds 0 up (`evaluation`'s
-    seeds, starts and episodes) of `task` on `plant`, made with its kind of action
-    (`protocol.variant`) and the environment options `environment` (`BatchedEnv`'s:
+def evaluation_env(task: str, agents: int, plant: str, seed: int = 0,
+                   environment=None) -> BatchedEnv:
+    """The environments of the evaluation of `agents` agents of seeds `seed` up
+    (`evaluation`'s seeds, starts and episodes) of `task` on `plant`, made with its kind of
+    action (`protocol.variant`) and the environment options `environment` (`BatchedEnv`'s:
     `randomise`, `observation_noise`, `action_delay`; none by default)."""
     name, actions = variant(task)
     domain, task_name = tasks.split_name(name)
-    return BatchedEnv(domain, task_name, plant, [EVALUATION_SEED + b for b in range(agents)],
-                      actions=actions, **episode_options(task), **(environment or {}))
+    return BatchedEnv(domain, task_name, plant,
+                      [EVALUATION_SEED + seed + b for b in range(agents)], actions=actions,
+                      **episode_options(task), **(environment or {}))
 
 
 def run_references(task: str, agents: int = 20, plant: str = "analytic",
@@ -88,7 +127,7 @@ def run_references(task: str, agents: int = 20, plant: str = "analytic",
     each; the results as a table of `EpisodeResults.columns` (`seed` the environment's)."""
     tables = {}
     for row, make in ROWS.items():
-        env = evaluation_env(task, agents, plant, environment)
+        env = evaluation_env(task, agents, plant, environment=environment)
         results = run_batched(env, make(env), episodes, learn=False, greedy=True)
         tables[row] = pd.DataFrame(results.columns(env.seeds))
     return tables

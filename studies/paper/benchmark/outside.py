@@ -3,44 +3,61 @@
 example through `lwrl.gym`) with the task's budget of steps and evaluated greedily as the
 protocol evaluates every row, placed beside the rows.
 
-A results file is a CSV (gzip-compressed or not), one row per greedy evaluation episode:
+A results file is a CSV (gzip-compressed or not), one row per greedy evaluation episode, as
+`lwrl bench evaluate` (`harness`) writes it:
 
 | column | meaning |
 |---|---|
-| `learner` | the learner's name, one per file (the row's label in the tables) |
+| `learner` | the learner's name, one per file: letters, digits, `_`, `.` and `-`, and no built-in row's (`BUILT_IN`) |
 | `task` | DOMAIN.TASK, one of the benchmark's (`protocol.BUDGETS`) |
 | `budget` | the environment steps its agents trained for: the task's budget |
 | `fraction` | after which fraction of the budget the agent was evaluated (`protocol.FRACTIONS`) |
-| `seed` | the agent's seed, 0 to `protocol.AGENTS` - 1 (its evaluation episodes start from the suite's starts of seed + `evaluation.EVALUATION_SEED`, e.g. `env.reset(seed=seed + 10000)` of `lwrl.gym`) |
-| `episode` | the evaluation episode, 1 to `evaluation.EPISODES` |
-| `steps` | the episode's steps (at most `evaluation.STEP_CAP` on the tasks measured in steps) |
-| `uptime_s` | its seconds up, on the tasks measured in up-time (the pendulum, the cart-pole) |
+| `seed` | the agent's seed, an integer 0 to `protocol.AGENTS` - 1 (its evaluation episodes start from the suite's starts of seed + `evaluation.EVALUATION_SEED`, e.g. `env.reset(seed=seed + 10000)` of `lwrl.gym`) |
+| `episode` | the evaluation episode, an integer 1 to `evaluation.EPISODES` |
+| `steps` | the episode's steps, an integer 1 to the cap (`evaluation.step_cap`: `evaluation.STEP_CAP` on the tasks measured in steps, else the episode's length) |
+| `uptime_s` | its seconds up, on the tasks measured in up-time (the pendulum, the cart-pole): 0 to the episode's length in seconds (`evaluation.episode_seconds`) |
+| `protocol` | the protocol's version it followed (`protocol.VERSION`) |
+| `starts` | the digest of the evaluation starts it ran from (`evaluation.starts_digest`), the protocol's (`evaluation.protocol_digest`) |
 
 Every agent of seeds 0 to 19 at every fraction with every episode must be there: a file that
 is not so is refused in one line naming what is wrong and what is allowed.
+
+An outside row lives apart from the rows (`study.TaskRuns.outside`): the report lists it in
+its leaderboard, marked, and no verdict, table or aggregate of the rows reads it.
 """
+
+import re
 
 import numpy as np
 import pandas as pd
 
 from lwrl.studies.paper.benchmark import evaluation, protocol, study
 
-COLUMNS = ("learner", "task", "budget", "fraction", "seed", "episode", "steps")
+COLUMNS = ("learner", "task", "budget", "fraction", "seed", "episode", "steps", "protocol",
+           "starts")
+TEXT = ("learner", "task", "protocol", "starts")
+"""The columns read as text (a digest of digits alone is no number)."""
+NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
+"""An outside learner's name (it names its file in the benchmark's directory)."""
+BUILT_IN = ("random", "classical", *dict.fromkeys(
+    row.label for task in protocol.BUDGETS for row in protocol.rows(task)))
+"""The benchmark's own rows, the reference rows among them: names no outside row takes."""
 
 
-def read(path: str) -> pd.DataFrame:
-    """The results file at `path`, checked (see the module); a one-line ValueError for a file
-    that cannot be read or does not follow the protocol."""
+def read(path: str, plant: str = "analytic") -> pd.DataFrame:
+    """The results file at `path`, checked (see the module) against the protocol on `plant`;
+    a one-line ValueError for a file that cannot be read or does not follow the protocol."""
     try:
-        table = pd.read_csv(path)
+        table = pd.read_csv(path, dtype={name: str for name in TEXT})
     except (OSError, ValueError, UnicodeDecodeError) as error:
         raise ValueError(f"{path}: not a readable CSV file ({type(error).__name__})") from None
-    check(table, path)
+    check(table, path, plant)
     return table
 
 
-def check(table: pd.DataFrame, source: str) -> None:
-    """A one-line ValueError naming the first way `table` departs from the protocol."""
+def check(table: pd.DataFrame, source: str, plant: str = "analytic") -> None:
+    """A one-line ValueError naming the first way `table` departs from the protocol on
+    `plant`."""
     missing = [c for c in COLUMNS if c not in table.columns]
     if missing:
         raise ValueError(f"{source}: missing column {missing[0]!r}; the columns are "
@@ -50,6 +67,7 @@ def check(table: pd.DataFrame, source: str) -> None:
     for column in ("learner", "task"):
         if table[column].nunique() != 1:
             raise ValueError(f"{source}: one {column} per file; got {sorted(map(str, table[column].unique()))}")
+    check_name(str(table["learner"].iloc[0]), source)
     task = str(table["task"].iloc[0])
     if task not in protocol.BUDGETS:
         raise ValueError(f"{source}: unknown task {task!r}; allowed: {', '.join(protocol.BUDGETS)}")
@@ -60,6 +78,11 @@ def check(table: pd.DataFrame, source: str) -> None:
     if budgets != {protocol.BUDGETS[task]}:
         raise ValueError(f"{source}: the budget of {task} is {protocol.BUDGETS[task]} steps; "
                          f"got {sorted(budgets)}")
+    _check_recorded(table, task, source, plant)
+    for counted in ("seed", "episode", "steps"):
+        values = pd.to_numeric(table[counted], errors="coerce")
+        if not (np.isfinite(values) & (values % 1 == 0)).all():
+            raise ValueError(f"{source}: every {counted} must be a whole number")
     _check_values(table, "fraction", protocol.FRACTIONS, source)
     _check_values(table, "seed", range(protocol.AGENTS), source)
     _check_values(table, "episode", range(1, evaluation.EPISODES + 1), source)
@@ -71,6 +94,40 @@ def check(table: pd.DataFrame, source: str) -> None:
     values = pd.to_numeric(table[column], errors="coerce")
     if not np.isfinite(values).all():
         raise ValueError(f"{source}: every {column} must be a finite number")
+    _check_range(pd.to_numeric(table["steps"]), "steps", 1, evaluation.step_cap(task), source, task)
+    if column == "uptime_s":
+        _check_range(values, column, 0.0, evaluation.episode_seconds(task), source, task)
+
+
+def check_name(name: str, source: str) -> None:
+    """A one-line ValueError unless `name` can name an outside row (`NAME`, not `BUILT_IN`)."""
+    if not NAME.fullmatch(name):
+        raise ValueError(f"{source}: learner {name!r} is no name: letters, digits, _, . and - "
+                         "(a letter or digit first)")
+    if name in BUILT_IN:
+        raise ValueError(f"{source}: learner {name!r} is the name of a row of the benchmark "
+                         f"({', '.join(BUILT_IN)}); an outside row needs a name of its own")
+
+
+def _check_recorded(table: pd.DataFrame, task: str, source: str, plant: str) -> None:
+    """The protocol's version and the digest of its evaluation starts on `plant`, one each,
+    as the file records them."""
+    wanted = {"protocol": protocol.VERSION, "starts": evaluation.protocol_digest(task, plant)}
+    what = {"protocol": "the protocol's version", "starts": f"the digest of the evaluation "
+            f"starts of {task} on the {plant} plant"}
+    for column, value in wanted.items():
+        given = sorted(set(map(str, table[column])))
+        if given != [value]:
+            raise ValueError(f"{source}: {column} must be {what[column]}, {value}; got "
+                             f"{', '.join(given)} (`lwrl bench evaluate` writes it)")
+
+
+def _check_range(values, column: str, low, high, source: str, task: str) -> None:
+    """Every value of `column` in [`low`, `high`]."""
+    outside = values[(values < low) | (values > high)]
+    if len(outside):
+        raise ValueError(f"{source}: every {column} of {task} must be in [{low:g}, {high:g}]; "
+                         f"got {outside.iloc[0]:g}")
 
 
 def _check_values(table: pd.DataFrame, column: str, allowed, source: str) -> None:

@@ -34,7 +34,7 @@ def _chosen(task: str, out_dir: str, plant: str, runs: dict, store: RunStore):
     """`({label: i}, {(label, i): search agents' scores})`: the chosen configuration
     (`study.choose`) of each row whose search is evaluated whole, and those configurations'
     normalised scores; nothing while the reference rows are missing."""
-    path = os.path.join(out_dir, study.REFERENCES, f"{task}-{plant}.csv.gz")
+    path = study.references_path(task, out_dir, plant)
     evaluations = {name: evaluation.evaluation(config) for name, config in runs.items()}
     unfinished = {label for (label, _), run in evaluations.items() if not store.finished(run)}
     whole = {name: run for name, run in evaluations.items() if name[0] not in unfinished}
@@ -92,7 +92,7 @@ def _under_way(pending, out_dir) -> list:
 def task_lines(task: str, out_dir: str, plant: str = "analytic") -> list:
     """The lines of one task (see the module)."""
     store = RunStore(out_dir, make=False)
-    written = os.path.exists(os.path.join(out_dir, study.REFERENCES, f"{task}-{plant}.csv.gz"))
+    written = os.path.exists(study.references_path(task, out_dir, plant))
     lines = [f"{task} ({plant} plant): reference rows {'written' if written else 'not run yet'}"]
     runs = search.runs(task, plant)
     chosen, scores = _chosen(task, out_dir, plant, runs, store)

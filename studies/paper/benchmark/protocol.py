@@ -29,6 +29,9 @@ from lwrl import tasks
 from lwrl.runners.config import RunConfig, tuned_settings
 from lwrl.studies.paper import bench_protocol
 
+VERSION = "benchmark2-1"
+"""The protocol's version, which an outside results file records (`outside`): a change to the
+budgets, fractions, agents, evaluation episodes, cap or starts makes a new one."""
 BUDGETS = {"mountain_car.cost_to_go": 100_000, "pendulum.swingup": 90_000,
            "cartpole.balance": 250_000, "acrobot.swingup": 100_000,
            "pendulum.swingup-continuous": 90_000}

@@ -9,6 +9,7 @@ import dataclasses
 import glob
 import math
 import os
+import time
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -95,15 +96,14 @@ def aggregate_matrix(judged: list) -> dict:
             for label in labels}
 
 
-def document(judged: list, command: str, seconds: float, figure_dir: str, out_dir: str) -> str:
-    """The report's Markdown, its figures written to `figure_dir`."""
+def document(judged: list, command: str, started: float, figure_dir: str, out_dir: str,
+             unfinished=()) -> str:
+    """The report's Markdown, its figures written to `figure_dir`: the call `command` began
+    at `started` (`time.perf_counter()`), and the header states its wall time until the
+    document is made; `unfinished` names the directory's tasks whose runs are not all
+    written (a line each)."""
     columns = rivals(judged)
-    lines = ["# The second benchmark: the light-weight claim by a reviewer's rule", "",
-             f"Written by `{command}`; its calls that ran to the end took {seconds / 60:.1f} "
-             "min of wall time (calls interrupted before them, whose finished runs they resumed "
-             "from, are counted by the ledger below). The rule is docs/FINDINGS.md's (\"The "
-             "light-weight claim judged again\"), written before the runs. " + plants_line(judged),
-             "",
+    lines = ["", *unfinished_lines(unfinished),
              cost_line(out_dir, [j.runs.task for j in judged],
                        set().union(*(j.runs.tables.get("run", ()) for j in judged))), "",
              "| task | verdict | " + " | ".join(f"against {rival}" for rival in columns) + " |",
@@ -112,12 +112,53 @@ def document(judged: list, command: str, seconds: float, figure_dir: str, out_di
         against = {c.rival: c.gate.reason.split(":")[0] for c in j.comparisons}
         lines.append(f"| {j.runs.task} | **{j.verdict}** | "
                      + " | ".join(against.get(rival, "—") for rival in columns) + " |")
-    lines += ["", *aggregates_section(judged, figure_dir, out_dir),
+    lines += ["", *leaderboard(judged), *aggregates_section(judged, figure_dir, out_dir),
               *torques.section(judged, figure_dir, out_dir)]
     for j in judged:
         lines += task_section(j, markdown_images(curves(j, figure_dir), out_dir),
                               markdown_images(sensitivity.figure(j.runs, figure_dir), out_dir))
-    return "\n".join(lines) + "\n"
+    seconds = time.perf_counter() - started  # the figures made: all but writing the file
+    header = ["# The second benchmark: the light-weight claim by a reviewer's rule", "",
+              f"Written by `{command}` in {duration(seconds)} of wall time from the runs in "
+              "its directory, every task it holds (what computing the runs cost is the "
+              "ledger's line below; `lwrl bench report DIR` rewrites this from them alone). "
+              "The rule is docs/FINDINGS.md's (\"The light-weight claim judged again\"), "
+              "written before the runs. " + plants_line(judged)]
+    return "\n".join(header + lines) + "\n"
+
+
+def duration(seconds: float) -> str:
+    """Wall time in seconds, or in minutes from two minutes."""
+    return f"{seconds:.1f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
+
+
+def unfinished_lines(unfinished) -> list:
+    """A paragraph naming the tasks the report leaves out, their runs not all written, or
+    nothing."""
+    if not unfinished:
+        return []
+    return ["Not reported, their runs not all written (`lwrl bench status` says what is left, "
+            "`lwrl bench run` computes it): " + "; ".join(unfinished) + ".", ""]
+
+
+def leaderboard(judged: list) -> list:
+    """Every row of every task, the outside rows (`study.TaskRuns.outside`) marked, by its
+    final normalised score (mean over its agents, best first, with its interval)."""
+    final = protocol.FRACTIONS[-1]
+    lines = ["## Leaderboard", "",
+             f"Every row of every task by its normalised score after the whole budget (the "
+             f"mean over its agents and its {statistics.CONFIDENCE:.0%} bootstrap interval; the random "
+             "row scores 0 and the classical controller 1). A row marked *outside* is an "
+             "outside learner's results (`lwrl bench score`), in no verdict or aggregate.", "",
+             "| task | rank | row | normalised score |", "|---|---|---|---|"]
+    for j in judged:
+        rows = [(statistics.mean_interval(values), label + mark)
+                for scores, mark in ((j.runs.scores, ""), (j.runs.outside, " *outside*"))
+                for (label, fraction), values in scores.items() if fraction == final]
+        rows.sort(key=lambda row: -row[0].value)
+        lines += [f"| {j.runs.task} | {rank} | {label} | {estimate.text(2)} |"
+                  for rank, (estimate, label) in enumerate(rows, 1)]
+    return lines + [""]
 
 
 def plants_line(judged: list) -> str:

@@ -52,12 +52,15 @@ class TaskRuns:
     """Every training and evaluation table the study read, the rows' and the search's."""
     diverged: dict = dataclasses.field(default_factory=dict)
     """`{(label, fraction): count}`: how many of each row's agents diverged in training."""
+    outside: dict = dataclasses.field(default_factory=dict)
+    """`{(name, fraction): (agents,) normalised scores}` of the outside rows (`outside`):
+    apart from `scores`, so that no outside row takes a row's place or enters a verdict."""
 
 
 def references(task: str, out_dir: str, plant: str = "analytic", agents: int = protocol.AGENTS) -> dict:
     """The reference rows' per-agent measures on `task`, from `OUT/references/<task>.csv.gz`
     where an earlier call wrote it, else run (`evaluation.run_references`) and written."""
-    path = os.path.join(out_dir, REFERENCES, f"{task}-{plant}.csv.gz")
+    path = references_path(task, out_dir, plant)
     if not os.path.exists(path):
         tables = evaluation.run_references(task, agents, plant)
         table = pd.concat([t.assign(row=row) for row, t in tables.items()], ignore_index=True)
@@ -65,6 +68,19 @@ def references(task: str, out_dir: str, plant: str = "analytic", agents: int = p
         outputs.write_table(table, path)
     table = pd.read_csv(path)
     return {row: evaluation.measure(part, task) for row, part in table.groupby("row")}
+
+
+def references_path(task: str, out_dir: str, plant: str) -> str:
+    """Where `out_dir` keeps the reference rows' greedy episodes of `task` on `plant`: its
+    being there makes `task` one of the directory's (`held`)."""
+    return os.path.join(out_dir, REFERENCES, f"{task}-{plant}.csv.gz")
+
+
+def held(out_dir: str, plant: str) -> list:
+    """The benchmark's tasks on `plant` that `out_dir` has begun (their reference rows
+    written), in the protocol's order."""
+    return [task for task in protocol.tasks_on(plant)
+            if os.path.exists(references_path(task, out_dir, plant))]
 
 
 def normalised(task: str, values, reference: dict) -> np.ndarray:
@@ -85,6 +101,28 @@ def train_and_evaluate(trainings: dict, out_dir: str, sweep: dict, description: 
                   keep_agents=True)
     table, _ = run_sweep(list(evaluations.values()), out_dir, **sweep,
                          description=f"{description}: evaluation")
+    return _evaluated(trainings, evaluations, table, store)
+
+
+def read_evaluated(trainings: dict, out_dir: str, description: str) -> tuple:
+    """`train_and_evaluate`'s answer from the tables `out_dir` holds, computing nothing: an
+    `Unfinished` error where an evaluation is not written."""
+    evaluations = {name: evaluation.evaluation(config) for name, config in trainings.items()}
+    store = RunStore(out_dir)
+    missing = sum(not store.finished(run) for run in evaluations.values())
+    if missing:
+        raise Unfinished(f"{description}: {missing} of {len(evaluations)} greedy evaluations "
+                         "not written")
+    return _evaluated(trainings, evaluations, store.read(list(evaluations.values())), store)
+
+
+class Unfinished(ValueError):
+    """A task whose runs are not all written (`read_task`)."""
+
+
+def _evaluated(trainings: dict, evaluations: dict, table: pd.DataFrame, store: RunStore) -> tuple:
+    """`({name: evaluation table}, every table)`: the evaluations' `table` split by run, and
+    with it the trainings' tables that are written (a family's shorter runs are not)."""
     by_run = dict(iter(table.groupby("run")))
     trained = [config for config in trainings.values() if store.path(config).exists()]
     tables = pd.concat([table, store.read(trained)], ignore_index=True) if trained else table
@@ -94,14 +132,28 @@ def train_and_evaluate(trainings: dict, out_dir: str, sweep: dict, description: 
 def study_task(task: str, out_dir: str, plant: str = "analytic", sweep=None) -> TaskRuns:
     """The search and the rows of `task` (see the module), resuming what `out_dir` holds."""
     sweep = sweep or {}
-    reference = references(task, out_dir, plant)
-    runs = search.runs(task, plant)
-    evaluated, search_tables = train_and_evaluate(runs, out_dir, sweep, f"{task}: search")
+    return _task_runs(task, out_dir, plant, references(task, out_dir, plant),
+                      lambda trainings, what: train_and_evaluate(trainings, out_dir, sweep, what))
+
+
+def read_task(task: str, out_dir: str, plant: str = "analytic") -> TaskRuns:
+    """`study_task`'s answer from what `out_dir` holds, computing and writing nothing: an
+    `Unfinished` error naming the task where a run is not written."""
+    if not os.path.exists(references_path(task, out_dir, plant)):
+        raise Unfinished(f"{task}: the reference rows are not written")
+    return _task_runs(task, out_dir, plant, references(task, out_dir, plant),
+                      lambda trainings, what: read_evaluated(trainings, out_dir, what))
+
+
+def _task_runs(task: str, out_dir: str, plant: str, reference: dict, evaluate) -> TaskRuns:
+    """The search and the rows of `task`, their evaluations from `evaluate(trainings,
+    description)` (`train_and_evaluate` or `read_evaluated`)."""
+    evaluated, search_tables = evaluate(search.runs(task, plant), f"{task}: search")
     search_scores = scored(task, evaluated, reference)
     chosen = choose(search_scores)
     trainings = {(row.label, fraction): config for row in protocol.rows(task)
                  for fraction, config in row_trainings(task, row, chosen[row.label], plant).items()}
-    evaluated, row_tables = train_and_evaluate(trainings, out_dir, sweep, f"{task}: rows")
+    evaluated, row_tables = evaluate(trainings, f"{task}: rows")
     diverged = {name: int(np.isnan(evaluation.measure(table, task)).sum())
                 for name, table in evaluated.items()}
     return TaskRuns(task, reference, search_scores, chosen,
