@@ -99,3 +99,23 @@ def test_the_installed_package_runs_from_another_directory(installed, tmp_path):
                            capture_output=True, text=True, timeout=300)
     assert train.returncode == 0, train.stderr[-2000:]
     assert "no agent diverged" in train.stdout
+
+
+def test_the_contract_checks_come_with_the_wheel(installed, tmp_path):
+    """Other packages' authors get the contract checks from the installed package
+    (`lwrl.testing`), and they run there: the default learner on the mountain car, the
+    mountain car's domain on its plants."""
+    _, python, _, site, _ = installed
+    environment = {**os.environ, "PYTHONNOUSERSITE": "1"}
+    environment.pop("PYTHONPATH", None)
+    code = ("import lwrl.testing\n"
+            "from lwrl import agent, tasks\n"
+            "from lwrl.testing import check_domain, check_learner\n"
+            "print(lwrl.testing.__file__)\n"
+            "domain = next(iter(tasks.DOMAINS))\n"
+            "check_domain(domain)\n"
+            "check_learner(agent.DEFAULT_LEARNER, [tasks.TASK_NAMES[0]])\n")
+    result = subprocess.run([str(python), "-c", code], cwd=tmp_path, env=environment,
+                            capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert pathlib.Path(result.stdout.strip()).is_relative_to(site)
