@@ -92,18 +92,23 @@ def _same_results(a, b, what: str) -> None:
                                       err_msg=f"{what}: {field} differ")
 
 
+def _registered(kind: str, held, registry: dict, group: str) -> str:
+    """The name of `held` (an object of the registry, or its name), which must be the one
+    `registry` holds (through the entry-point group `group`)."""
+    name = held if isinstance(held, str) else held.name
+    if registry.get(name) is None or (not isinstance(held, str) and registry[name] is not held):
+        raise ContractError(f"{kind} {name!r}: not in lwrl's registry; declare its "
+                            f"{kind.upper()} under the entry-point group '{group}' and install "
+                            f"its package (pip install -e .)")
+    return name
+
+
 # Learners ------------------------------------------------------------------------------------
 
 def learner_name(learner: Learner | str) -> str:
     """The registry name of `learner` (a `Learner` or its name), which must be the one the
     registry holds (`agent.LEARNERS`, through the entry-point group `lwrl.learners`)."""
-    name = learner if isinstance(learner, str) else learner.name
-    if learners.LEARNERS.get(name) is None or (
-            not isinstance(learner, str) and learners.LEARNERS[name] is not learner):
-        raise ContractError(f"learner {name!r}: not in lwrl's registry; declare its LEARNER "
-                            f"under the entry-point group '{learners.ENTRY_POINT_GROUP}' and "
-                            f"install its package (pip install -e .)")
-    return name
+    return _registered("learner", learner, learners.LEARNERS, learners.ENTRY_POINT_GROUP)
 
 
 def fits(learner: Learner | str, task: str) -> bool:
@@ -120,7 +125,7 @@ def steps_per_episode(learner: Learner | str, task: str) -> int:
     return min(STEPPED_STEPS if short else COMPILED_STEPS, definition.step_limit)
 
 
-def contract_config(learner: Learner | str, task: str, **settings) -> RunConfig:
+def contract_config(learner: Learner | str, task: str) -> RunConfig:
     """The checks' run: three agents, three episodes of `steps_per_episode` steps, seed 5, on
     the analytic plant, with the learner's kind of actions."""
     name = learner_name(learner)
@@ -128,7 +133,7 @@ def contract_config(learner: Learner | str, task: str, **settings) -> RunConfig:
     limit = steps_per_episode(name, task) * definition.control_timestep
     return RunConfig(task=task, learner=name, plant="analytic", agents=3, episodes=3, seed=5,
                      task_options={"time_limit": limit},
-                     actions=learners.learner(name).actions, **settings)
+                     actions=learners.learner(name).actions)
 
 
 def _learner_check(function):
@@ -147,7 +152,8 @@ def check_learner_declaration(learner: Learner | str) -> None:
     name = learner_name(learner)
     with _held(f"learner {name!r}", "check_learner_declaration"):
         declared = learners.learner(name)
-        _expect(declared.name == name, f"the registry holds it as {name!r}, it is {declared.name!r}")
+        _expect(declared.name == name,
+                f"the registry holds it as {name!r}, it is {declared.name!r}")
         _expect(declared.title and declared.source, "its title or its source is empty")
         _expect(dataclasses.is_dataclass(declared.settings), "its settings are not a dataclass")
 
@@ -221,7 +227,8 @@ def check_learner_arrays(learner: str, task: str) -> None:
     _expect(arrays.delta.shape == (3,), f"delta has shape {arrays.delta.shape}, not (3,)")
     _expect(arrays.diverged.shape == (3,) and arrays.diverged.dtype == bool,
             f"diverged is {arrays.diverged.dtype} {arrays.diverged.shape}, not bool (3,)")
-    _expect(arrays.weights.shape[0] == 3, f"weights have shape {arrays.weights.shape}, not (3, ...)")
+    _expect(arrays.weights.shape[0] == 3,
+            f"weights have shape {arrays.weights.shape}, not (3, ...)")
     _expect(np.all(np.isfinite(arrays.weights)), "weights are not all finite")
     _expect(agent.batch_size == 3, f"batch_size is {agent.batch_size}, not 3")
     _expect(agent.num_actions == actions, f"num_actions is {agent.num_actions}, not {actions}")
@@ -321,14 +328,16 @@ def check_learner_in_c(learner: str, task: str) -> None:
     values = form.values(np.float64)
     np.testing.assert_array_equal(values["weights"], agent.arrays.weights[1],
                                   err_msg="the form's weights are not the agent's")
-    _expect(values["seed"] == int(agent.arrays.streams[1]), "the form's seed is not the agent's stream")
+    _expect(values["seed"] == int(agent.arrays.streams[1]),
+            "the form's seed is not the agent's stream")
     _expect(all(isinstance(reals, int) and isinstance(other, int)
                 for reals, other in form.ram.values()), "the form's RAM parts are not counts")
     _expect(len(form.ranges[0]) == len(form.ranges[1]) == agent.dim,
             f"the form's ranges are not {agent.dim} long")
     checked = form.check(np.float64)
     _expect(checked is None, f"the form's check in double fails: {checked}")
-    _expect(form.summary and form.name and form.smaller, "the form's summary, name or smaller is empty")
+    _expect(form.summary and form.name and form.smaller,
+            "the form's summary, name or smaller is empty")
 
 
 LEARNER_CHECKS = (check_learner_run_paths, check_learner_alone_as_in_a_batch, check_learner_arrays,
@@ -357,13 +366,7 @@ def check_learner(learner: Learner | str, tasks: list | tuple | None = None) -> 
 def domain_name(domain: Domain | str) -> str:
     """The registry name of `domain` (a `Domain` or its name), which must be the one the
     registry holds (`tasks.DOMAINS`, through the entry-point group `lwrl.tasks`)."""
-    name = domain if isinstance(domain, str) else domain.name
-    if suite.DOMAINS.get(name) is None or (
-            not isinstance(domain, str) and suite.DOMAINS[name] is not domain):
-        raise ContractError(f"domain {name!r}: not in lwrl's registry; declare its DOMAIN under "
-                            f"the entry-point group '{suite.ENTRY_POINT_GROUP}' and install its "
-                            f"package (pip install -e .)")
-    return name
+    return _registered("domain", domain, suite.DOMAINS, suite.ENTRY_POINT_GROUP)
 
 
 def _task_check(function):
