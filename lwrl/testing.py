@@ -37,7 +37,7 @@ from lwrl.agent import io as agent_io
 from lwrl.agent.learner_contract import Learner, LearnerForm, NoValues
 from lwrl.runners.config import RunConfig, task_info
 from lwrl.runners.run import make_agent, memory_needed, run, run_batched, run_compiled, run_dm_env
-from lwrl.tasks.batched import BatchedEnv
+from lwrl.tasks.batched import LAST, BatchedEnv
 from lwrl.tasks.domain_contract import Domain
 
 STEPPED_STEPS = 40
@@ -49,6 +49,9 @@ step once they learn), so that each check runs in seconds; three such episodes p
 buffers."""
 COMPILED_STEPS = 300
 """Steps per episode of a contract run of a learner with a compiled step."""
+BATCH_STEPS = 40
+"""The time limit, in control steps, of the batch check's episodes: episodes end and restart
+within it."""
 BAD_ACTIONS = (-1, "num_actions", 1.5, "1", np.array([0, 1]), None)
 """Actions an environment refuses: out of range (`num_actions` stands for the first index
 past the last), or not one integer."""
@@ -540,9 +543,59 @@ def check_task_refuses_nan_state(domain: str, task: str, plant: str) -> None:
         raise AssertionError("a NaN state is taken")
 
 
+@_task_check
+def check_task_batched(domain: str, task: str, plant: str) -> None:
+    """A batch of B environments (`tasks.batched.BatchedEnv`), given the seeds and actions of
+    B single dm_env environments, returns identical step types, rewards, discounts,
+    observations and up-times over several episodes (terminal and truncated ends and the
+    resets after them, with a time limit of `BATCH_STEPS` control steps)."""
+    seeds = [3, 5, 8, 13, 21]
+    options = {"time_limit": BATCH_STEPS * suite.definition(domain, task).control_timestep}
+    batched = BatchedEnv(domain, task, plant, seeds, **options)
+    singles = [suite.load(domain, task, plant=plant, seed=seed, **options) for seed in seeds]
+    rng = np.random.default_rng(0)
+    batched.reset()
+    for env in singles:
+        env.reset()
+    ends = 0
+    for step in range(3 * BATCH_STEPS):
+        actions = rng.integers(batched.num_actions, size=len(seeds))
+        batched_ts = batched.step(actions)
+        for i, ts in enumerate(env.step(int(a)) for env, a in zip(singles, actions)):
+            where = f"environment {i} at step {step}"
+            _expect(batched_ts.step_type[i] == int(ts.step_type), f"{where}: the step types differ")
+            np.testing.assert_array_equal(batched_ts.observation[i], list(ts.observation.values()),
+                                          err_msg=f"{where}: the observations differ")
+            if not ts.first():
+                _expect(batched_ts.reward[i] == ts.reward, f"{where}: the rewards differ")
+                _expect(batched_ts.discount[i] == ts.discount, f"{where}: the discounts differ")
+            np.testing.assert_array_equal(batched.uptime[i], singles[i].task.uptime,
+                                          err_msg=f"{where}: the up-times differ")
+            _expect(batched.steps[i] == singles[i].task.steps, f"{where}: the step counts differ")
+        ends += int(np.sum(batched_ts.step_type == LAST))
+    _expect(ends >= len(seeds), f"{ends} episodes ended in {3 * BATCH_STEPS} steps of "
+                                f"{len(seeds)} environments: too few to check their ends")
+
+
+@_task_check
+def check_task_batched_observations_are_their_own(domain: str, task: str, plant: str) -> None:
+    """The observations a batch returns share no memory with its state: the next steps leave
+    them as they were (as dm_env's suite requires of its environments)."""
+    env = BatchedEnv(domain, task, plant, seeds=[0, 1])
+    steps = [env.reset()] + [env.step([1, 0]) for _ in range(3)]
+    kept = [step.observation.copy() for step in steps]
+    env.step([0, 1])
+    for step, observation in zip(steps, kept):
+        np.testing.assert_array_equal(step.observation, observation,
+                                      err_msg="a later step changed an earlier observation")
+        _expect(not np.shares_memory(step.observation, env.state),
+                "an observation shares memory with the batch's state")
+
+
 TASK_CHECKS = (check_task_spec, check_task_actions_apply_controls, check_task_deterministic,
                check_task_starts, check_task_time_limit, check_task_refuses_bad_actions,
-               check_task_refuses_nan_state)
+               check_task_refuses_nan_state, check_task_batched,
+               check_task_batched_observations_are_their_own)
 """The checks of each task of a domain on each plant of a single environment."""
 
 

@@ -130,4 +130,4 @@ def test_check_domain_runs_every_check_on_every_task_and_plant(monkeypatch):
     assert called == [(check.__name__, "cartpole", task, plant)
                       for task in tasks.domain("cartpole").tasks
                       for plant in tasks.ENVIRONMENT_PLANTS["cartpole"] for check in checks]
-    assert len(checks) == 7
+    assert len(checks) == 9
