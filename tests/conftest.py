@@ -3,7 +3,9 @@ parameter values away from the paper's, short time limits, a command run in this
 OpenGL backend that renders headless; and the check that a call is refused in one line."""
 
 import os
+import pathlib
 import re
+import shutil
 import subprocess
 import sys
 
@@ -86,6 +88,35 @@ def opengl():
             return backend
     pytest.skip("no headless OpenGL here: apt-get install libegl1 libegl-mesa0 "
                 "libgl1-mesa-dri (EGL) or libosmesa6 (OSMesa)")
+
+
+TOYS = ("toy_learner", "toy_task")
+"""The toy packages of tests/: a learner and a domain from outside lwrl, each a project with
+its pyproject.toml."""
+
+
+@pytest.fixture(scope="session")
+def installed_toys(tmp_path_factory) -> dict:
+    """`{toy: directory}`: each of `TOYS` really installed, by pip from its pyproject.toml (its
+    entry points, its package data), into a directory of its own (`--target`; lwrl and the
+    dependencies are this environment's). Built from a copy, so that the build leaves nothing
+    in tests/; setuptools for the build comes from the package index, as for any project."""
+    work = tmp_path_factory.mktemp("toys")
+    installed = {}
+    for toy in TOYS:
+        source = work / "source" / toy
+        shutil.copytree(pathlib.Path(__file__).parent / toy, source,
+                        ignore=shutil.ignore_patterns("__pycache__", "build", "*.egg-info"))
+        target = work / toy
+        built = subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "--quiet",
+                                "--target", str(target), str(source)],
+                               capture_output=True, text=True, timeout=600)
+        if built.returncode != 0 and "Could not find a version that satisfies" in built.stderr:
+            pytest.skip("building the toy packages needs setuptools from the package index, "
+                        "not reachable here")
+        assert built.returncode == 0, built.stderr[-3000:]
+        installed[toy] = target
+    return installed
 
 
 def one_line_error(call, *fragments):

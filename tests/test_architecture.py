@@ -18,10 +18,9 @@ import subprocess
 import sys
 import tomllib
 
-import numpy as np
 import pytest
 
-from lwrl import agent, tasks
+from lwrl import agent, tasks, testing
 from lwrl.agent.linear import FEATURE_MAPS
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -39,14 +38,16 @@ def floors(layers) -> dict:
 FLOORS = floors(next(contract["layers"] for contract in IMPORT_CONTRACTS["contracts"]
                      if contract["id"] == "floors"))
 """Room -> floor. `gym` is `lwrl/gym.py`, the suite's Gymnasium face (it reads `tasks`, and
-`viz.scenes` for what `render()` draws), and
-`jax` is `lwrl/jax/`, the suite in JAX (it reads `tasks` too);
+`viz.scenes` for what `render()` draws),
+`jax` is `lwrl/jax/`, the suite in JAX (it reads `tasks` too), and `testing` is
+`lwrl/testing.py`, the contract checks other packages' authors run (it runs the runners);
 `kernels`, `outputs`, `settings` and `outside` (`lwrl/kernels.py`, `lwrl/outputs.py`,
 `lwrl/settings.py`, `lwrl/outside.py`), the cache of compiled kernels, the writing of whole
 files, the settings dataclasses' metadata and the entry points through which other packages
 add to the registries, are there for every room. `bench` (`lwrl/bench.py`) is the second
-benchmark's face for any library's learner: it reads `studies`, as `cli` does."""
-LWRL_MODULES = ("gym", "kernels", "outputs", "settings", "outside", "bench")
+benchmark's face for any library's learner: it reads `studies`, as `cli` does; `testing`
+(`lwrl/testing.py`) holds the learner and task contract checks, reading `runners`."""
+LWRL_MODULES = ("gym", "kernels", "outputs", "settings", "outside", "bench", "testing")
 """The rooms that are one module of `lwrl/`."""
 LWRL_PACKAGES = ("jax",)
 """The rooms that are a package inside `lwrl/` (not a top-level folder: a folder `jax/` at
@@ -249,17 +250,9 @@ def test_the_check_finds_a_parameter_named_in_code(tmp_path):
 @pytest.mark.parametrize("name", list(tasks.DOMAINS))
 def test_every_domain_fills_its_contract(name):
     """Each domain gives its physics: tasks with bounds, defaults and angles over its state
-    variables (what other parts know of it is theirs: tests/test_domain_facts.py)."""
-    domain = tasks.domain(name)
-    assert domain.name == name and domain.tasks
-    for task in domain.tasks:
-        definition = tasks.definition(name, task)
-        state_names = definition.state_names
-        assert set(definition.angles) <= set(state_names)
-        low, high = definition.bounds
-        assert len(low) == len(high) == len(state_names) and np.all(np.less(low, high))
-        defaults = definition.defaults
-        assert len(defaults.low) == len(defaults.high) == len(state_names)
+    variables (`lwrl.testing.check_domain_declaration`; what other parts know of it is
+    theirs: tests/test_domain_facts.py)."""
+    testing.check_domain_declaration(name)
 
 
 def learner_names() -> tuple:

@@ -1,55 +1,19 @@
-"""The batched stepper is B copies of the single environments, not a second task."""
+"""The batched stepper is B copies of the single environments, not a second task: the task
+contract's checks of it are `lwrl.testing`'s, run here over every task and plant."""
 
 import numpy as np
 import pytest
 
-from lwrl import tasks
-from lwrl.tasks.batched import LAST, BatchedEnv
-
-SHORT_STEPS = 40
-"""A time limit of so many control steps: auto-resets happen within the test."""
+from lwrl import testing
+from lwrl.tasks.batched import BatchedEnv
 
 
 def test_batched_equals_single_environments(task_plant):
-    """B batched environments, given the seeds and actions of B single dm_env environments,
-    return identical step types, rewards, discounts, observations and up-times over several
-    episodes (including terminal and truncated ends and the auto-resets after them)."""
-    domain, task, plant = task_plant
-    seeds = [3, 5, 8, 13, 21]
-    options = {"time_limit": SHORT_STEPS * tasks.definition(domain, task).control_timestep}
-    batched = BatchedEnv(domain, task, plant, seeds, **options)
-    singles = [tasks.load(domain, task, plant=plant, seed=seed, **options) for seed in seeds]
-    rng = np.random.default_rng(0)
-    batched_ts = batched.reset()
-    single_ts = [env.reset() for env in singles]
-    ends = 0
-    for _ in range(120):
-        actions = rng.integers(batched.num_actions, size=len(seeds))
-        batched_ts = batched.step(actions)
-        single_ts = [env.step(int(a)) for env, a in zip(singles, actions)]
-        for i, ts in enumerate(single_ts):
-            assert batched_ts.step_type[i] == int(ts.step_type)
-            np.testing.assert_array_equal(batched_ts.observation[i], list(ts.observation.values()))
-            if not ts.first():
-                assert batched_ts.reward[i] == ts.reward
-                assert batched_ts.discount[i] == ts.discount
-            np.testing.assert_array_equal(batched.uptime[i], singles[i].task.uptime)
-            assert batched.steps[i] == singles[i].task.steps
-        ends += int(np.sum(batched_ts.step_type == LAST))
-    assert ends >= len(seeds), "the test should cover episode ends and auto-resets"
+    testing.check_task_batched(*task_plant)
 
 
 def test_a_time_steps_observation_is_its_own(task_plant):
-    """The observations a batch returns share no memory with its state: the next steps
-    leave them as they were (as dm_env's suite requires of its environments)."""
-    domain, task, plant = task_plant
-    env = BatchedEnv(domain, task, plant, seeds=[0, 1])
-    steps = [env.reset()] + [env.step([1, 0]) for _ in range(3)]
-    kept = [step.observation.copy() for step in steps]
-    env.step([0, 1])
-    for step, observation in zip(steps, kept):
-        np.testing.assert_array_equal(step.observation, observation)
-        assert not np.shares_memory(step.observation, env.state)
+    testing.check_task_batched_observations_are_their_own(*task_plant)
 
 
 def test_batched_reset_marks_first_and_steps_after_last_reset():

@@ -4,12 +4,15 @@
 eval` run it and the contract tests of tests/test_learners.py hold it to the contract; a bad
 entry point is skipped with one warning line.
 
-Installed means what an installed distribution is to `importlib.metadata`: a `.dist-info`
-directory (METADATA, entry_points.txt) in a directory on `sys.path`, with the package's
-source on it too. The checks of an installed learner run in child processes with that
-PYTHONPATH: the registry is made once, as `lwrl.agent` is imported, and read then by other
-modules (`runners.config`'s choice of learner, the command's flags), so a learner installed
-into a process that has imported lwrl would join it only part way.
+The toy is really installed (`installed_toys`, tests/conftest.py: pip, from its
+pyproject.toml, into a directory of its own) for the checks that run lwrl with it; the check
+of the entry points in this process and the distribution of bad entry points beside it are
+written by hand, as an installer writes them: a `.dist-info` directory (METADATA,
+entry_points.txt) in a directory on `sys.path`. The checks of an installed learner run in
+child processes with that directory on PYTHONPATH: the registry is made once, as
+`lwrl.agent` is imported, and read then by other modules (`runners.config`'s choice of
+learner, the command's flags), so a learner installed into a process that has imported lwrl
+would join it only part way.
 """
 
 import csv
@@ -17,6 +20,7 @@ import importlib.metadata
 import json
 import os
 import pathlib
+import shutil
 import subprocess
 import sys
 import tomllib
@@ -78,6 +82,14 @@ def site(tmp_path) -> pathlib.Path:
 
 
 @pytest.fixture
+def installed_site(installed_toys, tmp_path) -> pathlib.Path:
+    """A directory of installed distributions: the toy package as pip installed it."""
+    site = tmp_path / "installed"
+    shutil.copytree(installed_toys["toy_learner"], site)
+    return site
+
+
+@pytest.fixture
 def toy_source(monkeypatch):
     """The toy's source importable in this process, and forgotten afterwards."""
     monkeypatch.syspath_prepend(str(TOY))
@@ -87,8 +99,9 @@ def toy_source(monkeypatch):
 
 
 def child(site: pathlib.Path, *argv) -> subprocess.CompletedProcess:
-    """`python *argv` at the repository's root, with the distributions of `site` installed."""
-    path = [str(site), str(TOY), *filter(None, [os.environ.get("PYTHONPATH")])]
+    """`python *argv` at the repository's root, with the distributions of `site` installed
+    (their packages in it)."""
+    path = [str(site), *filter(None, [os.environ.get("PYTHONPATH")])]
     return subprocess.run([sys.executable, *argv], capture_output=True, text=True, cwd=ROOT,
                           env={**os.environ, "PYTHONPATH": os.pathsep.join(path)}, timeout=900)
 
@@ -121,28 +134,28 @@ def test_bad_entry_points_are_skipped_with_one_warning_line_each(site, toy_sourc
 
 
 @pytest.mark.slow
-def test_an_installed_learner_joins_the_registry_as_lwrl_agent_is_imported(site):
+def test_an_installed_learner_joins_the_registry_as_lwrl_agent_is_imported(installed_site):
     """After lwrl's own learners; the bad entry points warn then, and `-W` makes them errors."""
-    install_wrong(site)
-    shown = child(site, "-c", "from lwrl import agent; print(*agent.LEARNER_NAMES)")
+    install_wrong(installed_site)
+    shown = child(installed_site, "-c", "from lwrl import agent; print(*agent.LEARNER_NAMES)")
     assert shown.returncode == 0, shown.stderr
     assert shown.stdout.split() == [*agent.LEARNER_NAMES, "toy"]
     assert warned_as_expected([line.split("UserWarning: ", 1)[1]
                                for line in shown.stderr.splitlines() if "UserWarning: " in line])
-    strict = child(site, "-W", f"error:{agent.ENTRY_POINT_GROUP} entry point", "-c",
+    strict = child(installed_site, "-W", f"error:{agent.ENTRY_POINT_GROUP} entry point", "-c",
                    "import lwrl.agent")
     assert strict.returncode == 1
     assert "UserWarning: lwrl.learners entry point 'broken" in strict.stderr
 
 
 @pytest.mark.slow
-def test_lwrl_train_and_eval_run_the_installed_learner(site, tmp_path):
+def test_lwrl_train_and_eval_run_the_installed_learner(installed_site, tmp_path):
     """`lwrl train --learner toy` (with a flag of the toy's own settings) writes what every
     run writes, and `lwrl eval` runs the agents it saved."""
     out, saved = tmp_path / "run", tmp_path / "agents.npz"
-    trained = child(site, "-m", "lwrl.cli", "train", "mountain_car.cost_to_go", "--learner", "toy",
-                    "--cells", "5", "--agents", "2", "--episodes", "2", "--out", str(out),
-                    "--save", str(saved))
+    trained = child(installed_site, "-m", "lwrl.cli", "train", "mountain_car.cost_to_go",
+                    "--learner", "toy", "--cells", "5", "--agents", "2", "--episodes", "2",
+                    "--out", str(out), "--save", str(saved))
     assert trained.returncode == 0, trained.stderr
     assert "toy tabular Sarsa(0) over 5^2 cells" in trained.stdout
     config = json.loads((out / "config.json").read_text())
@@ -151,18 +164,18 @@ def test_lwrl_train_and_eval_run_the_installed_learner(site, tmp_path):
     with open(out / "episodes.csv") as file:
         rows = list(csv.DictReader(file))
     assert len(rows) == 4 and {"agent", "episode", "steps", "return"} <= set(rows[0])
-    evaluated = child(site, "-m", "lwrl.cli", "eval", str(saved), "--episodes", "1")
+    evaluated = child(installed_site, "-m", "lwrl.cli", "eval", str(saved), "--episodes", "1")
     assert evaluated.returncode == 0, evaluated.stderr
     assert "2 saved agents, greedy" in evaluated.stdout
 
 
 @pytest.mark.slow
-def test_the_contract_tests_hold_the_installed_learner(site):
+def test_the_contract_tests_hold_the_installed_learner(installed_site):
     """tests/test_learners.py parametrises over the registry as it collects: with the toy
     installed, each of its checks over (learner, task) takes the toy on every task, and its
     checks of the registry take it too."""
-    ran = child(site, "-m", "pytest", "tests/test_learners.py", "-v", "-p", "no:cacheprovider",
-                "-k", "toy or registry_names or settings_shared")
+    ran = child(installed_site, "-m", "pytest", "tests/test_learners.py", "-v", "-p",
+                "no:cacheprovider", "-k", "toy or registry_names or settings_shared")
     assert ran.returncode == 0, ran.stdout[-3000:]
     toy = [line.split("::")[1] for line in ran.stdout.splitlines() if "[toy-" in line]
     assert toy and all(" PASSED" in line for line in toy)

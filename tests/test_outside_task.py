@@ -7,10 +7,13 @@ Gymnasium's checker passes it, and the contract tests of the suite hold it; a ba
 is skipped with one warning line.
 
 Installed as tests/test_outside_learner.py installs its toy (its `install` and `child` are
-these): a `.dist-info` directory (METADATA, entry_points.txt) in a directory on `sys.path`,
-with the package copied beside it, as an installer puts it. The checks of an installed
-domain run in child processes: the registry is made once, as `lwrl.tasks` is imported, and
-read then by other modules (the commands' task choices, the Gymnasium ids).
+these): really, by pip (`installed_toys`, tests/conftest.py), for the checks that run lwrl
+with it; by hand for the check of the entry points in this process and the distribution of
+bad entry points beside it: a `.dist-info` directory (METADATA, entry_points.txt) in a
+directory on `sys.path`, with the package copied beside it, as an installer puts it. The
+checks of an installed domain run in child processes: the registry is made once, as
+`lwrl.tasks` is imported, and read then by other modules (the commands' task choices, the
+Gymnasium ids).
 """
 
 import csv
@@ -98,6 +101,14 @@ def site(tmp_path) -> pathlib.Path:
 
 
 @pytest.fixture
+def installed_site(installed_toys, tmp_path) -> pathlib.Path:
+    """A directory of installed distributions: the toy package as pip installed it."""
+    site = tmp_path / "installed"
+    shutil.copytree(installed_toys["toy_task"], site)
+    return site
+
+
+@pytest.fixture
 def importable(site, monkeypatch):
     """The site's modules importable in this process, and forgotten afterwards."""
     monkeypatch.syspath_prepend(str(site))
@@ -121,11 +132,11 @@ def test_bad_entry_points_are_skipped_with_one_warning_line_each(site, importabl
 
 
 @pytest.mark.slow
-def test_an_installed_domain_joins_the_registry_as_lwrl_tasks_is_imported(site):
+def test_an_installed_domain_joins_the_registry_as_lwrl_tasks_is_imported(installed_site):
     """After lwrl's own domains, with its task and plants; the bad entry points warn then,
     and `-W` makes them errors."""
-    install_wrong(site)
-    shown = child(site, "-c", "from lwrl import tasks; print(*tasks.TASK_NAMES); "
+    install_wrong(installed_site)
+    shown = child(installed_site, "-c", "from lwrl import tasks; print(*tasks.TASK_NAMES); "
                               "print(*tasks.PLANTS['toy_mass'])")
     assert shown.returncode == 0, shown.stderr
     assert [line.split() for line in shown.stdout.splitlines()] == [
@@ -133,7 +144,7 @@ def test_an_installed_domain_joins_the_registry_as_lwrl_tasks_is_imported(site):
     assert warned_as_expected([line.split("UserWarning: ", 1)[1]
                                for line in shown.stderr.splitlines() if "UserWarning: " in line],
                               tasks.ENTRY_POINT_GROUP, WRONG)
-    strict = child(site, "-W", f"error:{tasks.ENTRY_POINT_GROUP} entry point", "-c",
+    strict = child(installed_site, "-W", f"error:{tasks.ENTRY_POINT_GROUP} entry point", "-c",
                    "import lwrl.tasks")
     assert strict.returncode == 1
     assert "UserWarning: lwrl.tasks entry point 'broken" in strict.stderr
@@ -153,14 +164,14 @@ def toy_model() -> mujoco.MjModel:
 
 
 @pytest.mark.slow
-def test_lwrl_train_and_eval_run_the_installed_task(site, tmp_path):
+def test_lwrl_train_and_eval_run_the_installed_task(installed_site, tmp_path):
     """`lwrl train toy_mass.reach` on its default plant, MuJoCo (the compiled loop stepping
     the toy's model), writes what every run writes, and `lwrl eval` runs the agents it
     saved; on the analytic plant with continuous actions (`actor_critic`), `--rrd` records
     its episodes with the viewer's scene drawn from the toy's own MJCF model, the mass moving
     with the recorded positions."""
     out, saved, recording = tmp_path / "run", tmp_path / "agents.npz", tmp_path / "run.rrd"
-    trained = child(site, "-m", "lwrl.cli", "train", "toy_mass.reach", "--agents", "2",
+    trained = child(installed_site, "-m", "lwrl.cli", "train", "toy_mass.reach", "--agents", "2",
                     "--episodes", "3", "--out", str(out), "--save", str(saved))
     assert trained.returncode == 0, trained.stderr
     assert "toy_mass.reach on the mujoco plant: 2 agents" in trained.stdout
@@ -170,13 +181,13 @@ def test_lwrl_train_and_eval_run_the_installed_task(site, tmp_path):
     with open(out / "episodes.csv") as file:
         rows = list(csv.DictReader(file))
     assert len(rows) == 6 and all(1 <= float(row["steps"]) <= 200 for row in rows)
-    evaluated = child(site, "-m", "lwrl.cli", "eval", str(saved), "--episodes", "1")
+    evaluated = child(installed_site, "-m", "lwrl.cli", "eval", str(saved), "--episodes", "1")
     assert evaluated.returncode == 0, evaluated.stderr
     assert "toy_mass.reach on the mujoco plant: 2 saved agents, greedy" in evaluated.stdout
 
-    recorded = child(site, "-m", "lwrl.cli", "train", "toy_mass.reach", "--plant", "analytic",
-                     "--learner", "actor_critic", "--action-kind", "continuous", "--agents", "1",
-                     "--episodes", "2", "--rrd", str(recording))
+    recorded = child(installed_site, "-m", "lwrl.cli", "train", "toy_mass.reach", "--plant",
+                     "analytic", "--learner", "actor_critic", "--action-kind", "continuous",
+                     "--agents", "1", "--episodes", "2", "--rrd", str(recording))
     assert recorded.returncode == 0, recorded.stderr
     chunks = read_chunks(recording)
     model = toy_model()
@@ -213,19 +224,19 @@ for ask in (lambda: device.plant_header("toy_mass.reach"),
 
 
 @pytest.mark.slow
-def test_what_the_toy_brings_no_facts_for_is_refused_in_one_line(site, tmp_path):
+def test_what_the_toy_brings_no_facts_for_is_refused_in_one_line(installed_site, tmp_path):
     """The toy is a spec and its physics: the device programs' plant in C, the benchmark's
     classical controller, the robustness axes and the plant comparison's tolerances are
     each asked for and refused in one line naming the entry-point group to add one under;
     the command exits with status 2."""
-    asked = child(site, "-c", LACKS)
+    asked = child(installed_site, "-c", LACKS)
     assert asked.returncode == 0, asked.stderr
     groups = ["lwrl.c_plants", "lwrl.classical", "lwrl.robustness"]
     lines = asked.stdout.splitlines()
     assert len(lines) == len(groups)
     for line, group in zip(lines, groups):
         assert "'toy_mass'" in line and f"of the group '{group}'" in line
-    compared = child(site, "-m", "lwrl.cli", "compare", "toy_mass.reach", "--out",
+    compared = child(installed_site, "-m", "lwrl.cli", "compare", "toy_mass.reach", "--out",
                      str(tmp_path / "compare"))
     assert compared.returncode == 2 and not compared.stdout.strip(), compared.stdout
     assert "of the group 'lwrl.plant_comparisons'" in compared.stderr
@@ -256,11 +267,11 @@ for id_ in ids:
 
 
 @pytest.mark.slow
-def test_gymnasium_registers_the_installed_task_and_its_checker_passes_it(site):
+def test_gymnasium_registers_the_installed_task_and_its_checker_passes_it(installed_site):
     """`import lwrl.gym` registers `lwrl/toy_mass-reach-{plant}-v0` (and the continuous
     ids) for its dm_env environments' plants, and `check_env` passes each, warning only
     that the velocity's bound is infinite, as it is."""
-    ran = child(site, "-c", GYMNASIUM)
+    ran = child(installed_site, "-c", GYMNASIUM)
     assert ran.returncode == 0, ran.stderr
     lines = ran.stdout.splitlines()
     assert lines[0].split() == IDS
@@ -290,13 +301,13 @@ def runnable(files) -> list:
 
 
 @pytest.mark.slow
-def test_the_contract_tests_hold_the_installed_task(site):
+def test_the_contract_tests_hold_the_installed_task(installed_site):
     """The contract's test files (`CONTRACT`) parametrise over the registry as they collect:
     with the toy installed, each of their checks over domains, tasks or plants takes the toy
     too (on the learners of `LEARNERS`), and passes, or is skipped where this machine cannot
     run it (headless OpenGL)."""
     learners = " or ".join(f"[{learner}-toy_mass" for learner in LEARNERS)
-    ran = child(site, "-m", "pytest", *(f"tests/{name}" for name in CONTRACT), "-v",
+    ran = child(installed_site, "-m", "pytest", *(f"tests/{name}" for name in CONTRACT), "-v",
                 "-p", "no:cacheprovider", "-k", f"toy_mass and (not test_learners or {learners})",
                 *(f"--deselect={test}" for test in NOT_CONTRACT))
     assert ran.returncode == 0, ran.stdout[-3000:]

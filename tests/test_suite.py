@@ -1,106 +1,35 @@
-"""The suite's contract, checked over every task and plant (SPEC.md, tasks 1-3)."""
+"""The suite's contract, checked over every task and plant (SPEC.md, tasks 1-3) through the
+checks lwrl ships (`lwrl.testing`); what is about lwrl's own domains (their names and options
+refused) and the compiled loops' transition stay here."""
 
-import math
+import dataclasses
 
-import dm_env
 import numba
 import numpy as np
 import pytest
-from dm_env import specs
 
-from lwrl import tasks
+from lwrl import tasks, testing
 from conftest import off_nominal
 
 
-
-def random_episode_steps(env, rng, max_steps):
-    """Step with random actions until LAST or `max_steps`; return the time steps."""
-    steps = [env.reset()]
-    while not steps[-1].last() and len(steps) <= max_steps:
-        steps.append(env.step(int(rng.integers(env.action_spec().num_values))))
-    return steps
-
-
 def test_spec_conformance(task_plant):
-    """Actions are a DiscreteArray mapping index i to the i-th control in ascending order;
-    observations are the state variables, one float64 scalar each, matching their specs."""
-    domain, task, plant = task_plant
-    env = tasks.load(domain, task, plant=plant, seed=0)
-    action_spec = env.action_spec()
-    definition = tasks.definition(domain, task)
-    assert isinstance(action_spec, specs.DiscreteArray)
-    assert env.task.definition.controls == definition.controls
-    assert action_spec.num_values == len(definition.controls)
-    assert list(definition.controls) == sorted(definition.controls)
-    observation_spec = env.observation_spec()
-    assert tuple(observation_spec) == definition.state_names
-    for ts in random_episode_steps(env, np.random.default_rng(0), 50):
-        assert tuple(ts.observation) == definition.state_names
-        for name, value in ts.observation.items():
-            observation_spec[name].validate(value)
-        if not ts.first():
-            assert isinstance(ts.reward, float) and math.isfinite(ts.reward)
-            assert ts.discount in (0.0, 1.0)
+    testing.check_task_spec(*task_plant)
 
 
 def test_each_action_applies_its_control(task_plant):
-    """Action i sets the plant's control to the i-th force or torque."""
-    domain, task, plant = task_plant
-    env = tasks.load(domain, task, plant=plant, seed=0)
-    for index, control in enumerate(tasks.definition(domain, task).controls):
-        env.reset()
-        env.step(index)
-        applied = (env.physics.named.data.ctrl[env.physics.ACTUATOR] if plant == "mujoco"
-                   else env.physics._control[0])
-        assert applied == control
+    testing.check_task_actions_apply_controls(*task_plant)
 
 
 def test_deterministic_for_a_seed(task_plant):
-    """The same seed and actions give the same time steps."""
-    domain, task, plant = task_plant
-
-    def trajectory(seed):
-        env = tasks.load(domain, task, plant=plant, seed=seed)
-        rng = np.random.default_rng(1)
-        steps = []
-        for _ in range(3):
-            steps += random_episode_steps(env, rng, 40)
-        return [(int(ts.step_type), ts.reward, ts.discount, tuple(ts.observation.values()))
-                for ts in steps]
-
-    assert trajectory(7) == trajectory(7)
+    testing.check_task_deterministic(*task_plant)
 
 
 def test_starts_are_the_tasks_and_follow_the_seed(task_plant):
-    """Every start is one of the task's own (`initial_states`, within its bounds), the same
-    for the same seed; random starts differ between episodes and between seeds (each
-    domain's test file checks its distribution against the paper)."""
-    domain, task, plant = task_plant
-    definition = tasks.definition(domain, task)
-    starts = [np.array(list(tasks.load(domain, task, plant=plant, seed=seed).reset().observation.values()))
-              for seed in (3, 3, 4)]
-    env = tasks.load(domain, task, plant=plant, seed=3)
-    episodes = np.array([list(env.reset().observation.values()) for _ in range(20)])
-    low, high = definition.bounds
-    assert np.all(episodes >= low) and np.all(episodes <= high)
-    np.testing.assert_array_equal(starts[0], starts[1])
-    if len(np.unique(episodes, axis=0)) > 1:  # the task's starts are random
-        assert not np.array_equal(starts[0], starts[2])
-        assert len(np.unique(episodes, axis=0)) == len(episodes)
+    testing.check_task_starts(*task_plant)
 
 
 def test_time_limits_truncate(task_plant):
-    """A time limit of 5 control steps ends an episode that reaches no terminal state in them
-    with discount 1 (a truncation) on the fifth step, and the next step starts another."""
-    domain, task, plant = task_plant
-    definition = tasks.definition(domain, task)
-    env = tasks.load(domain, task, plant=plant, seed=0, time_limit=5 * definition.control_timestep)
-    assert env.task.definition.step_limit == 5
-    env.reset()
-    steps = [env.step(i % 2) for i in range(5)]
-    assert [ts.step_type for ts in steps] == [dm_env.StepType.MID] * 4 + [dm_env.StepType.LAST]
-    assert steps[-1].discount == 1.0
-    assert env.step(0).first()
+    testing.check_task_time_limit(*task_plant)
 
 
 @pytest.mark.parametrize("call, message", [
@@ -121,29 +50,16 @@ def test_bad_names_and_options_say_what_is_allowed(call, message):
         call()
 
 
-@pytest.mark.parametrize("action", [-1, "num_actions", 1.5, "1", np.array([0, 1]), None])
-def test_bad_action_is_refused(task_plant, action):
+def test_bad_action_is_refused(task_plant):
     """An action index out of range, or not one integer, raises naming the allowed range."""
-    domain, task, plant = task_plant
-    env = tasks.load(domain, task, plant=plant)
-    env.reset()
-    num_actions = env.action_spec().num_values
-    if isinstance(action, str) and action == "num_actions":
-        action = num_actions
-    with pytest.raises(ValueError, match=f"action must be .*integer index in 0..{num_actions - 1}"):
-        env.step(action)
+    testing.check_task_refuses_bad_actions(*task_plant)
 
 
 def test_nan_state_is_refused(task_plant):
-    """A NaN given to a plant raises, naming the state variables."""
-    domain, task, plant = task_plant
-    env = tasks.load(domain, task, plant=plant)
-    env.reset()
-    names = tasks.definition(domain, task).state_names
-    state = np.zeros(len(names))
-    state[-1] = np.nan
-    with pytest.raises(ValueError, match=f"state must be finite.*{names[-1]}"):
-        env.physics.set_state_vector(state)
+    """A NaN given to a plant raises, naming the state variables; a state of the wrong length
+    says how many entries the pendulum's has."""
+    _, _, plant = task_plant
+    testing.check_task_refuses_nan_state(*task_plant)
     with pytest.raises(ValueError, match="2 entries"):
         tasks.load("pendulum", "swingup", plant=plant if plant in tasks.PLANTS["pendulum"] else "analytic"
                    ).physics.set_state_vector([0.0, 0.0, 0.0])
@@ -186,3 +102,32 @@ def test_transition_is_the_plant_step_and_the_task(domain, task, integrator, equ
         assert (reward, terminal) == (outcomes[0][i], outcomes[1][i])
         if definition.has_uptime:
             assert up == outcomes[2][i]
+
+def test_a_broken_contract_is_one_line_naming_the_domain_the_task_and_the_check(monkeypatch):
+    """A task whose plant takes a NaN state breaks the contract: the check says so in one line
+    naming the domain, the task, the plant and the check; a domain that is not the registry's
+    is refused as such."""
+    domain, task, plant = "mountain_car", "cost_to_go", "analytic"
+    env = tasks.load(domain, task, plant=plant)
+    monkeypatch.setattr(type(env.physics), "set_state_vector", lambda physics, state: None)
+    with pytest.raises(testing.ContractError) as error:
+        testing.check_task_refuses_nan_state(domain, task, plant)
+    assert str(error.value) == (f"domain {domain!r}, task {task!r} on the {plant} plant: "
+                                f"check_task_refuses_nan_state: a NaN state is taken")
+    stranger = dataclasses.replace(tasks.domain(domain))
+    with pytest.raises(testing.ContractError, match="not in lwrl's registry; declare its DOMAIN "
+                                                    "under the entry-point group 'lwrl.tasks'"):
+        testing.check_domain(stranger)
+
+
+def test_check_domain_runs_every_check_on_every_task_and_plant(monkeypatch):
+    """`check_domain` checks the declaration, then each task on each plant of a single
+    environment with each of `TASK_CHECKS`."""
+    checks, called = testing.TASK_CHECKS, []
+    monkeypatch.setattr(testing, "TASK_CHECKS", tuple(
+        lambda *case, check=check: called.append((check.__name__, *case)) for check in checks))
+    testing.check_domain(tasks.domain("cartpole"))
+    assert called == [(check.__name__, "cartpole", task, plant)
+                      for task in tasks.domain("cartpole").tasks
+                      for plant in tasks.ENVIRONMENT_PLANTS["cartpole"] for check in checks]
+    assert len(checks) == 9

@@ -80,22 +80,43 @@ def test_site_packages_gains_lwrl_only(installed):
     assert added == {"lwrl", wheel.name.split("-py")[0] + ".dist-info"}, added
 
 
-def test_the_installed_package_runs_from_another_directory(installed, tmp_path):
-    _, python, bin_dir, site, _ = installed
+def outside(*argv, cwd) -> subprocess.CompletedProcess:
+    """`argv` run in `cwd`, away from the repository: no user site, no PYTHONPATH."""
     environment = {**os.environ, "PYTHONNOUSERSITE": "1"}
     environment.pop("PYTHONPATH", None)
+    return subprocess.run([str(arg) for arg in argv], cwd=cwd, env=environment,
+                          capture_output=True, text=True, timeout=600)
+
+
+def test_the_installed_package_runs_from_another_directory(installed, tmp_path):
+    _, python, bin_dir, site, _ = installed
     code = ("import lwrl, lwrl.tasks, lwrl.models; "
             "print(lwrl.__file__); print(lwrl.models.path('cartpole')); "
             "env = lwrl.tasks.load('cartpole', 'balance', plant='mujoco', seed=0); "
             "print(env.reset().observation['pole_angle'])")
-    result = subprocess.run([str(python), "-c", code], cwd=tmp_path, env=environment,
-                            capture_output=True, text=True, timeout=300)
+    result = outside(python, "-c", code, cwd=tmp_path)
     assert result.returncode == 0, result.stderr[-2000:]
     package_file, model_path, _ = result.stdout.splitlines()
     assert pathlib.Path(package_file).is_relative_to(site)
     assert pathlib.Path(model_path).is_relative_to(site)
-    train = subprocess.run([str(bin_dir / "lwrl"), "train", "mountain_car.cost_to_go", "--agents",
-                            "2", "--episodes", "2"], cwd=tmp_path, env=environment,
-                           capture_output=True, text=True, timeout=300)
+    train = outside(bin_dir / "lwrl", "train", "mountain_car.cost_to_go", "--agents", "2",
+                    "--episodes", "2", cwd=tmp_path)
     assert train.returncode == 0, train.stderr[-2000:]
     assert "no agent diverged" in train.stdout
+
+
+def test_the_contract_checks_come_with_the_wheel(installed, tmp_path):
+    """Other packages' authors get the contract checks from the installed package
+    (`lwrl.testing`), and they run there: the default learner on the mountain car, the
+    mountain car's domain on its plants."""
+    _, python, _, site, _ = installed
+    code = ("import lwrl.testing\n"
+            "from lwrl import agent, tasks\n"
+            "from lwrl.testing import check_domain, check_learner\n"
+            "print(lwrl.testing.__file__)\n"
+            "domain = next(iter(tasks.DOMAINS))\n"
+            "check_domain(domain)\n"
+            "check_learner(agent.DEFAULT_LEARNER, [tasks.TASK_NAMES[0]])\n")
+    result = outside(python, "-c", code, cwd=tmp_path)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert pathlib.Path(result.stdout.strip()).is_relative_to(site)
