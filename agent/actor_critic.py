@@ -299,7 +299,7 @@ def cacla_update(dim: int, n: int, actions: int) -> Count:
 def arithmetic(settings, task, steps=None) -> Counts:
     """Its counted arithmetic (`Learner.arithmetic`): an NRBF grid's decision (the features
     and mu, one output) and, at every step, `cacla_update` (CMAC features not counted)."""
-    return nrbf_counts(settings, task._replace(num_actions=1), cacla_update)
+    return nrbf_counts(settings, len(task.state_names), 1, cacla_update)
 
 
 LEARNER = Learner(

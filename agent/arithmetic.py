@@ -80,15 +80,16 @@ def nrbf_decision(dim: int, n: int, actions: int) -> Count:
     return Count(sum(n ** m for m in range(1, dim + 1)) + actions * n ** dim, dim * n)
 
 
-def nrbf_counts(settings, task, update) -> Counts:
-    """A linear learner over an NRBF grid (`agent.linear`; `task` a `TaskInfo`): its greedy
-    decision (`nrbf_decision`), and at every agent-step of learning that decision for its
-    action (epsilon-greedy on Q(s', .)) and its update of one transition,
+def nrbf_counts(settings, dim: int, actions: int, update) -> Counts:
+    """A linear learner over an NRBF grid (`agent.linear`) of `dim` state variables with
+    `actions` outputs (its action values; the actor-critic's one mean): its greedy decision
+    (`nrbf_decision`), and at every agent-step of learning that decision for its action
+    (epsilon-greedy on Q(s', .)) and its update of one transition,
     `update(dim, n, actions) -> Count`: the counts do not depend on the steps. `NotCounted`
     for other feature maps."""
     if settings.features != "nrbf":
         raise NotCounted(f"{settings.features} features")
-    dim, n, actions = len(task.state_names), settings.n, task.num_actions
+    n = settings.n
     decision = nrbf_decision(dim, n, actions)
     learning = update(dim, n, actions)
     return Counts(decision, decision + learning, learning,

@@ -141,7 +141,7 @@ def sarsa_update(dim: int, n: int, actions: int) -> Count:
 def arithmetic(settings, task, steps=None) -> Counts:
     """Its counted arithmetic (`Learner.arithmetic`): an NRBF grid's greedy decision and, at
     every step, `sarsa_update` (`agent.arithmetic.nrbf_counts`; CMAC features not counted)."""
-    return nrbf_counts(settings, task, sarsa_update)
+    return nrbf_counts(settings, len(task.state_names), task.num_actions, sarsa_update)
 
 
 LEARNER = Learner(

@@ -152,7 +152,7 @@ def arithmetic(settings, task, steps=None) -> Counts:
     """Its counted arithmetic (`Learner.arithmetic`): an NRBF grid's greedy decision and, at
     every step, `true_online_update` (`agent.arithmetic.nrbf_counts`; CMAC features not
     counted)."""
-    return nrbf_counts(settings, task, true_online_update)
+    return nrbf_counts(settings, len(task.state_names), task.num_actions, true_online_update)
 
 
 LEARNER = Learner(
