@@ -58,12 +58,20 @@ def layer_norm(x):
     return (x - mean) / jnp.sqrt(var + LAYER_NORM_EPS)
 
 
+def leaky_relu(x):
+    """x where x > 0, else 0.01 x (`F.leaky_relu`), with torch's derivative at 0, the slope
+    (JAX's `jax.nn.leaky_relu` takes 1 there): the sparse initialisation zeroes every input
+    weight of a first layer of few inputs (ceil(0.9 d) = d for d <= 9), so its units start
+    at exactly 0 and the derivative there is what the first updates follow."""
+    return jnp.where(x > 0, x, LEAKY_SLOPE * x)
+
+
 def forward(layers, x):
     """The authors' networks (`StreamQ.q`, `Actor.forward`, `Critic.forward`): each hidden
     layer linear, layer-normalised, then leaky ReLU; the last layer linear. `x` float32
     `(..., d)`."""
     for w, b in layers[:-1]:
-        x = jax.nn.leaky_relu(layer_norm(x @ w + b), LEAKY_SLOPE)
+        x = leaky_relu(layer_norm(x @ w + b))
     w, b = layers[-1]
     return x @ w + b
 
