@@ -32,8 +32,8 @@ import numpy as np
 
 from lwrl.agent.jax_population import PopulationAgents, Program, masked
 from lwrl.agent.learner_contract import LearnerSettings
-from lwrl.agent.stable_baselines import check_layers
-from lwrl.settings import check_count, check_positive, check_unit_interval, setting
+from lwrl.agent.stable_baselines import check_layers, check_network
+from lwrl.settings import check_positive, check_unit_interval, setting
 
 SOURCE = ("Elsayed, Vasan & Mahmood (2024), arXiv:2410.14606; mohmdelsayed/streaming-drl at "
           "commit 407dca7")
@@ -52,7 +52,7 @@ class StreamSettings(LearnerSettings):
     """ObGD's step size alpha."""
     gamma: float = setting(0.99, per_agent=True)
     """Discount factor gamma in [0, 1]."""
-    lam: float = setting(0.8, per_agent=True)
+    lam: float = setting(0.8, flags=("--lambda",), per_agent=True)
     """Trace decay lambda in [0, 1]."""
     kappa: float = setting(2.0, per_agent=True)
     """ObGD's bound kappa (the value network's, `kappa_value`)."""
@@ -63,10 +63,7 @@ class StreamSettings(LearnerSettings):
         return list(check_layers(self.net_arch))
 
     def check(self, task) -> None:
-        check_count("timesteps", self.timesteps, 1)
-        self.layers()
-        check_positive("learning_rate", self.learning_rate)
-        check_unit_interval("gamma", self.gamma)
+        check_network(self)
         check_unit_interval("lam", self.lam)
         check_positive("kappa", self.kappa)
         if not (isinstance(self.sparsity, (int, float)) and 0.0 <= self.sparsity < 1.0):
