@@ -28,6 +28,7 @@ import dataclasses
 
 import numpy as np
 
+from lwrl.agent.arithmetic import Count, Counts
 from lwrl.agent.jax_population import PopulationAgents, Program, fits_with_jax, masked
 from lwrl.agent.learner_contract import Learner, LearnerSettings
 from lwrl.settings import check_count, check_non_negative, check_positive, setting
@@ -198,10 +199,30 @@ def memory(settings, task) -> int:
     return 8 * ((task.num_actions or 1) * dim + 5 * dim + 2 * settings.directions + 8)
 
 
+def arithmetic(settings, task, steps=None) -> Counts:
+    """Its counted arithmetic (`Learner.arithmetic`): a greedy decision is p d multiply-adds
+    (p = A scores, or the one continuous action), V2's normalisation d more; an agent-step of
+    learning adds the perturbed policy theta + nu delta (p d) and the state into V2's
+    statistics (2 d), and its share of the iteration's update (N p d for the sum, 4 b for
+    sigma_R, 2 d and d square roots for V2's scale, counted with the exponentials) counted as
+    if each of its 2N episodes took one step: an upper bound, as an episode's length is not
+    known from the shapes (the normal draws are not counted)."""
+    del steps
+    dim = len(task.state_names)
+    outputs, read = (task.num_actions or 1), (dim if settings.variant == "v2" else 0)
+    decision = Count(outputs * dim + read)
+    iteration = Count(settings.directions * outputs * dim + 4 * settings.top_directions
+                      + 2 * dim, dim)
+    update = Count(outputs * dim + 2 * dim) + iteration * (1 / (2 * settings.directions))
+    return Counts(decision, decision + update, update,
+                  f"linear policy {outputs} x {dim}, {settings.variant.upper()}, "
+                  f"{settings.directions} directions ({__name__}.arithmetic)")
+
+
 LEARNER = Learner(
     name="ars", title="Augmented Random Search (V1-t, V2-t) over a linear policy, in JAX",
     source="Mania, Guy & Recht (2018), arXiv:1803.07055, Algorithm 1; modestyachts/ARS; "
            "sb3-contrib's ARS",
     settings=ArsSettings, make=make, load=load, memory=memory, fits=fits_with_jax("ars"),
-    tuned=ZOO_SETS, population=True)
+    tuned=ZOO_SETS, population=True, arithmetic=arithmetic)
 ArsAgents.learner = LEARNER

@@ -7,7 +7,7 @@ settings, its program, its defaults."""
 
 from lwrl.agent.ars import ArsAgents, ArsSettings
 from lwrl.agent.ars import LEARNER as DISCRETE
-from lwrl.agent.ars import memory
+from lwrl.agent.ars import arithmetic, memory
 from lwrl.agent.jax_population import fits_with_jax
 from lwrl.agent.learner_contract import Learner
 from lwrl.agent.off_policy import fits_continuous
@@ -31,5 +31,5 @@ LEARNER = Learner(
     name="ars_continuous", title=DISCRETE.title + ", continuous actions", source=DISCRETE.source,
     settings=ArsSettings, make=make, load=load, memory=memory,
     fits=fits_continuous("ars_continuous", fits_with_jax("ars_continuous")),
-    actions="continuous", population=True)
+    actions="continuous", population=True, arithmetic=arithmetic)
 ArsContinuousAgents.learner = LEARNER

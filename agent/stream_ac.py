@@ -24,11 +24,12 @@ lambda 0.8, kappa 2 (critic) and 3 (actor), c_e 0.01, two hidden layers of 128, 
 
 import dataclasses
 
-from lwrl.agent.arithmetic import mlp_parameters
+from lwrl.agent.arithmetic import Count, Counts, mlp_parameters
 from lwrl.agent.jax_population import fits_with_jax
 from lwrl.agent.learner_contract import Learner
 from lwrl.agent.off_policy import fits_continuous
-from lwrl.agent.stream_agents import HYPER, SOURCE, StreamAgents, StreamSettings, stream_memory
+from lwrl.agent.stream_agents import (HYPER, SOURCE, StreamAgents, StreamSettings, network_forward,
+                                      obgd_count, observation_counts, stream_memory, trained_pass)
 from lwrl.settings import check_non_negative, check_positive, setting
 
 
@@ -142,10 +143,29 @@ def memory(settings, task) -> int:
                          dim)
 
 
+def arithmetic(settings, task, steps=None) -> Counts:
+    """Its counted arithmetic (`Learner.arithmetic`): a greedy decision normalises the
+    observation and runs the actor (`stream_agents.network_forward`); an agent-step of
+    learning adds the sample (softplus: an exponential and a logarithm), the transition
+    (`observation_counts`), V(x'), a forward and backward pass of both networks at x with
+    the log-probability and entropy (log sigma), and ObGD over every parameter, the same at
+    every step (square roots counted with the exponentials)."""
+    del steps
+    dim, layers = len(task.state_names), settings.layers()
+    actor, critic = [dim, *layers, 2], [dim, *layers, 1]
+    normalised, transition = observation_counts(dim)
+    decision = normalised + network_forward(actor)
+    update = (transition + network_forward(critic) + trained_pass(critic) + trained_pass(actor)
+              + Count(6, 1) + obgd_count(mlp_parameters(actor) + mlp_parameters(critic)))
+    return Counts(decision, decision + Count(1, 2) + update, update,
+                  f"actor {'-'.join(map(str, actor))}, critic {'-'.join(map(str, critic))}, "
+                  f"layer norm, leaky ReLU ({__name__}.arithmetic)")
+
+
 LEARNER = Learner(
     name="stream_ac", title="Stream AC(lambda) for continuous actions: streaming actor-critic "
                             "with ObGD, in JAX",
     source=SOURCE, settings=StreamAcSettings, make=make, load=load, memory=memory,
     fits=fits_continuous("stream_ac", fits_with_jax("stream_ac")), actions="continuous",
-    population=True)
+    population=True, arithmetic=arithmetic)
 StreamAcAgents.learner = LEARNER

@@ -35,6 +35,7 @@ import dataclasses
 
 import numpy as np
 
+from lwrl.agent.arithmetic import BACKWARD_MACS, Count, mlp_forward
 from lwrl.agent.jax_population import PopulationAgents, Program, masked
 from lwrl.agent.learner_contract import LearnerSettings
 from lwrl.agent.stable_baselines import check_layers, check_network
@@ -178,6 +179,36 @@ class StreamAgents(PopulationAgents):
         return Program(act=act, record=record, update=update,
                        update_due=lambda hyper, clock: clock >= 0, hyper=hyper,
                        mapped=True)
+
+
+def network_forward(sizes) -> Count:
+    """One forward pass of a streaming network of layer widths `sizes`: the MLP's
+    multiply-adds (`arithmetic.mlp_forward`), and each hidden layer's normalisation, 2 per
+    unit (the variance's square, the scaling) and one square root, counted with the
+    exponentials; leaky ReLU none."""
+    hidden = sizes[1:-1]
+    return mlp_forward(sizes, False) + Count(2 * sum(hidden), len(hidden))
+
+
+def trained_pass(sizes) -> Count:
+    """A forward and backward pass of the network (`arithmetic.BACKWARD_MACS`), the backward
+    pass reusing the forward pass's square roots."""
+    forward = network_forward(sizes)
+    return Count((1 + BACKWARD_MACS) * forward.macs, forward.exps)
+
+
+def observation_counts(dim: int) -> tuple:
+    """`(normalised, transition)`: an observation normalised, d multiply-adds and d square
+    roots; and what a transition adds beside the networks: the next observation into the
+    statistics (2 d), normalised, and the reward scaled (4 and a square root)."""
+    normalised = Count(dim, dim)
+    return normalised, normalised + Count(2 * dim + 4, 1)
+
+
+def obgd_count(parameters: int) -> Count:
+    """ObGD over `parameters` (`streaming.obgd`): the trace's decay and gradient, its L1 norm
+    and the step, 3 multiply-adds each."""
+    return Count(3 * parameters)
 
 
 def stream_memory(parameters: int, dim: int) -> int:

@@ -21,10 +21,11 @@ sparsity 0.9, epsilon 1 to 0.01 over 0.05 of 500 000 steps.
 
 import dataclasses
 
-from lwrl.agent.arithmetic import mlp_parameters
+from lwrl.agent.arithmetic import Counts, mlp_parameters
 from lwrl.agent.jax_population import fits_with_jax
 from lwrl.agent.learner_contract import Learner
-from lwrl.agent.stream_agents import HYPER, SOURCE, StreamAgents, StreamSettings, stream_memory
+from lwrl.agent.stream_agents import (HYPER, SOURCE, StreamAgents, StreamSettings, network_forward,
+                                      obgd_count, observation_counts, stream_memory, trained_pass)
 from lwrl.settings import check_unit_interval, setting
 
 
@@ -122,8 +123,26 @@ def memory(settings, task) -> int:
     return stream_memory(mlp_parameters([dim, *settings.layers(), task.num_actions]), dim)
 
 
+def arithmetic(settings, task, steps=None) -> Counts:
+    """Its counted arithmetic (`Learner.arithmetic`): a greedy decision normalises the
+    observation and runs Q's network (`stream_agents.network_forward`); an agent-step of
+    learning adds the transition (`observation_counts`), Q(x') and a forward and backward
+    pass at x, and ObGD over every parameter, the same at every step (square roots counted
+    with the exponentials)."""
+    del steps
+    dim = len(task.state_names)
+    sizes = [dim, *settings.layers(), task.num_actions]
+    normalised, transition = observation_counts(dim)
+    decision = normalised + network_forward(sizes)
+    update = (transition + network_forward(sizes) + trained_pass(sizes)
+              + obgd_count(mlp_parameters(sizes)))
+    return Counts(decision, decision + update, update,
+                  f"Q {'-'.join(map(str, sizes))}, layer norm, leaky ReLU "
+                  f"({mlp_parameters(sizes)} parameters) ({__name__}.arithmetic)")
+
+
 LEARNER = Learner(
     name="stream_q", title="Stream Q(lambda): streaming deep Q-learning with ObGD, in JAX",
     source=SOURCE, settings=StreamQSettings, make=make, load=load, memory=memory,
-    fits=fits_with_jax("stream_q"), population=True)
+    fits=fits_with_jax("stream_q"), population=True, arithmetic=arithmetic)
 StreamQAgents.learner = LEARNER

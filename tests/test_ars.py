@@ -8,7 +8,9 @@ import pytest
 
 pytest.importorskip("jax", reason="ARS needs the jax extra: pip install 'lwrl[jax]'")
 
+from lwrl import agent as learners  # noqa: E402
 from lwrl.agent import random_search, running_stats  # noqa: E402
+from lwrl.agent.arithmetic import Count  # noqa: E402
 from lwrl.agent.jax_population import jax_modules  # noqa: E402
 from lwrl.runners.config import RunConfig  # noqa: E402
 from lwrl.runners.run import run  # noqa: E402
@@ -102,3 +104,13 @@ def test_ars_learns_mountain_car():
 ])
 def test_bad_settings_are_refused_in_one_line(settings, message):
     one_line_error(lambda: config(**settings), message)
+
+
+def test_ars_counts_its_arithmetic_by_hand():
+    """Mountain-Car (3 actions x 2 variables), V2, N = b = 8: a decision is 3·2 scores and 2
+    for the normalisation; a step adds 3·2 for the perturbed policy and 2·2 for the
+    statistics, and 1/16 of the iteration's 8·6 + 4·8 + 2·2 and 2 square roots."""
+    counts = learners.learner("ars").arithmetic(config(directions=8).agent, config().task_info)
+    assert counts.decision == Count(8)
+    assert counts.update == Count(6 + 4 + 84 / 16, 2 / 16)
+    assert counts.step == counts.decision + counts.update
