@@ -228,3 +228,15 @@ def test_bad_settings_are_refused_in_one_line(setting, value, message):
 
 def test_the_continuous_learner_refuses_a_discrete_task_in_one_line():
     assert "--action-kind continuous" in learners.learner("stream_ac").fits(task_info("pendulum.swingup"))
+
+
+def test_every_observation_enters_the_statistics_once():
+    """Over a run, the observation statistics take each episode's start and each step's next
+    observation once (an observation that continues an episode is not taken again when the
+    learner acts on it), and the reward statistics each step's discounted return."""
+    config = RunConfig(task="cartpole.balance", learner="stream_q", agents=2, episodes=3, seed=4,
+                       task_options={"time_limit": 1.0})
+    agents, results = run(config)
+    steps = results.steps.sum(axis=1)
+    np.testing.assert_array_equal(agents.state["observations"]["count"], steps + 3)
+    np.testing.assert_array_equal(agents.state["rewards"]["count"], steps)
