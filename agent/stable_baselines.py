@@ -87,6 +87,15 @@ def check_layers(text) -> tuple:
     return layers
 
 
+def check_network(settings) -> None:
+    """A one-line ValueError for the first of a network learner's `timesteps`, `net_arch`,
+    `learning_rate` and `gamma` out of its range (SB3's learners', the streaming learners')."""
+    check_count("timesteps", settings.timesteps, 1)
+    check_layers(settings.net_arch)
+    check_positive("learning_rate", settings.learning_rate)
+    check_unit_interval("gamma", settings.gamma)
+
+
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class NetworkSettings(LearnerSettings):
     """What every SB3 learner takes: the learning horizon, the network and the optimiser's
@@ -109,10 +118,7 @@ class NetworkSettings(LearnerSettings):
         return list(check_layers(self.net_arch))
 
     def check(self, task) -> None:
-        check_count("timesteps", self.timesteps, 1)
-        self.layers()
-        check_positive("learning_rate", self.learning_rate)
-        check_unit_interval("gamma", self.gamma)
+        check_network(self)
 
     def schedule(self, value: float, schedules):
         """`value` as SB3 takes it: a float, or its linear schedule to 0."""
