@@ -193,7 +193,6 @@ API_NOT_YET = {
     "lwrl.agent": "the learners' settings and agents' attributes",
     "lwrl.tasks": "the domains' modules, batched stepping and the physics' accessors",
     "lwrl.tasks.batched.BatchedEnv": "its attributes and methods",
-    "lwrl.gym": "the environments' Gymnasium attributes",
 }
 """The API reference's entries whose names are not all documented yet, and which."""
 
