@@ -226,10 +226,13 @@ class SteppedEnvs:
 
     def __init__(self, envs, uptime=None):
         self.envs = list(envs)
+        """The B environments, in order."""
         if not self.envs:
             raise ValueError("envs must hold at least one environment")
         self.batch_size = len(self.envs)
+        """B, the environments."""
         self.steps = np.zeros(self.batch_size, dtype=np.int64)
+        """`(B,)` each environment's current (or just finished) episode's steps."""
         self._read_uptime = uptime
         self._ended = np.zeros(self.batch_size, dtype=bool)
 
@@ -243,6 +246,7 @@ class SteppedEnvs:
 
     @property
     def uptime(self) -> np.ndarray:
+        """`(B,)` each environment's up-time so far in seconds (NaN without `uptime`)."""
         if self._read_uptime is None:
             return np.full(self.batch_size, np.nan)
         return np.array([self._read_uptime(env) for env in self.envs], dtype=np.float64)

@@ -191,7 +191,6 @@ def test_the_404_page_links_to_the_site_s_own_files(site):
 
 API_NOT_YET = {
     "lwrl.agent": "the learners' settings and agents' attributes",
-    "lwrl.tasks": "the domains' modules, batched stepping and the physics' accessors",
 }
 """The API reference's entries whose names are not all documented yet, and which."""
 
