@@ -189,12 +189,6 @@ def test_the_404_page_links_to_the_site_s_own_files(site):
         assert target.is_file() or (target / "index.html").is_file(), f"404.html links {link}"
 
 
-API_NOT_YET = {
-    "lwrl.agent": "the learners' settings and agents' attributes",
-}
-"""The API reference's entries whose names are not all documented yet, and which."""
-
-
 def api_reference_entries() -> list[tuple[str, bool]]:
     """`(identifier, show_submodules)` of each `::: identifier` of the API reference's
     pages, the generated `lwrl` page's included."""
@@ -228,12 +222,9 @@ def shown(entry, submodules: bool):
                 yield from shown(member, submodules)
 
 
-@pytest.mark.parametrize("identifier,submodules", [
-    pytest.param(identifier, submodules, marks=[pytest.mark.xfail(
-        reason=f"not all documented yet: {API_NOT_YET[identifier]}", strict=True)]
-        if identifier in API_NOT_YET else [])
-    for identifier, submodules in api_reference_entries()])
+@pytest.mark.parametrize("identifier,submodules", api_reference_entries())
 def test_every_name_of_the_api_reference_has_a_docstring(griffe_lwrl, identifier, submodules):
+    """Each `::: identifier` of the API reference shows no name without a docstring."""
     bare = sorted({item.path for item in shown(griffe_lwrl[identifier], submodules)
                    if not (item.docstring and item.docstring.value.strip())})
     assert not bare, f"{len(bare)} names of {identifier}'s entry have no docstring: {bare}"
