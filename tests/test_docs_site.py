@@ -60,9 +60,9 @@ def slug(heading: str) -> str:
 
 
 def test_the_readme_is_a_front_page_whose_links_resolve():
-    """At most 150 lines, opening with the two commands (set up and run; set up and test: CI
-    runs the second), and every relative link and picture pointing at a file of the
-    repository, at a heading of it where the link names one."""
+    """At most 150 lines, opening with its commands (set up and run; set up and test; the
+    full suite, which CI runs), and every relative link and picture pointing at a file of
+    the repository, at a heading of it where the link names one."""
     text = README.read_text()
     lines = text.splitlines()
     assert len(lines) <= 150, f"README.md has {len(lines)} lines; the front page keeps 150"
