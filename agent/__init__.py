@@ -47,7 +47,10 @@ LEARNERS = {**_OWN, **outside_learners(
     _OWN, importlib.metadata.entry_points(group=ENTRY_POINT_GROUP))}
 """`{name: Learner}` of every learner: lwrl's own, then those of the entry points."""
 LEARNER_NAMES = tuple(LEARNERS)
+"""The names of `LEARNERS`, the default first."""
 DEFAULT_LEARNER = LEARNER_NAMES[0]
+"""The learner a run takes where it names none: the first of `LEARNERS`, `sarsa` (the
+paper's Sarsa(lambda))."""
 
 
 def learner(name: str):

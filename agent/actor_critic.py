@@ -309,4 +309,5 @@ LEARNER = Learner(
            "Främling (2008) eq. 8 and 9 for the features",
     settings=ActorCriticSettings, make=make, load=load, memory=memory, step=agent_step,
     fits=fits, actions="continuous", arithmetic=arithmetic)
+"""The `actor_critic` learner as the registry holds it (`agent.LEARNERS`)."""
 ActorCriticAgents.learner = LEARNER

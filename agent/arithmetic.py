@@ -31,7 +31,9 @@ class Count:
     """Multiply-adds and exponentials (exp, tanh, log, cos: one each)."""
 
     macs: float = 0.0
+    """Multiply-adds."""
     exps: float = 0.0
+    """Exponentials and the other transcendental functions, one each."""
 
     def __add__(self, other: "Count") -> "Count":
         return Count(self.macs + other.macs, self.exps + other.exps)
@@ -48,8 +50,11 @@ class Counts:
     and `update`, its share of the updates), with where they come from."""
 
     decision: Count
+    """One greedy decision."""
     step: Count
+    """One agent-step of learning: its action and its share of the updates."""
     update: Count
+    """One update of the learner (of one transition, or the learner's unit of update)."""
     source: str
     """The sizes counted and the function that counted them, in one line."""
 

@@ -49,6 +49,7 @@ STATE = ("cart_position", "cart_velocity", "pole_angle", "pole_angular_velocity"
 """The state the boxes read, in this order (x in m, x_dot in m/s, theta and theta_dot in rad
 and rad/s, theta = 0 upright)."""
 BOXES = 162
+"""The boxes the cart-pole's state space is cut into (Barto et al. 1983)."""
 POSITION_EDGES = (-0.8, 0.8)
 """m."""
 VELOCITY_EDGES = (-0.5, 0.5)
@@ -58,6 +59,8 @@ ANGLE_EDGES = tuple(math.radians(a) for a in (-6.0, -1.0, 0.0, 1.0, 6.0))
 ANGULAR_VELOCITY_EDGES = tuple(math.radians(a) for a in (-50.0, 50.0))
 """rad/s."""
 POLICIES = ("gaussian", "logistic")
+"""The action noise's readings (see the module): the paper's Gaussian threshold unit, or
+`pole.c`'s logistic draw."""
 
 Arrays = collections.namedtuple(
     "Arrays", "weights e xbar box action p_old streams diverged q delta "
@@ -200,7 +203,9 @@ class AseAceAgents(Agents):
         self.dim = len(STATE)
         self.settings = tuple(settings)
         self.policy = policy
+        """The action noise's reading, one of `POLICIES`, for the whole batch."""
         self.box = box
+        """The task's normalisation ranges `(low, high)`, which `value_box` gives."""
         self.arrays = Arrays(
             weights=np.zeros((batch, 2, BOXES)), e=np.zeros((batch, BOXES)),
             xbar=np.zeros((batch, BOXES)), box=np.zeros(batch, dtype=np.int64),
@@ -296,4 +301,5 @@ LEARNER = Learner(
     source="Barto, Sutton and Anderson (1983), IEEE SMC 13(5); Sutton and Anderson's pole.c",
     settings=AseAceSettings, make=make, load=load, memory=memory, step=agent_step, fits=fits,
     arithmetic=arithmetic)
+"""The `ase_ace` learner as the registry holds it (`agent.LEARNERS`)."""
 AseAceAgents.learner = LEARNER

@@ -48,6 +48,7 @@ def _cmac_features_batch(states, low, high, intervals, tilings, out):
 
 
 FEATURES_BATCH = kernel("cmac_features_batch", _cmac_features_batch)
+"""`_cmac_features_batch` compiled: the CMAC features of a batch of states."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -72,6 +73,7 @@ class CMAC(FeatureMap):
 
     @property
     def num_features(self) -> int:
+        """N = tilings (intervals + 1)^d, the tiles of every tiling."""
         return self.tilings * (self.intervals + 1) ** self.dim
 
     @property

@@ -31,6 +31,7 @@ from lwrl.agent.stable_baselines import (ModelAgents, ModelSettings, buffer_byte
 from lwrl.settings import check_count, check_positive, check_unit_interval, setting
 
 BUFFER = ("observations", "next_observations", "actions", "rewards", "dones", "timeouts")
+"""The replay buffer's arrays a saved agent keeps (SB3's `ReplayBuffer`'s)."""
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -219,6 +220,7 @@ def make(settings, task, seeds) -> DqnAgents:
 
 
 def load(document, arrays) -> DqnAgents:
+    """The agents `DqnAgents.saved` wrote (a ValueError if the parts do not fit)."""
     return DqnAgents.loaded(document, arrays, DqnSettings)
 
 
@@ -283,4 +285,5 @@ LEARNER = Learner(
     source="Mnih et al. (2015), Nature 518; Raffin et al. (2021), JMLR 22(268): stable_baselines3.DQN",
     settings=DqnSettings, make=make, load=load, memory=memory, fits=fits_when_installed("dqn"),
     tuned=ZOO_SETS, arithmetic=arithmetic)
+"""The `dqn` learner as the registry holds it (`agent.LEARNERS`)."""
 DqnAgents.learner = LEARNER

@@ -154,6 +154,7 @@ def make(settings, task, seeds) -> DqnJaxAgents:
 
 
 def load(document, arrays) -> DqnJaxAgents:
+    """The agents `DqnJaxAgents.saved` wrote (a ValueError if the parts do not fit)."""
     return DqnJaxAgents.loaded(document, arrays, DqnJaxSettings)
 
 
@@ -171,4 +172,5 @@ LEARNER = Learner(
            "stable_baselines3.DQN, in JAX as PureJaxRL (Lu et al. 2022)",
     settings=DqnJaxSettings, make=make, load=load, memory=memory,
     fits=fits_with_jax("dqn_jax"), tuned=ZOO_SETS, population=True, arithmetic=arithmetic)
+"""The `dqn_jax` learner as the registry holds it (`agent.LEARNERS`)."""
 DqnJaxAgents.learner = LEARNER

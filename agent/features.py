@@ -33,7 +33,9 @@ class FeatureMap:
     `_features_rows(rows (B, d), out (B, N))`."""
 
     low: tuple
+    """Lower end of each state variable's range (task units); maps to 0."""
     high: tuple
+    """Upper end of each state variable's range (task units); maps to 1."""
     alpha_scale = 1.0
     """The factor the learner applies to alpha (the CMAC may divide it by its tilings)."""
 

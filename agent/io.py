@@ -22,6 +22,7 @@ from lwrl import agent as learners
 from lwrl.outputs import atomic_write
 
 FORMAT = "lwrl-agent/2"
+"""The format `save` writes, named in the saved document."""
 FORMATS = (FORMAT, "lwrl-agent/1")
 """The formats `load` reads: this one, and the first (Sarsa(lambda) agents only)."""
 

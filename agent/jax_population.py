@@ -46,12 +46,14 @@ import numpy as np
 from lwrl.agent.learner_contract import Agents
 
 EXTRA = "pip install 'lwrl[jax]'"
+"""How to install JAX, named where a population learner needs it."""
 PopulationArrays = collections.namedtuple("PopulationArrays", "q delta diverged weights")
 """What the loops read of a population (`Agents.arrays`): `q` and `delta` are not kept per
 step (zeros and NaN), `weights` what the agents have learned, flattened."""
 
 
 def missing_jax() -> bool:
+    """True where JAX is not installed (the population learners then fit no task)."""
     return importlib.util.find_spec("jax") is None
 
 
@@ -290,8 +292,12 @@ class Program:
     """A population learner's pure functions and the batch's settings (see the module)."""
 
     act: Any
+    """`act(state, observation, key, hyper, greedy, clock) -> (action, extras)`."""
     record: Any
+    """`record(state, extras, observation, action, reward, terminated, truncated,
+    final_observation, hyper, clock, write) -> state`: the transition just taken."""
     update: Any
+    """`update(state, next_observation, next_start, hyper, clock, due) -> state`."""
     update_due: Any
     """`update_due(hyper, clock)`: True after the agent's step `clock` (its steps of
     learning, counted from 0) where an update follows, e.g. the step that fills a rollout."""
@@ -345,13 +351,16 @@ class PopulationAgents(Agents):
         self.jax, self.jnp = jax_modules()
         self.settings, self.task = tuple(settings), task
         self.seeds = [int(seed) for seed in seeds]
+        """The agents' seeds, one each: their keys' and starts' streams."""
         if len(self.settings) != len(self.seeds):
             raise ValueError(f"{len(self.settings)} settings for {len(self.seeds)} seeds")
         self.check_batchable()
         self.dim = len(task.state_names)
         keys = self.jax.vmap(self.jax.random.PRNGKey)(self.jnp.asarray(self.seeds, self.jnp.uint32))
         self.state = initialiser(self)(keys)
+        """The agents' state: a pytree of JAX arrays with a leading axis B."""
         self.clocks = np.zeros(len(self.seeds), dtype=np.int64)
+        """`(B,)` each agent's steps of learning so far."""
         self._greedy = None  # the jitted greedy act of `step`, made at its first call
         batch = len(self.seeds)
         self.arrays = PopulationArrays(q=np.zeros((batch, task.num_actions or 1)),
@@ -392,13 +401,16 @@ class PopulationAgents(Agents):
         return ()
 
     def initial_state(self, key):
+        """One agent's state, from its JAX `key` (`initialiser` maps it over the batch)."""
         raise NotImplementedError
 
     def program(self) -> Program:
+        """The learner's pure functions and the batch's settings (`Program`)."""
         raise NotImplementedError
 
     @staticmethod
     def weight_tree(state):
+        """The leaves of `state` that are what the agents have learned (their weights)."""
         raise NotImplementedError
 
     def snapshot(self) -> "PopulationAgents":
@@ -475,6 +487,8 @@ class PopulationAgents(Agents):
 
     @classmethod
     def loaded(cls, document, arrays, settings_class):
+        """The agents `saved` wrote, their settings of `settings_class` (a ValueError if the
+        parts do not fit)."""
         from lwrl.agent.learner_contract import TaskInfo
         task = TaskInfo(**{k: tuple(v) if isinstance(v, list) else v
                            for k, v in document["task"].items()})

@@ -144,6 +144,7 @@ class Agents:
     `arrays` and implement `step`; the others have defaults a learner may override."""
 
     learner: Learner
+    """The learner whose agents these are (its `LEARNER`)."""
     arrays: Any
     """A namedtuple of arrays with a leading axis B, with at least `q`, `delta`, `diverged`
     and `weights` (see the module's docstring)."""
@@ -154,10 +155,12 @@ class Agents:
 
     @property
     def batch_size(self) -> int:
+        """B, the agents."""
         return len(self.arrays.diverged)
 
     @property
     def num_actions(self) -> int:
+        """The actions whose values `arrays.q` holds (1 for continuous actions)."""
         return self.arrays.q.shape[1]
 
     @property

@@ -36,6 +36,7 @@ from lwrl.settings import (LATE, check_count, check_positive, check_unit_interva
 FEATURE_MAPS = {"nrbf": NRBF, "cmac": CMAC}
 """The feature maps by name: the paper's network and the tile-coding baseline."""
 CENTROID_PLACEMENTS = ("midpoints", "edges")
+"""Where the NRBF centroids sit in each dimension (`LinearSettings.centroids`)."""
 _NRBF, _CMAC = 0, 1
 
 FeatureSpec = collections.namedtuple("FeatureSpec", "kind low high n r2 tilings")

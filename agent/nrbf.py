@@ -143,6 +143,7 @@ def _nrbf_features_batch(states, low, high, n, r2, out, scratch):
 
 
 FEATURES_BATCH = kernel("nrbf_features_batch", _nrbf_features_batch)
+"""`_nrbf_features_batch` compiled: the NRBF features of a batch of states."""
 
 
 @dataclasses.dataclass(frozen=True)

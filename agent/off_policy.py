@@ -33,6 +33,7 @@ from lwrl.agent.stable_baselines import (ModelAgents, NetworkSettings, buffer_by
 from lwrl.settings import check_count, check_positive, check_unit_interval, setting
 
 BUFFER = ("observations", "next_observations", "actions", "rewards", "dones", "timeouts")
+"""The replay buffer's arrays a saved agent keeps (SB3's `ReplayBuffer`'s)."""
 ZOO = ("DLR-RM/rl-baselines3-zoo, hyperparams/sac.yml and hyperparams/td3.yml (Pendulum-v1) at "
        "commit 22e3ff2450fd92033f7f032915e1f64894a09584")
 """Where the learners' defaults come from (as `stable_baselines.ZOO`): the zoo's Pendulum-v1

@@ -34,6 +34,7 @@ from lwrl.agent.stable_baselines import (ModelAgents, ModelSettings, buffer_byte
 from lwrl.settings import check_count, check_positive, check_unit_interval, setting
 
 BUFFER = ("observations", "actions", "rewards", "episode_starts", "values", "log_probs")
+"""The rollout buffer's arrays a saved agent keeps (SB3's `RolloutBuffer`'s)."""
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -223,6 +224,7 @@ def make(settings, task, seeds) -> PpoAgents:
 
 
 def load(document, arrays) -> PpoAgents:
+    """The agents `PpoAgents.saved` wrote (a ValueError if the parts do not fit)."""
     return PpoAgents.loaded(document, arrays, PpoSettings)
 
 
@@ -285,4 +287,5 @@ LEARNER = Learner(
            "stable_baselines3.PPO",
     settings=PpoSettings, make=make, load=load, memory=memory, fits=fits_when_installed("ppo"),
     tuned=ZOO_SETS, arithmetic=arithmetic)
+"""The `ppo` learner as the registry holds it (`agent.LEARNERS`)."""
 PpoAgents.learner = LEARNER

@@ -202,6 +202,7 @@ def make(settings, task, seeds) -> PpoJaxAgents:
 
 
 def load(document, arrays) -> PpoJaxAgents:
+    """The agents `PpoJaxAgents.saved` wrote (a ValueError if the parts do not fit)."""
     return PpoJaxAgents.loaded(document, arrays, PpoJaxSettings)
 
 
@@ -219,4 +220,5 @@ LEARNER = Learner(
            "stable_baselines3.PPO, in JAX as PureJaxRL (Lu et al. 2022)",
     settings=PpoJaxSettings, make=make, load=load, memory=memory,
     fits=fits_with_jax("ppo_jax"), tuned=ZOO_SETS, population=True, arithmetic=arithmetic)
+"""The `ppo_jax` learner as the registry holds it (`agent.LEARNERS`)."""
 PpoJaxAgents.learner = LEARNER

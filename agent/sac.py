@@ -97,6 +97,7 @@ def make(settings, task, seeds) -> SacAgents:
 
 
 def load(document, arrays) -> SacAgents:
+    """The agents `SacAgents.saved` wrote (a ValueError if the parts do not fit)."""
     return SacAgents.loaded(document, arrays, SacSettings)
 
 
@@ -137,4 +138,5 @@ LEARNER = Learner(
            "stable_baselines3.SAC",
     settings=SacSettings, make=make, load=load, memory=memory, fits=fits_continuous("sac"),
     actions="continuous", arithmetic=arithmetic)
+"""The `sac` learner as the registry holds it (`agent.LEARNERS`)."""
 SacAgents.learner = LEARNER

@@ -129,6 +129,7 @@ def make(settings, task, seeds) -> SacJaxAgents:
 
 
 def load(document, arrays) -> SacJaxAgents:
+    """The agents `SacJaxAgents.saved` wrote (a ValueError if the parts do not fit)."""
     return SacJaxAgents.loaded(document, arrays, SacSettings)
 
 
@@ -145,4 +146,5 @@ LEARNER = Learner(
     settings=SacSettings, make=make, load=load, memory=memory,
     fits=fits_continuous("sac_jax", fits_with_jax("sac_jax")), actions="continuous",
     population=True, arithmetic=arithmetic)
+"""The `sac_jax` learner as the registry holds it (`agent.LEARNERS`)."""
 SacJaxAgents.learner = LEARNER

@@ -149,4 +149,5 @@ LEARNER = Learner(
     source="Främling (2008), eq. 1, 2, 5, 6 and 9; Singh and Sutton (1996) for the CMAC",
     settings=SarsaSettings, make=make, load=load, memory=linear_memory, step=agent_step,
     arithmetic=arithmetic)
+"""The `sarsa` learner as the registry holds it (`agent.LEARNERS`)."""
 BatchedSarsa.learner = LEARNER

@@ -54,8 +54,9 @@ environments become one environment with a rollout of `n_envs x n_steps` transit
 zoo's `normalize: true` (VecNormalize, for PPO on MountainCar and Acrobot) has no
 counterpart here and is left out."""
 LIBRARIES = ("torch", "stable_baselines3")
+"""The libraries the learners of Stable-Baselines3 need."""
 EXTRA = "pip install 'lwrl[baselines]'"
-ACTIVATIONS = ("relu", "tanh")
+"""How to install them, named where one is missing."""
 
 
 def missing_libraries() -> list:
@@ -115,6 +116,7 @@ class NetworkSettings(LearnerSettings):
     """Discount factor gamma in [0, 1]."""
 
     def layers(self) -> list:
+        """The hidden layers' widths of `net_arch`, checked."""
         return list(check_layers(self.net_arch))
 
     def check(self, task) -> None:
@@ -222,7 +224,9 @@ class RandomStates:
     def __init__(self, torch, space):
         self.torch, self.space = torch, space
         self.numpy_state = np.random.get_state()
+        """NumPy's global generator's state of this agent, while another owns the globals."""
         self.torch_state = torch.get_rng_state()
+        """PyTorch's default generator's state of this agent, while another owns it."""
 
     def _take_over(self) -> None:
         owner = RandomStates.owner
@@ -255,6 +259,8 @@ class RandomStates:
         return None, self.torch.get_rng_state(), None
 
     def restore(self, snapshot) -> None:
+        """Set the generators back to `snapshot`'s states (within `used`), giving back the
+        draws made since."""
         numpy_state, torch_state, space_state = snapshot
         if numpy_state is not None:
             np.random.set_state(numpy_state)
@@ -269,6 +275,7 @@ class RandomStates:
         return _rng_saved(prefix, (self.numpy_state, self.torch_state, self.space.np_random.bit_generator.state))
 
     def load(self, prefix: str, document: dict, arrays: dict) -> None:
+        """Take the states `saved` wrote under `prefix`."""
         numpy_state, torch_state, space_state = _rng_loaded(self.torch, prefix, document, arrays)
         self.numpy_state, self.torch_state = numpy_state, torch_state
         self.space.np_random.bit_generator.state = space_state
@@ -317,6 +324,8 @@ def module_state(prefix: str, module) -> dict:
 
 
 def load_module_state(torch, prefix: str, module, arrays: dict) -> None:
+    """Load `module_state`'s arrays, keyed `prefix + name`, into `module` (a ValueError
+    naming the first that is missing)."""
     names = module.state_dict().keys()
     missing = [name for name in names if prefix + name not in arrays]
     if missing:
@@ -333,6 +342,7 @@ def optimizer_state(prefix: str, optimizer) -> tuple[dict, dict]:
 
 
 def load_optimizer_state(torch, prefix: str, optimizer, groups, arrays: dict) -> None:
+    """Load `optimizer_state`'s `(groups, arrays)`, keyed from `prefix`, into `optimizer`."""
     state = {}
     for name, value in arrays.items():
         if name.startswith(prefix):
@@ -345,6 +355,7 @@ def load_optimizer_state(torch, prefix: str, optimizer, groups, arrays: dict) ->
 
 
 def parameter_count(torch, modules) -> int:
+    """The number of the modules' parameters."""
     return sum(p.numel() for module in modules for p in module.parameters())
 
 
@@ -451,8 +462,10 @@ class ModelAgents(Agents):
         self.torch, self.sb3 = torch_modules()
         self.settings = tuple(settings)
         self.task = task
+        """The task the agents learn (`TaskInfo`)."""
         self.dim, actions = len(task.state_names), task.num_actions
         self.seeds = [int(seed) for seed in seeds]
+        """The agents' seeds, one each: SB3's `seed` of each model."""
         if len(self.settings) != len(self.seeds):
             raise ValueError(f"{len(self.settings)} settings for {len(self.seeds)} seeds")
         self.models, self.states = [], []
@@ -470,6 +483,7 @@ class ModelAgents(Agents):
         self.arrays = self.Arrays(q=np.zeros((batch, actions or 1)), delta=np.full(batch, np.nan),
                                   diverged=np.zeros(batch, dtype=bool), weights=weights)
         self.own = [self._fresh(b) for b in range(batch)]
+        """Each agent's place in lwrl's loop (`_fresh`): what its next step needs."""
 
     def _weights(self, b: int) -> np.ndarray:
         return flat_parameters(self.torch, self._networks(self.models[b]))

@@ -97,6 +97,7 @@ def make(settings, task, seeds) -> Td3Agents:
 
 
 def load(document, arrays) -> Td3Agents:
+    """The agents `Td3Agents.saved` wrote (a ValueError if the parts do not fit)."""
     return Td3Agents.loaded(document, arrays, Td3Settings)
 
 
@@ -133,4 +134,5 @@ LEARNER = Learner(
            "stable_baselines3.TD3",
     settings=Td3Settings, make=make, load=load, memory=memory, fits=fits_continuous("td3"),
     actions="continuous", arithmetic=arithmetic)
+"""The `td3` learner as the registry holds it (`agent.LEARNERS`)."""
 Td3Agents.learner = LEARNER

@@ -82,6 +82,7 @@ def make(settings, task, seeds) -> Td3JaxAgents:
 
 
 def load(document, arrays) -> Td3JaxAgents:
+    """The agents `Td3JaxAgents.saved` wrote (a ValueError if the parts do not fit)."""
     return Td3JaxAgents.loaded(document, arrays, Td3Settings)
 
 
@@ -97,4 +98,5 @@ LEARNER = Learner(
     settings=Td3Settings, make=make, load=load, memory=memory,
     fits=fits_continuous("td3_jax", fits_with_jax("td3_jax")), actions="continuous",
     population=True, arithmetic=arithmetic)
+"""The `td3_jax` learner as the registry holds it (`agent.LEARNERS`)."""
 Td3JaxAgents.learner = LEARNER

@@ -160,4 +160,5 @@ LEARNER = Learner(
     source="van Seijen et al. (2016), JMLR 17(145); Sutton and Barto (2018), section 12.8",
     settings=TrueOnlineSettings, make=make, load=load, memory=linear_memory, step=agent_step,
     arithmetic=arithmetic)
+"""The `true_online_sarsa` learner as the registry holds it (`agent.LEARNERS`)."""
 TrueOnlineAgents.learner = LEARNER

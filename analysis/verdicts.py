@@ -9,9 +9,12 @@ Statist. 6:65-70).
 The aggregates across tasks, their stratified bootstrap intervals and their figures follow the
 definitions of Google's rliable 1.2.0 (the authors' library, github.com/google-research/rliable;
 each function names the file and function it follows) but are computed here on numpy and
-scipy: rliable 1.2.0 needs arch < 8, and arch 7 does not import with pandas 3 while arch 8
-dropped the `random_state` that `rliable.library.get_interval_estimates` passes it, so it
-cannot run beside lwrl's pandas.
+scipy: rliable's bootstrap (`rliable.library`) runs on arch, and rliable 1.2.0, the newest,
+needs arch < 8; arch 7 does not import with pandas 3, arch 6 and older are built against
+numpy 1, and arch 8 dropped the `random_state` that `rliable.library.get_interval_estimates`
+passes it, so it cannot run beside lwrl's pandas. `tests/test_verdicts.py` checks the point
+estimates against `rliable.metrics` (numpy and scipy only), and the intervals against
+`rliable.library` where it imports.
 
 Intervals, seeds and the confidence level are `analysis.statistics`'s (95 % percentile
 intervals, 10 000 resamples, seed 0): every number is the same each time it is computed.
@@ -23,6 +26,7 @@ from collections.abc import Mapping
 
 import numpy as np
 from scipy import stats
+from statsmodels.stats.multitest import multipletests
 
 from lwrl.analysis import statistics
 from lwrl.analysis.statistics import Estimate
@@ -110,16 +114,13 @@ def holm(p_values, alpha: float = ALPHA) -> HolmCorrection:
         p~_(i) = min(1, max_{j <= i} (m - j + 1) p_(j)),
 
     monotone in i; H_(i) is rejected iff p~_(i) <= alpha, which is Holm's procedure: reject
-    H_(1), H_(2), ... while p_(i) <= alpha / (m - i + 1), and stop at the first that is not."""
+    H_(1), H_(2), ... while p_(i) <= alpha / (m - i + 1), and stop at the first that is not.
+    Computed by statsmodels (`statsmodels.stats.multitest.multipletests`, method "holm")."""
     p = np.asarray(p_values, dtype=float)
     if p.ndim != 1 or len(p) == 0 or not np.all((p >= 0) & (p <= 1)):
         raise ValueError("holm needs a non-empty one-dimensional family of p-values in [0, 1]")
-    order = np.argsort(p, kind="stable")
-    m = len(p)
-    stepped = np.minimum(1.0, np.maximum.accumulate((m - np.arange(m)) * p[order]))
-    adjusted = np.empty(m)
-    adjusted[order] = stepped
-    return HolmCorrection(adjusted, adjusted <= alpha)
+    rejected, adjusted, _, _ = multipletests(p, alpha=alpha, method="holm")
+    return HolmCorrection(adjusted, rejected)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -236,7 +236,8 @@ def claim_outputs(args, *flags) -> None:
 
 
 def study_modules(command: str, *names) -> list:
-    """The modules `names` of a command that needs the 'paper' extra (pandas, matplotlib, scipy);
+    """The modules `names` of a command that needs the 'paper' extra (pandas, matplotlib, scipy,
+    statsmodels);
     a one-line error naming the extra where it is missing."""
     try:
         return [importlib.import_module(name) for name in names]

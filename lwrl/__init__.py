@@ -42,6 +42,7 @@ __version__ = "0.2.0"
 
 SUBPACKAGES = ("models", "tasks", "agent", "analysis", "viz", "runners", "adapters", "export",
                "studies", "cli", "gym", "kernels", "outputs", "settings", "outside")
+"""The subpackages `lwrl.NAME` imports on first use (the module's docstring says what each is)."""
 
 PUBLIC = {"RunConfig": "lwrl.runners.config", "run": "lwrl.runners.run",
           "make_agent": "lwrl.runners.run", "EpisodeResults": "lwrl.runners.episodes",

@@ -99,10 +99,15 @@ from lwrl.tasks.spaces import Discrete
 from lwrl.tasks.task_definition import check_finite_state
 
 NAMESPACE = "lwrl"
+"""The ids' namespace: `lwrl/...`."""
 VERSION = 0
+"""The ids' version: `...-v0`."""
 ENTRY_POINT = "lwrl.gym:SuiteEnv"
+"""What Gymnasium makes for an id (`gymnasium.make`)."""
 VECTOR_ENTRY_POINT = "lwrl.gym:SuiteVectorEnv"
+"""What Gymnasium makes for an id's vector environment (`gymnasium.make_vec`)."""
 RENDER_MODES = ("human", "rgb_array")
+"""The render modes of `SuiteEnv`: a window, or frames returned by `render`."""
 NO_OPENGL = ("disable", "disabled", "off", "false", "0")
 """`MUJOCO_GL` values under which MuJoCo draws nothing (lwrl.tasks sets `disable` where
 there is no display and the variable is unset)."""
@@ -180,6 +185,8 @@ class SuiteEnv(gymnasium.Env):
     """
 
     metadata = {"render_modes": list(RENDER_MODES), "render_fps": None}
+    """Gymnasium's: the render modes (an instance's: those its domain draws) and frames per
+    second (an instance's: one per control step)."""
 
     def __init__(self, domain: str, task: str, plant=None, render_mode=None,
                  actions: str = "discrete", **options):
@@ -197,21 +204,32 @@ class SuiteEnv(gymnasium.Env):
                                                             **options)  # checks
         self.domain, self.task_name, self.plant = domain, task, plant
         self.actions = definition.actions
+        """The kind of action: `discrete` (an index) or `continuous` (the control itself)."""
         self.options = dict(options)
+        """The task's options given (`tasks.load`'s keyword arguments)."""
         self.dm_env = tasks.load(domain, task, plant=plant, actions=actions, **options)
+        """The wrapped dm_env environment."""
         self.definition = definition
+        """The task's `TaskDefinition`, its options applied."""
         self.step_limit = definition.step_limit
+        """The step at which an episode is truncated (`inf` for none)."""
         self.observation_names = tuple(definition.state_names)
+        """The names of an observation's variables, in order."""
         self.render_mode = render_mode
+        """None, `human` or `rgb_array` (`RENDER_MODES`)."""
         self.metadata = {**self.metadata, "render_modes": render_modes(domain),
                          "render_fps": 1.0 / definition.control_timestep}
+        """The render modes this domain draws, and one frame per control step."""
         self._painter = painter(domain, render_mode)
         self._window = _Window(f"lwrl {domain}.{task} ({plant})", self.metadata["render_fps"]) \
             if render_mode == "human" else None
         self.task_spec = tasks.spec_of(definition)
+        """The task's `tasks.spaces.TaskSpec`, which the spaces come from."""
         self.action_space = gymnasium_space(self.task_spec.action)
+        """`Discrete(n)`, or with continuous actions the control's `Box`."""
         noisy = self.suite_task.disturbances.sigma_observation[0] > 0
         self.observation_space = gymnasium_space(self.task_spec.observation.unbounded_where(noisy))
+        """The task's observation `Box`, unbounded in the variables its sensors add noise to."""
         self._spec = None
         self._episode_over = True
         self._started = False
@@ -245,6 +263,9 @@ class SuiteEnv(gymnasium.Env):
                 "steps": self.suite_task.steps, "plant": self.plant}
 
     def reset(self, *, seed=None, options=None):
+        """Start an episode: `(observation, info)`. `seed` seeds the starts and the
+        disturbances; `options={"state": s}` starts from the state `s` instead (one line
+        where it is terminal or observes outside the observation space)."""
         super().reset(seed=seed)
         self._episode_over = True  # until this reset succeeds
         options = {} if options is None else dict(options)
@@ -280,6 +301,8 @@ class SuiteEnv(gymnasium.Env):
         return self._observation(self.suite_task.get_observation(physics))
 
     def step(self, action):
+        """Take `action`: `(observation, reward, terminated, truncated, info)`, `info` with
+        the episode's `steps`, `uptime_s` (None where the task has none) and `plant`."""
         if not self._started:
             raise RuntimeError("call reset() before step()")
         if self._episode_over:
@@ -321,6 +344,7 @@ class SuiteEnv(gymnasium.Env):
         return self._frame()
 
     def close(self):
+        """Close the window, the painter and the dm_env environment."""
         for part in (self._window, self._painter):
             if part is not None:
                 part.close()
@@ -402,6 +426,8 @@ class SuiteVectorEnv(VectorEnv):
     implements."""
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+    """Gymnasium's: the autoreset mode, no render modes, and (an instance's) frames per
+    second, one per control step."""
 
     def __init__(self, domain: str, task: str, plant=None, num_envs: int = 1,
                  autoreset_mode=AutoresetMode.NEXT_STEP, render_mode=None,
@@ -417,16 +443,25 @@ class SuiteVectorEnv(VectorEnv):
         single = SuiteEnv(domain, task, plant, actions=actions, **options)  # checks them
         self.domain, self.task_name, self.plant = single.domain, single.task_name, single.plant
         self.actions = single.actions
+        """The kind of action, `SuiteEnv.actions`."""
         self.options, self.definition = single.options, single.definition
         self.task_spec = single.task_spec
+        """The task's `tasks.spaces.TaskSpec`, `SuiteEnv.task_spec`."""
         self.single_action_space = single.action_space
+        """One copy's action space, `SuiteEnv.action_space`."""
         self.single_observation_space = single.observation_space
+        """One copy's observation space, `SuiteEnv.observation_space`."""
         single.close()
         self.num_envs = int(num_envs)
+        """The copies stepped together, B."""
         self.render_mode = None
+        """Always None: the vector environment does not render."""
         self.action_space = batch_space(self.single_action_space, self.num_envs)
+        """The copies' action spaces, batched (`MultiDiscrete`, or a `(B, 1)` Box)."""
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        """The copies' observation spaces, batched: a `(B, d)` Box."""
         self.metadata = {**self.metadata, "render_fps": 1.0 / self.definition.control_timestep}
+        """`metadata` with one frame per control step."""
         self._batched: BatchedEnv | None = None
         self._plants = np.full(self.num_envs, self.plant, dtype=object)
 
@@ -443,6 +478,9 @@ class SuiteVectorEnv(VectorEnv):
         return seeds
 
     def reset(self, *, seed=None, options=None):
+        """Start every copy's episode: `(observations (B, d), infos)`. An integer `seed`
+        seeds copy i with `seed + i`, a list one seed per copy (as `SyncVectorEnv`); no
+        reset options."""
         if options:
             raise ValueError(f"the vector environment takes no reset options; got {options!r}")
         super().reset(seed=seed if isinstance(seed, (int, np.integer)) else None)
@@ -454,6 +492,8 @@ class SuiteVectorEnv(VectorEnv):
         return np.array(time_step.observation, dtype=np.float64), self._infos(self._batched)
 
     def step(self, actions):
+        """Step every copy: `(observations, rewards, terminated, truncated, infos)`, each
+        batched; a copy whose episode ended resets on its next step (`NEXT_STEP`)."""
         if self._batched is None:
             raise RuntimeError("call reset() before step()")
         time_step = self._batched.step(actions)  # checks the actions
@@ -473,6 +513,7 @@ class SuiteVectorEnv(VectorEnv):
                 "plant": self._plants.copy(), "_plant": every.copy()}
 
     def close_extras(self, **kwargs):
+        """Drop the batched environment (`VectorEnv.close` calls this)."""
         self._batched = None
 
 

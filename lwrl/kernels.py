@@ -277,10 +277,17 @@ class Kernel:
     def __init__(self, name: str, template, bindings: dict | None = None,
                  helpers: dict | None = None, runtime: bool = True):
         self.name = name
+        """The kernel's name: its module's file name in the cache."""
         self.runtime = runtime
+        """Whether numba's runtime (NRT) is on: arrays may be made inside the kernel."""
         self.template = template
+        """The plain Python function compiled, which calls its bindings by their names."""
         self.bindings = dict(bindings or {})
+        """Global name -> function the template's body resolves that name to (e.g. the
+        task's `transition`), compiled inline."""
         self.helpers = dict(helpers or {})
+        """Global name -> function of the template's module, written into the kernel's
+        module too and compiled where it is called."""
         self._dispatcher = None
 
     @property

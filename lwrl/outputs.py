@@ -346,14 +346,19 @@ class BackgroundWriter:
 
     def __init__(self, name: str):
         self.pending: list[concurrent.futures.Future] = []
+        """The writes handed over and not yet waited for."""
         self.pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix=name)
+        """The one thread that writes, named `name`."""
 
     def submit(self, write, *args) -> None:
+        """Hand `write(*args)` over to the writing thread, first raising the error of an
+        earlier write that failed, if one is known."""
         if any(future.done() and future.exception() is not None for future in self.pending):
             self.wait()
         self.pending.append(self.pool.submit(write, *args))
 
     def wait(self) -> None:
+        """Return once everything handed over is written; raise the first error a write met."""
         pending, self.pending = self.pending, []
         concurrent.futures.wait(pending)
         for future in pending:

@@ -32,7 +32,9 @@ import types
 import numpy as np
 
 WHEN_SET = "when_set"
+"""A field's `key`: in the run key only where it departs from its default."""
 LATE = "late"
+"""A field's `key`: as `WHEN_SET`, after the protocol's fields."""
 
 
 def setting(default=None, *, choices=None, flags=None, cli=True, task_default=False,

@@ -164,6 +164,8 @@ class ProtocolSettings:
     `episodes` is then the most it runs and every learner gets the same experience."""
 
     def check_protocol(self) -> None:
+        """A one-line ValueError unless `episodes` and `agents` are at least 1, `seed` at
+        least 0 and `budget`, where given, at least 1."""
         for name in ("episodes", "agents"):
             check_count(name, getattr(self, name), 1)
         check_count("seed", self.seed, 0)
@@ -295,10 +297,12 @@ class RunConfig(LearnerChoice, ProtocolSettings, EnvironmentSettings):
 
     @property
     def domain(self) -> str:
+        """DOMAIN of the task's DOMAIN.TASK."""
         return self.task.split(".")[0]
 
     @property
     def task_name(self) -> str:
+        """TASK of the task's DOMAIN.TASK."""
         return self.task.split(".")[1]
 
     @property
@@ -331,6 +335,7 @@ class RunConfig(LearnerChoice, ProtocolSettings, EnvironmentSettings):
         return self.agent.describe(len(self.task_info.state_names))
 
     def to_json(self) -> str:
+        """Every field as indented JSON."""
         return json.dumps(dataclasses.asdict(self), indent=2)
 
     def flat_fields(self) -> list:

@@ -34,6 +34,8 @@ class EpisodeResults:
 
     @classmethod
     def empty(cls, agents: int, episodes: int) -> "EpisodeResults":
+        """Results of `agents` x `episodes` episodes not yet run: NaN steps, returns and
+        up-times, none truncated, no agent diverged (-1)."""
         nan = np.full((agents, episodes), np.nan)
         return cls(nan.copy(), nan.copy(), nan.copy(), np.zeros((agents, episodes), dtype=bool),
                    np.full(agents, -1, dtype=np.int64))

@@ -58,6 +58,7 @@ class EpisodeRecording:
 
     @property
     def steps(self) -> int:
+        """T, the episode's steps: the actions taken."""
         return len(self.actions)
 
     @property

@@ -55,11 +55,15 @@ class Resume:
 
         from lwrl.runners.store import cpu  # pandas, the sweep's: not needed to import this
         self.path = pathlib.Path(path)
+        """The `.npz` archive the state is kept in."""
         text = program.lower(template, *arguments).as_text()
         self.identity = {"run": run, "program": hashlib.sha1(text.encode()).hexdigest(),
                          "jax": jax.__version__, "jaxlib": metadata.version("jaxlib"),
                          "cpu": cpu()}
+        """What a kept state must match to be this run's: the run's key, the program's
+        digest, JAX's and jaxlib's versions and the CPU."""
         self.earlier = (0.0, 0.0)
+        """`(wall, CPU)` seconds the earlier processes spent on the run (read by `load`)."""
         self._started = (time.perf_counter(), time.process_time())
         self._saved = time.perf_counter()
 
@@ -107,4 +111,5 @@ class Resume:
         self._saved = time.perf_counter()
 
     def remove(self) -> None:
+        """Delete the kept state (the run has ended); nothing where there is none."""
         self.path.unlink(missing_ok=True)

@@ -25,6 +25,7 @@ from lwrl import outputs
 
 
 LEDGER = "compute.jsonl"
+"""The ledger's file name in a sweep's directory: a line per computed batch."""
 
 
 def compute_spent(out_dir, runs=None) -> dict:
@@ -83,12 +84,15 @@ class RunStore:
 
     def __init__(self, out_dir, keep_agents: bool = False, make: bool = True):
         self.directory = pathlib.Path(out_dir) / "runs"
+        """`out_dir/runs`, which holds a table per run."""
         if make:
             self.directory.mkdir(parents=True, exist_ok=True)
         self.keep_agents = keep_agents
+        """Whether each run's agents are kept beside its table (`agents_file`)."""
         self._claims = {}
 
     def path(self, config) -> pathlib.Path:
+        """The table of the run `config`: `runs/KEY.csv.gz`."""
         return self.directory / f"{config.key}.csv.gz"
 
     @staticmethod
@@ -103,6 +107,7 @@ class RunStore:
         return pathlib.Path(out_dir) / "runs" / f"{key}.resume.npz"
 
     def finished(self, config) -> bool:
+        """Whether the run `config` is written: its table, and its agents where kept."""
         return self.path(config).exists() and (
             not self.keep_agents or self.agents_file(self.directory.parent, config.key).exists())
 
@@ -141,6 +146,7 @@ class RunStore:
             file.write(line)
 
     def write(self, config, table: pd.DataFrame) -> None:
+        """Write the run's table whole (`lwrl.outputs.write_table`)."""
         outputs.write_table(table, self.path(config))
 
     def read(self, configs) -> pd.DataFrame:
@@ -167,11 +173,13 @@ class RunStore:
         return held is not None
 
     def release(self, batch) -> None:
+        """Release this process's claim of `batch`, where it holds one."""
         held = self._claims.pop(self._claim_path(batch), None)
         if held is not None:
             held.release()
 
     def release_all(self) -> None:
+        """Release every claim this process holds."""
         for held in self._claims.values():
             held.release()
         self._claims.clear()

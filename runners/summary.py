@@ -44,6 +44,7 @@ def block_rows(results, blocks: int = 10) -> list[dict]:
 UNDEFINED = "—"
 """What a table shows where a value is undefined (a footnote says why)."""
 HEADERS = {"steps": "steps", "return": "return", "uptime_s": "up-time (s)"}
+"""The summary's column header of each measure."""
 
 
 def plural(count: int, noun: str, nouns: str | None = None) -> str:

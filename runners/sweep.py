@@ -38,6 +38,7 @@ from lwrl.runners.run import make_agent, run
 from lwrl.runners.store import RunStore
 
 BACKENDS = ("local", "ray")
+"""Where a sweep's batches run: on threads of this process, or on a Ray cluster."""
 MAX_BATCH_AGENTS = 512
 """Agents in one batch at most. An interrupted batch is recomputed whole, so this bounds the
 work an interrupt loses; beyond a few hundred agents larger batches gain little (MuJoCo

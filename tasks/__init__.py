@@ -84,9 +84,11 @@ DOMAINS = {**_OWN, **outside_domains(
 """`{name: Domain}` of every domain of the suite: lwrl's own, then those of the entry
 points."""
 ALL_TASKS = tuple((name, task) for name, domain in DOMAINS.items() for task in domain.tasks)
+"""Every task as a `(domain, task)` pair."""
 TASK_NAMES = tuple(f"{domain}.{task}" for domain, task in ALL_TASKS)
 """Every task as DOMAIN.TASK."""
 PLANTS = {name: domain.plants.names for name, domain in DOMAINS.items()}
+"""`{domain: plants}`: the plants each domain runs on, its default first."""
 ENVIRONMENT_PLANTS = {name: domain.plants.environment_names for name, domain in DOMAINS.items()}
 """The plants of `load`'s dm_env environments per domain: `PLANTS` less the batched-only
 (`tasks.plants.BATCHED_ONLY`)."""

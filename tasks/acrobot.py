@@ -74,6 +74,7 @@ from lwrl.tasks.plants import DomainPlants
 
 STATE_NAMES = ("shoulder_angle", "shoulder_angular_velocity", "elbow_angle",
                "elbow_angular_velocity")
+"""The names of the acrobot's state variables, in the state vector's order."""
 PARAMETERS = Parameters(
     Parameter("link_mass_1", "m1", "kg", 1.0, 0.1, 10.0, "link 1's mass"),
     Parameter("link_mass_2", "m2", "kg", 1.0, 0.1, 10.0, "link 2's mass"),
@@ -324,3 +325,4 @@ DOMAIN = Domain(
                         mujoco_physics=MujocoPhysicsAcrobot, model="acrobot",
                         edit_model=edit_model, substeps=SUBSTEPS, limit=limit,
                         limit_state=limit_state))
+"""The acrobot's domain: its tasks, its plants and its physical parameters."""

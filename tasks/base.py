@@ -29,9 +29,12 @@ class SuiteTask(control.Task):
         """`randomise={name: (low, high)}` draws those of the domain's `parameters` anew for
         each episode (`tasks.randomisation`), from a stream of `seed`."""
         self.definition = definition
+        """The task's `TaskDefinition`."""
         self.random = random_starts(seed)
+        """The stream the episodes' starts are drawn from (`seed`'s)."""
         self.disturbances = disturbances or Disturbances(definition.state_names,
                                                          definition.control_range)
+        """The sensors and the actuator between the plant and the agent (one environment)."""
         self.disturbances.seed([seed])
         self._parameters = parameters
         self._ranges = check_ranges(parameters, randomise) if randomise else {}
@@ -59,6 +62,8 @@ class SuiteTask(control.Task):
         self.disturbances.seed([seed])
 
     def initialize_episode(self, physics):
+        """Start an episode: draw its parameter values where randomised, put the plant in a
+        start drawn from `random`, and zero the step count and the up-time."""
         if self._ranges:
             self._episode += 1
             self.physical = episode_values(self._parameters, self._ranges,
@@ -96,6 +101,7 @@ class SuiteTask(control.Task):
         return self._controls[int(index)]
 
     def before_step(self, action, physics):
+        """Set the plant's control for `action`, through the actuator's delay and noise."""
         control = self._command(action)
         if self.disturbances.active:
             control = float(self.disturbances.actuate([control], [0], [self._steps])[0])
@@ -107,6 +113,7 @@ class SuiteTask(control.Task):
         return float(reward[0]), bool(terminal[0]), bool(up[0])
 
     def after_step(self, physics):
+        """Count the step, and its control timestep as up-time where the plant is up."""
         self._steps += 1
         if self.definition.has_uptime:
             self._uptime += self.definition.control_timestep * self._outcome(physics)[2]
@@ -123,20 +130,25 @@ class SuiteTask(control.Task):
                                    name="action")
 
     def observation_spec(self, physics):
+        """A float64 scalar `Array` per state variable, named after it, in order."""
         return collections.OrderedDict(
             (name, specs.Array(shape=(), dtype=np.float64, name=name))
             for name in self.definition.state_names)
 
     def get_observation(self, physics):
+        """The plant's observed state through the sensors (noise, delay), by variable name."""
         observation = self.disturbances.observe(
             self.definition.observe(physics.state_vector()[None]), [0], [self._steps])[0]
         return collections.OrderedDict(
             (name, np.array(value)) for name, value in zip(self.definition.state_names, observation))
 
     def get_reward(self, physics):
+        """The reward on entering the plant's state, at the episode's parameter values."""
         return self._outcome(physics)[0]
 
     def get_termination(self, physics):
+        """The discount that ends the episode: 0 in a terminal state, 1 at the step limit
+        (a truncation), None otherwise."""
         if self._outcome(physics)[1]:
             return 0.0
         if self._steps >= self.definition.step_limit:

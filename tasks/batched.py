@@ -40,12 +40,15 @@ class BatchedTimeStep(NamedTuple):
     """Observations `(B, d)` in the order of `state_names`."""
 
     def first(self) -> np.ndarray:
+        """`(B,)` True where the step is an episode's first."""
         return self.step_type == FIRST
 
     def mid(self) -> np.ndarray:
+        """`(B,)` True where the step is neither an episode's first nor its last."""
         return self.step_type == MID
 
     def last(self) -> np.ndarray:
+        """`(B,)` True where the step ends an episode (terminal or truncated)."""
         return self.step_type == LAST
 
 
@@ -70,8 +73,10 @@ class BatchedEnv:
         if not seeds:
             raise ValueError("seeds must name at least one environment")
         self.batch_size = len(seeds)
+        """B, the environments stepped together."""
         self._parameters = tasks.domain(domain).parameters
         self.physical = self._parameters.values(params, self.batch_size)
+        """`(B, P)` each environment's physical parameter values."""
         self._ranges = check_ranges(self._parameters, randomise)
         self._base = self.physical.copy()
         self._episodes = np.full(self.batch_size, -1, dtype=np.int64)
@@ -82,25 +87,36 @@ class BatchedEnv:
             domain, task, plant, **options)
         self.plant = tasks.domain(domain).plants.batch(
             self.plant_name, self.batch_size, **plant_options, physical=self.definition.physical)
+        """The batched plant that steps every environment's state (`plant_name`'s)."""
         self._rows = None if shared else self.physical
         if not (shared or self.plant.takes_rows):
             raise ValueError(f"the {self.plant_name} plant takes one set of parameter values for "
                              f"the whole batch; give every environment the same params")
         self.control_range = self.definition.control_range_at(self.physical)
+        """`(B, 2)` each environment's actuator range `[low, high]`."""
         self.controls = (None if self.definition.continuous
                          else self.definition.controls_at(self.physical))
+        """`(B, A)` each environment's discrete actions' controls; None with continuous
+        actions."""
         self.disturbances = Disturbances(self.definition.state_names, self.control_range,
                                          self.batch_size, **sensing)
+        """The sensor and actuator options per environment (observation noise, delay,
+        action noise), with their streams and the commands in transit."""
         self.disturbances.seed(seeds)
         self.seeds = seeds
+        """The environments' seeds, one each: their starts' and disturbances' streams."""
         self._rngs = [random_starts(seed) for seed in seeds]
         self.state = np.zeros((self.batch_size, len(self.definition.state_names)))
+        """`(B, d)` each environment's current state."""
         self.steps = np.zeros(self.batch_size, dtype=np.int64)
+        """`(B,)` each environment's current (or just finished) episode's steps."""
         self.uptime = np.zeros(self.batch_size)
+        """`(B,)` each environment's current (or just finished) episode's up-time (s)."""
         self._needs_reset = np.ones(self.batch_size, dtype=bool)
 
     @property
     def num_actions(self) -> int:
+        """The number of discrete actions (`TaskDefinition.num_actions`)."""
         return self.definition.num_actions
 
     def _start_episodes(self, which: np.ndarray) -> None:
@@ -210,10 +226,13 @@ class SteppedEnvs:
 
     def __init__(self, envs, uptime=None):
         self.envs = list(envs)
+        """The B environments, in order."""
         if not self.envs:
             raise ValueError("envs must hold at least one environment")
         self.batch_size = len(self.envs)
+        """B, the environments."""
         self.steps = np.zeros(self.batch_size, dtype=np.int64)
+        """`(B,)` each environment's current (or just finished) episode's steps."""
         self._read_uptime = uptime
         self._ended = np.zeros(self.batch_size, dtype=bool)
 
@@ -227,6 +246,7 @@ class SteppedEnvs:
 
     @property
     def uptime(self) -> np.ndarray:
+        """`(B,)` each environment's up-time so far in seconds (NaN without `uptime`)."""
         if self._read_uptime is None:
             return np.full(self.batch_size, np.nan)
         return np.array([self._read_uptime(env) for env in self.envs], dtype=np.float64)

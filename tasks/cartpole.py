@@ -56,6 +56,7 @@ from lwrl.tasks.physics import physics_classes
 from lwrl.tasks.plants import DomainPlants
 
 STATE_NAMES = ("cart_position", "cart_velocity", "pole_angle", "pole_angular_velocity")
+"""The names of the cart-pole's state variables, in the state vector's order."""
 PARAMETERS = Parameters(
     Parameter("cart_mass", "mc", "kg", 1.0, 0.1, 10.0, "the cart's mass"),
     Parameter("pole_mass", "m", "kg", 0.1, 0.01, 1.0, "the pole's mass"),
@@ -250,3 +251,4 @@ DOMAIN = Domain(
     plants=DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=AnalyticPhysicsCartpole,
                         parameters=PARAMETERS, mujoco_physics=MujocoPhysicsCartpole,
                         model="cartpole", edit_model=edit_model))
+"""The cart-pole's domain: its tasks, its plants and its physical parameters."""

@@ -50,6 +50,7 @@ OPTIONS = ("observation_noise", "action_delay", "action_noise")
 MAX_DELAY = 1000
 """The longest actuation delay, in control steps."""
 STREAM = 0x6477  # a spawn key: the disturbances' streams apart from any other use of a seed
+"""The spawn key of the sensors' and actuator's streams (`stream_key`)."""
 _ROTATE = np.uint64(32)
 _EPISODE_SHIFT, _STEP_SHIFT = np.uint64(40), np.uint64(8)
 _MANTISSA_SHIFT = np.uint64(11)
@@ -128,7 +129,9 @@ def _actuate_rows(controls, rows, buffers, delays, sigma, low, high, keys, episo
 
 
 OBSERVE_ROWS = kernels.kernel("disturb_observations", _observe_rows)
+"""`_observe_rows` compiled: the sensors' noise on some environments' observations."""
 ACTUATE_ROWS = kernels.kernel("disturb_controls", _actuate_rows)
+"""`_actuate_rows` compiled: the actuator's delay and noise on some environments' commands."""
 
 
 def stream_key(seed) -> np.uint64:
@@ -168,6 +171,7 @@ class Disturbances:
         environment or a sequence of B. A one-line ValueError on a bad option."""
         count = 1 if batch_size is None else batch_size
         self.sigma_observation = np.zeros((count, len(state_names)))
+        """`(B, d)` the observation noise's standard deviation per state variable."""
         if observation_noise is not None:
             if not isinstance(observation_noise, Mapping):
                 raise ValueError(f"observation_noise must map state variables ({', '.join(state_names)}) "
@@ -181,16 +185,22 @@ class Disturbances:
         self.delay = np.broadcast_to(per_environment(
             "action_delay", action_delay, 0, MAX_DELAY, "control steps", batch_size,
             integer=True), (count,)).astype(np.int64)
+        """`(B,)` the actuation delay, in control steps."""
         self.sigma_action = np.broadcast_to(per_environment(
             "action_noise", action_noise, 0.0, math.inf, "(the control's units)", batch_size),
             (count,)).astype(np.float64)
+        """`(B,)` the action noise's standard deviation, in the control's units."""
         controls = np.broadcast_to(np.asarray(controls, dtype=np.float64), (count, np.shape(controls)[-1]))
         self.low, self.high = controls.min(axis=1), controls.max(axis=1)
         self.keys = np.zeros(count, dtype=np.uint64)
+        """`(B,)` each environment's stream key (`seed`)."""
         self.episodes = np.full(count, -1, dtype=np.int64)
+        """`(B,)` each environment's current episode's index (-1 before the first)."""
         self.buffers = np.zeros((count, int(self.delay.max(initial=0))))
+        """`(B, max delay)` the commands in transit (row b's first `delay[b]`)."""
         self.active = bool(np.any(self.sigma_observation > 0) or np.any(self.delay > 0)
                            or np.any(self.sigma_action > 0))
+        """False where every option is at its default: nothing is drawn or changed."""
 
     def seed(self, seeds) -> None:
         """Key each environment's stream from its seed (`stream_key`); episodes count anew."""

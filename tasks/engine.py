@@ -26,9 +26,13 @@ from numba.extending import register_jitable
 from lwrl import models
 
 FULL_PHYSICS = int(mujoco.mjtState.mjSTATE_FULLPHYSICS)
+"""MuJoCo's state signature of the full physics state (`mj_getState`, `mj_setState`)."""
 WARMSTART = int(mujoco.mjtState.mjSTATE_WARMSTART)
+"""MuJoCo's state signature of the constraint solver's warm start."""
 CONTROLS = int(mujoco.mjtState.mjSTATE_CTRL)
+"""MuJoCo's state signature of the controls."""
 WARNINGS = int(mujoco.mjtWarning.mjNWARNING)
+"""The number of MuJoCo's warning kinds, whose counters a step reads."""
 LIBRARIES = (f"libmujoco.so.{mujoco.__version__}", "libmujoco*.dylib", "mujoco.dll")
 """The library's file in the `mujoco` package: Linux, macOS, Windows."""
 

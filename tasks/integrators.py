@@ -9,6 +9,7 @@ velocity). See SPEC.md, "Integration".
 from numba.extending import register_jitable
 
 INTEGRATORS = ("semi_implicit", "explicit")
+"""The two readings of Euler's method (see the module), MuJoCo's first."""
 
 
 def check_integrator(integrator: str) -> bool:

@@ -97,19 +97,25 @@ class MjxPlant:
     """
 
     takes_rows = False
+    """False: the batch shares one model's parameter values."""
 
     def __init__(self, model: mujoco.MjModel, actuator: str, batch_size: int, substeps: int = 1,
                  limit=None):
         self._jax = _jax_and_mjx()[0]
         self.batch_size = batch_size
+        """B, the states a step takes at most."""
         self.substeps = int(substeps)
+        """MJX steps per agent step."""
         self.timestep = float(model.opt.timestep) * self.substeps
+        """Seconds per agent step: the model's timestep times `substeps`."""
         self._limit = limit
         self._step = compiled_step(model, actuator, self.substeps)
         self._state = np.zeros((batch_size, model.nq + model.nv))
         self._control = np.zeros(batch_size)
 
     def step(self, state: np.ndarray, control: np.ndarray, physical=None) -> np.ndarray:
+        """The states `(n, d)`, n <= `batch_size`, one agent step on with `control` `(n,)`
+        held, the domain's `limit` applied; `physical` must be None (`takes_rows`)."""
         if physical is not None:
             raise ValueError("the mjx plant steps one model, every state at the same parameter "
                              "values; step parameter values per state on the mujoco plant")

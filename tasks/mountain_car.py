@@ -42,6 +42,7 @@ from lwrl.tasks.physics import AnalyticPhysics
 from lwrl.tasks.plants import DomainPlants
 
 STATE_NAMES = ("position", "velocity")
+"""The names of Mountain-Car's state variables, in the state vector's order."""
 THRUSTS = (-1.0, 0.0, 1.0)
 """Thrust a of each action: reverse, none, forward."""
 PARAMETERS = Parameters(
@@ -151,14 +152,18 @@ class Physics(AnalyticPhysics):
     """Mountain-Car's custom dm_control Physics: the paper's difference equation."""
 
     STATE_NAMES = STATE_NAMES
+    """The state variables' names: `position`, `velocity`."""
 
     def position(self) -> float:
+        """The car's position x."""
         return self.state_vector()[0]
 
     def velocity(self) -> float:
+        """The car's velocity v."""
         return self.state_vector()[1]
 
     def altitude(self) -> float:
+        """The car's altitude, sin(3x)."""
         return float(np.sin(3.0 * self.position()))
 
 
@@ -166,3 +171,4 @@ DOMAIN = Domain(
     name="mountain_car", tasks={"cost_to_go": cost_to_go},
     plants=DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=Physics,
                         parameters=PARAMETERS, euler=False, analytic_options=()))
+"""Mountain-Car's domain: its tasks, its plants and its physical parameters."""

@@ -67,6 +67,7 @@ class Parameters:
                 raise ValueError(f"{parameter.name}: the nominal value {parameter.nominal!r} must "
                                  f"lie in a finite range; got [{parameter.low}, {parameter.high}]")
         self.items = tuple(parameters)
+        """The `Parameter`s, in the vectors' order."""
         self.index = collections.namedtuple("Index", names)(*range(len(names)))
         """Where each parameter sits in a vector: `p[index.pole_mass]` (numba-jitable: a
         global tuple of integers)."""
@@ -77,6 +78,7 @@ class Parameters:
 
     @property
     def names(self) -> tuple:
+        """The parameters' names, in the vectors' order."""
         return tuple(parameter.name for parameter in self.items)
 
     def position(self, name) -> int:

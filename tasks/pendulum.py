@@ -47,6 +47,7 @@ from lwrl.tasks.physics import physics_classes
 from lwrl.tasks.plants import DomainPlants
 
 STATE_NAMES = ("angle", "angular_velocity")
+"""The names of the pendulum's state variables, in the state vector's order."""
 PARAMETERS = Parameters(
     Parameter("mass", "m", "kg", 1.0, 0.1, 10.0, "the point mass"),
     Parameter("length", "l", "m", 1.0, 0.1, 10.0, "hinge to the point mass"),
@@ -202,3 +203,4 @@ DOMAIN = Domain(
     plants=DomainPlants(step=step, timestep=TIMESTEP, analytic_physics=AnalyticPhysicsPendulum,
                         parameters=PARAMETERS, mujoco_physics=MujocoPhysicsPendulum,
                         model="pendulum", edit_model=edit_model))
+"""The pendulum's domain: its tasks, its plants and its physical parameters."""

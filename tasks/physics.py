@@ -20,12 +20,14 @@ class AnalyticPhysics(control.Physics):
     """A dm_control Physics that steps the paper's equations (a batch of one)."""
 
     STATE_NAMES: tuple = ()
+    """The domain's state variables' names (a domain's class sets them)."""
 
     def __init__(self, plant: AnalyticPlant):
         self._plant = plant
         self.reset()
 
     def step(self, n_sub_steps=1):
+        """Advance the state `n_sub_steps` control timesteps with the control held."""
         for _ in range(n_sub_steps):
             self._state = self._plant.step(self._state, self._control)
             self._time += self._plant.timestep
@@ -40,23 +42,28 @@ class AnalyticPhysics(control.Physics):
         self._plant.physical = np.asarray(values, dtype=np.float64)
 
     def time(self):
+        """Seconds simulated since the reset."""
         return self._time
 
     def timestep(self):
+        """Seconds per step: the plant's control timestep."""
         return self._plant.timestep
 
     def set_control(self, control_value):
+        """Hold the control `control_value` from the next step on."""
         self._control = np.array([control_value], dtype=np.float64)
 
     def reset(self):
+        """The zero state and control, at time 0."""
         self._state = np.zeros((1, len(self.STATE_NAMES)))
         self._control = np.zeros(1)
         self._time = 0.0
 
     def after_reset(self):
-        pass
+        """Nothing to recompute: the state is the whole of the plant."""
 
     def check_divergence(self):
+        """A dm_control `PhysicsError` where the state is not finite."""
         if not np.all(np.isfinite(self._state)):
             raise control.PhysicsError(f"state is not finite: {self._state[0].tolist()}")
 
@@ -65,6 +72,7 @@ class AnalyticPhysics(control.Physics):
         return self._state[0].copy()
 
     def set_state_vector(self, state) -> None:
+        """Set the state `(d,)`, in the task's variable order (finite, or a ValueError)."""
         self._state = check_finite_state(state, self.STATE_NAMES).reshape(1, -1).copy()
 
 
@@ -77,7 +85,9 @@ class MujocoPhysics(dm_mujoco.Physics):
     """
 
     STATE_NAMES: tuple = ()
+    """The domain's state variables' names (a domain's class sets them)."""
     ACTUATOR: str = ""
+    """The name of the MJCF actuator the agent drives."""
     substeps: int = 1
     """MuJoCo steps per agent step (`DomainPlants.substeps`)."""
     limit = None
@@ -109,9 +119,12 @@ class MujocoPhysics(dm_mujoco.Physics):
                 self.set_state_vector(np.array(self.limit(*self.state_vector())))
 
     def state_vector(self) -> np.ndarray:
+        """The state `(d,)`: `qpos` and `qvel` interleaved joint by joint."""
         return np.column_stack([self.data.qpos, self.data.qvel]).ravel()
 
     def set_state_vector(self, state) -> None:
+        """Set `qpos` and `qvel` from the state `(d,)` (finite, or a ValueError), and
+        recompute what depends on the positions."""
         state = check_finite_state(state, self.STATE_NAMES)
         self.data.qpos[:] = state[0::2]
         self.data.qvel[:] = state[1::2]
@@ -120,6 +133,7 @@ class MujocoPhysics(dm_mujoco.Physics):
         self.forward()
 
     def set_control(self, control_value):
+        """Drive the actuator `ACTUATOR` with `control_value`."""
         self.named.data.ctrl[self.ACTUATOR] = control_value
 
 

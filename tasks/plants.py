@@ -50,7 +50,9 @@ class AnalyticPlant:
     def __init__(self, step_columns: Callable, timestep: float, physical):
         self._step_columns = step_columns
         self.timestep = timestep
+        """Seconds (Mountain-Car: steps) per agent step."""
         self.physical = np.asarray(physical, dtype=np.float64)
+        """The plant's parameter values `(P,)`, where `step` is given none per state."""
 
     def step(self, state: np.ndarray, control: np.ndarray, physical=None) -> np.ndarray:
         """The next states of `state` `(B, d)` under `control` `(B,)`, at the plant's
@@ -83,11 +85,15 @@ class MujocoPlant:
     def __init__(self, model: mujoco.MjModel, actuator: str, batch_size: int, substeps: int = 1,
                  limit: Optional[Callable] = None, model_at: Optional[Callable] = None):
         self.model = model
+        """The compiled MJCF model every state is stepped in (without `model_at`)."""
         self._model_at = model_at
         self.takes_rows = model_at is not None
+        """Whether `step` takes parameter values per state (with `model_at`)."""
         self.substeps = int(substeps)
+        """MuJoCo steps per agent step."""
         self._limit = limit
         self.timestep = float(model.opt.timestep) * self.substeps
+        """Seconds per agent step: the model's timestep times `substeps`."""
         self._actuator = model.actuator(actuator).id
         threads = max(1, min(batch_size, os.cpu_count() or 1))
         self._datas = [mujoco.MjData(model) for _ in range(threads)]
@@ -151,12 +157,16 @@ class DomainPlants:
     """
 
     step: Callable
+    """The domain's analytic step of one agent step (see the class)."""
     timestep: float
     """Seconds (or steps) of one agent step."""
     analytic_physics: type
+    """Physics class of the analytic plant (an `AnalyticPhysics`)."""
     parameters: Parameters
     """The domain's physical parameters (`tasks.parameters`), the layout of `p`."""
     euler: bool = True
+    """Whether `step` integrates by Euler's method, taking its time step, scheme and
+    equations (Mountain-Car's difference equation does not)."""
     analytic_options: tuple = ("integrator", "equations")
     """The options of the analytic plant (`tasks.plant_option_names`): the Euler scheme and
     the equations' readings where the domain has them; none without Euler's method."""

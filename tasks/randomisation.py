@@ -23,6 +23,7 @@ import numpy as np
 from lwrl.tasks.parameters import Parameters
 
 STREAM = 0x7261  # a spawn key: the draws' streams apart from any other use of a seed
+"""The spawn key of the per-episode parameter draws' streams."""
 
 
 def check_ranges(parameters: Parameters, randomise: Optional[Mapping]) -> dict:

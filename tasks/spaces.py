@@ -100,6 +100,7 @@ class Box:
 
 
 Space = Union[Discrete, Box]
+"""A task's space: `Discrete` action indices or a `Box` of numbers."""
 
 
 @dataclasses.dataclass(frozen=True)

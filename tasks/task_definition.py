@@ -117,6 +117,7 @@ class TaskDefinition:
 
     @property
     def name(self) -> str:
+        """DOMAIN.TASK."""
         return f"{self.domain}.{self.task}"
 
     @property

@@ -19,6 +19,7 @@ import subprocess
 import sys
 import threading
 import time
+import tomllib
 
 import numpy as np
 import pytest
@@ -31,6 +32,8 @@ FIRST_COMMAND = ("python3.11 -m venv .venv && .venv/bin/pip install -e . && "
                  ".venv/bin/lwrl train mountain_car.cost_to_go")
 TEST_COMMAND = ("python3.11 -m venv .venv && .venv/bin/pip install -e '.[dev]' && "
                 ".venv/bin/python -m pytest -n auto --dist loadfile")
+EXTRAS = re.compile(r"pip install[^&]* -e '\.\[([a-z,]+)\]'")
+"""The extras of a `pip install -e '.[...]'` command."""
 LINK = re.compile(r"!?\[(?:[^\[\]]|\[[^\]]*\])*\]\(([^()\s]+)\)")
 WAIT = 60.0
 """Seconds a page may take to load, and its search to answer."""
@@ -44,6 +47,12 @@ def hooks():
     return module
 
 
+def readme_commands() -> list[str]:
+    """The commands of the README's first code block, its comments left out."""
+    block = README.read_text().split("```bash\n", 1)[1].split("```", 1)[0]
+    return [line for line in block.splitlines() if line and not line.startswith("#")]
+
+
 def slug(heading: str) -> str:
     """A heading's anchor as GitHub and MkDocs' toc make it (for the headings used here)."""
     text = re.sub(r"[^\w\s-]", "", heading.strip().lower())
@@ -51,14 +60,13 @@ def slug(heading: str) -> str:
 
 
 def test_the_readme_is_a_front_page_whose_links_resolve():
-    """At most 150 lines, opening with the two commands (set up and run; set up and test: CI
-    runs the second), and every relative link and picture pointing at a file of the
-    repository, at a heading of it where the link names one."""
+    """At most 150 lines, opening with its commands (set up and run; set up and test; the
+    full suite, which CI runs), and every relative link and picture pointing at a file of
+    the repository, at a heading of it where the link names one."""
     text = README.read_text()
     lines = text.splitlines()
     assert len(lines) <= 150, f"README.md has {len(lines)} lines; the front page keeps 150"
-    commands = [line for line in lines[:8] if line and not line.startswith(("#", "```"))]
-    assert commands[:2] == [FIRST_COMMAND, TEST_COMMAND]
+    assert lines[2] == "```bash" and readme_commands()[:2] == [FIRST_COMMAND, TEST_COMMAND]
     targets = LINK.findall(text)
     assert targets, "the README links its documentation"
     for target in targets:
@@ -71,6 +79,19 @@ def test_the_readme_is_a_front_page_whose_links_resolve():
             headings = {slug(line.lstrip("#")) for line in resolved.read_text().splitlines()
                         if line.startswith("#")}
             assert anchor in headings, f"README.md links {target}: no such heading"
+
+
+def test_the_readme_s_full_suite_installs_every_extra_as_ci_does():
+    """The README's third command installs the extras `.ci/run` installs, and those are
+    every extra of pyproject.toml (`paper` and `gymnasium` through `dev`): no backend's
+    tests skip in the full suite."""
+    full = readme_commands()[2]
+    assert full.endswith(".venv/bin/python -m pytest -n auto --dist loadfile")
+    ci, = EXTRAS.findall((ROOT / ".ci" / "run").read_text())
+    assert EXTRAS.findall(full) == [ci]
+    declared = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"][
+        "optional-dependencies"]
+    assert set(ci.split(",")) | {"paper", "gymnasium"} == set(declared)
 
 
 def test_the_docs_write_in_what_comes_from_the_code():
@@ -152,6 +173,61 @@ def test_the_site_builds_strictly_with_the_api_and_the_generated_tables(site):
     index = json.loads((site / "search" / "search_index.json").read_text())
     locations = {doc["location"] for doc in index["docs"]}
     assert {"guide/tasks/", "reference/cli/", "changelog/"} <= locations
+
+
+@pytest.mark.slow
+def test_the_404_page_links_to_the_site_s_own_files(site):
+    """The 404 page, served at any address below the site, links from the site's root
+    (`site_url`, by default `mkdocs serve`'s): every page, stylesheet and script it names is
+    a file of the built site."""
+    page = (site / "404.html").read_text()
+    links = set(re.findall(r'(?:href|src)="([^"#]+)', page))
+    local = {link for link in links if not re.match(r"^[a-z][a-z0-9+.-]*:", link)}
+    assert local and all(link.startswith("/") for link in local), sorted(local)[:5]
+    for link in local:
+        target = site / link.lstrip("/")
+        assert target.is_file() or (target / "index.html").is_file(), f"404.html links {link}"
+
+
+def api_reference_entries() -> list[tuple[str, bool]]:
+    """`(identifier, show_submodules)` of each `::: identifier` of the API reference's
+    pages, the generated `lwrl` page's included."""
+    pages = sorted((ROOT / "docs" / "reference" / "api").glob("*.md"))
+    text = "\n".join(page.read_text() for page in pages) + "\n" + hooks().api_reference()
+    return [(match[1], "show_submodules: true" in match[2])
+            for match in re.finditer(r"^::: (\S+)\n((?:    .*\n)*)", text, re.M)]
+
+
+@pytest.fixture(scope="module")
+def griffe_lwrl():
+    """lwrl's API as griffe reads it for mkdocstrings (mkdocs.yml: its inherited-docstrings
+    extension); skips without the docs extra."""
+    griffe = pytest.importorskip("griffe", reason="the docs extra is not installed: "
+                                                  "pip install -e '.[docs]'")
+    loader = griffe.GriffeLoader(search_paths=[str(ROOT)], extensions=griffe.load_extensions(
+        "griffe_inherited_docstrings"))
+    loader.load("lwrl")
+    return loader.modules_collection
+
+
+def shown(entry, submodules: bool):
+    """`entry` and every object its API reference entry shows (mkdocs.yml's filters: no
+    name starting with an underscore; imported names only where public; submodules where
+    `submodules`)."""
+    yield entry
+    if entry.is_module or entry.is_class:
+        for name, member in entry.members.items():
+            if not (name.startswith("_") or (member.is_alias and not member.is_public)
+                    or (member.is_module and not submodules)):
+                yield from shown(member, submodules)
+
+
+@pytest.mark.parametrize("identifier,submodules", api_reference_entries())
+def test_every_name_of_the_api_reference_has_a_docstring(griffe_lwrl, identifier, submodules):
+    """Each `::: identifier` of the API reference shows no name without a docstring."""
+    bare = sorted({item.path for item in shown(griffe_lwrl[identifier], submodules)
+                   if not (item.docstring and item.docstring.value.strip())})
+    assert not bare, f"{len(bare)} names of {identifier}'s entry have no docstring: {bare}"
 
 
 @pytest.fixture

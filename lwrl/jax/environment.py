@@ -99,6 +99,7 @@ class StartDraws:
         self.key, self.dtype = key, dtype
 
     def uniform(self, low=0.0, high=1.0, size=None):
+        """`low + (high - low) u` of shape `size` (a number where None), from the next key."""
         self.key, key = jax.random.split(self.key)
         shape = () if size is None else tuple(np.atleast_1d(size))
         unit = jax.random.uniform(key, shape, dtype=self.dtype)
@@ -136,7 +137,9 @@ class Environment:
     dtype: Any
     """The floating-point type of states, observations and rewards."""
     semi_implicit: bool
+    """The integrator: semi-implicit Euler (True) or explicit Euler (False)."""
     slips: bool
+    """The equations: kfnnet's, with the slips (True), or the paper's (False)."""
     default_sensors: Sensors
     """The sensors and actuator of `make`'s options, where a call is given none."""
 
@@ -148,6 +151,7 @@ class Environment:
 
     @property
     def observation_size(self) -> int:
+        """The length of an observation: the task's state variables."""
         return len(self.definition.state_names)
 
     @property

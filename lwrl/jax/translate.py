@@ -22,6 +22,7 @@ class Vocabulary:
 
     def __init__(self, dtype):
         self.float64 = dtype
+        """The environment's floating-point type, which `np.float64` means here."""
 
     def __getattr__(self, name):
         return getattr(jnp, name)

@@ -37,8 +37,11 @@ class Evaluation:
     """The greedy episodes of some agents of one task at one fraction of the budget."""
 
     task: str
+    """The task's name (`pendulum.swingup`)."""
     plant: str
+    """The plant the episodes ran on (`analytic`, `mujoco`)."""
     fraction: float
+    """The fraction of the training budget at which the agents were evaluated."""
     table: pd.DataFrame
     """Per agent and episode: `fraction`, `seed` (the agent's), `episode`, `steps`,
     `uptime_s`."""
