@@ -34,6 +34,7 @@ from lwrl.agent.learner_contract import Learner, LearnerSettings
 from lwrl.settings import check_count, check_non_negative, check_positive, setting
 
 ZOO = "DLR-RM/rl-baselines3-zoo, hyperparams/ars.yml at commit 22e3ff2450fd92033f7f032915e1f64894a09584"
+"""Where the zoo's sets (`ZOO_SETS`) come from."""
 ZOO_SETS = {"CartPole-v1": dict(timesteps=50_000, directions=2, variant="v1")}
 """The zoo's tuned sets whose policy is linear (`LinearPolicy`), translated: `n_timesteps`
 the horizon, `n_delta` the directions, `n_top` (None: all) the top directions, sb3-contrib's
@@ -63,6 +64,7 @@ class ArsSettings(LearnerSettings):
 
     @property
     def top_directions(self) -> int:
+        """b, the directions an update keeps: `top`, or every direction where it is None."""
         return self.directions if self.top is None else self.top
 
     def check(self, task) -> None:
@@ -87,6 +89,7 @@ class ArsSettings(LearnerSettings):
 
 
 HYPER = ("timesteps", "learning_rate", "delta_std")
+"""The per-agent settings the program takes as arrays."""
 
 
 class ArsAgents(PopulationAgents):
@@ -189,6 +192,7 @@ def make(settings, task, seeds) -> ArsAgents:
 
 
 def load(document, arrays) -> ArsAgents:
+    """The agents `ArsAgents.saved` wrote (a ValueError if the parts do not fit)."""
     return ArsAgents.loaded(document, arrays, ArsSettings)
 
 
@@ -225,4 +229,5 @@ LEARNER = Learner(
            "sb3-contrib's ARS",
     settings=ArsSettings, make=make, load=load, memory=memory, fits=fits_with_jax("ars"),
     tuned=ZOO_SETS, population=True, arithmetic=arithmetic)
+"""The `ars` learner as the registry holds it (`agent.LEARNERS`)."""
 ArsAgents.learner = LEARNER

@@ -24,6 +24,7 @@ def make(settings, task, seeds) -> ArsContinuousAgents:
 
 
 def load(document, arrays) -> ArsContinuousAgents:
+    """The agents `ArsContinuousAgents.saved` wrote (a ValueError if the parts do not fit)."""
     return ArsContinuousAgents.loaded(document, arrays, ArsSettings)
 
 
@@ -32,4 +33,5 @@ LEARNER = Learner(
     settings=ArsSettings, make=make, load=load, memory=memory,
     fits=fits_continuous("ars_continuous", fits_with_jax("ars_continuous")),
     actions="continuous", population=True, arithmetic=arithmetic)
+"""The `ars_continuous` learner as the registry holds it (`agent.LEARNERS`)."""
 ArsContinuousAgents.learner = LEARNER

@@ -65,6 +65,8 @@ class StreamAcAgents(StreamAgents):
     """B Stream AC(lambda) agents as one pytree (see the module)."""
 
     HYPER = HYPER + ("kappa_policy", "ent_coef")
+    """The per-agent settings the program takes as arrays: the streaming ones and the
+    actor's bound and entropy coefficient."""
 
     def networks(self, key):
         from lwrl.agent import streaming
@@ -133,6 +135,7 @@ def make(settings, task, seeds) -> StreamAcAgents:
 
 
 def load(document, arrays) -> StreamAcAgents:
+    """The agents `StreamAcAgents.saved` wrote (a ValueError if the parts do not fit)."""
     return StreamAcAgents.loaded(document, arrays, StreamAcSettings)
 
 
@@ -168,4 +171,5 @@ LEARNER = Learner(
     source=SOURCE, settings=StreamAcSettings, make=make, load=load, memory=memory,
     fits=fits_continuous("stream_ac", fits_with_jax("stream_ac")), actions="continuous",
     population=True, arithmetic=arithmetic)
+"""The `stream_ac` learner as the registry holds it (`agent.LEARNERS`)."""
 StreamAcAgents.learner = LEARNER

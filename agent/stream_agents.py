@@ -43,6 +43,7 @@ from lwrl.settings import check_positive, check_unit_interval, setting
 
 SOURCE = ("Elsayed, Vasan & Mahmood (2024), arXiv:2410.14606; mohmdelsayed/streaming-drl at "
           "commit 407dca7")
+"""The paper and the authors' code the streaming learners follow."""
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -66,6 +67,7 @@ class StreamSettings(LearnerSettings):
     """Fraction of each layer's weights initialised to 0, in [0, 1)."""
 
     def layers(self) -> list:
+        """The hidden layers' widths of `net_arch`, checked."""
         return list(check_layers(self.net_arch))
 
     def check(self, task) -> None:
@@ -77,6 +79,7 @@ class StreamSettings(LearnerSettings):
                              f"layer's weights set to 0); got {self.sparsity!r}")
 
     def describe_stream(self) -> str:
+        """The network and ObGD's settings in words, for a run's header."""
         return (f"MLP {self.net_arch} (layer norm, leaky ReLU, {self.sparsity:g} sparse), "
                 f"ObGD lr {self.learning_rate:g} kappa {self.kappa:g}, gamma {self.gamma:g}, "
                 f"lambda {self.lam:g}, {self.timesteps} steps")
@@ -92,6 +95,7 @@ class StreamAgents(PopulationAgents):
     per-agent settings (`HYPER`)."""
 
     HYPER = HYPER
+    """The per-agent settings the program takes as arrays (`HYPER`, and a subclass's own)."""
 
     def networks(self, key) -> dict:
         """The initial parameters, a pytree of float32 arrays."""

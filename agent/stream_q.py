@@ -59,6 +59,8 @@ class StreamQAgents(StreamAgents):
     """B Stream Q(lambda) agents as one pytree (see the module)."""
 
     HYPER = HYPER + ("exploration_fraction", "exploration_initial_eps", "exploration_final_eps")
+    """The per-agent settings the program takes as arrays: the streaming ones and the
+    epsilon schedule's."""
 
     def networks(self, key):
         from lwrl.agent import streaming
@@ -99,6 +101,8 @@ class StreamQAgents(StreamAgents):
                               hyper["gamma"], hyper["lam"], hyper["kappa"])
 
     def q_values(self, tree, states):
+        """Q(s, .) `(..., A)` of one agent's networks `tree` at states in task units, their
+        observation normalised as in learning."""
         from lwrl.agent import streaming
         return streaming.forward(tree["params"], self.normalised_states(tree, states))
 
@@ -114,6 +118,7 @@ def make(settings, task, seeds) -> StreamQAgents:
 
 
 def load(document, arrays) -> StreamQAgents:
+    """The agents `StreamQAgents.saved` wrote (a ValueError if the parts do not fit)."""
     return StreamQAgents.loaded(document, arrays, StreamQSettings)
 
 
@@ -145,4 +150,5 @@ LEARNER = Learner(
     name="stream_q", title="Stream Q(lambda): streaming deep Q-learning with ObGD, in JAX",
     source=SOURCE, settings=StreamQSettings, make=make, load=load, memory=memory,
     fits=fits_with_jax("stream_q"), population=True, arithmetic=arithmetic)
+"""The `stream_q` learner as the registry holds it (`agent.LEARNERS`)."""
 StreamQAgents.learner = LEARNER
