@@ -53,8 +53,9 @@ One run of this script measures:
    (the same work), with how many XLA programs the first run compiled (JAX's
    `/jax/core/compile/backend_compile_duration` events: the population program and the
    small programs of the eager operations around it) and whether any later run compiled
-   again (it must not). JAX's persistent compilation cache is off unless `--cached`
-   (else a later process loads the program from lwrl's cache and the "compile" is a load).
+   again (it must not). JAX's persistent compilation cache is off unless `--cached`, which
+   turns it on in the workers (`LWRL_JAX_CACHE=1`, `runners.population.JAX_CACHE`; then a
+   later process loads the program from lwrl's cache and the "compile" is a load).
 5. **Counted arithmetic** of every learner of the registry (`lwrl.agent.LEARNERS`), on the
    benchmark's settings (the twins) or its task's defaults (the others, on the workload's
    task where they fit it, else on the first task of the suite they fit): multiply-adds
@@ -101,6 +102,7 @@ from lwrl import agent as learners
 from lwrl import tasks
 from lwrl.agent.arithmetic import Counts, NotCounted
 from lwrl.agent.threads import set_workers, workers
+from lwrl.runners import population
 from lwrl.runners.config import RunConfig, task_info
 from lwrl.runners.run import run
 
@@ -374,7 +376,6 @@ def worker(spec: dict) -> None:
     late = "jax" in sys.modules
     import jax
     import jax.monitoring
-    from lwrl.runners import population
 
     if late:
         print("deep_speed worker: JAX was imported before the condition was set", file=sys.stderr)
@@ -427,6 +428,9 @@ def run_worker(condition: str, jobs: list, quick: bool, seconds: float, cached: 
     if condition == "one":
         env["XLA_FLAGS"] = ONE_THREAD_FLAGS
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))
+    env.pop(population.JAX_CACHE, None)
+    if cached:
+        env[population.JAX_CACHE] = "1"
     spec = {"condition": condition, "jobs": jobs, "quick": quick, "seconds": seconds,
             "cached": cached}
     done = subprocess.run([sys.executable, "-m", "benchmarks.deep_speed", "--worker",

@@ -44,11 +44,19 @@ stops the run between two chunks with every finished episode kept (`interrupted`
 is compiled once per process for what shapes it (the task, its plant and options, the longest
 action delay of the batch, the learner's batch-wide settings and `shared` values, the
 batch's size, the episodes, learning or not), the per-agent settings, physics, noise levels and delays being
-its arguments; XLA's compiled code is also kept on disk beside lwrl's numba kernels
-(`lwrl.kernels.cache_root`, JAX's persistent compilation cache), so a later process loads it.
+its arguments. XLA's compiled code is kept on disk beside lwrl's numba kernels
+(`lwrl.kernels.cache_root`, JAX's persistent compilation cache) only where the environment
+asks for it, `LWRL_JAX_CACHE=1` (`JAX_CACHE`): writing an entry serialises the executable,
+and on this project's CPU hosts (jax 0.10.2) that serialisation has aborted the process
+(`Fatal Python error: Aborted` in `compilation_cache.put_executable_and_time`), seen
+intermittently under load in the full test suite, never on a rerun of the same program. An
+abort is not an exception: nothing can catch it, so a cache write must not be able to end a
+run that has not asked for the cache. Without it each process compiles its programs once
+(seconds), which a run of hours does not notice.
 """
 
 import dataclasses
+import os
 
 import numpy as np
 
@@ -211,9 +219,17 @@ def _shared_settings(settings) -> tuple:
                  dataclasses.fields(settings) if not field.metadata.get("per_agent"))
 
 
+JAX_CACHE = "LWRL_JAX_CACHE"
+"""The environment variable that turns JAX's persistent compilation cache on (`1`), at the
+risk the module's docstring states."""
+
+
 def _use_disk_cache() -> None:
-    """JAX's persistent compilation cache in `<lwrl cache>/jax`, for programs that take a
-    second or more to compile (where the cache directory can be written)."""
+    """Where `JAX_CACHE` is `1`: JAX's persistent compilation cache in `<lwrl cache>/jax`, for
+    programs that take a second or more to compile (where the cache directory can be
+    written). Otherwise nothing: each process compiles its programs (see the module)."""
+    if os.environ.get(JAX_CACHE) != "1":
+        return
     import jax
     directory = kernels.cache_root() / "jax"
     try:

@@ -339,3 +339,33 @@ def test_a_replay_buffer_holds_what_its_agents_can_store_and_changes_no_number(n
     for field in ("steps", "returns", "uptime", "truncated", "diverged_episode"):
         np.testing.assert_array_equal(getattr(capped, field), getattr(whole, field))
     np.testing.assert_array_equal(capped_agent.arrays.weights, whole_agent.arrays.weights)
+
+
+CACHE_PROBE = """
+import jax
+from lwrl.runners.config import RunConfig
+from lwrl.runners.run import run
+run(RunConfig(task="mountain_car.cost_to_go", learner="ppo_jax", agents=1, episodes=1,
+              plant="analytic", task_options={"time_limit": 20.0}))
+print(jax.config.jax_compilation_cache_dir)
+"""
+
+
+@pytest.mark.parametrize("asked", [False, True])
+def test_the_persistent_compilation_cache_is_used_only_where_asked(asked, tmp_path):
+    """A cache write has aborted a process (runners.population): without LWRL_JAX_CACHE=1 a
+    population run leaves JAX's persistent cache off, with it the cache is lwrl's."""
+    import os
+    import subprocess
+    import sys
+
+    env = {key: value for key, value in os.environ.items()
+           if key != population.JAX_CACHE and not key.startswith("JAX_")}
+    env["LWRL_CACHE_DIR"] = str(tmp_path)
+    if asked:
+        env[population.JAX_CACHE] = "1"
+    done = subprocess.run([sys.executable, "-c", CACHE_PROBE], capture_output=True, text=True,
+                          env=env, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    directory = done.stdout.strip().splitlines()[-1]
+    assert directory == (str(tmp_path / "jax") if asked else "None")
