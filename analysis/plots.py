@@ -60,14 +60,45 @@ def plot_learning_curve(results: pd.DataFrame, value: str, ylabel: str, title: s
     return figure, curve
 
 
-def plot_runs(runs: list, value: str, ylabel: str, log: bool = False):
+STEP_POINTS = 60
+"""Points of a curve over environment steps (`curve_by_steps`)."""
+
+
+def curve_by_steps(table: pd.DataFrame, value: str, points: int = STEP_POINTS) -> tuple:
+    """`(steps (P,), agents x P values)`: each agent's `value` of the last episode it finished
+    by each of `points` numbers of environment steps, evenly spaced from the step by which
+    every agent has finished an episode to the step by which every agent has finished its
+    last (so that learners whose episodes differ in length are compared at equal steps)."""
+    finished, values = [], []
+    for _, agent in table.sort_values("episode").groupby("seed", sort=True):
+        finished.append(agent["steps"].cumsum().to_numpy())
+        values.append(agent[value].to_numpy())
+    steps = np.linspace(max(ends[0] for ends in finished), min(ends[-1] for ends in finished),
+                        points)
+    grid = np.array([agent_values[np.searchsorted(ends, steps, side="right") - 1]
+                     for ends, agent_values in zip(finished, values)])
+    return steps, grid
+
+
+def plot_runs(runs: list, value: str, ylabel: str, log: bool = False, by_steps: bool = False):
     """The learning curves of `runs`, `[(label, per-episode table)]` (each a run's
     episodes.csv: a row per agent and episode), on one axes: each run's mean over its agents
-    per episode with its 95 % bootstrap interval over agents (`plot_learning_curve`); the
-    figure."""
+    per episode (or, `by_steps`, at equal numbers of environment steps, `curve_by_steps`)
+    with its 95 % bootstrap interval over agents (`plot_learning_curve`,
+    `statistics.episode_intervals`); the figure."""
     figure, axes = plt.subplots(figsize=(7, 4))
     for label, table in runs:
-        plot_learning_curve(table, value, ylabel, "", axes=axes, interval=True, label=label)
+        if not by_steps:
+            plot_learning_curve(table, value, ylabel, "", axes=axes, interval=True, label=label)
+            continue
+        steps, grid = curve_by_steps(table, value)
+        low, high = statistics.episode_intervals(grid)
+        line, = axes.plot(steps, grid.mean(axis=0), label=label)
+        axes.fill_between(steps, low, high, alpha=0.3, color=line.get_color())
+    if by_steps:
+        axes.set_xlabel("environment steps of training (per agent)")
+        axes.set_ylabel(ylabel)
+        axes.grid(alpha=0.3)
     handles, labels = axes.get_legend_handles_labels()
     keep = [i for i, text in enumerate(labels) if not text.startswith("95 %")]
     axes.legend([handles[i] for i in keep], [labels[i] for i in keep], fontsize=8,

@@ -26,6 +26,9 @@ def add_parser(commands) -> None:
     plot.add_argument("--out", metavar="PNG", default="curves.png",
                       help="the figure's path; an SVG is written beside it (default: curves.png)")
     plot.add_argument("--log", action="store_true", help="a logarithmic y axis")
+    plot.add_argument("--by-steps", action="store_true",
+                      help="against the environment steps of training, not the episodes "
+                           "(learners whose episodes differ in length compared at equal steps)")
     plot.set_defaults(run=plot_runs)
 
 
@@ -39,7 +42,7 @@ def plot_runs(args) -> int:
     figure = plots.plot_runs([(f"{os.path.basename(os.path.normpath(path))}: "
                                f"{config['learner']} on {config['task']}", episodes)
                               for path, config, episodes in runs],
-                             measure, MEASURES[measure], log=args.log)
+                             measure, MEASURES[measure], log=args.log, by_steps=args.by_steps)
     directory, name = os.path.split(os.path.abspath(args.out))
     for path in plots.save_figure(figure, directory, name[:-len(".png")]):
         print(f"wrote {path}")

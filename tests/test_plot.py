@@ -1,6 +1,7 @@
 """`lwrl plot RUN_DIR...`: the learning curves of runs `lwrl train --out` wrote, with 95 %
 intervals over agents; bad input in one line, exit status 2."""
 
+import numpy as np
 import pytest
 from conftest import run_cli
 
@@ -40,3 +41,15 @@ def test_bad_input_is_one_line_and_status_2(argv, message, tmp_path, capsys, mon
     monkeypatch.chdir(tmp_path)
     status, _, err = run_cli(argv, capsys)
     assert status == 2 and message in err[-1], err  # argparse's usage line may come before
+
+
+def test_a_curve_by_steps_takes_each_agents_last_finished_episode():
+    import pandas as pd
+
+    from lwrl.analysis.plots import curve_by_steps
+    table = pd.DataFrame({"seed": [0, 0, 0, 1, 1], "episode": [1, 2, 3, 1, 2],
+                          "steps": [10, 10, 10, 15, 30], "return": [1.0, 2.0, 3.0, 5.0, 6.0]})
+    steps, grid = curve_by_steps(table, "return", points=4)
+    # agent 0 finishes at 10, 20, 30; agent 1 at 15, 45: from 15 (both have one) to 30
+    np.testing.assert_allclose(steps, [15.0, 20.0, 25.0, 30.0])
+    np.testing.assert_array_equal(grid, [[1.0, 2.0, 2.0, 3.0], [5.0, 5.0, 5.0, 5.0]])
