@@ -107,7 +107,10 @@ class RunStore:
             not self.keep_agents or self.agents_file(self.directory.parent, config.key).exists())
 
     def repair(self, configs) -> list[str]:
-        """Set aside every unreadable run file of `configs`; return one line per file."""
+        """Set aside every unreadable run file of `configs` (return one line per file), and
+        remove the files a process killed mid-write left half-written
+        (`outputs.remove_abandoned`)."""
+        outputs.remove_abandoned(self.directory)
         lines = []
         for config in configs:
             path = self.path(config)
