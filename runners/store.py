@@ -18,6 +18,7 @@ import os
 import pathlib
 import platform
 import time
+import zlib
 
 import pandas as pd
 
@@ -120,7 +121,7 @@ class RunStore:
                 table = pd.read_csv(path)
                 if table.empty or "episode" not in table.columns:
                     raise ValueError("no rows of episodes")
-            except (OSError, EOFError, ValueError, pd.errors.ParserError) as error:
+            except (OSError, EOFError, zlib.error, ValueError, pd.errors.ParserError) as error:
                 aside = path.with_name(path.name + ".damaged")
                 os.replace(path, aside)
                 lines.append(f"{path} is damaged ({' '.join(str(error).split()) or type(error).__name__}); "
