@@ -46,6 +46,11 @@ def command(out: pathlib.Path) -> list:
     return [sys.executable, "-m", "lwrl.cli", "bench", "run", TASK, "--out", str(out)]
 
 
+def files(out: pathlib.Path) -> list:
+    """Every file below `out`, by its path relative to it."""
+    return [str(path.relative_to(out)) for path in out.rglob("*") if path.is_file()]
+
+
 def tables(out: pathlib.Path) -> dict:
     return {path.name: path.read_bytes() for path in sorted((out / "runs").glob("*.csv.gz"))}
 
@@ -69,8 +74,9 @@ def test_a_killed_run_resumed_writes_the_same_tables_byte_for_byte(tmp_path):
         finished = subprocess.run(command(out), capture_output=True, text=True, timeout=600)
         assert finished.returncode == 0, finished.stderr
     assert tables(killed) == tables(whole)
-    left = sorted(set(os.listdir(killed / "runs")) - set(os.listdir(whole / "runs")))
+    left = sorted(set(files(killed)) - set(files(whole)))
     assert not left, left  # no claim, no half-written file
+    assert sorted(os.listdir(tmp_path)) == ["killed", "whole"]  # nor the claim on --out
     # the committed tables were written before a column (`actions`) was: as read, the same
     for run in runs:
         pd.testing.assert_frame_equal(RunStore(killed).read([run]), RunStore(COMMITTED).read([run]),
