@@ -78,12 +78,16 @@ def broken(draw):
     task, table = draw(conforming())
     table = table.astype(object)
     row = draw(st.integers(0, ROWS - 1))
-    change = draw(st.sampled_from(["column", "cell", "cells", "row gone", "row twice",
-                                   "recorded", "name"]))
+    change = draw(st.sampled_from(["column", "column twice", "cell", "cells", "row gone",
+                                   "row twice", "recorded", "name"]))
     measured = evaluation.task_measure(task).column
-    if change == "column":
+    if change in ("column", "column twice"):
         column = draw(st.sampled_from([*outside.COLUMNS, measured]))
-        return table.drop(columns=column), f"no {column}"
+        if change == "column":
+            return table.drop(columns=column), f"no {column}"
+        at = draw(st.integers(0, len(table.columns)))
+        return pd.concat([table.iloc[:, :at], table[[column]], table.iloc[:, at:]], axis=1), (
+            f"{column} twice")
     if change == "row gone":
         return table.drop(index=row), "a row gone"
     if change == "row twice":

@@ -51,11 +51,18 @@ def read(path: str, plant: str = "analytic") -> pd.DataFrame:
     a one-line ValueError for a file that cannot be read or does not follow the protocol."""
     try:
         table = pd.read_csv(path)
-        verbatim = pd.read_csv(path, usecols=lambda name: name in TEXT, dtype=str,
-                               keep_default_na=False)
+        cells = pd.read_csv(path, header=None, dtype=str, keep_default_na=False)
     except (OSError, EOFError, zlib.error, ValueError, UnicodeDecodeError) as error:
-        raise ValueError(f"{path}: not a readable CSV file ({type(error).__name__})") from None
-    table[list(verbatim.columns)] = verbatim  # a learner "NA" is no empty cell
+        damaged = isinstance(error, (EOFError, zlib.error))  # a gzip file cut short or changed
+        why = "damaged compressed data" if damaged else type(error).__name__
+        raise ValueError(f"{path}: not a readable CSV file ({why})") from None
+    names = cells.iloc[0].tolist()
+    twice = [name for name in dict.fromkeys(names) if names.count(name) > 1]
+    if twice:
+        raise ValueError(f"{path}: the column {twice[0]!r} is there twice; each column once")
+    for column in TEXT:  # as written: a learner "NA" is no empty cell
+        if column in names:
+            table[column] = cells.iloc[1:, names.index(column)].to_numpy()
     check(table, path, plant)
     return table
 
