@@ -2,7 +2,8 @@
 
 - `atomic_path(path)` / `atomic_write(path)`: write to a temporary name beside `path`, then
   rename it over `path` (`os.replace`): a reader sees the old file or the new one whole,
-  never half of one; on an error the temporary file is removed.
+  never half of one; on an error the temporary file is removed, and one that a killed
+  process left behind is removed by `remove_abandoned` (a study that resumes calls it).
 - `check_file(path, what)` and `check_directory(path, what)`: a one-line ValueError before
   any work when an output cannot be written there (a missing or read-only parent, a
   directory where a file is meant, or the reverse), or would replace a file without `force`.
@@ -43,22 +44,56 @@ def _parent(path: pathlib.Path) -> pathlib.Path:
 @contextlib.contextmanager
 def atomic_path(path):
     """A temporary path beside `path` to write to (by any library); renamed to `path` when
-    the block ends without an error, removed otherwise."""
+    the block ends without an error, removed otherwise. The temporary file is locked while
+    it is written (`flock`), so that one a killed process left behind is told from one being
+    written (`remove_abandoned`)."""
     path = pathlib.Path(path)
     _parent(path).mkdir(parents=True, exist_ok=True)
     while True:  # the mode a plain open gives (the umask's), not mkstemp's private 0600
         temporary = str(_parent(path) / f".{path.name}.{secrets.token_hex(6)}.partial")
         try:
-            os.close(os.open(temporary, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
-            break
+            descriptor = os.open(temporary, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666)
         except FileExistsError:
             continue
+        fcntl.flock(descriptor, fcntl.LOCK_EX)
+        if _locked_at(descriptor, temporary):
+            break
+        os.close(descriptor)  # removed as abandoned between its making and its lock
     try:
         yield temporary
         os.replace(temporary, path)
     finally:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
+        try:
+            if os.path.exists(temporary):
+                os.unlink(temporary)
+        finally:
+            os.close(descriptor)
+
+
+def remove_abandoned(directory) -> None:
+    """Remove the temporary files of `atomic_path` in `directory` that no process is writing
+    (left by one killed mid-write: its lock went with it)."""
+    for temporary in pathlib.Path(directory).glob(".*.partial"):
+        try:
+            descriptor = os.open(temporary, os.O_RDONLY)
+        except OSError:  # gone, or a directory of `atomic_directory`
+            continue
+        try:
+            fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            if _locked_at(descriptor, temporary):
+                os.unlink(temporary)
+        except BlockingIOError:  # being written
+            pass
+        finally:
+            os.close(descriptor)
+
+
+def _locked_at(descriptor: int, path) -> bool:
+    """Whether the file open as `descriptor` is still the one at `path`."""
+    try:
+        return os.path.samestat(os.fstat(descriptor), os.stat(path))
+    except FileNotFoundError:
+        return False
 
 
 @contextlib.contextmanager

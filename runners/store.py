@@ -18,6 +18,7 @@ import os
 import pathlib
 import platform
 import time
+import zlib
 
 import pandas as pd
 
@@ -112,7 +113,10 @@ class RunStore:
             not self.keep_agents or self.agents_file(self.directory.parent, config.key).exists())
 
     def repair(self, configs) -> list[str]:
-        """Set aside every unreadable run file of `configs`; return one line per file."""
+        """Set aside every unreadable run file of `configs` (return one line per file), and
+        remove the files a process killed mid-write left half-written
+        (`outputs.remove_abandoned`)."""
+        outputs.remove_abandoned(self.directory)
         lines = []
         for config in configs:
             path = self.path(config)
@@ -122,7 +126,7 @@ class RunStore:
                 table = pd.read_csv(path)
                 if table.empty or "episode" not in table.columns:
                     raise ValueError("no rows of episodes")
-            except (OSError, EOFError, ValueError, pd.errors.ParserError) as error:
+            except (OSError, EOFError, zlib.error, ValueError, pd.errors.ParserError) as error:
                 aside = path.with_name(path.name + ".damaged")
                 os.replace(path, aside)
                 lines.append(f"{path} is damaged ({' '.join(str(error).split()) or type(error).__name__}); "

@@ -132,8 +132,10 @@ FORCES = tuple(float(force) for force in controls(np.asarray(NOMINAL)))
 @register_jitable
 def failed(cart_position, pole_angle, track_limit):
     """True where the pole has fallen (|theta| > 12 deg) or the cart has left the track
-    (|x| > track_limit; pass `inf` for no limit)."""
-    return (np.abs(pole_angle) > FAIL_ANGLE) | (np.abs(cart_position) > track_limit)
+    (|x| > track_limit; pass `inf` for no limit), or the state is no number (NaN: the
+    equations overflowed, from speeds beyond 1e154)."""
+    within = (np.abs(pole_angle) <= FAIL_ANGLE) & (np.abs(cart_position) <= track_limit)
+    return np.logical_not(within)
 
 
 @register_jitable

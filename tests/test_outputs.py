@@ -2,6 +2,7 @@
 from each other's failures; Ctrl-C stops the work, never the writing."""
 
 import os
+import pathlib
 import signal
 import subprocess
 import sys
@@ -218,3 +219,15 @@ def test_a_table_written_again_is_the_same_file(tmp_path, monkeypatch):
     assert (tmp_path / "by-pandas.csv.gz").read_bytes() != written[0]  # the check can fail
     outputs.write_table(table, tmp_path / "plain.csv")
     assert (tmp_path / "plain.csv").read_text() == "seed,steps\n0,120\n1,95\n"
+
+
+def test_a_file_left_half_written_is_removed_and_one_being_written_is_not(tmp_path):
+    """A process killed mid-write leaves its temporary file unlocked: `remove_abandoned`
+    removes it, and leaves alone the one another writer holds."""
+    abandoned = tmp_path / ".table.csv.0123456789ab.partial"
+    abandoned.write_text("half")
+    with outputs.atomic_write(tmp_path / "other.csv") as file:
+        file.write("being written")
+        outputs.remove_abandoned(tmp_path)
+        assert [path.name for path in tmp_path.iterdir()] == [pathlib.Path(file.name).name]
+    assert [path.name for path in tmp_path.iterdir()] == ["other.csv"]

@@ -37,13 +37,15 @@ def test_damaged_run_files_are_named_set_aside_and_recomputed(tmp_path, clean, c
     store.path(configs[0]).write_bytes(b"")  # empty
     with open(store.path(configs[1]), "r+b") as file:  # truncated
         file.truncate(20)
+    whole = store.path(configs[2]).read_bytes()  # its compressed data no deflate stream
+    store.path(configs[2]).write_bytes(whole[:10] + b"\xff" * (len(whole) - 10))
     results, computed = sweep.run_sweep(configs, tmp_path)
     lines = capsys.readouterr().err.splitlines()
     damaged = [line for line in lines if "is damaged" in line]
-    assert len(damaged) == 2 and all("its run is computed again" in line for line in damaged)
-    assert str(store.path(configs[0])) in damaged[0] and str(store.path(configs[1])) in damaged[1]
+    assert len(damaged) == 3 and all("its run is computed again" in line for line in damaged)
+    assert all(str(store.path(config)) in line for config, line in zip(configs, damaged))
     assert (store.directory / (store.path(configs[0]).name + ".damaged")).exists()
-    assert computed == 2  # the two damaged runs, as one batch
+    assert computed == 3  # the three damaged runs, as one batch
     pd.testing.assert_frame_equal(results, clean)
 
 

@@ -27,6 +27,7 @@ its leaderboard, marked, and no verdict, table or aggregate of the rows reads it
 """
 
 import re
+import zlib
 
 import numpy as np
 import pandas as pd
@@ -36,7 +37,8 @@ from lwrl.studies.paper.benchmark import evaluation, protocol, study
 COLUMNS = ("learner", "task", "budget", "fraction", "seed", "episode", "steps", "protocol",
            "starts")
 TEXT = ("learner", "task", "protocol", "starts")
-"""The columns read as text (a digest of digits alone is no number)."""
+"""The columns read as text, as written: a digest of digits alone is no number, and a name
+such as `NA` or `null` no empty cell."""
 NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
 """An outside learner's name (it names its file in the benchmark's directory)."""
 BUILT_IN = ("random", "classical", *dict.fromkeys(
@@ -48,9 +50,19 @@ def read(path: str, plant: str = "analytic") -> pd.DataFrame:
     """The results file at `path`, checked (see the module) against the protocol on `plant`;
     a one-line ValueError for a file that cannot be read or does not follow the protocol."""
     try:
-        table = pd.read_csv(path, dtype={name: str for name in TEXT})
-    except (OSError, ValueError, UnicodeDecodeError) as error:
-        raise ValueError(f"{path}: not a readable CSV file ({type(error).__name__})") from None
+        table = pd.read_csv(path)
+        cells = pd.read_csv(path, header=None, dtype=str, keep_default_na=False)
+    except (OSError, EOFError, zlib.error, ValueError, UnicodeDecodeError) as error:
+        damaged = isinstance(error, (EOFError, zlib.error))  # a gzip file cut short or changed
+        why = "damaged compressed data" if damaged else type(error).__name__
+        raise ValueError(f"{path}: not a readable CSV file ({why})") from None
+    names = cells.iloc[0].tolist()
+    twice = [name for name in dict.fromkeys(names) if names.count(name) > 1]
+    if twice:
+        raise ValueError(f"{path}: the column {twice[0]!r} is there twice; each column once")
+    for column in TEXT:  # as written: a learner "NA" is no empty cell
+        if column in names:
+            table[column] = cells.iloc[1:, names.index(column)].to_numpy()
     check(table, path, plant)
     return table
 
@@ -65,7 +77,7 @@ def check(table: pd.DataFrame, source: str, plant: str = "analytic") -> None:
     if table.empty:
         raise ValueError(f"{source}: no rows")
     for column in ("learner", "task"):
-        if table[column].nunique() != 1:
+        if table[column].nunique(dropna=False) != 1:
             raise ValueError(f"{source}: one {column} per file; got {sorted(map(str, table[column].unique()))}")
     check_name(str(table["learner"].iloc[0]), source)
     task = str(table["task"].iloc[0])
@@ -77,16 +89,19 @@ def check(table: pd.DataFrame, source: str, plant: str = "analytic") -> None:
     budgets = set(table["budget"].tolist())
     if budgets != {protocol.BUDGETS[task]}:
         raise ValueError(f"{source}: the budget of {task} is {protocol.BUDGETS[task]} steps; "
-                         f"got {sorted(budgets)}")
+                         f"got {sorted(budgets, key=str)}")
     _check_recorded(table, task, source, plant)
-    for counted in ("seed", "episode", "steps"):
-        values = pd.to_numeric(table[counted], errors="coerce")
-        if not (np.isfinite(values) & (values % 1 == 0)).all():
-            raise ValueError(f"{source}: every {counted} must be a whole number")
-    _check_values(table, "fraction", protocol.FRACTIONS, source)
-    _check_values(table, "seed", range(protocol.AGENTS), source)
-    _check_values(table, "episode", range(1, evaluation.EPISODES + 1), source)
-    if table.duplicated(["fraction", "seed", "episode"]).any():
+    numbers = pd.DataFrame({name: pd.to_numeric(table[name], errors="coerce")
+                            for name in ("fraction", "seed", "episode", "steps")})
+    for name, values in numbers.items():
+        counted = name != "fraction"
+        if not (np.isfinite(values) & ((values % 1 == 0) | (not counted))).all():
+            raise ValueError(f"{source}: every {name} must be a "
+                             f"{'whole' if counted else 'finite'} number")
+    _check_values(numbers, "fraction", protocol.FRACTIONS, source)
+    _check_values(numbers, "seed", range(protocol.AGENTS), source)
+    _check_values(numbers, "episode", range(1, evaluation.EPISODES + 1), source)
+    if numbers.duplicated(["fraction", "seed", "episode"]).any():
         raise ValueError(f"{source}: an episode is there twice (the same fraction, seed and episode)")
     if len(table) != len(protocol.FRACTIONS) * protocol.AGENTS * evaluation.EPISODES:
         raise ValueError(f"{source}: every seed needs every episode at every fraction; "
@@ -94,7 +109,7 @@ def check(table: pd.DataFrame, source: str, plant: str = "analytic") -> None:
     values = pd.to_numeric(table[column], errors="coerce")
     if not np.isfinite(values).all():
         raise ValueError(f"{source}: every {column} must be a finite number")
-    _check_range(pd.to_numeric(table["steps"]), "steps", 1, evaluation.step_cap(task), source, task)
+    _check_range(numbers["steps"], "steps", 1, evaluation.step_cap(task), source, task)
     if column == "uptime_s":
         _check_range(values, column, 0.0, evaluation.episode_seconds(task), source, task)
 
@@ -119,7 +134,7 @@ def _check_recorded(table: pd.DataFrame, task: str, source: str, plant: str) -> 
         given = sorted(set(map(str, table[column])))
         if given != [value]:
             raise ValueError(f"{source}: {column} must be {what[column]}, {value}; got "
-                             f"{', '.join(given)} (`lwrl bench evaluate` writes it)")
+                             f"{', '.join(map(repr, given))} (`lwrl bench evaluate` writes it)")
 
 
 def _check_range(values, column: str, low, high, source: str, task: str) -> None:
@@ -137,7 +152,7 @@ def _check_values(table: pd.DataFrame, column: str, allowed, source: str) -> Non
     if given != sorted(allowed):
         raise ValueError(f"{source}: {column} must take each of {allowed[0]}..{allowed[-1]} "
                          f"({len(allowed)} values) and no other; got {len(given)} values from "
-                         f"{given[0]} to {given[-1]}")
+                         f"{given[0]:g} to {given[-1]:g}")
 
 
 def scores(table: pd.DataFrame, reference: dict) -> dict:

@@ -1,0 +1,83 @@
+"""`lwrl bench run` killed (SIGKILL: no handler runs) once some of its tables are written,
+while it writes another, then the same command again: every table the same, byte for byte,
+as an uninterrupted run's, and nothing of the killed process left behind in the benchmark's
+directory."""
+
+import os
+import pathlib
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import pandas as pd
+
+from lwrl.runners.store import RunStore
+from lwrl.studies.paper.benchmark import evaluation, protocol, study
+
+TASK = "mountain_car.cost_to_go"
+COMMITTED = pathlib.Path(__file__).resolve().parents[1] / "docs" / "benchmark2"
+ROW = "true_online_sarsa"
+"""True online Sarsa's row: its runs take seconds."""
+FRACTIONS = (0.1, 0.25)
+"""The fractions whose runs are taken away (the shortest trainings)."""
+
+
+def missing_runs() -> list:
+    """The runs taken away: the row's trainings at `FRACTIONS` and their evaluations, as the
+    committed benchmark chose them."""
+    chosen = study.read_task(TASK, str(COMMITTED)).chosen
+    row = next(row for row in protocol.rows(TASK) if row.label == ROW)
+    trainings = study.row_trainings(TASK, row, chosen[ROW])
+    return [run for fraction in FRACTIONS
+            for run in (trainings[fraction], evaluation.evaluation(trainings[fraction]))]
+
+
+def copy(destination: pathlib.Path, runs) -> pathlib.Path:
+    """The committed benchmark on the analytic plant without the tables of `runs`."""
+    shutil.copytree(COMMITTED, destination, ignore=shutil.ignore_patterns("mujoco", "figures"))
+    for run in runs:
+        RunStore(destination, make=False).path(run).unlink()
+    return destination
+
+
+def command(out: pathlib.Path) -> list:
+    return [sys.executable, "-m", "lwrl.cli", "bench", "run", TASK, "--out", str(out)]
+
+
+def files(out: pathlib.Path) -> list:
+    """Every file below `out`, by its path relative to it."""
+    return [str(path.relative_to(out)) for path in out.rglob("*") if path.is_file()]
+
+
+def tables(out: pathlib.Path) -> dict:
+    return {path.name: path.read_bytes() for path in sorted((out / "runs").glob("*.csv.gz"))}
+
+
+def test_a_killed_run_resumed_writes_the_same_tables_byte_for_byte(tmp_path):
+    runs = missing_runs()
+    paths = [RunStore(tmp_path / "killed", make=False).path(run) for run in runs]
+    killed, whole = copy(tmp_path / "killed", runs), copy(tmp_path / "whole", runs)
+    process = subprocess.Popen(command(killed), stdout=subprocess.DEVNULL,
+                               stderr=subprocess.DEVNULL)
+    try:
+        while process.poll() is None and not (any(path.exists() for path in paths) and any(
+                name.endswith(".partial") for name in os.listdir(killed / "runs"))):
+            time.sleep(0.001)  # until it writes a file after one of the tables
+        process.send_signal(signal.SIGKILL)
+    finally:
+        process.wait()
+    written = [path.name for path in paths if path.exists()]
+    assert process.returncode == -signal.SIGKILL and 0 < len(written) < len(paths), written
+    for out in (killed, whole):
+        finished = subprocess.run(command(out), capture_output=True, text=True, timeout=600)
+        assert finished.returncode == 0, finished.stderr
+    assert tables(killed) == tables(whole)
+    left = sorted(set(files(killed)) - set(files(whole)))
+    assert not left, left  # no claim, no half-written file
+    assert sorted(os.listdir(tmp_path)) == ["killed", "whole"]  # nor the claim on --out
+    # the committed tables were written before a column (`actions`) was: as read, the same
+    for run in runs:
+        pd.testing.assert_frame_equal(RunStore(killed).read([run]), RunStore(COMMITTED).read([run]),
+                                      check_like=True)
