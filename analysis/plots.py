@@ -68,9 +68,11 @@ def curve_by_steps(table: pd.DataFrame, value: str, points: int = STEP_POINTS) -
     """`(steps (P,), agents x P values)`: each agent's `value` of the last episode it finished
     by each of `points` numbers of environment steps, evenly spaced from the step by which
     every agent has finished an episode to the step by which every agent has finished its
-    last (so that learners whose episodes differ in length are compared at equal steps)."""
+    last (so that learners whose episodes differ in length are compared at equal steps).
+    Episodes an agent did not run (no steps: NaN rows of episodes.csv) are left out."""
     finished, values = [], []
-    for _, agent in table.sort_values("episode").groupby("seed", sort=True):
+    ran = table[table["steps"].notna()]
+    for _, agent in ran.sort_values("episode").groupby("seed", sort=True):
         finished.append(agent["steps"].cumsum().to_numpy())
         values.append(agent[value].to_numpy())
     steps = np.linspace(max(ends[0] for ends in finished), min(ends[-1] for ends in finished),

@@ -53,3 +53,14 @@ def test_a_curve_by_steps_takes_each_agents_last_finished_episode():
     # agent 0 finishes at 10, 20, 30; agent 1 at 15, 45: from 15 (both have one) to 30
     np.testing.assert_allclose(steps, [15.0, 20.0, 25.0, 30.0])
     np.testing.assert_array_equal(grid, [[1.0, 2.0, 2.0, 3.0], [5.0, 5.0, 5.0, 5.0]])
+
+
+def test_a_curve_by_steps_leaves_out_the_episodes_not_run():
+    import pandas as pd
+
+    from lwrl.analysis.plots import curve_by_steps
+    table = pd.DataFrame({"seed": [0, 0, 1, 1], "episode": [1, 2, 1, 2],
+                          "steps": [10, np.nan, 10, 20], "return": [1.0, np.nan, 2.0, 3.0]})
+    steps, grid = curve_by_steps(table, "return", points=2)
+    np.testing.assert_allclose(steps, [10.0, 10.0])
+    np.testing.assert_array_equal(grid, [[1.0, 1.0], [2.0, 2.0]])
