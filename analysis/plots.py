@@ -82,6 +82,19 @@ def curve_by_steps(table: pd.DataFrame, value: str, points: int = STEP_POINTS) -
     return steps, grid
 
 
+def curve_end(table: pd.DataFrame, value: str, by_steps: bool = False) -> tuple:
+    """`(where, Estimate)`: a run's curve at its last point, the mean over agents of `value`
+    with its 95 % interval (`statistics.mean_interval`): at its last episode that every agent
+    ran, or (`by_steps`) at `curve_by_steps`' last number of steps; `where` is that episode
+    or number of steps."""
+    if by_steps:
+        steps, grid = curve_by_steps(table, value)
+        return int(steps[-1]), statistics.mean_interval(grid[:, -1])
+    ran = table[table["steps"].notna()]
+    last = int(ran.groupby("seed")["episode"].max().min())
+    return last, statistics.mean_interval(ran.loc[ran["episode"] == last, value])
+
+
 def plot_runs(runs: list, value: str, ylabel: str, log: bool = False, by_steps: bool = False):
     """The learning curves of `runs`, `[(label, per-episode table)]` (each a run's
     episodes.csv: a row per agent and episode), on one axes: each run's mean over its agents
@@ -91,7 +104,8 @@ def plot_runs(runs: list, value: str, ylabel: str, log: bool = False, by_steps: 
     figure, axes = plt.subplots(figsize=(7, 4))
     for label, table in runs:
         if not by_steps:
-            plot_learning_curve(table, value, ylabel, "", axes=axes, interval=True, label=label)
+            ran = table[table["steps"].notna()]  # not the episodes past a budget
+            plot_learning_curve(ran, value, ylabel, "", axes=axes, interval=True, label=label)
             continue
         steps, grid = curve_by_steps(table, value)
         low, high = statistics.episode_intervals(grid)

@@ -1,6 +1,6 @@
 """`lwrl plot RUN_DIR...`: the learning curves of runs that `lwrl train --out` wrote, each the
 mean over its agents per episode with a 95 % bootstrap interval over agents, on one figure
-(PNG and SVG)."""
+(PNG and SVG); each run's last point printed with its interval."""
 
 import os
 
@@ -43,6 +43,10 @@ def plot_runs(args) -> int:
                                f"{config['learner']} on {config['task']}", episodes)
                               for path, config, episodes in runs],
                              measure, MEASURES[measure], log=args.log, by_steps=args.by_steps)
+    for path, _, episodes in runs:
+        where, estimate = plots.curve_end(episodes, measure, args.by_steps)
+        at = f"{where:,} steps" if args.by_steps else f"episode {where}"
+        print(f"{path}: {MEASURES[measure]} at {at}, mean over agents {estimate.text(1)}")
     directory, name = os.path.split(os.path.abspath(args.out))
     for path in plots.save_figure(figure, directory, name[:-len(".png")]):
         print(f"wrote {path}")

@@ -64,3 +64,13 @@ def test_a_curve_by_steps_leaves_out_the_episodes_not_run():
     steps, grid = curve_by_steps(table, "return", points=2)
     np.testing.assert_allclose(steps, [10.0, 10.0])
     np.testing.assert_array_equal(grid, [[1.0, 1.0], [2.0, 2.0]])
+
+
+def test_the_last_point_of_a_curve_is_printed_with_its_interval(tmp_path, capsys):
+    status, _, _ = run_cli(["train", "mountain_car.cost_to_go", "--agents", "3", "--episodes",
+                            "50", "--budget", "600", "--out", str(tmp_path / "run")], capsys)
+    assert status == 0
+    for flags, where in (([], "at episode "), (["--by-steps"], "at 600 steps")):
+        status, out, _ = run_cli(["plot", str(tmp_path / "run"), "--out",
+                                  str(tmp_path / "c.png"), *flags], capsys)
+        assert status == 0 and f"steps per episode {where}" in out and "mean over agents" in out
