@@ -64,6 +64,16 @@ STEP_POINTS = 60
 """Points of a curve over environment steps (`curve_by_steps`)."""
 
 
+def without_cut_episodes(table: pd.DataFrame, step_limit: float) -> pd.DataFrame:
+    """`table` (episodes.csv) without the episodes that a budget of steps cut short
+    (`RunConfig.budget`): an agent's last episode where it was truncated before the task's
+    `step_limit`, whose measure counts only the steps before the cut."""
+    ran = table[table["steps"].notna()]
+    last = ran["episode"] == ran.groupby("seed")["episode"].transform("max")
+    cut = last & (ran["truncated"] == 1) & (ran["steps"] < step_limit)
+    return ran[~cut]
+
+
 def curve_by_steps(table: pd.DataFrame, value: str, points: int = STEP_POINTS) -> tuple:
     """`(steps (P,), agents x P values)`: each agent's `value` of the last episode it finished
     by each of `points` numbers of environment steps, evenly spaced from the step by which

@@ -1,6 +1,7 @@
 """`lwrl plot RUN_DIR...`: the learning curves of runs that `lwrl train --out` wrote, each the
 mean over its agents per episode with a 95 % bootstrap interval over agents, on one figure
-(PNG and SVG); each run's last point printed with its interval."""
+(PNG and SVG); each run's last point printed with its interval. An episode that a budget of
+steps (`--budget`) cut short is left out (`analysis.plots.without_cut_episodes`)."""
 
 import os
 
@@ -37,7 +38,8 @@ def plot_runs(args) -> int:
     plots, = output.study_modules("plot", "lwrl.analysis.plots")
     if not args.out.endswith(".png"):
         raise ValueError(f"--out must name a .png file; got {args.out!r}")
-    runs = [(path, *output.read_run(path)) for path in args.runs]
+    runs = [(path, config, plots.without_cut_episodes(episodes, step_limit(config)))
+            for path, (config, episodes) in ((path, output.read_run(path)) for path in args.runs)]
     measure = args.measure or default_measure([config["task"] for _, config, _ in runs])
     figure = plots.plot_runs([(f"{os.path.basename(os.path.normpath(path))}: "
                                f"{config['learner']} on {config['task']}", episodes)
@@ -51,6 +53,12 @@ def plot_runs(args) -> int:
     for path in plots.save_figure(figure, directory, name[:-len(".png")]):
         print(f"wrote {path}")
     return 0
+
+
+def step_limit(config: dict) -> float:
+    """The step limit of a run's task with its options (`config.json`'s)."""
+    return tasks.definition(*tasks.split_name(config["task"]),
+                            **config.get("task_options", {})).step_limit
 
 
 def default_measure(task_names: list) -> str:
