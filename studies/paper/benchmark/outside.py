@@ -90,7 +90,6 @@ def check(table: pd.DataFrame, source: str, plant: str = "analytic") -> None:
     if budgets != {protocol.BUDGETS[task]}:
         raise ValueError(f"{source}: the budget of {task} is {protocol.BUDGETS[task]} steps; "
                          f"got {sorted(budgets, key=str)}")
-    _check_recorded(table, task, source, plant)
     numbers = pd.DataFrame({name: pd.to_numeric(table[name], errors="coerce")
                             for name in ("fraction", "seed", "episode", "steps")})
     for name, values in numbers.items():
@@ -106,6 +105,7 @@ def check(table: pd.DataFrame, source: str, plant: str = "analytic") -> None:
     if len(table) != len(protocol.FRACTIONS) * protocol.AGENTS * evaluation.EPISODES:
         raise ValueError(f"{source}: every seed needs every episode at every fraction; "
                          f"{len(table)} rows of {len(protocol.FRACTIONS) * protocol.AGENTS * evaluation.EPISODES}")
+    _check_recorded(table, task, source, plant)  # a whole file's starts: every seed's
     values = pd.to_numeric(table[column], errors="coerce")
     if not np.isfinite(values).all():
         raise ValueError(f"{source}: every {column} must be a finite number")
