@@ -9,6 +9,12 @@ Layout of the output directory (every table a gzip CSV, resumable by the same co
                                  `episode`, `steps`, `return`, `uptime_s` (s), `truncated`,
                                  `diverged`; a training's episodes as far as its budget, an
                                  evaluation's (`trained`, `greedy`) its greedy episodes
+    runs/records/<key>.csv.gz    per agent, what its run cost and where it ran
+                                 (`runners.records`): its share of its batch's CPU seconds,
+                                 at each budget of a family the CPU up to it, its counted
+                                 arithmetic, lwrl's version and commit, the CPU, Python's and
+                                 the libraries' versions (the second benchmark's runs were
+                                 written before runs recorded them: not recorded)
     runs/<key>.agents.npz        a training's agents until its evaluation is written (not kept
                                  in git: the tables alone resume the study)
     references/<task>-<plant>.csv.gz
@@ -20,8 +26,8 @@ Layout of the output directory (every table a gzip CSV, resumable by the same co
     compute.jsonl                what each computed batch of runs cost (wall and CPU seconds,
                                  host, CPU: `runners.store`), a line each, kept across
                                  interruptions: the report's cost line
-    configs.jsonl                every run's full configuration (lwrl's version in `learner`'s
-                                 settings, the host in timings)
+    configs.jsonl                every run's full configuration, a line each (where it ran: its
+                                 records)
     figures/                     the aggregates, the profiles, each task's curves and the
                                  pendulum's training curves with both kinds of action
     README.md                    the report, the command at its top
