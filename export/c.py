@@ -4,7 +4,9 @@ Främling (2008) argues that the trained controller is cheap enough for embedded
 `export_c` writes one saved agent (a file of `lwrl train --save`, read by `agent.io.load`)
 whose learner has a C controller (`Agents.controller`: the template it fills and the values;
 NRBF agents, below, and the Stable-Baselines3 learners' networks, template `mlp_policy`: a
-plain forward pass over `const` weights, `tanhf`/`tanh` where the actor uses tanh) as two
+plain forward pass over `const` weights, `tanhf`/`tanh` where the actor uses tanh; for ARS
+and the streaming learners the forms of `agent.controller_forms`, the same template with
+the state's normalisation, layer normalisation and leaky ReLU) as two
 files in `out_dir`:
 
 - `lwrl_policy.h`: the interface. For a learner of discrete actions (`Learner.actions`),
@@ -63,8 +65,8 @@ from importlib import resources
 import numpy as np
 
 from lwrl import outputs, tasks
+from lwrl.agent import controller_forms
 from lwrl.agent import io as agent_io
-from lwrl.export import population_forms
 from lwrl.runners.stepped import kind_of
 from lwrl.tasks.task_definition import ACTIONS
 
@@ -237,7 +239,7 @@ def export_c(agent_path, out_dir, agent_index: int = 0, dtype: str = "float") ->
     agent, metadata = agent_io.load(agent_path)
     b = _check_index(agent_index, agent.batch_size)
     try:
-        form = population_forms.controller(agent, b)
+        form = controller_forms.controller(agent, b)
     except ValueError as error:
         raise ValueError(f"{agent_path}: {error}") from None
     weights = form.values["weights"]

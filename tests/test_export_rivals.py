@@ -1,4 +1,4 @@
-"""Today's light-weight rivals exported as C (`lwrl.export.population_forms`, template
+"""Today's light-weight rivals exported as C (`lwrl.agent.controller_forms`, template
 `mlp_policy`): after a short training, ARS's linear policy (V1 and V2), Stream Q(lambda)'s
 Q-network and Stream AC(lambda)'s actor, exported in float and in double, give the Python
 agent's greedy decisions on states in and around the task's ranges.

@@ -1,8 +1,9 @@
 """The greedy controllers of today's light-weight rivals as C (`export.c`, template
-`mlp_policy`): ARS's linear policy and the streaming learners' networks, read through the
-agents' public arrays (`Agents.arrays.weights`, `PopulationAgents.unflatten`: what each
-agent has learned, as its learner's `weight_tree` holds it) rather than through a form of
-the learner's own.
+`mlp_policy`): ARS's linear policy and the streaming learners' networks as
+`ControllerForm`s, read through the agents' public arrays (`Agents.arrays.weights`,
+`PopulationAgents.unflatten`: what each agent has learned, as its learner's `weight_tree`
+holds it). `controller(agents, b)` is what the export asks for any agent: these forms for
+their learners (`FORMS`), the learner's own `Agents.controller` for the others.
 
 - **ARS** (`ars`, `ars_continuous`; Mania, Guy & Recht 2018, Algorithm 1): the scores theta
   x of the linear policy, one layer of p = A outputs (or one continuous output) without
