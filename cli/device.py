@@ -65,6 +65,10 @@ def add_parser(commands) -> None:
                             "greedy controller (lwrl export)")
     costs.add_argument("--action-kind", choices=ACTIONS, default=None,
                        help="the tasks' kind of action (default: the task's)")
+    costs.add_argument("--train", type=fields.positive_int, default=200_000, metavar="STEPS",
+                       help="environment steps a controller's agent learns before it is "
+                            "measured, so that its normalisation is not the identity the "
+                            "compiler folds away (default 200000)")
     costs.add_argument("--real", choices=("float", "double"), default="float")
     costs.add_argument("--mhz", type=fields.finite_number, default=168.0,
                        help="clock of the time estimate (default 168, the STM32F405's)")
@@ -151,10 +155,11 @@ def learning_costs(names, args, settings) -> None:
     print(f"per task: RAM computed; code: the learner object for the Cortex-M4 (-O2, {args.real}); "
           f"flash: the whole bench firmware with libm and start-up; "
           f"instructions per call, host x86-64 (callgrind) and emulated M4 (QEMU plugin); "
-          f"time an estimate at {args.mhz:g} MHz and one instruction per cycle")
+          f"time an estimate at {args.mhz:g} MHz and one instruction per cycle; counted "
+          f"multiply-adds/transcendentals per decision and per learning step (Learner.arithmetic)")
     print(f"{'task':<26} {'RAM B':>6} {'code B':>6} {'flash B':>7} {'stack B':>7} "
           f"{'learn x86':>9} {'learn M4':>8} {'decide x86':>10} {'decide M4':>9} {'learn us':>8}"
-          f"  learner")
+          f" {'counted decision':>16} {'counted step':>14}  learner")
     for task in names:
         result = device.costs(task, args.real, **settings)
         print(f"{task:<26} "
@@ -162,13 +167,15 @@ def learning_costs(names, args, settings) -> None:
               f"{result['firmware']['text'] + result['firmware']['data']:>7} {result['stack']:>7} "
               f"{result['host_learn']:>9.0f} {result['m4_learn']:>8.0f} {result['host_decide']:>10.0f} "
               f"{result['m4_decide']:>9.0f} {device.estimate_us(result['m4_learn'], args.mhz):>8.1f}"
+              f" {counted(result['counts'].decision):>16} {counted(result['counts'].step):>14}"
               f"  {result['summary']}")
 
 
 def controller_costs(names, args, settings) -> None:
     """The table of the learners without a C learner: a new agent's greedy controller,
     measured, and the learner's counted arithmetic and memory, one row per task."""
-    print(f"per task, a new agent's greedy controller (lwrl export, {args.real}): code+const: the "
+    print(f"per task, the greedy controller (lwrl export, {args.real}) of an agent after "
+          f"{args.train} steps of learning: code+const: the "
           f"controller object for the Cortex-M4 (-O2: code, weights, constants); flash: the whole "
           f"bench firmware; stack: its only RAM; instructions per decision, host x86-64 "
           f"(callgrind) and emulated M4 (QEMU plugin); time an estimate at {args.mhz:g} MHz; "
@@ -179,15 +186,21 @@ def controller_costs(names, args, settings) -> None:
           f"{'decide M4':>9} {'decide us':>9} {'counted decision':>16} {'counted step':>14} "
           f"{'memory B':>9}  learner")
     for task in names:
-        result = device.new_policy_costs(task, args.real, **settings)
+        result = device.new_policy_costs(task, args.real, args.train, **settings)
         decision, step = result["counts"].decision, result["counts"].step
         fits = "fits" if result["memory"] <= BOARD_RAM else "does not fit"
         print(f"{task:<26} {result['object']['text'] + result['object']['data']:>12} "
               f"{result['firmware']['text'] + result['firmware']['data']:>7} {result['stack']:>7} "
               f"{result['host_decide']:>10.0f} {result['m4_decide']:>9.0f} "
               f"{device.estimate_us(result['m4_decide'], args.mhz):>9.2f} "
-              f"{decision.macs:>10.0f}/{decision.exps:<5.0f} {step.macs:>8.0f}/{step.exps:<5.0f} "
-              f"{result['memory']:>9} ({fits})  {result['learner'].name}: {result['counts'].source}")
+              f"{counted(decision):>16} {counted(step):>14} {result['memory']:>9} ({fits})  {result['learner'].name}: {result['counts'].source}")
+
+
+def counted(count) -> str:
+    """A `Count` as `multiply-adds/transcendentals`, a share of an update's to one decimal."""
+    def number(value):
+        return f"{value:.0f}" if float(value).is_integer() else f"{value:.1f}"
+    return f"{number(count.macs)}/{number(count.exps)}"
 
 
 BITS_PER_BYTE = 10

@@ -49,6 +49,7 @@ from importlib import resources
 import numpy as np
 
 from lwrl import tasks
+from lwrl import agent as learners
 from lwrl.agent import io as agent_io
 from lwrl.agent.streams import SPLITMIX64
 from lwrl.export import learner
@@ -56,7 +57,7 @@ from lwrl.export.c import (DTYPES, SOURCE, _literal, compile_in, export_c, find_
                            template)
 from lwrl.export.c_plants import C_PLANTS
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent
+from lwrl.runners.run import run
 
 CROSS = {"arm-none-eabi-gcc": "gcc-arm-none-eabi", "arm-none-eabi-size": "binutils-arm-none-eabi",
          "qemu-system-arm": "qemu-system-arm"}
@@ -270,10 +271,10 @@ def costs(task: str, dtype: str = "float", **settings) -> dict:
     the start-up and the semihosting output), `stack` (an upper bound of lwrl_learn's stack
     within the learner, -fstack-usage),
     and instructions per `learn` step and per `decide` (greedy decision) on the `host`
-    (callgrind) and on the emulated `m4` (the QEMU plugin)."""
+    (callgrind) and on the emulated `m4` (the QEMU plugin); and `learner_counts`'."""
     source = learner.from_task(task, **settings)
     check_tools()
-    result = {"task": task, "dtype": dtype}
+    result = {"task": task, "dtype": dtype, **learner_counts(task, **settings)}
     with tempfile.TemporaryDirectory() as build:
         written = write_program(build, source, dtype, "bench.c", steps="STEPS_FROM_BUILD",
                                 table=TABLE, decisions="DECISIONS_FROM_BUILD")
@@ -324,20 +325,30 @@ def learns_in_c(task: str, **settings) -> bool:
     return True
 
 
-def new_policy_costs(task: str, dtype: str = "float", **settings) -> dict:
+def new_policy_costs(task: str, dtype: str = "float", train: int = 200_000, **settings) -> dict:
     """`policy_costs` of a new agent for `task` (a `RunConfig`'s `settings`: `learner`, its
-    settings, `actions`; seed 0), untrained: a controller's cost is set by its shapes, not
-    by its values. Adds `learner` (the `Learner`), `counts` (its counted arithmetic,
-    `Learner.arithmetic`) and `memory` (the bytes an agent of it needs, `Learner.memory`)."""
-    config = RunConfig(task=task, agents=1, seed=0, **settings)
-    agents = make_agent(config)
+    settings, `actions`; seed 0) after `train` environment steps of learning on the analytic
+    plant: a controller's cost is set by its shapes, but a new agent's normalisation holds
+    the mean 0 and the scale 1, which the compiler folds away (x - 0 = x, x / 1 = x), so the
+    agent learns first. Adds `learner_counts`' and `trained` (the steps it learned)."""
+    config = RunConfig(task=task, agents=1, seed=0, plant="analytic", budget=train,
+                       episodes=train, **settings)
+    agents, _ = run(config)
     with tempfile.TemporaryDirectory() as scratch:
         path = os.path.join(scratch, "agent.npz")
         agent_io.save(path, agents, {"config": dataclasses.asdict(config)})
         result = policy_costs(path, 0, dtype)
-    spec = agents.learner
-    return {**result, "learner": spec, "counts": spec.arithmetic(agents.settings[0], agents.task),
-            "memory": spec.memory(agents.settings[0], agents.task)}
+    return {**result, **learner_counts(task, **settings), "trained": train}
+
+
+def learner_counts(task: str, **settings) -> dict:
+    """What a new agent's learner says of itself for `task` (a `RunConfig`'s `settings`):
+    `learner` (its `Learner`), `counts` (its counted arithmetic, `Learner.arithmetic`) and
+    `memory` (the bytes one agent needs, `Learner.memory`)."""
+    config = RunConfig(task=task, agents=1, seed=0, **settings)
+    spec = learners.learner(config.learner)
+    return {"learner": spec, "counts": spec.arithmetic(config.agent, config.task_info),
+            "memory": spec.memory(config.agent, config.task_info)}
 
 
 def policy_costs(agent_path, agent_index: int = 0, dtype: str = "float") -> dict:

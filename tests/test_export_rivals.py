@@ -17,12 +17,14 @@ must be rare).
 """
 
 import dataclasses
+import shutil
 
 import numpy as np
 import pytest
 from test_export_c import COMPILER, compile_driver, run_driver
 
 from lwrl.agent import io as agent_io
+from lwrl.export import device
 from lwrl.export.c import export_c
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import run
@@ -110,3 +112,20 @@ def test_the_statistics_are_the_controllers_constants(agent_files, tmp_path):
         assert ("#define LWRL_LAYER_NORM 1" in source) == (name == "stream_q")
         assert ("#define LWRL_NORMALISE 1" in source) == (name != "ars_v1")
     assert sizes == {"ars_v1": 0, "ars_v2": 2 * 2 * 4, "stream_q": 2 * 4 * 4}  # d = 2, 4
+
+
+@pytest.mark.skipif(bool(device.missing_tools()), reason="missing the cross tools or QEMU")
+@pytest.mark.skipif(shutil.which("valgrind") is None, reason="missing valgrind")
+def test_the_controllers_are_measured_on_the_emulated_m4(agent_files):
+    """`policy_costs`: a frozen controller keeps everything in flash (no static RAM), its
+    object holds at least its weights, and a decision of Stream Q's network (two hidden
+    layers of 32, layer-normalised) costs far more instructions than ARS's linear scores,
+    on both machines, as their counted multiply-adds say."""
+    ars, stream_q = (device.policy_costs(agent_files[name]) for name in ("ars_v2", "stream_q"))
+    for result in (ars, stream_q):
+        assert result["object"]["data"] + result["object"]["bss"] == 0
+        assert result["object"]["text"] >= result["written"]["flash_bytes"]
+        assert 0 < result["stack"] < 1024
+        assert result["m4_decide"] > 0 and result["host_decide"] > 0
+    for machine in ("host_decide", "m4_decide"):
+        assert stream_q[machine] > 20 * ars[machine]
