@@ -24,6 +24,7 @@ import pytest
 from test_export_c import COMPILER, compile_driver, run_driver
 
 from lwrl.agent import io as agent_io
+from lwrl.cli.main import main
 from lwrl.export import device
 from lwrl.export.c import export_c
 from lwrl.runners.config import RunConfig
@@ -129,3 +130,16 @@ def test_the_controllers_are_measured_on_the_emulated_m4(agent_files):
         assert result["m4_decide"] > 0 and result["host_decide"] > 0
     for machine in ("host_decide", "m4_decide"):
         assert stream_q[machine] > 20 * ars[machine]
+
+
+@pytest.mark.skipif(bool(device.missing_tools()), reason="missing the cross tools or QEMU")
+@pytest.mark.skipif(shutil.which("valgrind") is None, reason="missing valgrind")
+def test_device_costs_measures_a_learner_without_a_c_learner(capsys):
+    """`lwrl device costs TASK --learner ars`: ARS has no learner in C, so its row is its
+    greedy controller's, after `--train` steps, with its counted arithmetic and memory
+    against the board's RAM."""
+    assert main(["device", "costs", "pendulum.swingup", "--learner", "ars", "--train", "3000"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "after 3000 steps of learning" in lines[0]
+    row = next(line for line in lines if line.startswith("pendulum.swingup"))
+    assert "(fits)" in row and "ars: linear policy 2 x 2, V2" in row
