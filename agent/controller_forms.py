@@ -32,6 +32,7 @@ import numpy as np
 
 from lwrl.agent.learner_contract import ControllerForm
 
+
 def controller(agents, b: int) -> ControllerForm:
     """Agent b's greedy controller: the export's form for its learner (`FORMS`), else the
     learner's own (`Agents.controller`, a one-line ValueError where it has none)."""
@@ -62,7 +63,8 @@ def _form(agents, flat, sizes, title: str, **options) -> ControllerForm:
     """A `mlp_policy` form of the network `flat` with layer widths `sizes` for `agents`'
     task, and the template's `options` (normalisation, activation, ...)."""
     task = agents.task
-    stored = ("weights", "input_mean", "input_scale") if options.get("normalise") else ("weights",)
+    stored = (("weights", "input_mean", "input_scale") if options["normalise"] == "1"
+              else ("weights",))
     return ControllerForm(
         template="mlp_policy",
         values={"weights": flat, "sizes": ", ".join(map(str, sizes)), "layers": len(sizes) - 1,
@@ -79,7 +81,7 @@ def linear_form(agents, b: int) -> ControllerForm:
     theta = np.asarray(tree["theta"], np.float64)
     flat = np.concatenate([theta.ravel(), np.zeros(len(theta))])
     v2 = agents.settings[b].variant == "v2"
-    options = {"activation": "IDENTITY", "output": "CLIP", "normalise": int(v2)}
+    options = {"activation": "IDENTITY", "output": "CLIP", "normalise": str(int(v2))}
     if v2:
         options.update(input_mean=np.asarray(tree["mean"], np.float64),
                        input_scale=np.asarray(tree["std"], np.float64) + random_search.STD_EPS,
@@ -98,8 +100,8 @@ def _stream_form(agents, b: int, layers, outputs, title: str) -> ControllerForm:
     scale = np.sqrt(np.asarray(streaming.stats_variance(stats), np.float64) + streaming.STATS_EPS)
     flat, sizes = _network(layers, outputs)
     return _form(agents, flat, sizes, title, activation="LEAKY_RELU", output="CLIP",
-                 between=", each hidden layer normalised (N) before it", normalise=1,
-                 layer_norm=1, leaky_slope=streaming.LEAKY_SLOPE,
+                 between=", each hidden layer normalised (N) before it", normalise="1",
+                 layer_norm="1", leaky_slope=streaming.LEAKY_SLOPE,
                  layer_norm_eps=streaming.LAYER_NORM_EPS,
                  input_mean=np.asarray(stats["mean"], np.float64), input_scale=scale,
                  inputs="the state in task units, normalised by the running statistics of "

@@ -24,8 +24,9 @@ the steps are equal as long as no action choice sits on such a difference.
 
 `policy_costs(path)` measures an exported greedy controller (`export.c`) the same way: its
 object's bytes, its stack, and instructions per decision (`lwrl_act`) on both machines;
-`new_policy_costs(task, learner=...)` a new agent's, for learners without a C learner
-(today's rivals), with the learner's counted arithmetic and memory beside it.
+`new_policy_costs(task, learner=...)` those of an agent of a learner without a C learner
+(today's rivals) after some learning, with the learner's counted arithmetic and memory
+beside them.
 
 `costs(task)` measures what the learner costs: the learner object's bytes (flash: code and
 constants; RAM: static data, with `arm-none-eabi-size`; stack with `-fstack-usage`), and
@@ -271,7 +272,7 @@ def costs(task: str, dtype: str = "float", **settings) -> dict:
     the start-up and the semihosting output), `stack` (an upper bound of lwrl_learn's stack
     within the learner, -fstack-usage),
     and instructions per `learn` step and per `decide` (greedy decision) on the `host`
-    (callgrind) and on the emulated `m4` (the QEMU plugin); and `learner_counts`'."""
+    (callgrind) and on the emulated `m4` (the QEMU plugin); and what `learner_counts` gives."""
     source = learner.from_task(task, **settings)
     check_tools()
     result = {"task": task, "dtype": dtype, **learner_counts(task, **settings)}
