@@ -254,6 +254,10 @@ SLOW = {
     r"test_budget\.py::(test_a_population|test_a_budget_cuts_the_run_it_would_have_been\[cartpole)":
         "compiles a JAX program; runs the cart-pole twice (Mountain-Car's case stays)",
     r"test_timed_costs\.py::test_population_agents_act": "compiles a JAX network",
+    r"test_table_schemas\.py::test_(every_run_table|a_run_table_of_every_tenth)_keeps": "reads "
+        "the committed benchmark's run tables (all of them, or every tenth) against their schema",
+    r"test_benchmark_dataset\.py::test_the_committed_dataset": "reads the committed Parquet "
+        "dataset and a run table of every fifty",
     r"test_reproduce\.py::(test_a_killed_sweep_resumes|test_quick_reproduction_writes|test_fig3_"
     r"verdict_counts_both_conditions\[(?!60\.0-40-))": "a reproduction sweep; fig. 3's "
         "verdict drawn for each case (one stays)",
