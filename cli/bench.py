@@ -8,6 +8,8 @@
                                                          library's policy, as a results file
     lwrl bench score RESULTS... [--out DIR] [--replace]  an outside learner's results, checked
                                                          and placed in that benchmark
+    lwrl bench export DIR --parquet OUT                  its runs as one Parquet dataset with
+                                                         a data card
 
 The first benchmark (docs/benchmark) is an archive: its report, costs and controllers are
 kept, its code is in lwrl's history (docs/benchmark/README.md names the commits).
@@ -23,7 +25,7 @@ import time
 import lwrl
 from lwrl import outputs
 from lwrl.agent import io as agent_io
-from lwrl.cli import output, reproduce
+from lwrl.cli import bench_export, output, reproduce
 from lwrl.cli.output import Parser
 
 SECOND = "benchmark2"
@@ -42,7 +44,7 @@ def add_parser(commands) -> None:
                     "`status`: how far it has got. `report`: its report rewritten from its "
                     "directory alone. `evaluate`: any library's policy evaluated as the "
                     "protocol evaluates every row. `score`: an outside learner's results "
-                    "placed in it.")
+                    "placed in it. `export`: its runs as one Parquet dataset.")
     actions = bench.add_subparsers(dest="action", required=True, metavar="ACTION",
                                    parser_class=Parser)
     add_run(actions)
@@ -50,6 +52,7 @@ def add_parser(commands) -> None:
     add_report(actions)
     add_evaluate(actions)
     add_score(actions)
+    bench_export.add_export(actions)
 
 
 def add_plant(parser) -> None:
