@@ -16,8 +16,7 @@ def add_export(actions) -> None:
                     "a column per field of the run tables' schema "
                     "(runners/schemas/run_table.json) typed by it, and its data card, "
                     "OUT/README.md: the fields with their units, the source, the licence, how "
-                    "to cite. `pandas.read_parquet('OUT/runs.parquet')` loads it. Needs "
-                    "pyarrow (pip install -e '.[dataset]').")
+                    "to cite. `pandas.read_parquet('OUT/runs.parquet')` loads it.")
     export.add_argument("directory", metavar="DIR", help="the benchmark's directory")
     export.add_argument("--parquet", metavar="OUT", required=True,
                         help="the dataset's directory (runs.parquet and README.md)")
@@ -28,11 +27,7 @@ def add_export(actions) -> None:
 
 def run_export(args) -> int:
     """Export the runs of DIR to OUT."""
-    module, = output.study_modules("bench", "lwrl.studies.paper.benchmark.dataset")
-    try:
-        import pyarrow  # noqa: F401
-    except ImportError:
-        raise ValueError("lwrl bench export needs pyarrow: pip install -e '.[dataset]'") from None
+    module, _ = output.study_modules("bench", "lwrl.studies.paper.benchmark.dataset", "pyarrow")
     output.claim_outputs(args, "parquet")
     outputs.check_directory(args.parquet, "--parquet", force=args.force,
                             names=(module.DATA, module.CARD))

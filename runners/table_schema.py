@@ -30,8 +30,9 @@ TYPES = ("string", "integer", "number", "boolean", "object", "array", "datetime"
 CONSTRAINTS = ("required", "unique", "minimum", "maximum", "enum")
 """The constraints `violations` checks."""
 TRUE_VALUES = ("true", "True", "TRUE", "1")
+"""Table Schema's default `trueValues`: the cells a boolean field reads as true."""
 FALSE_VALUES = ("false", "False", "FALSE", "0")
-"""Table Schema's default `trueValues` and `falseValues`."""
+"""Table Schema's default `falseValues`: the cells a boolean field reads as false."""
 NUMBER_WORDS = ("NaN", "INF", "-INF")
 """Table Schema's spellings of the numbers that are no finite ones."""
 MATCHES = ("exact", "equal", "subset", "superset", "partial")

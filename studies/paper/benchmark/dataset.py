@@ -27,7 +27,7 @@ CARD = "README.md"
 GROUP = 100
 """Run tables per Parquet row group."""
 ARROW_TYPES = {"string": "string", "integer": "int64", "number": "float64", "boolean": "bool"}
-"""Arrow's type of each Table Schema type of a run table's fields."""
+"""Arrow's type of each Table Schema type of a run table's fields (pyarrow: the paper extra)."""
 LICENCE = ("Apache License 2.0, lwrl's licence (`license` in lwrl's pyproject.toml): the runs "
            "are the output of lwrl's code, and may be used, changed and shared under its terms.")
 CITATION = """@inproceedings{framling2008lightweight,
