@@ -22,7 +22,7 @@ Layout of the output directory (every table a gzip CSV, resumable by the same co
     outside/<learner>-<task>.csv.gz
                                  an outside learner's results (`lwrl bench score`,
                                  `outside`'s schema), in the report's leaderboard
-    costs.json                   CPU per learning step of each row (studies/paper/bench_costs.py)
+    costs.json                   CPU per learning step of each row (`timed_costs`)
     compute.jsonl                what each computed batch of runs cost (wall and CPU seconds,
                                  host, CPU: `runners.store`), a line each, kept across
                                  interruptions: the report's cost line
@@ -47,8 +47,7 @@ import time
 from lwrl import outputs
 from lwrl.analysis.statistics import mean_interval
 from lwrl.runners.sweep import config_line
-from lwrl.studies.paper import bench_costs
-from lwrl.studies.paper.benchmark import outside, protocol, report, study
+from lwrl.studies.paper.benchmark import outside, protocol, report, study, timed_costs
 
 OUTSIDE = "outside"
 FIGURES = "figures"
@@ -62,7 +61,7 @@ def benchmark(tasks, out_dir: str, command: str, plant: str = "analytic", sweep=
     started = time.perf_counter()
     tasks = [protocol.check_task(task, plant) for task in tasks]
     computed = [study.study_task(task, out_dir, plant, sweep) for task in tasks]
-    bench_costs.measure_all(cost_cells(computed), out_dir)
+    timed_costs.measure_all(cost_cells(computed), out_dir)
     return write_report(out_dir, command, plant, started, computed)
 
 
@@ -136,7 +135,7 @@ def line_task(line: dict) -> str:
 
 def cost_cells(task_runs) -> list:
     """`(task, label, RunConfig)` of each row's full-budget training: the runs whose costs
-    `bench_costs` measures."""
+    `timed_costs` measures."""
     return [(runs.task, label, config) for runs in task_runs
             for (label, fraction), config in runs.trainings.items() if fraction == 1.0]
 
