@@ -15,12 +15,11 @@ import datetime
 import glob
 import os
 import pathlib
-import subprocess
 
 import pandas as pd
 
 from lwrl import outputs
-from lwrl.runners import table_schema
+from lwrl.runners import records, table_schema
 
 DATA = "runs.parquet"
 CARD = "README.md"
@@ -106,17 +105,6 @@ def export(directory, out, command: str) -> list:
     return [data, card]
 
 
-def checkout_commit() -> str:
-    """The commit of lwrl's checkout that runs, or "unknown" (a wheel, or no git)."""
-    here = pathlib.Path(__file__).resolve().parent
-    try:
-        found = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True,
-                               text=True, timeout=10)
-    except (OSError, subprocess.TimeoutExpired):
-        return "unknown"
-    return found.stdout.strip() if found.returncode == 0 else "unknown"
-
-
 def data_card(schema: dict, directory, command: str, tables: int, rows: int, summary: dict,
               size: int) -> str:
     """The data card (see the module)."""
@@ -130,7 +118,7 @@ def data_card(schema: dict, directory, command: str, tables: int, rows: int, sum
     return "\n".join([
         "# Data card: the benchmark's runs", "",
         f"Written by `{command}` on {stamp}, by lwrl {__version__} at commit "
-        f"{checkout_commit()}, from the {tables} run tables of `{directory}/runs/`.", "",
+        f"{records.commit()}, from the {tables} run tables of `{directory}/runs/`.", "",
         "## What it is", "",
         f"`{DATA}` ({size / 1e6:.1f} MB, {rows} rows): every training and greedy evaluation "
         "run of the benchmark, a row per agent and episode, the run's configuration repeated "
