@@ -53,7 +53,7 @@ class Outcome:
 
 def hypothesis_p_values(x, y, margin: float = MARGIN) -> dict:
     """The three one-sided p-values of the light-weight row's scores `x` against the rival's
-    `y` (NaN dropped), keyed by `graphical.HYPOTHESES`."""
+    `y`, keyed by `graphical.HYPOTHESES`."""
     return {NOT_WORSE: power.non_inferiority(x, y, margin).p_value,
             WORSE: power.non_inferiority(y, x, 0.0).p_value,
             BETTER: power.non_inferiority(x, y, 0.0).p_value}
@@ -71,9 +71,14 @@ def outcome(rejected: dict) -> str:
 
 
 def _finite(values):
-    """`values` as floats, NaN (a diverged agent's score) dropped."""
+    """`values` as floats, or a one-line ValueError where one is NaN: the rule counts an agent
+    whose learning diverged at the task's worst outcome, which its caller gives (the
+    benchmark's `evaluation.measure(..., diverged_as_worst=True)`), not as a missing agent."""
     values = np.asarray(values, dtype=float)
-    return values[~np.isnan(values)]
+    if np.isnan(values).any():
+        raise ValueError("a comparison's score is NaN (a diverged agent's?): the rule counts a "
+                         "diverged agent at the task's worst outcome, so give that score")
+    return values
 
 
 def judge(pairs: Sequence[tuple], margin: float = MARGIN, alpha: float = ALPHA) -> list:

@@ -63,8 +63,10 @@ def test_a_larger_family_asks_more():
         78 * p, rel=1e-9)
 
 
-def test_diverged_agents_are_dropped_and_an_empty_family_refused():
+def test_a_diverged_agent_is_not_dropped_and_an_empty_family_refused():
     x = np.append(row(0.9, 0.05, 20, 12), np.nan)
-    assert outcomes.judge([(x, row(0.7, 0.05, 20, 13))])[0].outcome == "better"
-    with pytest.raises(ValueError, match="at least one comparison"):
-        outcomes.judge([])
+    for call, words in ((lambda: outcomes.judge([(x, row(0.7, 0.05, 20, 13))]), "worst outcome"),
+                        (lambda: outcomes.judge([]), "at least one comparison")):
+        with pytest.raises(ValueError) as error:
+            call()
+        assert words in str(error.value) and "\n" not in str(error.value)
