@@ -160,20 +160,24 @@ def restricted_mean(times, reached, tau: float, axis: int = -1):
 
 
 def restricted_mean_ratio(x_times, x_reached, y_times, y_reached, tau: float,
-                          seed: int = statistics.SEED,
+                          y_tau: float | None = None, seed: int = statistics.SEED,
                           resamples: int = statistics.RESAMPLES) -> Estimate:
-    """RMST(x) / RMST(y) to `tau` (the budget, for steps) with its 95 % percentile bootstrap
-    interval, each row's agents (their times with their flags) resampled within the row."""
+    """RMST(x) to `tau` / RMST(y) to `y_tau` (by default `tau`: the budget, for steps) with its
+    95 % percentile bootstrap interval, each row's agents (their times with their flags)
+    resampled within the row. Where the rows' clocks differ (compute to the level: each
+    agent censored at its own CPU at the budget), each row is restricted to its own clock's
+    end, the largest of its agents' clocks at the budget."""
     x = (np.asarray(x_times, dtype=float), np.asarray(x_reached, dtype=bool))
     y = (np.asarray(y_times, dtype=float), np.asarray(y_reached, dtype=bool))
     _censored(*x), _censored(*y)  # checked
-    if not tau > 0:
-        raise ValueError(f"tau must be a positive time; got {tau}")
+    y_tau = tau if y_tau is None else y_tau
+    if not (tau > 0 and y_tau > 0):
+        raise ValueError(f"a restriction time must be positive; got {tau} and {y_tau}")
 
     def ratio(x_rows, y_rows, axis=-1):
         x_rows, y_rows = (np.asarray(rows, dtype=int) for rows in (x_rows, y_rows))
         return (restricted_mean(x[0][x_rows], x[1][x_rows], tau)
-                / restricted_mean(y[0][y_rows], y[1][y_rows], tau))
+                / restricted_mean(y[0][y_rows], y[1][y_rows], y_tau))
     return statistics.interval(ratio, np.arange(len(x[0])), np.arange(len(y[0])), seed=seed,
                                resamples=resamples)
 

@@ -84,6 +84,12 @@ def test_ratio_logrank_and_pace_on_rows_whose_answer_is_known():
     again = curves.restricted_mean_ratio(quick, np.ones(100, bool), slow, np.ones(20, bool),
                                          BUDGET, resamples=2000)
     assert again == ratio  # seed 0: the same interval every time
+    # compute to the level: each row restricted to its own clock's end
+    cpu = curves.restricted_mean_ratio(quick / 1000, quick > 12, slow, slow < 140, 0.015, 150.0,
+                                       resamples=500)
+    assert cpu.value == pytest.approx(curves.restricted_mean(quick / 1000, quick > 12, 0.015)
+                                      / curves.restricted_mean(slow, slow < 140, 150.0))
+    assert cpu.low < cpu.value < cpu.high < 0.001
     same = rng.uniform(5, 15, 20)
     level = curves.restricted_mean_ratio(same, np.ones(20, bool), same[::-1],
                                          np.ones(20, bool), BUDGET, resamples=2000)
@@ -101,6 +107,8 @@ def test_ratio_logrank_and_pace_on_rows_whose_answer_is_known():
     (lambda: curves.area([20, 30, 40], np.ones((2, 3)), 10), "no evaluation point"),
     (lambda: curves.area([1, 2, 3], np.ones((2, 3)), 0), "positive number of steps"),
     (lambda: curves.kaplan_meier([1, 2], [True]), "two vectors of one length"),
+    (lambda: curves.restricted_mean_ratio([1, 2], [True] * 2, [1, 2], [True] * 2, 5, 0),
+     "restriction time must be positive"),
 ])
 def test_bad_input_gets_one_line(call, words):
     with pytest.raises(ValueError) as error:
