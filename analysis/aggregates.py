@@ -14,8 +14,8 @@ so that every number is the same each time and a learner's intervals do not depe
 learners beside it (as `verdicts.aggregate_estimates`, lwrl's own computation of the same
 definitions, which the tests hold these to).
 
-rliable's library imports arch's bootstrap; rliable 1.2.0 needs arch < 8, and arch 7 does
-not import with pandas 3: the `paper` extra pins pandas below 3.
+rliable's library imports arch's bootstrap; rliable 1.2.0, the newest, needs arch < 8, and
+arch 7 does not import with pandas 3: these run where pandas is below 3 (2.3.3 checked).
 """
 
 import contextlib
@@ -36,8 +36,8 @@ def _rliable():
         reason = str(error).splitlines()[0] if str(error) else ""
         raise RuntimeError(
             f"the aggregates across tasks are rliable's, and rliable.library does not import "
-            f"here ({type(error).__name__}: {reason}); it needs arch < 8, which needs "
-            f"pandas < 3: pip install -e '.[paper]'") from None
+            f"here ({type(error).__name__}: {reason}); rliable 1.2.0 needs arch < 8, which "
+            f"needs pandas < 3: pip install 'pandas<3' 'arch>=7,<8' rliable==1.2.0") from None
     return library, metrics
 
 

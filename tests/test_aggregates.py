@@ -4,10 +4,9 @@ within Monte Carlo error of each other (rliable's resamples come from numpy's gl
 generator, lwrl's from scipy's bootstrap), the same every time and apart from the learners
 beside.
 
-The `paper` extra pins pandas below 3, the versions under which rliable's library imports
-(it needs arch < 8, and arch 7 does not import with pandas 3): where pandas 3 is installed
-regardless, the environment is not the project's and these tests say so and skip; under
-the pin, rliable's library must import."""
+rliable's library imports only where pandas is below 3 (rliable 1.2.0 needs arch < 8, and
+arch 7 does not import with pandas 3): under pandas 3 these tests say so and skip; under
+pandas 2 rliable's library must import."""
 
 import numpy as np
 import pandas as pd
@@ -15,10 +14,10 @@ import pytest
 
 from lwrl.analysis import aggregates, verdicts
 
-if int(pd.__version__.split(".")[0]) >= 3:
-    pytest.skip(f"pandas {pd.__version__} is installed, against the paper extra's pin "
-                f"(pandas < 3, under which rliable's library imports): pip install -e "
-                f"'.[dev]'", allow_module_level=True)
+PANDAS_3 = int(pd.__version__.split(".")[0]) >= 3
+needs_rliable = pytest.mark.skipif(PANDAS_3, reason=(
+    f"rliable's library does not import with pandas {pd.__version__} (rliable 1.2.0 needs "
+    f"arch < 8, arch 7 needs pandas < 3): pip install 'pandas<3' 'arch>=7,<8' rliable==1.2.0"))
 
 RESAMPLES = 1000
 
@@ -36,6 +35,7 @@ def close(ours, theirs):
     return abs(ours.low - theirs.low) < 0.2 * width and abs(ours.high - theirs.high) < 0.2 * width
 
 
+@needs_rliable
 def test_the_aggregates_are_rliable_s_and_lwrl_s():
     scores = learners()
     theirs = aggregates.aggregate_estimates(scores, resamples=RESAMPLES)
@@ -47,6 +47,7 @@ def test_the_aggregates_are_rliable_s_and_lwrl_s():
             assert rliable_s.low < rliable_s.high and close(mine, rliable_s), (learner, aggregate)
 
 
+@needs_rliable
 def test_profiles_and_improvement_are_rliable_s_and_lwrl_s():
     scores = learners()
     thresholds = np.linspace(0.0, 2.0, 21)
@@ -66,6 +67,7 @@ def test_profiles_and_improvement_are_rliable_s_and_lwrl_s():
     assert rliable_s.value == pytest.approx(mine.value, rel=1e-12) and close(mine, rliable_s)
 
 
+@needs_rliable
 def test_the_same_every_time_and_apart_from_the_learners_beside():
     scores = learners()
     np.random.seed(123)
@@ -77,6 +79,7 @@ def test_the_same_every_time_and_apart_from_the_learners_beside():
     assert aggregates.aggregate_estimates({"a": scores["a"]}, resamples=200) == alone
 
 
+@needs_rliable
 def test_bad_input_gets_one_line():
     half = np.full((10, 3), 0.5)
     for call, words in ((lambda: aggregates.improvement(half, half[:, :2]), "the same tasks"),
@@ -85,3 +88,11 @@ def test_bad_input_gets_one_line():
         with pytest.raises(ValueError) as error:
             call()
         assert words in str(error.value) and "\n" not in str(error.value)
+
+
+@pytest.mark.skipif(not PANDAS_3, reason="rliable's library imports under pandas 2")
+def test_where_rliable_does_not_import_the_aggregates_say_why_in_one_line():
+    with pytest.raises(RuntimeError) as error:
+        aggregates.aggregate_estimates({"a": np.full((4, 2), 0.5)})
+    assert "rliable.library does not import" in str(error.value)
+    assert "pandas<3" in str(error.value) and "\n" not in str(error.value)
