@@ -9,12 +9,10 @@ Statist. 6:65-70).
 The aggregates across tasks, their stratified bootstrap intervals and their figures follow the
 definitions of Google's rliable 1.2.0 (the authors' library, github.com/google-research/rliable;
 each function names the file and function it follows) but are computed here on numpy and
-scipy: rliable's bootstrap (`rliable.library`) runs on arch, and rliable 1.2.0, the newest,
-needs arch < 8; arch 7 does not import with pandas 3, arch 6 and older are built against
-numpy 1, and arch 8 dropped the `random_state` that `rliable.library.get_interval_estimates`
-passes it, so it cannot run beside lwrl's pandas. `tests/test_verdicts.py` checks the point
-estimates against `rliable.metrics` (numpy and scipy only), and the intervals against
-`rliable.library` where it imports.
+scipy, vectorised over the resamples: the second benchmark's report uses these. The third
+benchmark's come from rliable itself (`analysis.aggregates`), which `tests/test_aggregates.py`
+holds to these; `tests/test_verdicts.py` checks the point estimates against `rliable.metrics`
+and the intervals against `rliable.library`.
 
 Intervals, seeds and the confidence level are `analysis.statistics`'s (95 % percentile
 intervals, 10 000 resamples, seed 0): every number is the same each time it is computed.
@@ -171,7 +169,7 @@ def _below(name: str, estimate: Estimate, ceiling: float) -> str:
             f"end {ceiling:.3f}")
 
 
-def _task_columns(matrix, learner: str) -> list:
+def task_columns(matrix, learner: str) -> list:
     """The task columns of `learner`'s runs x tasks `matrix` of normalised scores (rliable's
     layout: `scores[n][m]` the score of run n on task m), each a sample of runs: the strata
     of the stratified bootstrap."""
@@ -237,7 +235,7 @@ def aggregate_estimates(scores: Mapping[str, np.ndarray], seed: int = statistics
     a NaN score is refused (rliable's matrices are full)."""
     estimates = {}
     for learner, matrix in scores.items():
-        value, low, high = _stratified_bootstrap(_aggregates, _task_columns(matrix, learner),
+        value, low, high = _stratified_bootstrap(_aggregates, task_columns(matrix, learner),
                                                  seed, resamples)
         estimates[learner] = {aggregate: Estimate(float(value[i]), float(low[i]), float(high[i]))
                               for i, aggregate in enumerate(AGGREGATES)}
@@ -298,7 +296,7 @@ def performance_profiles(scores: Mapping[str, np.ndarray], thresholds, seed: int
     profiles = {}
     for learner, matrix in scores.items():
         profiles[learner] = Profile(thresholds, *_stratified_bootstrap(
-            profile, _task_columns(matrix, learner), seed, resamples))
+            profile, task_columns(matrix, learner), seed, resamples))
     return profiles
 
 
@@ -315,7 +313,7 @@ def improvement_across_tasks(x, y, seed: int = statistics.SEED,
     special case) with its interval as `library.get_interval_estimates` computes it for a pair
     (`StratifiedIndependentBootstrap`, percentile). A task with one run of either learner
     gives no interval (NaN)."""
-    xs, ys = _task_columns(x, "x"), _task_columns(y, "y")
+    xs, ys = task_columns(x, "x"), task_columns(y, "y")
     if len(xs) != len(ys):
         raise ValueError(f"improvement_across_tasks needs the same tasks of x and y (x has "
                          f"{len(xs)}, y {len(ys)})")

@@ -269,6 +269,8 @@ SLOW = {
     "(a quick benchmark)",
     r"test_implementations\.py::test_the_report_is_written": "draws the report's figures",
     r"test_verdicts\.py::test_the_claims_figure_draws": "draws the claims' figure",
+    r"test_aggregates\.py::test_(the_aggregates|profiles_and_improvement)_are_rliable_s": "rliable's "
+        "bootstrap, a Python loop over its resamples (its seeding and input checks stay)",
     r"test_gymnasium_envs\.py::test_observations_stay_inside_the_box": "rolls out several "
         "policies over long episodes (test_observation_bounds stays)",
     r"test_gymnasium_vector\.py::test_the_same_transitions_as_the_single_environments":
