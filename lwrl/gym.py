@@ -104,7 +104,7 @@ from lwrl import models, tasks
 from lwrl.tasks.batched import BatchedEnv
 from lwrl.viz import scenes
 from lwrl.viz.drawing import Painter
-from lwrl.tasks.spaces import Discrete
+from lwrl.spaces import Discrete
 from lwrl.tasks.task_definition import check_finite_state
 
 NAMESPACE = "lwrl"
@@ -163,7 +163,7 @@ _REGISTERED = {**{id_: (*names, "discrete") for id_, names in ENVIRONMENTS.items
 
 
 def gymnasium_space(space) -> spaces.Space:
-    """The Gymnasium space of a task's space (`tasks.spaces`): `Discrete(n)`, or a float64
+    """The Gymnasium space of a task's space (`lwrl.spaces`): `Discrete(n)`, or a float64
     `Box` (the plants' type, so that an action reaches the plant unrounded)."""
     if isinstance(space, Discrete):
         return spaces.Discrete(space.n)
@@ -189,7 +189,7 @@ class SuiteEnv(gymnasium.Env):
     `SuiteEnv(domain, task, plant=None, render_mode=None, actions="discrete", **options)`
     takes the arguments of `tasks.load` except `seed` (seed with `reset(seed=...)`).
     `dm_env` is the wrapped dm_env environment, `definition` the task's `TaskDefinition`,
-    `task_spec` its `tasks.spaces.TaskSpec` (the spaces come from it), `actions` its kind of action (`discrete` or `continuous`), `step_limit` its truncation
+    `task_spec` its `lwrl.spaces.TaskSpec` (the spaces come from it), `actions` its kind of action (`discrete` or `continuous`), `step_limit` its truncation
     step (`inf` for none).
     """
 
@@ -233,7 +233,7 @@ class SuiteEnv(gymnasium.Env):
         self._window = _Window(f"lwrl {domain}.{task} ({plant})", self.metadata["render_fps"]) \
             if render_mode == "human" else None
         self.task_spec = tasks.spec_of(definition)
-        """The task's `tasks.spaces.TaskSpec`, which the spaces come from."""
+        """The task's `lwrl.spaces.TaskSpec`, which the spaces come from."""
         self.action_space = gymnasium_space(self.task_spec.action)
         """`Discrete(n)`, or with continuous actions the control's `Box`."""
         noisy = self.suite_task.disturbances.sigma_observation[0] > 0
@@ -466,7 +466,7 @@ class SuiteVectorEnv(VectorEnv):
         """The kind of action, `SuiteEnv.actions`."""
         self.options, self.definition = single.options, single.definition
         self.task_spec = single.task_spec
-        """The task's `tasks.spaces.TaskSpec`, `SuiteEnv.task_spec`."""
+        """The task's `lwrl.spaces.TaskSpec`, `SuiteEnv.task_spec`."""
         self.single_action_space = single.action_space
         """One copy's action space, `SuiteEnv.action_space`."""
         self.single_observation_space = single.observation_space
@@ -539,7 +539,7 @@ class SuiteVectorEnv(VectorEnv):
 
 def max_episode_steps(domain: str, task: str) -> int:
     """The steps of the task's own time limit at its default options, every id's
-    `max_episode_steps` (`tasks.spaces.TaskSpec.step_limit`): 10 000 for Mountain-Car and the
+    `max_episode_steps` (`lwrl.spaces.TaskSpec.step_limit`): 10 000 for Mountain-Car and the
     acrobot, 3 000 for the pendulum (60 s), 12 000 for the cart-pole (240 s)."""
     return int(tasks.spec(f"{domain}.{task}").step_limit)
 

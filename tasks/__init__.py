@@ -43,7 +43,7 @@ from lwrl.tasks import disturbances  # noqa: E402
 from lwrl.tasks.base import SuiteTask  # noqa: E402
 from lwrl.tasks.task_definition import ACTIONS, TaskDefinition  # noqa: E402
 from lwrl.tasks.domain_contract import Domain  # noqa: E402
-from lwrl.tasks.spaces import Box, Discrete, TaskSpec  # noqa: E402
+from lwrl.spaces import Box, Discrete, TaskSpec  # noqa: E402
 from lwrl.outside import admitted  # noqa: E402
 
 DOMAIN_MODULES = ("mountain_car", "pendulum", "cartpole", "acrobot")
@@ -173,10 +173,10 @@ def definition(domain_name: str, task: str, **options) -> TaskDefinition:
 
 
 def spec_of(definition: TaskDefinition) -> TaskSpec:
-    """What a learner may know of the task `definition` (`tasks.spaces.TaskSpec`): its
+    """What a learner may know of the task `definition` (`lwrl.spaces.TaskSpec`): its
     observation bounds, its actions (`Discrete` of its controls, or with continuous actions
-    a `Box` of the actuator's range), state names, timestep, step limit and physical
-    parameters' values by name."""
+    a `Box` of the actuator's range), state names, timestep, step limit, physical
+    parameters' values by name and normalisation ranges (its run defaults')."""
     if definition.continuous:
         low, high = definition.control_range
         action = Box((low,), (high,))
@@ -185,7 +185,8 @@ def spec_of(definition: TaskDefinition) -> TaskSpec:
     names = domain(definition.domain).parameters.names
     return TaskSpec(definition.name, Box(*definition.bounds), action, definition.state_names,
                     definition.control_timestep, definition.step_limit,
-                    dict(zip(names, definition.physical)))
+                    dict(zip(names, definition.physical)),
+                    Box(definition.defaults.low, definition.defaults.high))
 
 
 def spec(name: str, **options) -> TaskSpec:

@@ -2,7 +2,7 @@
 
 Each domain module (`tasks/<domain>.py`) ends with one `DOMAIN = Domain(...)`, and the
 registry (`tasks.DOMAINS`) lists the modules. A domain is its name, its tasks (each a
-`TaskDefinition`, whose spec a learner sees: `tasks.spaces`), its plants and its physical
+`TaskDefinition`, whose spec a learner sees: `lwrl.spaces`), its plants and its physical
 parameters, as dm_control's suite keeps a task apart from viewers and benchmarks. What
 another part knows of a domain is that part's own fact, in that part's registry by domain
 name (`lwrl.outside.DomainFacts`, each with an entry-point group through which other

@@ -47,7 +47,7 @@ files, the settings dataclasses' metadata and the entry points through which oth
 add to the registries, are there for every room. `bench` (`lwrl/bench.py`) is the second
 benchmark's face for any library's learner: it reads `studies`, as `cli` does; `testing`
 (`lwrl/testing.py`) holds the learner and task contract checks, reading `runners`."""
-LWRL_MODULES = ("gym", "kernels", "outputs", "settings", "outside", "bench", "testing")
+LWRL_MODULES = ("gym", "kernels", "outputs", "settings", "outside", "spaces", "bench", "testing")
 """The rooms that are one module of `lwrl/`."""
 LWRL_PACKAGES = ("jax",)
 """The rooms that are a package inside `lwrl/` (not a top-level folder: a folder `jax/` at

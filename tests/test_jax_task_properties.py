@@ -20,7 +20,7 @@ import jax.numpy as jnp  # noqa: E402
 
 import lwrl.jax  # noqa: E402
 from lwrl import tasks  # noqa: E402
-from lwrl.tasks.spaces import Discrete  # noqa: E402
+from lwrl.spaces import Discrete  # noqa: E402
 
 
 @functools.cache

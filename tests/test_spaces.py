@@ -1,11 +1,13 @@
-"""The spaces and the task spec (`tasks.spaces`): what they accept, and that every face of a
+"""The spaces and the task spec (`lwrl.spaces`): what they accept, and that every face of a
 task (the spec, Gymnasium, the JAX environment) gives the same spaces."""
+
+import json
 
 import numpy as np
 import pytest
 
 from lwrl import tasks
-from lwrl.tasks.spaces import Box, Discrete, TaskSpec
+from lwrl.spaces import Box, Discrete, TaskSpec, spec_document, spec_of_document
 
 
 def test_a_discrete_space_holds_its_indices_and_no_other_value():
@@ -62,6 +64,39 @@ def test_the_spec_is_what_the_task_definition_says(name, actions):
         assert spec.action == Box((definition.control_range[0],), (definition.control_range[1],))
     else:
         assert spec.action == Discrete(len(definition.controls))
+    assert spec.ranges == Box(definition.defaults.low, definition.defaults.high)
+    assert spec.actions == actions
+
+
+@pytest.mark.parametrize("actions", ["discrete", "continuous"])
+def test_a_spec_goes_through_json_and_back(actions):
+    """An agent file keeps its agents' spec as JSON (`spec_document`), infinite bounds too."""
+    spec = tasks.spec("pendulum.swingup", actions=actions)
+    assert spec_of_document(json.loads(json.dumps(spec_document(spec)))) == spec
+
+
+@pytest.mark.parametrize("old", [
+    ["cartpole.balance", ["x", "x_dot"], 2, [-2.4, -1.5], [2.4, 1.5]],
+    ["cartpole.balance", ["x", "x_dot"], 2, [-2.4, -1.5], [2.4, 1.5], "discrete"],
+    {"name": "cartpole.balance", "state_names": ["x", "x_dot"], "num_actions": 2,
+     "low": [-2.4, -1.5], "high": [2.4, 1.5], "actions": "discrete"}])
+def test_a_task_as_files_before_specs_described_it_reads_as_a_spec(old):
+    """Before specs an agent file described its task by name, state names, discrete actions
+    and normalisation ranges (a list, or a dict): read, the spec holds those and says it
+    knows nothing else (unbounded observation, no timestep, no step limit, no parameters)."""
+    spec = spec_of_document(old)
+    assert (spec.name, spec.state_names, spec.action) == ("cartpole.balance", ("x", "x_dot"),
+                                                          Discrete(2))
+    assert spec.ranges == Box((-2.4, -1.5), (2.4, 1.5))
+    assert spec.observation == Box((-np.inf,) * 2, (np.inf,) * 2)
+    assert np.isnan(spec.control_timestep) and spec.step_limit == np.inf and not spec.parameters
+
+
+def test_a_continuous_task_before_specs_reads_as_a_box_of_unknown_range():
+    spec = spec_of_document({"name": "pendulum.swingup", "state_names": ["a", "w"],
+                             "num_actions": 0, "low": [-3.0, -1.5], "high": [3.0, 1.5],
+                             "actions": "continuous"})
+    assert spec.continuous and spec.action == Box((-np.inf,), (np.inf,))
 
 
 def test_the_spec_follows_the_tasks_options():

@@ -36,7 +36,7 @@ from lwrl import tasks
 from lwrl.jax.translate import as_jax
 from lwrl.tasks.integrators import check_integrator
 from lwrl.tasks.plants import check_equations
-from lwrl.tasks.spaces import Box, Discrete
+from lwrl.spaces import Box, Discrete
 from lwrl.tasks.task_definition import advance_episode
 
 
@@ -190,7 +190,7 @@ class Environment:
         return controls[0], controls[-1]
 
     def action_space(self, params=None):
-        """gymnax's `action_space(params)` (`tasks.spaces`): `Discrete(A)` of the task's
+        """gymnax's `action_space(params)` (`lwrl.spaces`): `Discrete(A)` of the task's
         action indices, or with continuous actions the `Box` of shape (1,) of the actuator's
         range at `params` (None: `default_params`; concrete values, outside `jit`: a space
         is a description, not an array)."""
@@ -200,7 +200,7 @@ class Environment:
         return Box((float(low),), (float(high),))
 
     def observation_space(self, params=None):
-        """gymnax's `observation_space(params)` (`tasks.spaces`): the `Box` of the task's
+        """gymnax's `observation_space(params)` (`lwrl.spaces`): the `Box` of the task's
         bounds (`TaskDefinition.bounds`, the same at every `params`), unbounded in the
         variables `make`'s sensors add noise to."""
         noisy = np.asarray(self.default_sensors.observation_noise) > 0

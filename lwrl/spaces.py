@@ -13,6 +13,9 @@ physical parameters' values. It holds no function of the task: a learner made fr
 cannot step, draw or peek at the plant. The spec of a task made with continuous actions has
 a `Box` of the actuator's range (force, torque or thrust, `TaskDefinition.control_range`) as
 its action space, one of discrete actions a `Discrete` of its controls' count.
+
+They lie on the lowest floor, below both the suite (`tasks`, which makes specs:
+`tasks.spec`, `tasks.spec_of`) and the learners (`agent`, which are made from them).
 """
 
 import dataclasses
@@ -120,10 +123,66 @@ class TaskSpec:
     """Seconds (Mountain-Car: steps) per agent step."""
     step_limit: float
     """Steps after which an episode is truncated (`inf`: never)."""
-    parameters: Mapping[str, float]
+    parameters: Mapping[str, float] = dataclasses.field(hash=False)
     """The physical parameters' values the task has, by name (`Domain.parameters`)."""
+    ranges: Box | None = None
+    """The box a learner's representation spans unless its settings say otherwise: each
+    state variable's normalisation range (finite where `observation` may not be: the
+    pendulum's speed), `TaskDefinition.defaults`' `low` and `high`; None: the task gives
+    none."""
 
     @property
     def continuous(self) -> bool:
         """True where an action is the control itself (a `Box`)."""
         return isinstance(self.action, Box)
+
+    @property
+    def actions(self) -> str:
+        """The kind of its actions: `discrete` (a `Discrete` space) or `continuous`."""
+        return "continuous" if self.continuous else "discrete"
+
+
+def space_document(space: Space) -> dict:
+    """`space` as JSON: `{"n": n}` or `{"low": [...], "high": [...]}`."""
+    if isinstance(space, Discrete):
+        return {"n": int(space.n)}
+    return {"low": list(space.low), "high": list(space.high)}
+
+
+def space_of(document: dict) -> Space:
+    """The space `space_document` wrote."""
+    return Discrete(document["n"]) if "n" in document else Box(document["low"], document["high"])
+
+
+def spec_document(spec: TaskSpec) -> dict:
+    """`spec` as JSON (an agent file keeps the spec its agents were made from)."""
+    return {"name": spec.name, "observation": space_document(spec.observation),
+            "action": space_document(spec.action), "state_names": list(spec.state_names),
+            "control_timestep": spec.control_timestep, "step_limit": spec.step_limit,
+            "parameters": dict(spec.parameters),
+            "ranges": None if spec.ranges is None else space_document(spec.ranges)}
+
+
+def spec_of_document(document) -> TaskSpec:
+    """The spec `spec_document` wrote; or, from a file written before specs, the task as it
+    was described then: `[name, state names, discrete actions (0: continuous), low, high,
+    kind]` or the same as a dict (`name`, `state_names`, `num_actions`, `low`, `high`,
+    `actions`), which told a learner its normalisation ranges and kind of actions only: such
+    a spec has an unbounded observation (and continuous action), no timestep (NaN), no step
+    limit and no parameters."""
+    if isinstance(document, dict) and "observation" in document:
+        ranges = document["ranges"]
+        return TaskSpec(document["name"], space_of(document["observation"]),
+                        space_of(document["action"]), tuple(document["state_names"]),
+                        float(document["control_timestep"]), float(document["step_limit"]),
+                        dict(document["parameters"]),
+                        None if ranges is None else space_of(ranges))
+    if isinstance(document, dict):
+        document = [document[key] for key in ("name", "state_names", "num_actions", "low", "high")
+                    ] + [document.get("actions", "discrete")]
+    name, state_names, num_actions, low, high, *kind = document
+    continuous = (kind or ["discrete"])[0] == "continuous"
+    dim = len(state_names)
+    return TaskSpec(name, Box([-math.inf] * dim, [math.inf] * dim),
+                    Box((-math.inf,), (math.inf,)) if continuous else Discrete(num_actions),
+                    tuple(state_names), math.nan, math.inf, {}, Box(low, high))
