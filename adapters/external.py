@@ -33,10 +33,11 @@ from dm_env import specs
 
 from lwrl import agent as learners
 from lwrl.agent.features import check_box
-from lwrl.agent.learner_contract import Agents, TaskInfo
+from lwrl.agent.learner_contract import Agents
 from lwrl.runners.config import LearnerChoice, ProtocolSettings, compose
 from lwrl.runners.run import EpisodeResults, run_batched
 from lwrl.settings import check_choices, fill
+from lwrl.spaces import Box, Discrete, TaskSpec
 from lwrl.tasks.batched import SteppedEnvs, flatten_observation
 
 MAX_DIMENSIONS = 6
@@ -311,11 +312,14 @@ class ExternalConfig(LearnerChoice, ProtocolSettings, ExternalEnvironment):
         """The observation box's upper ends (the learner's `high`), or None."""
         return self.agent.high
 
-    def task_info(self, env) -> TaskInfo:
-        """What the learner may know of the environment `env` (an `ExternalEnv`), with the
-        run's observation box as its ranges."""
-        return TaskInfo(self.env, tuple(f"observation[{j}]" for j in range(env.dim)),
-                        env.num_actions, self.low, self.high)
+    def task_spec(self, env) -> TaskSpec:
+        """What the learner may know of the environment `env` (an `ExternalEnv`): its
+        observation bounds and discrete actions, the run's observation box as its ranges;
+        its timestep and step limit are the environment's own, unknown here (NaN, inf)."""
+        ranges = None if self.low is None else Box(self.low, self.high)
+        return TaskSpec(self.env, Box(env.low, env.high), Discrete(env.num_actions),
+                        tuple(f"observation[{j}]" for j in range(env.dim)), math.nan,
+                        math.inf, {}, ranges)
 
     def describe(self) -> str:
         return self.agent.describe(len(self.low))
@@ -346,7 +350,7 @@ def prepare(config: ExternalConfig) -> tuple[ExternalConfig, Agents, SteppedEnvs
     envs = [load(config.env, seed, config.actions) for seed in config.seeds]
     low, high = observation_box(config, envs[0])
     config = dataclasses.replace(config, agent=dataclasses.replace(config.agent, low=low, high=high))
-    info = config.task_info(envs[0])
+    info = config.task_spec(envs[0])
     learner = learners.learner(config.learner)
     reason = learner.fits(info)
     if reason is not None:

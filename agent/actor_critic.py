@@ -41,9 +41,9 @@ configuration's mean normalised score was 0.69 where the earlier defaults' was 0
 earlier discount, 0.98, was Doya's time constant of the value, tau = 1 s, at the 20-ms
 control period; the search's 0.95 is tau = 0.39 s.
 
-In the contract's terms: `actions` is `continuous` (the step returns u in [-1, 1]); `q`
-`(B, 1)` holds the actor's mean mu at the latest observation (what the greedy policy does);
-the state value is the critic's V; `weights` is `(B, 2, N)`, the actor's w and the critic's
+In the contract's terms: `actions` is `continuous` (the step returns u in [-1, 1]); it has
+no action values (no `q`: an actor's mean is not the value of an action); the state value
+is the critic's V; `weights` is `(B, 2, N)`, the actor's w and the critic's
 v; the TD error is the critic's delta. Its C controller (`lwrl export`) is the greedy actor,
 clip(mu(s), -1, 1), over the same NRBF code as the discrete learners'.
 """
@@ -72,13 +72,13 @@ _TRACE_INDEX = {"replacing": 0, "accumulating": 1}
 """`agent.traces`' index of each rule (REPLACING, ACCUMULATING)."""
 
 Arrays = collections.namedtuple(
-    "Arrays", "weights traces phi slot action streams diverged q delta scratch "
+    "Arrays", "weights traces phi slot action streams diverged delta scratch "
               "alpha beta gamma lam sigma features trace")
 """One batch's learning state, scratch space and settings, each with a leading axis B:
 `weights` `(B, 2, N)` (the actor's w, the critic's v), the critic's `traces` `(B, 1, N)`,
 the features of the last two observations `phi` `(B, 2, N)` (the latest in
 `phi[b, slot[b]]`), the latest action u in [-1, 1], the random streams, divergence flags,
-the actor's mean at the latest observation `q` `(B, 1)` and the latest TD error `delta`
+the latest TD error `delta`
 (NaN where no update was made); the step sizes, discount, trace decay, exploration and
 trace rule per agent; the feature map as compiled code sees it."""
 
@@ -142,7 +142,6 @@ def agent_step(b, first, reward, discount, observation, learn, greedy, arrays):
     features_into(arrays.features, observation, phi_t, arrays.scratch[b])
     w = arrays.weights[b]
     mu_t = action_value(w, phi_t, ACTOR)
-    arrays.q[b, 0] = mu_t
     bootstrap = first or discount > 0.0
     arrays.delta[b] = np.nan
     if first:
@@ -190,7 +189,7 @@ class ActorCriticAgents(LinearAgents):
             weights=np.zeros((batch, 2, n)), traces=np.zeros((batch, 1, n)),
             phi=np.zeros((batch, 2, n)), slot=np.zeros(batch, dtype=np.int64),
             action=np.zeros(batch), streams=streams, diverged=np.zeros(batch, dtype=bool),
-            q=np.zeros((batch, 1)), delta=np.full(batch, np.nan),
+            delta=np.full(batch, np.nan),
             scratch=np.zeros((batch, features.dim, scratch_width(features))),
             alpha=per_agent("alpha", alpha, batch, 0.0, np.inf, closed_low=False)
             * features.alpha_scale,
@@ -255,10 +254,10 @@ class ActorCriticAgents(LinearAgents):
 
 def make(settings, task, seeds) -> ActorCriticAgents:
     """The agents of `settings` (one `ActorCriticSettings` per agent, equal but in the
-    per-agent fields) on `task` (`TaskInfo`), with zero weights (mu = 0: the middle of the
+    per-agent fields) on `task` (`TaskSpec`), with zero weights (mu = 0: the middle of the
     actuator's range; V = 0)."""
     base = settings[0]
-    return ActorCriticAgents(base.feature_map(task.low, task.high), seeds=seeds,
+    return ActorCriticAgents(base.feature_map(task.ranges.low, task.ranges.high), seeds=seeds,
                              settings=settings,
                              **{name: [getattr(s, name) for s in settings]
                                 for name in ("alpha", "beta", "lam", "gamma", "sigma", "trace")})
@@ -283,7 +282,7 @@ def load(document, arrays) -> ActorCriticAgents:
 def memory(settings, task) -> int:
     """Bytes of one agent's arrays: the actor's and the critic's weights, the critic's traces,
     the last two feature vectors and the feature scratch."""
-    features = settings.feature_map(task.low, task.high)
+    features = settings.feature_map(task.ranges.low, task.ranges.high)
     n = features.num_features
     return 8 * (5 * n + features.dim * scratch_width(features) + 8)
 

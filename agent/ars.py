@@ -97,7 +97,7 @@ class ArsAgents(PopulationAgents):
 
     def outputs(self) -> int:
         """Rows of theta: one score per action, or the one continuous action."""
-        return self.task.num_actions if self.task.num_actions else 1
+        return 1 if self.task.continuous else self.task.action.n
 
     def initial_state(self, key):
         jnp = self.jnp
@@ -200,7 +200,7 @@ def memory(settings, task) -> int:
     """Bytes of one agent (float64): its policy, V2's scale and statistics, the returns of
     an iteration's rollouts."""
     dim = len(task.state_names)
-    return 8 * ((task.num_actions or 1) * dim + 5 * dim + 2 * settings.directions + 8)
+    return 8 * ((1 if task.continuous else task.action.n) * dim + 5 * dim + 2 * settings.directions + 8)
 
 
 def arithmetic(settings, task, steps=None) -> Counts:
@@ -213,7 +213,7 @@ def arithmetic(settings, task, steps=None) -> Counts:
     known from the shapes (the normal draws are not counted)."""
     del steps
     dim = len(task.state_names)
-    outputs, read = (task.num_actions or 1), (dim if settings.variant == "v2" else 0)
+    outputs, read = (1 if task.continuous else task.action.n), (dim if settings.variant == "v2" else 0)
     decision = Count(outputs * dim + read)
     iteration = Count(settings.directions * outputs * dim + 4 * settings.top_directions
                       + 2 * dim, dim)

@@ -44,6 +44,7 @@ from lwrl.agent.learner_contract import Agents, Learner, LearnerSettings
 from lwrl.agent.linear import per_agent
 from lwrl.agent.streams import gaussian, seed_streams, uniform
 from lwrl.settings import check_non_negative, check_positive, check_unit_interval, setting
+from lwrl.spaces import Discrete
 
 STATE = ("cart_position", "cart_velocity", "pole_angle", "pole_angular_velocity")
 """The state the boxes read, in this order (x in m, x_dot in m/s, theta and theta_dot in rad
@@ -109,11 +110,11 @@ class AseAceSettings(LearnerSettings):
 
 def fits(task):
     """The cart-pole's state and two actions, or one line saying so."""
-    if tuple(task.state_names) == STATE and task.num_actions == 2:
+    if tuple(task.state_names) == STATE and task.action == Discrete(2):
         return None
     return (f"ase_ace fits the cart-pole (Barto et al. 1983): a state ({', '.join(STATE)}) and "
             f"two actions; {task.name} has ({', '.join(task.state_names)}) and "
-            f"{task.num_actions} actions")
+            f"{'continuous actions' if task.continuous else f'{task.action.n} actions'}")
 
 
 @register_jitable
@@ -260,7 +261,7 @@ def make(settings, task, seeds) -> AseAceAgents:
     """The agents of `settings` (one `AseAceSettings` per agent) on the cart-pole `task`."""
     return AseAceAgents(seeds=seeds, **{name: [getattr(s, name) for s in settings] for name in
                                         ("alpha", "beta", "delta", "gamma", "lam", "sigma")},
-                        policy=settings[0].policy, box=(task.low, task.high), settings=settings)
+                        policy=settings[0].policy, box=(task.ranges.low, task.ranges.high), settings=settings)
 
 
 def load(document, arrays) -> AseAceAgents:

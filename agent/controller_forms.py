@@ -69,9 +69,9 @@ def _form(agents, flat, sizes, title: str, **options) -> ControllerForm:
         template="mlp_policy",
         values={"weights": flat, "sizes": ", ".join(map(str, sizes)), "layers": len(sizes) - 1,
                 "widest": max(sizes), "parameters": len(flat), "shape": " -> ".join(map(str, sizes)),
-                "low": np.array(task.low, dtype=np.float64),
-                "high": np.array(task.high, dtype=np.float64), "title": title, **options},
-        stored=stored, ranges=(task.low, task.high), check=lambda real: None)
+                "low": np.array(task.ranges.low, dtype=np.float64),
+                "high": np.array(task.ranges.high, dtype=np.float64), "title": title, **options},
+        stored=stored, ranges=(task.ranges.low, task.ranges.high), check=lambda real: None)
 
 
 def linear_form(agents, b: int) -> ControllerForm:

@@ -210,8 +210,8 @@ def mlp_form(torch, sequential, weights, task, activation: str) -> ControllerFor
         values={"weights": flat.astype(np.float64), "sizes": ", ".join(map(str, sizes)),
                 "layers": len(layers), "widest": max(sizes), "parameters": len(flat),
                 "activation": activation.upper(), "shape": " -> ".join(map(str, sizes)),
-                "low": np.array(task.low, dtype=np.float64), "high": np.array(task.high, dtype=np.float64)},
-        stored=("weights",), ranges=(task.low, task.high), check=lambda real: None)
+                "low": np.array(task.ranges.low, dtype=np.float64), "high": np.array(task.ranges.high, dtype=np.float64)},
+        stored=("weights",), ranges=(task.ranges.low, task.ranges.high), check=lambda real: None)
 
 
 def make(settings, task, seeds) -> DqnAgents:
@@ -229,7 +229,7 @@ def memory(settings, task) -> int:
     two moments (four copies of the parameters)."""
     dim = len(task.state_names)
     return (buffer_bytes(settings.buffer_size, dim, 2, 3)
-            + network_bytes(dim, settings.layers(), task.num_actions, 4))
+            + network_bytes(dim, settings.layers(), task.action.n, 4))
 
 
 def arithmetic(settings, task, steps: int | None = None) -> Counts:
@@ -242,7 +242,7 @@ def arithmetic(settings, task, steps: int | None = None) -> Counts:
     network, and `OPTIMISER_MACS` per parameter; every `target_update_interval` steps the
     target's Polyak update (2 per parameter). Amortised over `steps` steps of learning from
     an agent's first (the training calls in them), or per step of a long run where None."""
-    dim, actions, layers = len(task.state_names), task.num_actions, settings.layers()
+    dim, actions, layers = len(task.state_names), task.action.n, settings.layers()
     sizes = [dim, *layers, actions]
     q, parameters = mlp_forward(sizes, False), mlp_parameters(sizes)
     gradient_steps = (settings.gradient_steps if settings.gradient_steps >= 0

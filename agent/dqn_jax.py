@@ -65,7 +65,7 @@ class DqnJaxAgents(PopulationAgents):
         jax, jnp = self.jax, self.jnp
         settings = self.settings[0]
         net_key, key = jax.random.split(key)
-        sizes = [self.dim, *settings.layers(), self.task.num_actions]
+        sizes = [self.dim, *settings.layers(), self.task.action.n]
         params = mlp_init(net_key, sizes, [None] * (len(sizes) - 1), False)
         return {"params": params, "target": params, "adam": adam_init(params),
                 "buffer": replay_buffer(self.state_shape()[0], self.dim, jnp.int32), "key": key}
@@ -163,7 +163,7 @@ def memory(settings, task) -> int:
     networks with Adam's two moments (four copies of the parameters)."""
     dim = len(task.state_names)
     return (replay_bytes(replay_capacity([settings]), dim)
-            + network_bytes(dim, settings.layers(), task.num_actions, 4))
+            + network_bytes(dim, settings.layers(), task.action.n, 4))
 
 
 LEARNER = Learner(

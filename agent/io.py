@@ -2,14 +2,17 @@
 
 The file holds the learner's arrays (`Agents.saved`: its weights, each agent's random
 stream and divergence flag, ...) and one JSON document (stored as a string array) naming the
-learner, the action and state counts, the learner's own description (its feature map and
-hyper-parameters) and any metadata the caller adds (e.g. the run's configuration). The file
+learner and the state count, the learner's own description (what it has: its feature map,
+actions and hyper-parameters; the task's spec where it keeps one) and any metadata the caller adds (e.g. the run's configuration). The file
 appears whole or not at all. `load` refuses a file that is not such a file, or whose parts
 do not fit together, with one line saying what is wrong; an agent whose weights are not
 finite is loaded as diverged, whatever its flag says.
 
 Format `lwrl-agent/2` names its learner; files of format `lwrl-agent/1`, written before
 learners other than Sarsa(lambda) existed, hold Sarsa(lambda) agents and load as such.
+Files written before learners said what they have carry `num_actions` in every document,
+and the task as a list or dict of (name, state names, actions, ranges) where a learner kept
+one (`lwrl.spaces.spec_of_document` reads both); they load as they are.
 """
 
 import json
@@ -30,8 +33,8 @@ FORMATS = (FORMAT, "lwrl-agent/1")
 def save(path, agent, metadata: dict | None = None) -> None:
     """Write `agent` (any learner's `Agents`) and JSON-serialisable `metadata` to `path`."""
     own, arrays = agent.saved()
-    document = {"format": FORMAT, "learner": agent.learner.name, "num_actions": agent.num_actions,
-                "dim": agent.dim, **own, "metadata": metadata or {}}
+    document = {"format": FORMAT, "learner": agent.learner.name, "dim": agent.dim, **own,
+                "metadata": metadata or {}}
     with atomic_write(path, "wb") as file:  # whole or not at all
         np.savez_compressed(file, **arrays, document=np.array(json.dumps(document)))
 

@@ -43,13 +43,15 @@ from typing import Any
 
 import numpy as np
 
-from lwrl.agent.learner_contract import Agents
+from lwrl.agent.learner_contract import CONTINUOUS_ACTIONS, Agents
+from lwrl.spaces import spec_document, spec_of_document
 
 EXTRA = "pip install 'lwrl[jax]'"
 """How to install JAX, named where a population learner needs it."""
-PopulationArrays = collections.namedtuple("PopulationArrays", "q delta diverged weights")
-"""What the loops read of a population (`Agents.arrays`): `q` and `delta` are not kept per
-step (zeros and NaN), `weights` what the agents have learned, flattened."""
+PopulationArrays = collections.namedtuple("PopulationArrays", "delta diverged weights")
+"""What the loops read of a population (`Agents.arrays`): `delta` is not kept per step (NaN)
+and there are no action values at the observations (no `q`: `Agents.latest_values`),
+`weights` what the agents have learned, flattened."""
 
 
 def missing_jax() -> bool:
@@ -363,10 +365,15 @@ class PopulationAgents(Agents):
         """`(B,)` each agent's steps of learning so far."""
         self._greedy = None  # the jitted greedy act of `step`, made at its first call
         batch = len(self.seeds)
-        self.arrays = PopulationArrays(q=np.zeros((batch, task.num_actions or 1)),
-                                       delta=np.full(batch, np.nan),
+        self.arrays = PopulationArrays(delta=np.full(batch, np.nan),
                                        diverged=np.zeros(batch, dtype=bool),
                                        weights=flat(self.weight_tree(self.state)))
+
+    @property
+    def action_space(self):
+        """The task's `Discrete` actions, or `CONTINUOUS_ACTIONS` (the agents keep no action
+        values to read A off)."""
+        return CONTINUOUS_ACTIONS if self.continuous else self.task.action
 
     def initialiser_key(self) -> tuple:
         """What `initial_state` depends on: the class, the first agent's settings (the
@@ -428,7 +435,7 @@ class PopulationAgents(Agents):
 
     def value_box(self) -> tuple:
         """The task's normalisation ranges (the networks read states in task units)."""
-        return self.task.low, self.task.high
+        return self.task.ranges.low, self.task.ranges.high
 
     def unflatten(self, weights):
         """One agent's `weight_tree` from its flattened `weights` (`arrays.weights[b]`)."""
@@ -482,16 +489,14 @@ class PopulationAgents(Agents):
         arrays = {f"leaf{i}": np.asarray(leaf) for i, leaf in enumerate(leaves)}
         arrays["diverged"], arrays["clocks"] = self.arrays.diverged, self.clocks
         document = {"settings": [dataclasses.asdict(s) for s in self.settings],
-                    "seeds": self.seeds, "task": self.task._asdict()}
+                    "seeds": self.seeds, "task": spec_document(self.task)}
         return document, arrays
 
     @classmethod
     def loaded(cls, document, arrays, settings_class):
         """The agents `saved` wrote, their settings of `settings_class` (a ValueError if the
         parts do not fit)."""
-        from lwrl.agent.learner_contract import TaskInfo
-        task = TaskInfo(**{k: tuple(v) if isinstance(v, list) else v
-                           for k, v in document["task"].items()})
+        task = spec_of_document(document["task"])
         agents = cls([settings_class(**s) for s in document["settings"]], task, document["seeds"])
         leaves, structure = agents.jax.tree.flatten(agents.state)
         given = [np.asarray(arrays[f"leaf{i}"]) for i in range(len(leaves))]

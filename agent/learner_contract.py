@@ -12,8 +12,10 @@ What a learner gives (`Learner`):
 - `settings`: a frozen dataclass of its settings (`lwrl.settings`): each field is a flag of
   `lwrl train`, a column of the results tables and, unless its metadata says otherwise, part
   of a run's key; fields marked `task_default` take the task's setting when left None;
-- `make(settings, task, seeds)`: a batch of B independent agents (`Agents`), agent b with
-  `settings[b]` and its own random stream from `seeds[b]`;
+- `make(settings, task, seeds)`: a batch of B independent agents (`Agents`) on the task
+  whose spec is `task` (`lwrl.spaces.TaskSpec`: its spaces, state names, normalisation
+  ranges, ...; A, where it needs it, is `task.action.n`), agent b with `settings[b]` and
+  its own random stream from `seeds[b]`;
 - `step`: its per-agent step, numba-jitable, which the compiled loop binds as it binds a
   domain's `transition` (`runners.compiled`):
   `step(b, first, reward, discount, observation, learn, greedy, arrays) -> action` (an
@@ -23,9 +25,11 @@ What a learner gives (`Learner`):
   makes no update and `greedy=True` acts greedily, both without touching the learner's
   settings; `arrays` is the batch's `Agents.arrays`. None for a learner that runs only in
   the stepped loop (its `Agents.step` does the work);
-- `actions`: the kind of action it takes, `discrete` or `continuous` (`tasks.commands`:
-  how the loops turn it into the actuator's command);
-- `fits(task)`: None, or one line saying why the learner does not fit a task (`TaskInfo`);
+- `actions`: the kind of action space it takes, `discrete` (a `Discrete` space) or
+  `continuous` (a `Box`: `Learner.takes`; `tasks.commands`: how the loops turn it into the
+  actuator's command);
+- `fits(task)`: None, or one line saying why the learner does not fit a task (its
+  `TaskSpec`, `lwrl.spaces`: all a learner knows of a task);
 - `load(document, arrays)`: agents from a file written by `agent.io.save`;
 - `memory(settings, task)`: the bytes one agent needs, before any is made;
 - `tuned`: settings tuned for it elsewhere, by the Gymnasium environment they were tuned
@@ -39,16 +43,22 @@ What a learner gives (`Learner`):
   learner without counts, `agent.arithmetic.NotCounted` for settings it does not count.
 
 What a batch of agents gives (`Agents`): `step` over the batch (the stepped loop), `arrays`
-(a namedtuple whose fields `q` `(B, A)`, `delta` `(B,)`, `diverged` `(B,)` and `weights`
-`(B, ...)` the loops read for recordings: the action values or preferences at the latest
-observation, the latest TD error or NaN, the divergence flag, and what the learner has
-learned), action values and state values over states where the learner has them, its
+(a namedtuple whose fields `delta` `(B,)`, `diverged` `(B,)` and `weights` `(B, ...)` the
+loops read for recordings: the latest TD error or NaN, the divergence flag, and what the
+learner has learned), the `action_space` its agents act in, action values and state values
+over states where the learner has them, its
 greedy controller as C where it has one, itself as C that learns on a device where it can,
 what `agent.io` saves, and `take_over`: becoming kept agents as they ended, for a run that
 goes on with them.
+
+Action values are a capability, not a duty: a learner that keeps its action values (or the
+preferences it acts greedily on) at the latest observation has the field `q` `(B, A)` in its
+arrays, one per action of its `Discrete(A)` action space; a learner without them (an actor's
+mean, a population trained as one JAX program, the learner on a device) has no `q` at all.
+A consumer asks `Agents.latest_values`, which says in one line (`NoValues`) where there are
+none, as `action_values` does for values over states.
 """
 
-import collections
 import dataclasses
 from typing import Any, Callable, Mapping
 
@@ -57,13 +67,11 @@ import numpy as np
 from lwrl.agent.threads import run_in_chunks
 from lwrl.kernels import kernel
 from lwrl.settings import check_choices
+from lwrl.spaces import Box, Discrete, Space, TaskSpec
 
-TaskInfo = collections.namedtuple("TaskInfo", "name state_names num_actions low high actions",
-                                  defaults=("discrete",))
-"""What a learner may know of a task: its name (DOMAIN.TASK), the names of its state
-variables, its number of discrete actions (0 where its actions are continuous), the
-normalisation ranges of its run defaults (`TaskDefinition.defaults`) and the kind of its
-actions (`discrete` or `continuous`, `tasks.task_definition.ACTIONS`)."""
+CONTINUOUS_ACTIONS = Box((-1.0,), (1.0,))
+"""The action space of a learner of continuous actions: one number in [-1, 1], which the
+loops scale to the actuator's range (`tasks.commands`)."""
 
 
 class NoValues(ValueError):
@@ -77,7 +85,7 @@ class LearnerSettings:
     def __post_init__(self):
         check_choices(self)
 
-    def check(self, task: TaskInfo) -> None:
+    def check(self, task: TaskSpec) -> None:
         """A one-line ValueError for the first setting out of its range on `task`, once the
         task's defaults are in."""
 
@@ -103,7 +111,8 @@ class Learner:
     settings: type
     """Its frozen settings dataclass (a `LearnerSettings`)."""
     make: Callable
-    """`make(settings, task, seeds)`: B agents, `settings` one per agent (`TaskInfo` task)."""
+    """`make(settings, task, seeds)`: B agents, `settings` one per agent, on the task whose
+    spec is `task` (`TaskSpec`)."""
     load: Callable
     """`load(document, arrays)`: agents from a saved file's document and arrays."""
     memory: Callable
@@ -128,10 +137,16 @@ class Learner:
     arithmetic: Callable | None = None
     """`arithmetic(settings, task, steps=None) -> agent.arithmetic.Counts`: the multiply-adds
     and exponentials of one greedy decision and of one agent-step of learning with
-    `settings` on `task` (`TaskInfo`), its updates averaged per agent-step over a run of
+    `settings` on `task` (`TaskSpec`), its updates averaged per agent-step over a run of
     `steps` steps of learning, or of a long run where None (the same for a learner whose
     every step costs the same); `agent.arithmetic.NotCounted` for settings it does not
     count. None: a learner without counts."""
+
+    @property
+    def takes(self) -> type:
+        """The action space it takes (`lwrl.spaces`): `Discrete`, or `Box` for a learner of
+        continuous actions."""
+        return Box if self.actions == "continuous" else Discrete
 
     @property
     def compiles(self) -> bool:
@@ -146,8 +161,8 @@ class Agents:
     learner: Learner
     """The learner whose agents these are (its `LEARNER`)."""
     arrays: Any
-    """A namedtuple of arrays with a leading axis B, with at least `q`, `delta`, `diverged`
-    and `weights` (see the module's docstring)."""
+    """A namedtuple of arrays with a leading axis B, with at least `delta`, `diverged` and
+    `weights`, and `q` where the learner has action values (see the module's docstring)."""
     settings: tuple
     """Each agent's settings."""
     dim: int
@@ -159,9 +174,24 @@ class Agents:
         return len(self.arrays.diverged)
 
     @property
-    def num_actions(self) -> int:
-        """The actions whose values `arrays.q` holds (1 for continuous actions)."""
-        return self.arrays.q.shape[1]
+    def action_space(self) -> Space:
+        """The actions its agents take (`lwrl.spaces`): `Discrete(A)`, indices into the
+        task's A controls, or `Box([-1], [1])`, a number the loops scale to the actuator's
+        range (`Learner.actions`). The default reads A off `arrays.q`; a learner of
+        discrete actions without action values says A itself."""
+        if self.continuous:
+            return CONTINUOUS_ACTIONS
+        return Discrete(self.latest_values().shape[1])
+
+    def latest_values(self) -> np.ndarray:
+        """`(B, A)` each agent's action values (or the preferences it acts greedily on) at
+        its latest observation, before its update there: `arrays.q`; `NoValues` where the
+        learner keeps none (see the module's docstring)."""
+        values = getattr(self.arrays, "q", None)
+        if values is None:
+            name = getattr(getattr(self, "learner", None), "name", "these agents")
+            raise NoValues(f"{name} keeps no action values at its observations")
+        return values
 
     @property
     def continuous(self) -> bool:

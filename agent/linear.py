@@ -72,7 +72,7 @@ class FeatureSettings:
 
     def check_features(self, task) -> None:
         """A one-line ValueError for the first feature setting out of its range on `task`
-        (`TaskInfo`); the ranges set here become tuples of floats."""
+        (`TaskSpec`); the ranges set here become tuples of floats."""
         check_count("n (centroids per dimension)", self.n, 2 if self.features == "nrbf" else 1)
         check_count("tilings", self.tilings, 1)
         check_positive("r2 (the spread r^2)", self.r2)
@@ -275,8 +275,8 @@ def linear_arrays(features, num_actions, *, alpha, lam, epsilon, gamma, seeds) -
 def linear_memory(settings, task) -> int:
     """Bytes of one linear agent's arrays: weights and traces (A x N each), the last two
     feature vectors, the feature scratch and the action values."""
-    features = settings.feature_map(task.low, task.high)
-    n, actions = features.num_features, task.num_actions
+    features = settings.feature_map(task.ranges.low, task.ranges.high)
+    n, actions = features.num_features, task.action.n
     return 8 * (2 * actions * n + 2 * n + features.dim * scratch_width(features) + 2 * actions)
 
 
@@ -364,11 +364,12 @@ class LinearAgents(Agents):
         return self.arrays.weights.transpose(0, 2, 1)
 
     def saved(self) -> tuple[dict, dict]:
-        """The feature map and step sizes, and the weights, streams and divergence flags
-        (a learner adds its own)."""
+        """The feature map, the actions and step sizes, and the weights, streams and
+        divergence flags (a learner adds its own)."""
         arrays = self.arrays
         document = {
             "features": describe_features(self.features),
+            "num_actions": self.action_space.n,
             "alpha": (arrays.alpha / self.features.alpha_scale).tolist(),
             "lambda": arrays.lam.tolist(),
             "epsilon": arrays.epsilon.tolist(),

@@ -13,14 +13,16 @@ plus the action noise (TD3's Gaussian), clipped; greedy, `predict(deterministic=
 action space is `Box(-1, 1)` (`stable_baselines.spaces_env`), so the action SB3 would give
 its environment is the one lwrl's loop scales to the actuator's range (`tasks.commands`).
 
-In the contract's terms: `actions` is `continuous`; `q` `(B, 1)` holds the first critic's
-Q1(s, a) of the action taken at the latest observation (as the replay buffer holds it);
+In the contract's terms: `actions` is `continuous`, with no action values (no `q`); `taken`
+`(B,)` holds the first critic's Q1(s, a) of the action taken at the latest observation (as
+the replay buffer holds it), from which the next TD error is computed;
 `delta` the TD error r + gamma d Q1(s', a') - Q1(s, a) of the latest transition, a' the
 action taken at s' (NaN where there is none); `weights` the actor's and the critics'
 parameters, flattened (not the target networks'); action values are the actor's greedy
 action, state values the first critic's Q1 of it.
 """
 
+import collections
 import dataclasses
 from typing import ClassVar
 
@@ -137,6 +139,20 @@ class OffPolicyAgents(ModelAgents):
     COUNTERS = ("num_timesteps", "_n_updates", "_current_progress_remaining")
     PENDING = "stored"
 
+    Arrays = collections.namedtuple("Arrays", "taken delta diverged weights")
+    """`ModelAgents.Arrays` without action values: `taken` `(B,)` in place of `q` (see the
+    module)."""
+
+    def value_arrays(self, batch: int) -> dict:
+        return {"taken": np.zeros(batch)}
+
+    @staticmethod
+    def value_arrays_loaded(arrays: dict) -> dict:
+        """Files written before `taken` hold it as `q` `(B, 1)`."""
+        if "taken" not in arrays and "q" in arrays:
+            return {**arrays, "taken": arrays["q"][:, 0]}
+        return arrays
+
     @staticmethod
     def _networks(model):
         return [model.actor, model.critic]
@@ -150,7 +166,7 @@ class OffPolicyAgents(ModelAgents):
 
     def _step_one(self, b, first, reward, discount, observation, learn, greedy) -> float:
         model, own, arrays = self.models[b], self.own[b], self.arrays
-        previous = arrays.q[b, 0]  # Q1(s, a) of the transition ending here
+        previous = arrays.taken[b]  # Q1(s, a) of the transition ending here
         if self._arrive(b, first, reward, discount, observation, learn, previous):
             return 0.0
         model._last_obs = observation
@@ -163,9 +179,9 @@ class OffPolicyAgents(ModelAgents):
                                                   model.action_noise, 1)
         with self.torch.no_grad():
             q = model.critic.q1_forward(self._tensor(observation), self.torch.as_tensor(stored))
-        arrays.q[b, 0] = float(q[0, 0])
+        arrays.taken[b] = float(q[0, 0])
         if not first:
-            arrays.delta[b] = td_error(reward, discount, model.gamma, arrays.q[b, 0], previous)
+            arrays.delta[b] = td_error(reward, discount, model.gamma, arrays.taken[b], previous)
         own["action"] = np.asarray(stored)
         return float(action[0, 0])
 

@@ -26,8 +26,8 @@ learners move the critics toward r + gamma (1 - terminal) y(s'), y the smaller o
 target critics' values at s' (the clipped double Q of Fujimoto et al. 2018, eq. 10) with the
 learner's own terms (`critic_step`).
 
-In the contract's terms: `actions` is `continuous`; `q` `(B, 1)` and `delta` are not kept
-per step (zeros and NaN, `jax_population.PopulationArrays`); `weights` the actor's and the
+In the contract's terms: `actions` is `continuous`; no action values at the observations
+(no `q`) and `delta` not kept per step (NaN, `jax_population.PopulationArrays`); `weights` the actor's and the
 critics' parameters, flattened (not the targets'); action values are the actor's greedy
 action, state values the first critic's Q_1 of it.
 

@@ -234,7 +234,7 @@ def memory(settings, task) -> int:
     dim = len(task.state_names)
     layers = settings.layers()
     return (buffer_bytes(settings.n_steps, dim, 1, 7)
-            + network_bytes(dim, layers, task.num_actions, 4) + network_bytes(dim, layers, 1, 4))
+            + network_bytes(dim, layers, task.action.n, 4) + network_bytes(dim, layers, 1, 4))
 
 
 def arithmetic(settings, task, steps: int | None = None) -> Counts:
@@ -249,7 +249,7 @@ def arithmetic(settings, task, steps: int | None = None) -> Counts:
     step of `OPTIMISER_MACS` per parameter. Amortised over `steps` steps of learning (the
     updates of whole rollouts in them), or per step of a long run where None. GAE's few
     operations per transition are left out."""
-    dim, actions, layers = len(task.state_names), task.num_actions, settings.layers()
+    dim, actions, layers = len(task.state_names), task.action.n, settings.layers()
     actor_sizes, critic_sizes = [dim, *layers, actions], [dim, *layers, 1]
     actor, critic = mlp_forward(actor_sizes, True), mlp_forward(critic_sizes, True)
     per_transition = Count((1 + BACKWARD_MACS) * (actor.macs + critic.macs),

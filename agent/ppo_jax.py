@@ -76,7 +76,7 @@ class PpoJaxAgents(PopulationAgents):
         settings, sizes = self.settings[0], self._sizes()
         actor_key, critic_key, key = jax.random.split(key, 3)
         gains = [np.sqrt(2.0)] * (len(sizes) - 1)
-        params = {"actor": mlp_init(actor_key, sizes + [self.task.num_actions], gains + [0.01], True),
+        params = {"actor": mlp_init(actor_key, sizes + [self.task.action.n], gains + [0.01], True),
                   "critic": mlp_init(critic_key, sizes + [1], gains + [1.0], True)}
         n, dim = settings.n_steps, self.dim
         buffer = {"observations": jnp.zeros((n, dim), jnp.float32),
@@ -210,7 +210,7 @@ def memory(settings, task) -> int:
     """Bytes of one agent: its rollout buffer (float32) and the actor and critic with Adam's
     two moments (three copies of the parameters)."""
     dim, layers = len(task.state_names), settings.layers()
-    return (4 * settings.n_steps * (dim + 5) + network_bytes(dim, layers, task.num_actions, 3)
+    return (4 * settings.n_steps * (dim + 5) + network_bytes(dim, layers, task.action.n, 3)
             + network_bytes(dim, layers, 1, 3))
 
 

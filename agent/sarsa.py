@@ -117,9 +117,9 @@ class BatchedSarsa(LinearAgents):
 
 def make(settings, task, seeds) -> BatchedSarsa:
     """The agents of `settings` (one `SarsaSettings` per agent, equal but in the per-agent
-    fields) on `task` (`TaskInfo`), with zero weights."""
+    fields) on `task` (`TaskSpec`), with zero weights."""
     base = settings[0]
-    return BatchedSarsa(base.feature_map(task.low, task.high), task.num_actions,
+    return BatchedSarsa(base.feature_map(task.ranges.low, task.ranges.high), task.action.n,
                         alpha=[s.alpha for s in settings], lam=[s.lam for s in settings],
                         epsilon=[s.epsilon for s in settings],
                         trace=[s.trace for s in settings], gamma=base.gamma, seeds=seeds,
@@ -141,7 +141,7 @@ def sarsa_update(dim: int, n: int, actions: int) -> Count:
 def arithmetic(settings, task, steps=None) -> Counts:
     """Its counted arithmetic (`Learner.arithmetic`): an NRBF grid's greedy decision and, at
     every step, `sarsa_update` (`agent.arithmetic.nrbf_counts`; CMAC features not counted)."""
-    return nrbf_counts(settings, len(task.state_names), task.num_actions, sarsa_update)
+    return nrbf_counts(settings, len(task.state_names), task.action.n, sarsa_update)
 
 
 LEARNER = Learner(

@@ -61,7 +61,7 @@ def learner_form(agents, b: int) -> LearnerForm:
     alpha, lam, epsilon, gamma = (float(values[b]) for values in
                                   (arrays.alpha, arrays.lam, arrays.epsilon, arrays.gamma))
     n, dim, neurons = features.n, features.dim, features.num_features
-    actions = agents.num_actions
+    actions = agents.action_space.n
     margin = clamp_margin(n, features.r2)
     grid = " x ".join([str(n)] * dim)
     rule, rule_text = TRACE_RULES[trace]

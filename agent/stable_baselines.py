@@ -46,6 +46,7 @@ import numpy as np
 from lwrl.agent.arithmetic import mlp_parameters
 from lwrl.agent.learner_contract import Agents, LearnerSettings
 from lwrl.settings import check_count, check_positive, check_unit_interval, setting
+from lwrl.spaces import Discrete, Space, spec_document, spec_of_document
 
 ZOO = "DLR-RM/rl-baselines3-zoo, hyperparams/{dqn,ppo}.yml at commit 22e3ff2450fd92033f7f032915e1f64894a09584"
 """Where the learners' tuned sets (`Learner.tuned`) come from. The zoo's `n_timesteps` is a
@@ -183,11 +184,11 @@ def sequential_forward(torch, modules, x):
     return x
 
 
-def spaces_env(dim: int, num_actions: int):
+def spaces_env(dim: int, action: Space):
     """A Gymnasium environment that only carries the spaces SB3 builds a model for: float64
     observations of `dim` variables (as `lwrl.gym` gives them; SB3's MLP reads them as
-    float32) and `num_actions` discrete actions, or where that is 0 (continuous actions)
-    one action in `Box(-1, 1)`, float32, the range of lwrl's continuous learners
+    float32) and the discrete actions of `action` (`Discrete`), or for a `Box` (continuous
+    actions) one action in `Box(-1, 1)`, float32, the range of lwrl's continuous learners
     (`tasks.commands`), where SB3's own rescaling (`scale_action`, `unscale_action`)
     maps [-1, 1] onto itself. lwrl's loop steps the task itself."""
     import gymnasium
@@ -195,7 +196,7 @@ def spaces_env(dim: int, num_actions: int):
 
     class Spaces(gymnasium.Env):
         observation_space = spaces.Box(-np.inf, np.inf, (dim,), dtype=np.float64)
-        action_space = (spaces.Discrete(num_actions) if num_actions
+        action_space = (spaces.Discrete(action.n) if isinstance(action, Discrete)
                         else spaces.Box(-1.0, 1.0, (1,), dtype=np.float32))
 
         def reset(self, *, seed=None, options=None):
@@ -384,7 +385,8 @@ class ModelAgents(Agents):
 
     Arrays = collections.namedtuple("Arrays", "q delta diverged weights")
     """What the loops read (`Agents.arrays`), each with a leading axis B; the models hold
-    the rest."""
+    the rest. `q` `(B, A)`: the action values (or preferences) at the latest observation of
+    a learner of discrete actions (`value_arrays`)."""
     COUNTERS: tuple = ()
     """The model's counters `saved` keeps (SB3's `num_timesteps`, ...)."""
     PENDING: str = ""
@@ -462,8 +464,8 @@ class ModelAgents(Agents):
         self.torch, self.sb3 = torch_modules()
         self.settings = tuple(settings)
         self.task = task
-        """The task the agents learn (`TaskInfo`)."""
-        self.dim, actions = len(task.state_names), task.num_actions
+        """The spec of the task the agents learn (`TaskSpec`)."""
+        self.dim = len(task.state_names)
         self.seeds = [int(seed) for seed in seeds]
         """The agents' seeds, one each: SB3's `seed` of each model."""
         if len(self.settings) != len(self.seeds):
@@ -471,7 +473,7 @@ class ModelAgents(Agents):
         self.models, self.states = [], []
         with global_generators_kept(self.torch):
             for setting_b, seed in zip(self.settings, self.seeds):
-                model = self._model(setting_b, spaces_env(self.dim, actions), seed)
+                model = self._model(setting_b, spaces_env(self.dim, task.action), seed)
                 # SB3's default logger makes a directory under /tmp per model; this one
                 # keeps what `train()` records in memory only (`learn()`'s numbers are the same)
                 model.set_logger(self.sb3.common.logger.Logger(folder=None, output_formats=[]))
@@ -480,10 +482,21 @@ class ModelAgents(Agents):
                 self.states.append(RandomStates(self.torch, model.action_space))
         batch = len(self.models)
         weights = np.stack([self._weights(b) for b in range(batch)])
-        self.arrays = self.Arrays(q=np.zeros((batch, actions or 1)), delta=np.full(batch, np.nan),
+        self.arrays = self.Arrays(**self.value_arrays(batch), delta=np.full(batch, np.nan),
                                   diverged=np.zeros(batch, dtype=bool), weights=weights)
         self.own = [self._fresh(b) for b in range(batch)]
         """Each agent's place in lwrl's loop (`_fresh`): what its next step needs."""
+
+    def value_arrays(self, batch: int) -> dict:
+        """`{field: zeros}` of `Arrays` beside `delta`, `diverged` and `weights`: `q`
+        `(B, A)` here."""
+        return {"q": np.zeros((batch, self.task.action.n))}
+
+    @staticmethod
+    def value_arrays_loaded(arrays: dict) -> dict:
+        """The saved `arrays` with the fields of `value_arrays` in this layout (a learner
+        whose layout changed reads its older files here)."""
+        return arrays
 
     def _weights(self, b: int) -> np.ndarray:
         return flat_parameters(self.torch, self._networks(self.models[b]))
@@ -538,7 +551,7 @@ class ModelAgents(Agents):
 
     def value_box(self) -> tuple:
         """The task's normalisation ranges (the networks read states in task units)."""
-        return self.task.low, self.task.high
+        return self.task.ranges.low, self.task.ranges.high
 
     def _scratch(self, weights):
         """A copy of agent 0's networks holding `weights` (one agent's `arrays.weights[b]`)."""
@@ -562,9 +575,8 @@ class ModelAgents(Agents):
 
     def saved(self) -> tuple[dict, dict]:
         document = {"settings": [dataclasses.asdict(s) for s in self.settings], "seeds": self.seeds,
-                    "task": list(self.task), "agents": []}
-        arrays = {"weights": self.arrays.weights, "diverged": self.arrays.diverged,
-                  "q": self.arrays.q, "delta": self.arrays.delta}
+                    "task": spec_document(self.task), "agents": []}
+        arrays = self.arrays._asdict()
         for b, model in enumerate(self.models):
             prefix = f"agent{b}."
             entry = {}
@@ -585,16 +597,17 @@ class ModelAgents(Agents):
     @classmethod
     def loaded(cls, document: dict, arrays: dict, settings_class):
         """The agents `saved` wrote; a ValueError where the parts do not fit."""
-        from lwrl.agent.learner_contract import TaskInfo
-        name, state_names, num_actions, low, high, *kind = document["task"]  # files before
-        task = TaskInfo(name, tuple(state_names), num_actions, tuple(low), tuple(high), *kind)
+        task = spec_of_document(document["task"])
         settings = [settings_class(**values) for values in document["settings"]]
         agents = cls(settings, task, document["seeds"])
         if len(document["agents"]) != agents.batch_size:
             raise ValueError(f"{len(document['agents'])} agents' states for {agents.batch_size} agents")
         for b in range(agents.batch_size):
             agents._load_agent(b, b, document, arrays)
-        for name in ("weights", "q", "delta"):
+        arrays = agents.value_arrays_loaded(arrays)
+        for name in agents.arrays._fields:
+            if name == "diverged":
+                continue
             if arrays[name].shape != getattr(agents.arrays, name).shape:
                 raise ValueError(f"{name} of shape {arrays[name].shape}; these agents have "
                                  f"{getattr(agents.arrays, name).shape}")

@@ -28,7 +28,8 @@ another, as vmapped over the batch an agent's numbers were not the same alone an
 inputs the networks still differed), at a third of the vmapped program's speed.
 
 In the contract's terms: `weights` are the networks' parameters and the observation
-statistics (a greedy decision needs both); `q` and `delta` are not kept per step.
+statistics (a greedy decision needs both); `delta` is not kept per step, and there are no
+action values at the observations (no `q`).
 """
 
 import dataclasses

@@ -65,7 +65,7 @@ class StreamQAgents(StreamAgents):
     def networks(self, key):
         from lwrl.agent import streaming
         settings = self.settings[0]
-        sizes = [self.dim, *settings.layers(), self.task.num_actions]
+        sizes = [self.dim, *settings.layers(), self.task.action.n]
         return streaming.sparse_network(key, sizes, settings.sparsity)
 
     def blank_extras(self) -> dict:
@@ -125,7 +125,7 @@ def load(document, arrays) -> StreamQAgents:
 def memory(settings, task) -> int:
     """Bytes of one agent: its Q network and traces, statistics and transition."""
     dim = len(task.state_names)
-    return stream_memory(mlp_parameters([dim, *settings.layers(), task.num_actions]), dim)
+    return stream_memory(mlp_parameters([dim, *settings.layers(), task.action.n]), dim)
 
 
 def arithmetic(settings, task, steps=None) -> Counts:
@@ -136,7 +136,7 @@ def arithmetic(settings, task, steps=None) -> Counts:
     with the exponentials)."""
     del steps
     dim = len(task.state_names)
-    sizes = [dim, *settings.layers(), task.num_actions]
+    sizes = [dim, *settings.layers(), task.action.n]
     normalised, transition = observation_counts(dim)
     decision = normalised + network_forward(sizes)
     update = (transition + network_forward(sizes) + trained_pass(sizes)

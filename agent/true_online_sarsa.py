@@ -129,7 +129,7 @@ class TrueOnlineAgents(LinearAgents):
 def make(settings, task, seeds) -> TrueOnlineAgents:
     """The agents of `settings` (one `TrueOnlineSettings` per agent) on `task`."""
     base = settings[0]
-    return TrueOnlineAgents(base.feature_map(task.low, task.high), task.num_actions,
+    return TrueOnlineAgents(base.feature_map(task.ranges.low, task.ranges.high), task.action.n,
                             alpha=[s.alpha for s in settings], lam=[s.lam for s in settings],
                             epsilon=[s.epsilon for s in settings], gamma=base.gamma,
                             seeds=seeds, settings=settings)
@@ -152,7 +152,7 @@ def arithmetic(settings, task, steps=None) -> Counts:
     """Its counted arithmetic (`Learner.arithmetic`): an NRBF grid's greedy decision and, at
     every step, `true_online_update` (`agent.arithmetic.nrbf_counts`; CMAC features not
     counted)."""
-    return nrbf_counts(settings, len(task.state_names), task.num_actions, true_online_update)
+    return nrbf_counts(settings, len(task.state_names), task.action.n, true_online_update)
 
 
 LEARNER = Learner(

@@ -83,11 +83,11 @@ def step_counts(dim: int, n: int, actions: int) -> StepCounts:
 def task_counts(task: str) -> StepCounts:
     """The counts of `task`'s paper agent (`RunConfig` defaults), from its feature sizes."""
     config = RunConfig(task=task)
-    features = config.agent.feature_map(config.task_info.low, config.task_info.high)
+    features = config.agent.feature_map(config.task_spec.ranges.low, config.task_spec.ranges.high)
     if not hasattr(features, "r2"):
         raise ValueError(f"the model covers NRBF features; {task}'s paper agent has "
                          f"{type(features).__name__}")
-    return step_counts(features.dim, features.n, config.task_info.num_actions)
+    return step_counts(features.dim, features.n, config.task_spec.action.n)
 
 
 @numba.njit(cache=False)

@@ -103,7 +103,7 @@ from lwrl import tasks
 from lwrl.agent.arithmetic import Counts, NotCounted
 from lwrl.agent.threads import set_workers, workers
 from lwrl.runners import population
-from lwrl.runners.config import RunConfig, task_info
+from lwrl.runners.config import RunConfig, task_spec
 from lwrl.runners.run import run
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -160,7 +160,7 @@ QUICK_SECONDS = 0.05
 
 def counted(learner, settings, task, steps: int | None = None) -> Counts | str:
     """The counts `learner` declares (`Learner.arithmetic`) with `settings` on `task`
-    (`TaskInfo`), its updates amortised over `steps` steps of learning per agent; "not
+    (`TaskSpec`), its updates amortised over `steps` steps of learning per agent; "not
     counted" with the reason for a learner without counts (its `arithmetic` None) or
     settings it does not count (`NotCounted`)."""
     if learner.arithmetic is None:
@@ -178,7 +178,7 @@ def home_task(name: str) -> str | None:
     it fits (None: none)."""
     learner = learners.learner(name)
     for task in (TASK, *(f"{domain}.{task}" for domain, task in tasks.ALL_TASKS)):
-        if learner.fits(task_info(task, actions=learner.actions)) is None:
+        if learner.fits(task_spec(task, actions=learner.actions)) is None:
             return task
     return None
 
@@ -206,7 +206,7 @@ def skip_reason(name: str) -> str | None:
     """Why learner `name` is not measured here (a missing extra, no task it fits), or None."""
     if home_task(name) is None:
         learner = learners.learner(name)
-        return learner.fits(task_info(TASK, actions=learner.actions))
+        return learner.fits(task_spec(TASK, actions=learner.actions))
     return None
 
 
@@ -646,7 +646,7 @@ def main(argv=None) -> None:
         task = home_task(name) or TASK
         config = None if name in skipped else config_of(name, reference, workload)
         steps_per_agent = episode_steps(workload) * workload.episodes if task == TASK else None
-        counts = (counted(learners.learner(name), config.agent, config.task_info,
+        counts = (counted(learners.learner(name), config.agent, config.task_spec,
                           steps_per_agent) if config else f"not counted ({skipped[name]})")
         learning, greedy = get(name, reference, "one", False), get(name, reference, "one", True)
         if isinstance(counts, str):

@@ -550,8 +550,8 @@ def peer_agents(task_name: str, agents: int, seed: int = 0):
     """The task's paper agent (`RunConfig` defaults) for the peer: `(Agent, hyper, keys)`,
     agent b keyed with `seed + b` (`PRNG` keys)."""
     config = RunConfig(task=task_name, agents=agents, seed=seed)
-    settings, info = config.agent, config.task_info
-    features_map = settings.feature_map(info.low, info.high)
+    settings, ranges = config.agent, config.task_spec.ranges
+    features_map = settings.feature_map(ranges.low, ranges.high)
     agent = Agent(tuple(features_map.low), tuple(features_map.high), features_map.n,
                   features_map.r2, settings.trace == "accumulating", len(TASKS[task_name].controls))
     if settings.trace not in ("replacing", "accumulating"):

@@ -40,8 +40,7 @@ def evaluate_agents(args) -> int:
         raise ValueError(f"{args.path} holds {agent.learner.name} agents but names a run of "
                          f"{config.learner}")
     tasks.definition(config.domain, config.task_name, **config.task_options,
-                     actions=config.actions).check_fits(agent.dim, agent.num_actions, args.path,
-                                                        agent.continuous)
+                     actions=config.actions).check_fits(agent.dim, agent.action_space, args.path)
     frozen = np.flatnonzero(agent.diverged)
     bar, update = output.progress_bar(config.agents * config.episodes, "evaluating")
     with bar:

@@ -88,6 +88,11 @@ def send_run(config, results, agents, rrd_path=None, spawn: bool = False) -> Non
     viz.log_task_scene(rec, config.task)
     model = viz.load_model(config.task) if scene.has_model(config.task) else None
     box, with_values = agents.value_box(), True
+    if logged and not logged[0].q_values.shape[1]:
+        try:
+            agents.latest_values()
+        except NoValues as error:
+            print(f"{error}: the recording has no Q plot")
     for recording in logged:
         viz.log_episode(rec, recording, model=model, value_ranges=box)
         if not with_values:

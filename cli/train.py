@@ -147,7 +147,7 @@ def _train_external(args) -> int:
     check_outputs(args)
     config, agent, envs = external.prepare(config)
     actions = (", ".join(f"{value:g}" for value in config.actions) if config.actions
-               else f"{agent.num_actions} discrete")
+               else f"{agent.action_space.n} discrete")
     print(f"{config.env}: {plural(config.agents, 'agent')}, {config.describe()}, "
           f"actions {actions}, {plural(config.episodes, 'episode')}")
     bar, update = output.progress_bar(config.agents * config.episodes, "training")

@@ -163,7 +163,7 @@ def _task_description(metadata: dict, agent, source: str):
         except ValueError:
             definition = None
         if definition is not None:
-            definition.check_fits(agent.dim, agent.num_actions, source, agent.continuous)
+            definition.check_fits(agent.dim, agent.action_space, source)
             names = list(definition.state_names)
     return (task if isinstance(task, str) else "unknown (no run configuration in the file)",
             names, definition, config)
@@ -177,8 +177,9 @@ def _action_fields(agent, definition, dtype: str) -> dict:
         controls = None if definition is None else definition.controls
         line = ("" if controls is None else " (action i applies control " + ", ".join(
             f"{i}: {c:g}" for i, c in enumerate(controls)) + ")")
-        return {"action_lines": f" * Actions: {agent.num_actions}{line}",
-                "action_macros": f"#define LWRL_NUM_ACTIONS {agent.num_actions}"}
+        actions = agent.action_space.n
+        return {"action_lines": f" * Actions: {actions}{line}",
+                "action_macros": f"#define LWRL_NUM_ACTIONS {actions}"}
     low, high = definition.control_range
     name = definition.control_name
     return {"action_lines": (
@@ -257,7 +258,7 @@ def export_c(agent_path, out_dir, agent_index: int = 0, dtype: str = "float") ->
     if reason is not None:
         raise ValueError(f"{agent_path}: {reason}")
 
-    dim, num_actions = agent.dim, agent.num_actions
+    dim, num_actions = agent.dim, 1 if agent.continuous else agent.action_space.n
     task, names, definition, config = _task_description(metadata, agent, agent_path)
     if agent.continuous and definition is None:
         raise ValueError(f"{agent_path}: names no task, whose actuator's range a controller of "

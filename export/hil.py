@@ -39,6 +39,7 @@ from importlib import resources
 import numpy as np
 
 from lwrl import tasks
+from lwrl.agent.learner_contract import NoValues
 from lwrl.export import frames, learner
 from lwrl.export.c import compile_in, find_compiler
 from lwrl.export.device import (BOARD, COMMON_FLAGS, M4_FLAGS, M4_LINK, build_plugin,
@@ -95,7 +96,7 @@ def identity_of(source, written: dict) -> Identity:
     agents = source.agents
     return Identity(source.task, len(source.state_names),
                     CONTINUOUS if agents.continuous else DISCRETE,
-                    1 if agents.continuous else agents.num_actions, written["dtype"],
+                    1 if agents.continuous else agents.action_space.n, written["dtype"],
                     written["build"])
 
 
@@ -177,7 +178,8 @@ class DeviceAgent:
     answer. `twin`: a one-agent `Agents` of the learner the device runs, made from the same
     settings, whose shapes and value functions read the device's weights (`arrays.weights`,
     fetched by frames at each episode's end, with the diverged flag); Q and the TD error
-    stay on the device (NaN here). `env`: the batched environment stepped, which says when
+    stay on the device: these agents keep no action values (`latest_values` says so) and
+    no TD error (NaN). `env`: the batched environment stepped, which says when
     an episode is cut by its time limit (the TRUNCATED flag). `period`: with a number of
     seconds, real time: observations go out one `period` apart, and an answer that has not
     come by the next one is a missed deadline (`missed`), the previous action held, as an
@@ -188,9 +190,9 @@ class DeviceAgent:
     def __init__(self, link, twin, env, period: float | None = None):
         self.link, self.twin, self.env, self.period = link, twin, env, period
         self.learner, self.continuous = twin.learner, twin.continuous
-        self.num_actions = twin.num_actions
+        self.action_space = twin.action_space
         self.arrays = types.SimpleNamespace(
-            q=np.full((1, twin.num_actions), np.nan), delta=np.full(1, np.nan),
+            delta=np.full(1, np.nan),
             diverged=np.zeros(1, dtype=bool), weights=twin.arrays.weights.copy())
         self.frame_step, self.held, self.overruns = 0, 0, 0
         self.action = np.zeros(1, dtype=np.float64 if self.continuous else np.int64)
@@ -199,6 +201,11 @@ class DeviceAgent:
     @property
     def diverged(self) -> np.ndarray:
         return self.arrays.diverged
+
+    def latest_values(self):
+        """A `NoValues` error (`Agents.latest_values`): see the class."""
+        raise NoValues("the learner on the device keeps its action values there: the link "
+                       "carries actions, not values")
 
     def step(self, first, reward, discount, observation, active=None, learn=True,
              greedy=False) -> np.ndarray:

@@ -168,7 +168,7 @@ def _fields(source: LearnerSource, form: LearnerForm, dtype: str, parts: dict) -
         {name: _rendered(value, dtype) for name, value in values.items()}, **initial,
         task=_comment(source.task), summary=_comment(form.summary), origin=_comment(source.origin),
         stream_text=_comment(source.stream), real=dtype, dim=len(names),
-        num_actions=source.agents.num_actions, num_weights=weights.size,
+        num_actions=source.agents.action_space.n, num_weights=weights.size,
         range_lines="\n".join(f" *   state[{j}] {_comment(name):<{width}}  [{lo:g}, {hi:g}]"
                               for j, (name, lo, hi) in enumerate(zip(names, low, high))),
         low=_rendered(np.asarray(low, dtype=np.float64), dtype),

@@ -34,9 +34,10 @@ from dm_env import specs
 from lwrl import agent as learners
 from lwrl import tasks as suite
 from lwrl.agent import io as agent_io
-from lwrl.agent.learner_contract import Learner, LearnerForm, NoValues
-from lwrl.runners.config import RunConfig, task_info
+from lwrl.agent.learner_contract import CONTINUOUS_ACTIONS, Learner, LearnerForm, NoValues
+from lwrl.runners.config import RunConfig, task_spec
 from lwrl.runners.run import make_agent, memory_needed, run, run_batched, run_compiled, run_dm_env
+from lwrl.spaces import Box
 from lwrl.tasks.batched import LAST, BatchedEnv
 from lwrl.tasks.domain_contract import Domain
 
@@ -117,7 +118,7 @@ def learner_name(learner: Learner | str) -> str:
 def fits(learner: Learner | str, task: str) -> bool:
     """Whether `learner` fits `task` (DOMAIN.TASK) with its kind of actions (`Learner.fits`)."""
     chosen = learners.learner(learner_name(learner))
-    return chosen.fits(task_info(task, actions=chosen.actions)) is None
+    return chosen.fits(task_spec(task, actions=chosen.actions)) is None
 
 
 def steps_per_episode(learner: Learner | str, task: str) -> int:
@@ -220,13 +221,33 @@ def check_learner_alone_as_in_a_batch(learner: str, task: str) -> None:
 
 @_learner_check
 def check_learner_arrays(learner: str, task: str) -> None:
-    """`q` (B, A), `delta` (B,), `diverged` (B,) and `weights` (B, ...) are there, and the
-    memory estimate covers the agents' arrays."""
+    """`delta` (B,), `diverged` (B,) and `weights` (B, ...) are there; the agents act in
+    the task's `Discrete` space or in `CONTINUOUS_ACTIONS` as their learner says; action
+    values are a capability: `q` (B, A) where a learner of discrete actions has them, and
+    otherwise no `q` nor `num_actions` at all, `latest_values` saying so in one line; and
+    the memory estimate covers the agents' arrays."""
     config = contract_config(learner, task)
     agent, _ = run(config)
     arrays = agent.arrays
-    actions = config.task_info.num_actions or 1  # continuous: one output, the action
-    _expect(arrays.q.shape == (3, actions), f"q has shape {arrays.q.shape}, not {(3, actions)}")
+    spec = config.task_spec
+    expected = CONTINUOUS_ACTIONS if agent.learner.takes is Box else spec.action
+    _expect(agent.action_space == expected,
+            f"action_space is {agent.action_space}, not {expected}")
+    if "q" in arrays._fields:
+        _expect(not spec.continuous, "q is there, but a learner of continuous actions has no "
+                                     "action values over its actions")
+        shape = (3, spec.action.n)
+        _expect(arrays.q.shape == shape, f"q has shape {arrays.q.shape}, not {shape}")
+        _expect(agent.latest_values() is arrays.q, "latest_values is not arrays.q")
+    else:
+        _expect(not hasattr(agent, "num_actions"),
+                "num_actions is there, but the agents keep no action values")
+        try:
+            agent.latest_values()
+        except NoValues as error:
+            _expect("\n" not in str(error), "latest_values' refusal is not one line")
+        else:
+            raise AssertionError("latest_values gave values, but arrays have no q")
     _expect(arrays.delta.shape == (3,), f"delta has shape {arrays.delta.shape}, not (3,)")
     _expect(arrays.diverged.shape == (3,) and arrays.diverged.dtype == bool,
             f"diverged is {arrays.diverged.dtype} {arrays.diverged.shape}, not bool (3,)")
@@ -234,7 +255,6 @@ def check_learner_arrays(learner: str, task: str) -> None:
             f"weights have shape {arrays.weights.shape}, not (3, ...)")
     _expect(np.all(np.isfinite(arrays.weights)), "weights are not all finite")
     _expect(agent.batch_size == 3, f"batch_size is {agent.batch_size}, not 3")
-    _expect(agent.num_actions == actions, f"num_actions is {agent.num_actions}, not {actions}")
     kept = sum(array.nbytes for array in arrays if isinstance(array, np.ndarray))
     needed = memory_needed(config)
     _expect(needed >= kept, f"the memory estimate, {needed} bytes, is below the arrays' {kept}")

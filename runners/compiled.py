@@ -28,7 +28,7 @@ from lwrl.agent.learner_contract import Agents
 from lwrl.agent.threads import run_in_chunks
 from lwrl.runners.episodes import EpisodeResults, episode_starts, finish_episode, step_budget
 from lwrl.runners.recording import (make_tape, record_end, record_state, record_transition,
-                                    recordings)
+                                    recorded_values, recordings)
 from lwrl.settings import check_count
 from lwrl.tasks.task_definition import advance_episode
 from lwrl.tasks.commands import COMMANDS, check_kinds, episode_controls
@@ -122,7 +122,7 @@ WITHOUT_RUNTIME = ("analytic",)
 
 def _loop(start, stop, first, count, starts, start_observations, controls, dt, plant, models,
           task_params, physical, sigma_observation, delays, sigma_action, keys, step_limit,
-          budget, spent, learn, greedy, arrays, steps, returns, uptime, truncated,
+          budget, spent, learn, greedy, arrays, values, steps, returns, uptime, truncated,
           diverged_episode, done, tape, cancel, scratch):
     """The whole learning loop around the plant's transition: agents `start..stop-1` run
     episodes `first..first+count-1` (their starts given) unless diverged or out of their
@@ -134,7 +134,9 @@ def _loop(start, stop, first, count, starts, start_observations, controls, dt, p
     model at `models[b, k]` (continuous actions: `controls[b, k]` is the actuator's range,
     `tasks.commands`); its sensors and actuator have the options `sigma_observation[b]`,
     `delays[b]`, `sigma_action[b]` and the stream `keys[b]` (`tasks.disturbances`); it
-    works in `scratch` (`Scratch`)."""
+    works in `scratch` (`Scratch`). `values` `(B, A)`: the agents' action values the tape
+    records at each state (`runners.recording.recorded_values`: `A` is 0 for a learner
+    without them)."""
     workspace = open_plant(plant)
     for b in range(start, stop):
         state, next_state, observation = (scratch.states[b, 0], scratch.states[b, 1],
@@ -156,7 +158,7 @@ def _loop(start, stop, first, count, starts, start_observations, controls, dt, p
             action = agent_step(b, True, 0.0, 1.0, observation, learn, greedy, arrays)
             r = tape.slot[b, k]
             if r >= 0:
-                record_state(tape, r, 0, state, observation, arrays.q[b])
+                record_state(tape, r, 0, state, observation, values[b])
             n, total, up, terminal, last = 0, 0.0, 0.0, False, False
             while not last:
                 control = applied_control(buffer, n, command(episode_controls, action), sigma_action[b],
@@ -172,7 +174,7 @@ def _loop(start, stop, first, count, starts, start_observations, controls, dt, p
                 action = agent_step(b, False, reward, 0.0 if terminal else 1.0, observation,
                                     learn, greedy, arrays)
                 if r >= 0:
-                    record_state(tape, r, n, state, observation, arrays.q[b])
+                    record_state(tape, r, n, state, observation, values[b])
                     record_transition(tape, r, n, previous, reward, arrays.delta[b])
                 last = last or arrays.diverged[b]
             if r >= 0:
@@ -270,8 +272,9 @@ def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
     starts = episode_starts(definition, seeds, episodes)
     step_limit = definition.step_limit if np.isfinite(definition.step_limit) else np.iinfo(np.int64).max
     loop = compiled_loop(definition, agent.learner, plant)
+    values = recorded_values(agent)
     tape = make_tape(record, batch, episodes, definition.step_limit, starts.shape[2],
-                     agent.num_actions, agent.arrays.weights.shape[1:], agent.continuous)
+                     values.shape[1], agent.arrays.weights.shape[1:], agent.continuous)
     done = np.zeros(batch, dtype=np.int64)  # episodes each agent has finished
     spent = np.zeros(batch, dtype=np.int64)  # steps each agent has taken
     cancel = np.zeros(1, dtype=bool)  # set on Ctrl-C: the loops stop after their episode
@@ -286,7 +289,7 @@ def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
                 definition.control_timestep, stepped, models,
                 definition.loop_arguments()[0], physical, sensors.sigma_observation,
                 sensors.delay, sensors.sigma_action, sensors.keys, int(step_limit),
-                step_budget(budget), spent, bool(learn), bool(greedy), agent.arrays, steps, results.returns,
+                step_budget(budget), spent, bool(learn), bool(greedy), agent.arrays, values, steps, results.returns,
                 results.uptime, results.truncated, results.diverged_episode, done, tape,
                 cancel, scratch, min_chunk=1, chunks_per_worker=8, cancel=cancel)
             if progress is not None:

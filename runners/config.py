@@ -21,7 +21,8 @@ import hashlib
 import json
 
 from lwrl import agent, tasks
-from lwrl.agent.learner_contract import LearnerSettings, TaskInfo
+from lwrl.agent.learner_contract import LearnerSettings
+from lwrl.spaces import TaskSpec
 from lwrl.agent.zoo import TUNED_AS
 from lwrl.settings import (LATE, SCALARS, WHEN_SET, base_type, check_choices, check_count,
                            default_of, fill, setting)
@@ -51,15 +52,11 @@ def tuned_settings(task: str, learner: str) -> dict:
     return dict(agent.learner(learner).tuned.get(TUNED_AS[domain], {}))
 
 
-def task_info(task: str, task_options: dict | None = None,
-              actions: str = ACTIONS[0]) -> TaskInfo:
+def task_spec(task: str, task_options: dict | None = None,
+              actions: str = ACTIONS[0]) -> TaskSpec:
     """What a learner may know of `task` (DOMAIN.TASK) with its options and its kind of
-    `actions` (no discrete actions, 0, where they are continuous)."""
-    definition = tasks.definition(*tasks.split_name(task), **(task_options or {}),
-                                  actions=actions)
-    return TaskInfo(task, definition.state_names,
-                    0 if definition.continuous else definition.num_actions,
-                    tuple(definition.defaults.low), tuple(definition.defaults.high), actions)
+    `actions`: its spec (`tasks.spec`)."""
+    return tasks.spec(task, **(task_options or {}), actions=actions)
 
 
 def with_defaults(settings, defaults: dict):
@@ -271,7 +268,7 @@ class RunConfig(LearnerChoice, ProtocolSettings, EnvironmentSettings):
         check_kinds(learner.name, learner.actions, tasks.definition(self.domain, self.task_name, **self.task_options,
                                               actions=self.actions), "the run")
         fill(self, agent=with_defaults(self.agent, defaults))
-        info = self.task_info
+        info = self.task_spec
         reason = learner.fits(info)
         if reason is not None:
             raise ValueError(reason)
@@ -321,9 +318,9 @@ class RunConfig(LearnerChoice, ProtocolSettings, EnvironmentSettings):
                 for name in tasks.plant_option_names(self.domain, self.plant_name)}
 
     @property
-    def task_info(self) -> TaskInfo:
+    def task_spec(self) -> TaskSpec:
         """What the learner may know of the run's task."""
-        return task_info(self.task, self.task_options, self.actions)
+        return task_spec(self.task, self.task_options, self.actions)
 
     @property
     def name(self) -> str:
@@ -332,7 +329,7 @@ class RunConfig(LearnerChoice, ProtocolSettings, EnvironmentSettings):
 
     def describe(self) -> str:
         """The learner's settings in one line, for a run's header."""
-        return self.agent.describe(len(self.task_info.state_names))
+        return self.agent.describe(len(self.task_spec.state_names))
 
     def to_json(self) -> str:
         """Every field as indented JSON."""

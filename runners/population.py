@@ -121,7 +121,7 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
     starts = jnp.asarray(episode_starts(env.definition, seeds, episodes))
     program = agent.program()
     shape = (env.name, repr(sorted(env_options.items())), sensors.max_delay, type(agent),
-             agent.dim, agent.num_actions, repr(_shared_settings(agent.settings[0])),
+             agent.dim, agent.action_space, repr(_shared_settings(agent.settings[0])),
              agent.shared(), batch, episodes, bool(learn), bool(greedy), CHUNK)
     if shape not in _CHUNKS:
         _use_disk_cache()

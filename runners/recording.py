@@ -12,6 +12,7 @@ import dataclasses
 import numpy as np
 from numba.extending import register_jitable
 
+from lwrl.agent.learner_contract import NoValues
 from lwrl.kernels import copy_into
 
 
@@ -49,7 +50,8 @@ class EpisodeRecording:
     """`(T,)` the TD error delta of the update made after step t (NaN when not learning)."""
     q_values: np.ndarray
     """`(T + 1, A)` Q(s_t, .) before the update at each observed state (the learner's
-    action values, or the preferences it acts greedily on)."""
+    action values, or the preferences it acts greedily on); `(T + 1, 0)` for a learner
+    without action values (`recorded_values`)."""
     uptime: np.ndarray
     """`(T,)` seconds up so far after each step (NaN where the task has none)."""
     weights: np.ndarray
@@ -64,7 +66,7 @@ class EpisodeRecording:
     @property
     def continuous(self) -> bool:
         """True where the actions are continuous, numbers in [-1, 1] (`controls` the
-        actuator's range, `q_values` `(T + 1, 1)` the actor's mean)."""
+        actuator's range)."""
         return np.asarray(self.actions).dtype.kind == "f"
 
     @property
@@ -84,9 +86,20 @@ Tape = collections.namedtuple(
 row of agent b's episode k (-1: not recorded); rows hold up to `L` steps."""
 
 
-def make_tape(record, agents: int, episodes: int, step_limit, dim: int, num_actions: int,
+def recorded_values(agents) -> np.ndarray:
+    """`(B, A)` the action values a recording keeps at each state: the agents'
+    `latest_values` (read after each step, as the learner updates them in place), or `(B, 0)`
+    for a learner that keeps none, whose recordings then hold no Q (`q_values` `(T + 1, 0)`)."""
+    try:
+        return agents.latest_values()
+    except NoValues:
+        return np.zeros((agents.batch_size, 0))
+
+
+def make_tape(record, agents: int, episodes: int, step_limit, dim: int, num_values: int,
               weights_shape: tuple, continuous: bool = False) -> Tape:
     """Empty buffers for the `(agent, episode)` pairs in `record` (a tiny dummy if none);
+    `num_values`: the action values recorded per state (`recorded_values`, 0 for none);
     `weights_shape`: one agent's `arrays.weights`; `continuous`: the actions are numbers
     (`Learner.actions`), not indices."""
     record = sorted(set(record))
@@ -102,7 +115,7 @@ def make_tape(record, agents: int, episodes: int, step_limit, dim: int, num_acti
     return Tape(slot, np.zeros((rows, length + 1, dim)), np.zeros((rows, length + 1, dim)),
                 np.zeros((rows, length), dtype=np.float64 if continuous else np.int64),
                 np.zeros((rows, length)),
-                np.zeros((rows, length)), np.zeros((rows, length + 1, num_actions)),
+                np.zeros((rows, length)), np.zeros((rows, length + 1, num_values)),
                 np.zeros(rows, dtype=np.int64), np.zeros((rows,) + tuple(weights_shape)))
 
 

@@ -40,9 +40,9 @@ def memory_needed(config, recorded_episodes: int = 0) -> int:
     each agent's arrays (the learner's `memory`), the per-episode results and starts, and
     the tape of `recorded_episodes` episodes."""
     definition = tasks.definition(config.domain, config.task_name, **config.task_options)
-    info = config.task_info
-    per_agent = learners.learner(config.learner).memory(config.agent, info)
-    actions, dim = max(info.num_actions, 1), len(definition.state_names)
+    spec = config.task_spec
+    per_agent = learners.learner(config.learner).memory(config.agent, spec)
+    actions, dim = 1 if spec.continuous else spec.action.n, len(definition.state_names)
     per_episode = 8 * (6 + dim)
     steps = definition.step_limit if recorded_episodes and math.isfinite(definition.step_limit) else 0
     tape = recorded_episodes * (8 * int(steps) * (2 * dim + actions + 3) + per_agent)
@@ -56,7 +56,7 @@ def make_agent(*configs) -> Agents:
     base = configs[0]
     learner = learners.learner(base.learner)
     settings = [config.agent for config in configs for _ in range(config.agents)]
-    return learner.make(settings, base.task_info,
+    return learner.make(settings, base.task_spec,
                         [seed for config in configs for seed in config.seeds])
 
 

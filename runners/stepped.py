@@ -8,7 +8,7 @@ import numpy as np
 from lwrl.agent.learner_contract import Agents
 from lwrl.runners.episodes import EpisodeResults, finish_episode, step_budget
 from lwrl.runners.recording import (make_tape, record_end, record_state, record_transition,
-                                    recordings)
+                                    recorded_values, recordings)
 from lwrl.settings import check_count
 from lwrl.tasks.commands import check_kinds, commands
 from lwrl.tasks.batched import BatchedEnv, SteppedEnvs
@@ -67,8 +67,9 @@ def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = Tru
     recording = bool(len(record))  # else the step loop skips the tape entirely
     if recording:
         definition = env.definition
+        values = recorded_values(agent)
         tape = make_tape(record, batch, episodes, definition.step_limit,
-                         len(definition.state_names), agent.num_actions,
+                         len(definition.state_names), values.shape[1],
                          agent.arrays.weights.shape[1:], agent.continuous)
     actions = np.zeros(batch, dtype=np.float64 if agent.continuous else np.int64)
     ts = env.reset()
@@ -82,7 +83,7 @@ def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = Tru
                 rows = np.where(running, tape.slot[np.arange(batch), np.minimum(done, episodes - 1)], -1)
                 for b in np.flatnonzero(rows >= 0):
                     n = env.steps[b]
-                    record_state(tape, rows[b], n, env.state[b], ts.observation[b], agent.arrays.q[b])
+                    record_state(tape, rows[b], n, env.state[b], ts.observation[b], values[b])
                     if n > 0:
                         record_transition(tape, rows[b], n, previous[b], ts.reward[b],
                                           agent.arrays.delta[b])

@@ -23,6 +23,8 @@ from typing import Callable
 import numpy as np
 from numba.extending import register_jitable
 
+from lwrl.spaces import Box, Space
+
 ACTIONS = ("discrete", "continuous")
 """The kinds of action of a task (the option `actions`): an index into the discrete
 controls, or the control itself within the actuator's range."""
@@ -249,11 +251,13 @@ class TaskDefinition:
             return np.full(np.shape(state)[:-1], np.nan)
         return self.control_timestep * self.outcomes(state)[2]
 
-    def check_fits(self, dim: int, num_actions: int, source: str,
-                   continuous: bool = False) -> None:
-        """A one-line ValueError unless agents that observe `dim` variables and choose among
-        `num_actions` actions (or, `continuous`, take continuous actions) can run this task:
-        the check for agents read from `source`."""
+    def check_fits(self, dim: int, action_space: Space, source: str) -> None:
+        """A one-line ValueError unless agents that observe `dim` variables and take actions
+        of `action_space` (`Agents.action_space`: `Discrete(A)`, A actions to choose among,
+        or a `Box`, continuous actions) can run this task: the check for agents read from
+        `source`."""
+        continuous = isinstance(action_space, Box)
+        num_actions = None if continuous else action_space.n
         if not continuous:
             self.check_discrete(source)
         elif not self.continuous:

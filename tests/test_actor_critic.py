@@ -108,8 +108,8 @@ def test_lwrl_train_takes_the_kind_of_action(tmp_path, capsys):
 
 
 def test_a_continuous_episode_goes_to_rerun_with_its_policy_over_the_plane(tmp_path):
-    """The timelines take the action in [-1, 1] and the torque it commands, Q's plot the
-    actor's mean; the value images the critic's V and, where a discrete learner's greedy
+    """The timelines take the action in [-1, 1] and the torque it commands, and there is no
+    Q plot (the actor-critic has no action values); the value images the critic's V and, where a discrete learner's greedy
     action is, the actor's mean over the state plane."""
     from lwrl.viz import rerun as viz
     from lwrl.viz.value import value_grid
@@ -123,7 +123,9 @@ def test_a_continuous_episode_goes_to_rerun_with_its_policy_over_the_plane(tmp_p
     paths = viz.log_episode(rec, recording, value_ranges=agents.value_box())
     images = viz.log_value_function(rec, TASK, agents, recording.weights, recording.episode)
     viz.close_recording(rec)
-    assert {"action", "control", "q"} <= set(paths) and (tmp_path / "run.rrd").stat().st_size
+    assert recording.q_values.shape == (recording.steps + 1, 0)
+    assert {"action", "control"} <= set(paths) and "q" not in paths
+    assert (tmp_path / "run.rrd").stat().st_size
     grid = value_grid(TASK, *agents.value_box())
     np.testing.assert_allclose(images["greedy"],
                                np.clip(agents.policy_means(grid.states(), recording.weights), -1, 1))
@@ -143,5 +145,5 @@ def test_saved_agents_are_evaluated_on_their_kind_of_action(tmp_path, capsys):
     assert main(["eval", str(saved), "--episodes", "1"]) == 0
     agents = make_agent(RunConfig(task=TASK, learner="actor_critic", actions="continuous"))
     with pytest.raises(ValueError) as error:
-        tasks.definition("pendulum", "swingup").check_fits(2, 1, "agents.npz", agents.continuous)
+        tasks.definition("pendulum", "swingup").check_fits(2, agents.action_space, "agents.npz")
     assert "\n" not in str(error.value) and "actions='continuous'" in str(error.value)

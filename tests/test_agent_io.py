@@ -8,6 +8,7 @@ import pytest
 from lwrl.agent import io as agent_io
 from lwrl.agent.cmac import CMAC
 from lwrl.agent.sarsa import BatchedSarsa
+from lwrl.agent.stable_baselines import ModelAgents
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent, run_compiled
 
@@ -85,3 +86,59 @@ def test_bad_files_are_refused(trained, damage, message):
 def test_missing_file(tmp_path):
     with pytest.raises(ValueError, match="no such agent file"):
         agent_io.load(tmp_path / "absent.npz")
+
+
+def old_layout(document: dict, arrays: dict, agents) -> tuple[dict, dict]:
+    """`(document, arrays)` as `agent.io` wrote them before learners said what they have: the
+    number of actions in every document (1 for continuous actions), the task (where a learner
+    kept one) as its name, state names, discrete actions (0: continuous), normalisation ranges
+    and kind of actions (a list for the Stable-Baselines3 learners, a dict for the JAX
+    populations), and SAC's and TD3's Q1 of the action taken as `q` `(B, 1)`."""
+    document = {**document, "num_actions": 1 if agents.continuous else agents.action_space.n}
+    if "task" in document:
+        spec = agents.task
+        fields = [spec.name, list(spec.state_names), 0 if spec.continuous else spec.action.n,
+                  list(spec.ranges.low), list(spec.ranges.high), spec.actions]
+        document["task"] = (fields if isinstance(agents, ModelAgents) else
+                            dict(zip(("name", "state_names", "num_actions", "low", "high",
+                                      "actions"), fields)))
+    if "taken" in arrays:
+        arrays = {**arrays, "q": arrays.pop("taken")[:, None]}
+    return document, arrays
+
+
+@pytest.mark.parametrize("learner, task, actions", [
+    ("sarsa", "mountain_car.cost_to_go", "discrete"),
+    ("actor_critic", "pendulum.swingup", "continuous"),
+    ("ars", "mountain_car.cost_to_go", "discrete"),
+    ("sac", "pendulum.swingup", "continuous")])
+def test_a_file_from_before_learners_said_what_they_have_loads(tmp_path, learner, task, actions):
+    """A file of the earlier layout (made here from today's) loads as the agents it holds:
+    the same weights, the same greedy actions, the same spec where the learner keeps one
+    (but for what the old file did not say)."""
+    config = RunConfig(task=task, learner=learner, actions=actions, plant="analytic", agents=2,
+                       episodes=1)
+    agents = make_agent(config)
+    if agents.learner.compiles:  # its arrays are all it has: weights that act
+        agents.arrays.weights[:] = np.random.default_rng(0).normal(size=agents.arrays.weights.shape)
+    path = tmp_path / "old.npz"
+    agent_io.save(path, agents, {"config": {"task": task}})
+    with np.load(path) as archive:
+        arrays = {name: archive[name] for name in archive.files}
+    document, arrays = old_layout(json.loads(str(arrays.pop("document"))), arrays, agents)
+    assert "num_actions" in document
+    np.savez(path, **arrays, document=np.array(json.dumps(document)))
+    loaded, metadata = agent_io.load(path)
+    assert type(loaded) is type(agents) and metadata == {"config": {"task": task}}
+    np.testing.assert_array_equal(loaded.arrays.weights, agents.arrays.weights)
+    assert loaded.action_space == agents.action_space
+    if hasattr(agents, "task"):
+        assert (loaded.task.name, loaded.task.state_names, loaded.task.ranges) == \
+            (agents.task.name, agents.task.state_names, agents.task.ranges)
+    if "taken" in agents.arrays._fields:
+        np.testing.assert_array_equal(loaded.arrays.taken, agents.arrays.taken)
+    observations = np.random.default_rng(1).uniform(*agents.value_box(), size=(2, agents.dim))
+    first, zeros = np.ones(2, dtype=bool), np.zeros(2)
+    np.testing.assert_array_equal(
+        loaded.step(first, zeros, zeros + 1, observations, learn=False, greedy=True),
+        agents.step(first, zeros, zeros + 1, observations, learn=False, greedy=True))

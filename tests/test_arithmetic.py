@@ -11,10 +11,10 @@ import pytest
 from lwrl import agent as learners
 from lwrl import tasks
 from lwrl.agent.arithmetic import Count, NotCounted, mlp_forward, mlp_parameters, nrbf_decision
-from lwrl.runners.config import RunConfig, task_info
+from lwrl.runners.config import RunConfig, task_spec
 
 FITS = [(name, task) for name, task in itertools.product(learners.LEARNER_NAMES, tasks.TASK_NAMES)
-        if learners.learner(name).fits(task_info(task, actions=learners.learner(name).actions)) is None
+        if learners.learner(name).fits(task_spec(task, actions=learners.learner(name).actions)) is None
         and learners.learner(name).arithmetic is not None]
 """(learner, task) of every learner that counts its arithmetic (an installed one need not) on
 every task it fits."""
@@ -27,9 +27,9 @@ def counts_of(name: str, task: str, steps=None, settings: dict | None = None):
     `settings` (a deep learner's, which take nothing from the task)."""
     learner = learners.learner(name)
     if settings is not None:
-        return learner.arithmetic(learner.settings(**settings), task_info(task), steps)
+        return learner.arithmetic(learner.settings(**settings), task_spec(task), steps)
     config = RunConfig(task=task, learner=name, actions=learner.actions)
-    return learner.arithmetic(config.agent, config.task_info, steps)
+    return learner.arithmetic(config.agent, config.task_spec, steps)
 
 
 def test_every_learner_of_lwrls_own_counts_its_arithmetic():
@@ -82,7 +82,7 @@ def test_the_linear_learners_do_not_count_cmac_features():
         config = RunConfig(task="mountain_car.cost_to_go", learner=name)
         cmac = dataclasses.replace(config.agent, features="cmac")
         with pytest.raises(NotCounted, match="cmac features"):
-            learners.learner(name).arithmetic(cmac, config.task_info)
+            learners.learner(name).arithmetic(cmac, config.task_spec)
 
 
 def test_dqns_learning_step_over_a_run():

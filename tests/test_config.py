@@ -17,7 +17,7 @@ def test_edge_centroids_are_the_grid_from_end_to_end():
     """`centroids="edges"`: features of centroids at i / (n - 1) over the ranges, with the
     configuration's r^2, computed directly here."""
     config = RunConfig(task="cartpole.balance", centroids="edges", r2=0.02)
-    low, high = map(np.array, (config.task_info.low, config.task_info.high))
+    low, high = map(np.array, (config.task_spec.ranges.low, config.task_spec.ranges.high))
     centres = np.array(list(itertools.product(*[np.arange(6) / 5] * 4)))
     states = np.random.default_rng(1).uniform(-1.3, 1.3, (50, 4)) * high
     distances = ((((states - low) / (high - low))[:, None, :] - centres[None]) ** 2).sum(axis=2)

@@ -17,6 +17,7 @@ import pytest
 from dm_env import specs, test_utils
 
 from lwrl import tasks
+from lwrl.spaces import Discrete
 from lwrl.studies.compare.domains import COMPARISONS
 from lwrl.studies.robustness.domains import ROBUSTNESS
 from lwrl.tasks.batched import LAST, BatchedEnv
@@ -385,7 +386,7 @@ def test_a_learner_of_discrete_actions_is_refused_in_one_line():
                  lambda: RunConfig(task="cartpole.balance", plant="analytic",
                                    task_options=CONTINUOUS)):
         one_line_error(call, *refusal)
-    one_line_error(lambda: definition.check_fits(4, 2, "agents.json"), "agents.json: ", *refusal)
+    one_line_error(lambda: definition.check_fits(4, Discrete(2), "agents.json"), "agents.json: ", *refusal)
     agent = make_agent(RunConfig(task="cartpole.balance", plant="analytic", agents=2, episodes=1))
     one_line_error(lambda: run_compiled("cartpole", "balance", agent, 1, [0, 1], plant="analytic",
                                         **CONTINUOUS), *refusal)

@@ -68,7 +68,7 @@ def agent_files(tmp_path_factory):
 def states_around(task, count: int, dtype) -> np.ndarray:
     """`count` states uniform in the task's ranges widened by a quarter on each side,
     rounded to `dtype` so that C and Python read the same numbers."""
-    low, high = np.array(task.low), np.array(task.high)
+    low, high = np.array(task.ranges.low), np.array(task.ranges.high)
     states = low + (high - low) * np.random.default_rng(1).uniform(-0.25, 1.25, (count, len(low)))
     return states.astype(dtype).astype(np.float64)
 

@@ -124,7 +124,7 @@ def test_the_continuous_pairs_run_on_the_tasks_made_with_continuous_actions():
         rows = plan.translation(cell)
         assert rows and all(row.same and row.source == "the learner's default" for row in rows)
         for config in (cell.config(name, 0) for name in cell.pair.names):
-            assert config.actions == config.task_info.actions == "continuous"
+            assert config.actions == config.task_spec.actions == "continuous"
             assert '"actions": "continuous"' in config.key_json()
     assert report.actions_lines(cells) and "`sac` has no tuned set" in report.untuned(cells)
     discrete = plan.cells(["pendulum.swingup"], 2)

@@ -26,7 +26,7 @@ def test_the_peer_computes_lwrls_features(task):
     underflow guard and the clamp)."""
     agent, _, _ = jax_peer.peer_agents(task, 1)
     config = RunConfig(task=task)
-    features = config.agent.feature_map(config.task_info.low, config.task_info.high)
+    features = config.agent.feature_map(config.task_spec.ranges.low, config.task_spec.ranges.high)
     rng = np.random.default_rng(0)
     low, high = np.array(features.low), np.array(features.high)
     states = low + (high - low) * rng.uniform(-0.5, 1.5, size=(200, len(low)))

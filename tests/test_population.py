@@ -14,12 +14,12 @@ pytest.importorskip("jax", reason="the population learners need the jax extra: p
 from lwrl import agent as learners, tasks  # noqa: E402
 from lwrl.agent.stable_baselines import missing_libraries, spaces_env  # noqa: E402
 from lwrl.runners import episodes as episode_records, population, sweep  # noqa: E402
-from lwrl.runners.config import RunConfig, task_info  # noqa: E402
+from lwrl.runners.config import RunConfig, task_spec  # noqa: E402
 from lwrl.runners.run import make_agent, run  # noqa: E402
 from lwrl.tasks.randomisation import check_ranges, draws  # noqa: E402
 from conftest import one_line_error  # noqa: E402
 
-TASK = task_info("cartpole.balance")
+TASK = task_spec("cartpole.balance")
 needs_sb3 = pytest.mark.skipif(bool(missing_libraries()), reason="needs the baselines extra: "
                                "pip install 'lwrl[baselines]'")
 EVALUATED = RunConfig(task="pendulum.swingup", learner="dqn_jax", agents=1, episodes=3, seed=5,
@@ -42,7 +42,7 @@ def sb3_model(kind, settings, seed=0):
     common = dict(learning_rate=settings.learning_rate, gamma=settings.gamma,
                   max_grad_norm=settings.max_grad_norm, seed=seed, device="cpu",
                   policy_kwargs={"net_arch": settings.layers()})
-    env = spaces_env(len(TASK.state_names), TASK.num_actions)
+    env = spaces_env(len(TASK.state_names), TASK.action)
     if kind == "ppo":
         model = stable_baselines3.PPO(
             "MlpPolicy", env, n_steps=settings.n_steps, batch_size=settings.batch_size,

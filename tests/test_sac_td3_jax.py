@@ -343,9 +343,9 @@ def test_a_batch_shares_what_shapes_its_program(name):
     """SB3's `batch_size` and gradient steps are settings per agent, but one compiled program
     has one minibatch shape and one count of gradient steps: a batch that mixes them is
     refused in one line as the batch is made, as the settings that shape it are."""
-    from lwrl.runners.config import task_info
+    from lwrl.runners.config import task_spec
     learner = learners.learner(name)
-    task = task_info("pendulum.swingup", actions="continuous")
+    task = task_spec("pendulum.swingup", actions="continuous")
     first = learner.settings(net_arch="8", buffer_size=16)
     for change, message in ((dict(batch_size=32), "must share batch_size"),
                             (dict(gradient_steps=2), "as many gradient steps"),

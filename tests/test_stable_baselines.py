@@ -22,7 +22,7 @@ from stable_baselines3.common.noise import NormalActionNoise  # noqa: E402
 from lwrl.agent import dqn, ppo, sac, td3  # noqa: E402
 from lwrl.gym import SuiteEnv  # noqa: E402
 from lwrl.tasks.commands import commands  # noqa: E402
-from lwrl.runners.config import RunConfig, task_info  # noqa: E402
+from lwrl.runners.config import RunConfig, task_spec  # noqa: E402
 
 TASK = "cartpole.balance"
 TIME_LIMIT = 0.6
@@ -93,7 +93,7 @@ def sb3_kwargs(settings) -> dict:
 
 def test_dqn_in_lwrls_loop_is_sb3s_learn_to_the_bit():
     steps = 400
-    agents = dqn.make([dqn.DqnSettings(timesteps=steps, **DQN_SETTINGS)], task_info(TASK), [SEED])
+    agents = dqn.make([dqn.DqnSettings(timesteps=steps, **DQN_SETTINGS)], task_spec(TASK), [SEED])
     terminal, truncated = lwrl_loop(agents, SEED, steps)
     assert terminal > 0 and truncated > 0  # both kinds of end were seen
     model = DQN("MlpPolicy", environment(), replay_buffer_kwargs={"handle_timeout_termination": True},
@@ -112,7 +112,7 @@ def test_dqn_in_lwrls_loop_is_sb3s_learn_to_the_bit():
 
 def test_ppo_in_lwrls_loop_is_sb3s_learn_to_the_bit():
     steps = 3 * PPO_SETTINGS["n_steps"]
-    agents = ppo.make([ppo.PpoSettings(timesteps=steps, **PPO_SETTINGS)], task_info(TASK), [SEED])
+    agents = ppo.make([ppo.PpoSettings(timesteps=steps, **PPO_SETTINGS)], task_spec(TASK), [SEED])
     terminal, truncated = lwrl_loop(agents, SEED, steps)
     assert terminal > 0 and truncated > 0
     model = PPO("MlpPolicy", environment(), **sb3_kwargs(PPO_SETTINGS))
@@ -135,7 +135,7 @@ def test_sac_and_td3_in_lwrls_loop_are_sb3s_learn_to_the_bit(learner, algorithm,
     updates, through pole falls and truncations (bootstrapped, as time-outs)."""
     steps = 300
     settings = learner.LEARNER.settings(timesteps=steps, **OFF_POLICY_SETTINGS)
-    agents = learner.make([settings], task_info(TASK, actions="continuous"), [SEED])
+    agents = learner.make([settings], task_spec(TASK, actions="continuous"), [SEED])
     terminal, truncated = lwrl_loop(agents, SEED, steps)
     assert terminal > 0 and truncated > 0
     model = algorithm("MlpPolicy", environment("continuous"),
@@ -162,7 +162,7 @@ def test_sac_refuses_a_task_of_discrete_actions_in_one_line():
 
 def test_after_its_horizon_an_agent_acts_greedily_and_learns_no_more():
     steps = 64
-    agents = ppo.make([ppo.PpoSettings(timesteps=steps, **PPO_SETTINGS)], task_info(TASK), [SEED])
+    agents = ppo.make([ppo.PpoSettings(timesteps=steps, **PPO_SETTINGS)], task_spec(TASK), [SEED])
     lwrl_loop(agents, SEED, steps)
     before = agents.arrays.weights.copy()
     lwrl_loop(agents, SEED + 1, steps + 1, calls=3 * PPO_SETTINGS["n_steps"])
@@ -176,7 +176,7 @@ def test_a_greedy_evaluation_draws_nothing_and_acts_on_each_agents_own_network(l
     argmax of its own network's outputs (`arrays.q`) and every agent's generators are as they
     were, so it goes on learning as if it had not been evaluated."""
     make = dqn.DqnSettings if learner is dqn else ppo.PpoSettings
-    agents = learner.make([make(timesteps=100, **settings)] * 2, task_info(TASK), [SEED, SEED + 1])
+    agents = learner.make([make(timesteps=100, **settings)] * 2, task_spec(TASK), [SEED, SEED + 1])
     before = [agents.states[b].saved("")[1]["torch"].copy() for b in range(2)]
     numpy_before = [agents.states[b].numpy_state[1].copy() for b in range(2)]
     observations = np.random.default_rng(0).normal(size=(12, 2, 4))
@@ -194,7 +194,7 @@ def test_the_direct_forward_pass_is_sb3s_to_the_bit(learner, settings):
     """DQN's Q-values (`_q`) and PPO's greedy step (`_forward`), the layers' operations
     called directly, are SB3's own forward pass bit for bit, on a network that has learned."""
     make = dqn.DqnSettings if learner is dqn else ppo.PpoSettings
-    agents = learner.make([make(timesteps=200, **settings)], task_info(TASK), [SEED])
+    agents = learner.make([make(timesteps=200, **settings)], task_spec(TASK), [SEED])
     lwrl_loop(agents, SEED, 200)
     model = agents.models[0]
     assert model._n_updates > 0
@@ -216,7 +216,7 @@ def test_models_leave_nothing_under_the_temporary_directory(tmp_path, monkeypatc
     monkeypatch.setenv("TMPDIR", str(tmp_path))
     import tempfile
     monkeypatch.setattr(tempfile, "tempdir", None)
-    agents = dqn.make([dqn.DqnSettings(timesteps=64, **DQN_SETTINGS)], task_info(TASK), [SEED])
+    agents = dqn.make([dqn.DqnSettings(timesteps=64, **DQN_SETTINGS)], task_spec(TASK), [SEED])
     lwrl_loop(agents, SEED, 64)
     assert list(tmp_path.iterdir()) == []
 
@@ -272,7 +272,7 @@ def test_the_exported_network_picks_torchs_greedy_action(learner, tmp_path):
     from lwrl.agent import io as agent_io
     module, settings = (dqn, dqn.DqnSettings(timesteps=400, **DQN_SETTINGS)) if learner == "dqn" \
         else (ppo, ppo.PpoSettings(timesteps=192, **PPO_SETTINGS))
-    agents = module.make([settings], task_info(TASK), [SEED])
+    agents = module.make([settings], task_spec(TASK), [SEED])
     lwrl_loop(agents, SEED, settings.timesteps)
     path = tmp_path / "agent.npz"
     agent_io.save(path, agents, {"config": {"task": TASK}})
@@ -289,7 +289,7 @@ def test_the_exported_network_picks_torchs_greedy_action(learner, tmp_path):
 def around_the_ranges(count: int) -> np.ndarray:
     """`count` states `(count, d)` of the task, uniform in its ranges widened by a quarter
     on each side."""
-    low, high = np.array(task_info(TASK).low), np.array(task_info(TASK).high)
+    low, high = np.array(task_spec(TASK).low), np.array(task_spec(TASK).high)
     return low + (high - low) * np.random.default_rng(0).uniform(-0.25, 1.25, (count, len(low)))
 
 
@@ -303,7 +303,7 @@ def test_the_exported_actor_returns_the_agents_greedy_action(learner, tmp_path):
     task's ranges."""
     from lwrl.agent import io as agent_io
     settings = learner.LEARNER.settings(timesteps=300, **OFF_POLICY_SETTINGS)
-    agents = learner.make([settings], task_info(TASK, actions="continuous"), [SEED])
+    agents = learner.make([settings], task_spec(TASK, actions="continuous"), [SEED])
     lwrl_loop(agents, SEED, settings.timesteps)
     path = tmp_path / "agent.npz"
     agent_io.save(path, agents, {"config": {"task": TASK, "actions": "continuous"}})

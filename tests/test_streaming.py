@@ -12,7 +12,7 @@ pytest.importorskip("jax", reason="the streaming learners need the jax extra: pi
 from lwrl import agent as learners  # noqa: E402
 from lwrl.agent import running_stats, streaming  # noqa: E402
 from lwrl.agent.stable_baselines import missing_libraries  # noqa: E402
-from lwrl.runners.config import RunConfig, task_info  # noqa: E402
+from lwrl.runners.config import RunConfig, task_spec  # noqa: E402
 from lwrl.runners.run import make_agent, run  # noqa: E402
 from lwrl.agent.jax_population import jax_modules  # noqa: E402
 from conftest import one_line_error  # noqa: E402
@@ -227,7 +227,7 @@ def test_bad_settings_are_refused_in_one_line(setting, value, message):
 
 
 def test_the_continuous_learner_refuses_a_discrete_task_in_one_line():
-    assert "--action-kind continuous" in learners.learner("stream_ac").fits(task_info("pendulum.swingup"))
+    assert "--action-kind continuous" in learners.learner("stream_ac").fits(task_spec("pendulum.swingup"))
 
 
 def test_every_observation_enters_the_statistics_once():

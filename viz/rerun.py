@@ -175,7 +175,9 @@ def recording_checks(recording) -> None:
     dim = len(recording.state_names)
     expected = {"states": (steps + 1, dim), "observations": (steps + 1, dim),
                 "rewards": (steps,), "td_errors": (steps,), "uptime": (steps,),
-                "q_values": (steps + 1, 1 if recording.continuous else len(recording.controls))}
+                "q_values": (steps + 1, len(recording.controls))}
+    if np.shape(recording.q_values)[1:] == (0,):  # a learner without action values
+        expected["q_values"] = (steps + 1, 0)
     for field, shape in expected.items():
         actual = np.shape(getattr(recording, field))
         if actual != shape:

@@ -42,12 +42,15 @@ def action_labels(controls) -> list[str]:
 
 def signal_paths(recording) -> dict[str, str]:
     """`{quantity: entity path}` of the series `log_signals` sends for a recording (the state
-    variables as `state/<name>`; `td_error` and `uptime` only where they hold numbers)."""
+    variables as `state/<name>`; `q` only where the learner has action values,
+    `runners.recording.recorded_values`; `td_error` and `uptime` only where they hold
+    numbers)."""
     run = names.run_name(recording.agent, recording.episode)
     paths = {f"state/{name}": names.state_path(name, run) for name in recording.state_names}
     paths.update(action=f"{names.ACTION}/{run}", control=f"{names.CONTROL}/{run}",
-                 reward=f"{names.REWARD}/{run}", **{"return": f"{names.RETURN}/{run}"},
-                 q=f"{names.Q}/{run}")
+                 reward=f"{names.REWARD}/{run}", **{"return": f"{names.RETURN}/{run}"})
+    if np.shape(recording.q_values)[1]:
+        paths["q"] = f"{names.Q}/{run}"
     if np.any(np.isfinite(recording.td_errors)):
         paths["td_error"] = f"{names.TD_ERROR}/{run}"
     if np.any(np.isfinite(recording.uptime)):
@@ -56,8 +59,8 @@ def signal_paths(recording) -> dict[str, str]:
 
 
 def log_signals(rec: rr.RecordingStream, recording) -> dict[str, str]:
-    """Send an `EpisodeRecording`'s scalars: states and Q (a continuous learner's: its
-    actor's mean) at steps 0..T; action and control at 0..T-1 (the action taken in state t,
+    """Send an `EpisodeRecording`'s scalars: states and Q (where the learner has action
+    values) at steps 0..T; action and control at 0..T-1 (the action taken in state t,
     and the force, torque or thrust it commands); reward, return, TD error and up-time at
     1..T. Returns
     `signal_paths(recording)`. Only Q gets a static style (its series' names): each other
@@ -74,19 +77,17 @@ def log_signals(rec: rr.RecordingStream, recording) -> dict[str, str]:
     if recording.continuous:  # an action in [-1, 1], its command in the actuator's range
         actions = np.asarray(recording.actions, dtype=np.float64)
         controls = commands(np.broadcast_to(recording.controls, (steps, 2)), actions)
-        q_labels = [f"mu(s) {run}"]
     else:
         actions = np.asarray(recording.actions, dtype=np.int64)
         controls = np.asarray(recording.controls)[actions]
-        q_labels = [f"Q(s, {a}) {run}" for a in action_labels(recording.controls)]
     _send_scalars(rec, paths["action"], actions_at, actions)
     _send_scalars(rec, paths["control"], actions_at, controls)
     _send_scalars(rec, paths["reward"], after, recording.rewards)
     _send_scalars(rec, paths["return"], after, recording.returns)
-    # The series are named by their entity's leaf (agent<b>_ep<k>); Q's one per action (a
-    # continuous learner's: the actor's mean).
-    _style(rec, paths["q"], q_labels)
-    _send_scalars(rec, paths["q"], states_at, np.asarray(recording.q_values, dtype=np.float64))
+    # The series are named by their entity's leaf (agent<b>_ep<k>); Q's one per action.
+    if "q" in paths:
+        _style(rec, paths["q"], [f"Q(s, {a}) {run}" for a in action_labels(recording.controls)])
+        _send_scalars(rec, paths["q"], states_at, np.asarray(recording.q_values, dtype=np.float64))
     if "td_error" in paths:
         _send_scalars(rec, paths["td_error"], after, recording.td_errors)
     if "uptime" in paths:

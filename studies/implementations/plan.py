@@ -253,10 +253,10 @@ def title(name: str) -> str:
 
 
 def starts_box(cell: Cell, count: int = 256, seed: int = 0) -> np.ndarray:
-    """`count` states drawn uniformly over the task's ranges (`TaskInfo.low`, `high`), where
-    the initial networks are compared."""
-    info = cell.config(cell.pair.reference, 0).task_info
-    low, high = np.asarray(info.low, dtype=float), np.asarray(info.high, dtype=float)
+    """`count` states drawn uniformly over the task's ranges (`TaskSpec.ranges`), where the
+    initial networks are compared."""
+    ranges = cell.config(cell.pair.reference, 0).task_spec.ranges
+    low, high = np.asarray(ranges.low, dtype=float), np.asarray(ranges.high, dtype=float)
     return np.random.default_rng(seed).uniform(low, high, size=(count, len(low)))
 
 

@@ -39,7 +39,7 @@ import numpy as np
 from lwrl import agent as learners
 from lwrl import tasks
 from lwrl.agent import LEARNERS
-from lwrl.runners.config import RunConfig, task_defaults, task_info, tuned_settings
+from lwrl.runners.config import RunConfig, task_defaults, task_spec, tuned_settings
 from lwrl.studies.robustness.domains import ROBUSTNESS
 
 FACTORS = (0.25, 0.5, 1.0, 2.0, 4.0)
@@ -113,7 +113,7 @@ def learners_for(task: str, plant: str = "analytic") -> list:
     (`Learner.population`) runs on the analytic plant only here (its other JAX plant, MJX,
     takes one set of parameter values per run, not the randomised training's draws)."""
     return [name for name, learner in LEARNERS.items()
-            if learner.fits(task_info(task, actions=learner.actions)) is None
+            if learner.fits(task_spec(task, actions=learner.actions)) is None
             and (plant == "analytic" or not learner.population)]
 
 

@@ -6,9 +6,9 @@ Both are `Agents` (`agent.learner_contract`) that `runners.stepped.run_batched` 
 runs a learner's, on the same environments, seeds and episodes; but they are no learner:
 nothing registers them, they never learn, and they ignore `learn` and `greedy` (a reference
 acts alike whatever it is told). Of an `Agents`, `run_batched` reads `step`, and through
-`arrays` the `batch_size` and `diverged`; recording an episode also reads `num_actions` and
-the `q`, `delta` and `weights` of `arrays`, which a reference fills with nothing learned
-(`ReferenceArrays`).
+`arrays` the `batch_size` and `diverged`; recording an episode also reads the `delta` and
+`weights` of `arrays`, which a reference fills with nothing learned (`ReferenceArrays`), and
+finds no action values (no `q`).
 
 The classical controllers take the plant's state (`Classical.control`), and the agents see
 the task's observation (`TaskDefinition.observe`). They agree on every task:
@@ -36,15 +36,14 @@ from lwrl.studies.paper.benchmark.classical import CLASSICAL
 from lwrl.tasks.batched import BatchedEnv
 from lwrl.tasks.task_definition import TaskDefinition
 
-ReferenceArrays = collections.namedtuple("ReferenceArrays", "q delta diverged weights")
-"""What `run_batched` reads of a reference's `arrays`: `q` `(B, A)` zeros (no action
-values), `delta` `(B,)` NaN (no TD error), `diverged` `(B,)` False (nothing to diverge) and
+ReferenceArrays = collections.namedtuple("ReferenceArrays", "delta diverged weights")
+"""What `run_batched` reads of a reference's `arrays`: `delta` `(B,)` NaN (no TD error), `diverged` `(B,)` False (nothing to diverge) and
 `weights` `(B, 0)` (nothing learned)."""
 
 
 def discrete_actions(definition: TaskDefinition) -> int:
     """The number of discrete actions of `definition`'s task, 0 where it was made with
-    continuous ones (as `Agents.num_actions` counts them)."""
+    continuous ones."""
     return 0 if definition.continuous else definition.num_actions
 
 
@@ -54,10 +53,10 @@ class ReferencePolicy(Agents):
     (`step`)."""
 
     def __init__(self, batch: int, num_actions: int, dim: int, continuous: bool = False):
-        self.dim = dim
+        self.dim, self.num_actions = dim, num_actions
         self._continuous = continuous
-        self.arrays = ReferenceArrays(np.zeros((batch, num_actions)), np.full(batch, np.nan),
-                                      np.zeros(batch, dtype=bool), np.zeros((batch, 0)))
+        self.arrays = ReferenceArrays(np.full(batch, np.nan), np.zeros(batch, dtype=bool),
+                                      np.zeros((batch, 0)))
 
     @property
     def continuous(self) -> bool:

@@ -103,7 +103,7 @@ def _learn(config, agent, steps: int) -> int:
 
 def _greedy_decisions(agent, config) -> float:
     """CPU seconds per greedy decision (`Agents.step`, learn=False, greedy=True)."""
-    low, high = np.asarray(config.task_info.low), np.asarray(config.task_info.high)
+    low, high = np.asarray(config.task_spec.ranges.low), np.asarray(config.task_spec.ranges.high)
     states = low + (high - low) * np.random.default_rng(1).uniform(size=(DECISIONS, len(low)))
     zero, one = np.zeros(1), np.ones(1)
     agent.step(np.ones(1, dtype=bool), zero, one, states[:1], learn=False, greedy=True)
@@ -172,7 +172,7 @@ def measure_cell(config, label: str, c_dir: str | None) -> dict:
     costs = {"learning_steps_timed": taken, "cpu_s_per_learning_step": seconds / taken,
              "cpu_s_per_greedy_decision": _greedy_decisions(agent, one),
              "parameter_bytes": int(agent.arrays.weights[0].nbytes),
-             "memory_bytes": int(agent.learner.memory(one.agent, one.task_info))}
+             "memory_bytes": int(agent.learner.memory(one.agent, one.task_spec))}
     if c_dir is not None:
         try:
             agent.controller(0)

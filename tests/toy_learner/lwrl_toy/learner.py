@@ -6,7 +6,7 @@ through its entry point `toy = lwrl_toy.learner:LEARNER` of the group `lwrl.lear
 (pyproject.toml), as any installed package would; tests/test_outside_learner.py installs it
 so and holds it to the contract. It has no compiled step: it runs in the stepped loop.
 
-Each state variable's range (the task's normalisation ranges, `TaskInfo.low` and `high`) is
+Each state variable's range (the task's normalisation ranges, `TaskSpec.ranges`) is
 cut into `cells` equal intervals, states beyond it falling in the outer ones, so a state
 lies in one of cells^d cells. An agent keeps one value per cell and action, starting at 0,
 and acts epsilon-greedily on them; arriving in s' after taking a in s, it chooses a' and
@@ -157,6 +157,7 @@ class ToyAgents(Agents):
     def saved(self) -> tuple[dict, dict]:
         arrays = self.arrays
         document = {"cells": self.cells, "low": self.low.tolist(), "high": self.high.tolist(),
+                    "num_actions": self.arrays.q.shape[1],
                     **{name: getattr(arrays, name).tolist() for name in SETTINGS}}
         return document, {name: getattr(arrays, name)
                           for name in ("weights", "seed", "draws", "diverged")}
@@ -169,8 +170,8 @@ def make(settings, task, seeds) -> ToyAgents:
         raise ValueError(f"the agents of one batch share their cells; got {grids}")
     return ToyAgents(seeds=seeds, **{name: [getattr(each, name) for each in settings]
                                      for name in SETTINGS},
-                     cells=grids[0], low=task.low, high=task.high,
-                     num_actions=task.num_actions, settings=settings)
+                     cells=grids[0], low=task.ranges.low, high=task.ranges.high,
+                     num_actions=task.action.n, settings=settings)
 
 
 def load(document, arrays) -> ToyAgents:
@@ -190,7 +191,7 @@ def load(document, arrays) -> ToyAgents:
 def memory(settings, task) -> int:
     """Bytes of one agent's arrays: its values over the grid and at the latest state, eight
     numbers and its divergence flag."""
-    actions = task.num_actions
+    actions = task.action.n
     return 8 * (settings.cells ** len(task.state_names) * actions + actions + 8) + 1
 
 
