@@ -1,0 +1,151 @@
+"""How far the third benchmark has got in a directory, read from its files alone (nothing is
+run, claimed or written), `lwrl bench status`: per task its reference rows, per row its
+search's rungs (configurations evaluated of each), the configuration it chose, its runs on
+the clock, and an estimate of the CPU of the trainings it has left.
+
+The estimate: the agent-steps of the trainings not yet written (a population learner's runs
+on the clock are one run, `runners.sweep.families`; a linear learner's each its own; the
+rungs not yet begun by `compute_plan.SEARCH_RUNGS`), at the CPU per agent-step the ledger
+counts for the row's trainings so far (`benchmark.progress.cpu_per_agent_step`), else for
+its learner's on the directory's other rows. Greedy evaluations are not counted; a small
+search run costs more per agent-step than a row of many agents, so the estimate errs high
+for the linear rows.
+"""
+
+import os
+
+import numpy as np
+
+from lwrl.runners.store import RunStore, compute_spent
+from lwrl.runners.sweep import families, longest
+from lwrl.studies.paper.benchmark import compute_plan, progress, protocol
+from lwrl.studies.paper.benchmark import study as second
+from lwrl.studies.paper.benchmark.third import clock, halving, rule, study
+
+
+def steps(trainings) -> int:
+    """The agent-steps computing `trainings` takes: one run per family, its longest."""
+    return sum(run.agents * run.budget for run in map(longest, families(list(trainings))))
+
+
+def _done(store: RunStore, training, evaluate) -> bool:
+    """Whether `training` needs no computing: its table is written, or its evaluation."""
+    return store.path(training).exists() or store.finished(evaluate(training))
+
+
+class RowProgress:
+    """One row's state: what it has done (`text`), the trainings it has left that are known
+    (`pending`), every training known (`known`) and the agent-steps of those not yet known
+    (`later`)."""
+
+    def __init__(self, out_dir: str, reference):
+        self.out_dir, self.reference, self.store = out_dir, reference, RunStore(out_dir, make=False)
+        self.text, self.pending, self.known, self.later, self.stages = [], [], [], 0, 0
+
+    def evaluate(self, trainings: dict, what: str, evaluate) -> tuple:
+        """`study`'s evaluation of one stage's `trainings` read from the directory, its count
+        kept; an `Unfinished` error where its evaluations are not all written (or the
+        reference rows, which score them)."""
+        runs = list(trainings.values())
+        self.stages += 1
+        self.known += runs
+        self.pending += [run for run in runs if not _done(self.store, run, evaluate)]
+        evaluated = sum(self.store.finished(evaluate(run)) for run in runs)
+        self.text.append(f"{what.rsplit(': ', 1)[-1]} {evaluated}/{len(runs)} evaluated")
+        if evaluated < len(runs) or self.reference is None:
+            raise study.Unfinished(what)
+        return second.read_evaluated(trainings, self.out_dir, what, evaluate)
+
+
+def search_steps(task: str, row: protocol.Row, stages: int, plant: str) -> int:
+    """The agent-steps of a row's search after its first `stages` stages (a rung but the
+    last, or one configuration of the last on the clock)."""
+    budget = protocol.BUDGETS[rule.split(task)[0]]
+    last = len(compute_plan.SEARCH_RUNGS) - 1
+    finalists = compute_plan.SEARCH_RUNGS[last][0]
+    finalist = steps(clock.trainings(halving.rung_training(
+        task, row, halving.configurations(task, row)[0], last, plant)).values())
+    early = [count * seeds * fraction * budget
+             for count, seeds, fraction in compute_plan.SEARCH_RUNGS[:last]]
+    return int(sum(early[stages:]) + finalist * (finalists - max(0, stages - last)))
+
+
+def row_progress(task: str, row: protocol.Row, out_dir: str, plant: str, reference,
+                 chosen_on_task) -> RowProgress:
+    """The state of `row` of `task` (`reference`: the task's reference rows, or None while
+    they are not written; `chosen_on_task`: a variant's configurations, None on a task)."""
+    state = RowProgress(out_dir, reference)
+    chosen = None
+    if chosen_on_task is None:
+        try:
+            _, chosen, _ = study.search_row(task, row, plant, reference, state.evaluate)
+        except study.Unfinished:
+            state.later += search_steps(task, row, state.stages, plant)
+    else:
+        chosen = chosen_on_task.get(row.label)
+    settings = halving.configurations(task, row)[0 if chosen is None else chosen]
+    runs = clock.trainings(rule.training(task, row, settings, rule.SEED, rule.agents(task, row),
+                                         1.0, plant))
+    if chosen is None:
+        state.later += steps(runs.values())
+        state.text.append("its runs wait for its search" if chosen_on_task is None
+                          else "its runs wait for its task's search")
+        return state
+    state.text.append(f"configuration {chosen} chosen")
+    try:
+        state.evaluate(runs, f"its {rule.agents(task, row)} agents on the clock",
+                       clock.evaluation_at)
+    except study.Unfinished:
+        pass
+    return state
+
+
+def task_lines(task: str, out_dir: str, plant: str = "analytic") -> list:
+    """The lines of one task (see the module)."""
+    written = os.path.exists(study.references_path(task, out_dir, plant))
+    lines = [f"{task} ({plant} plant): reference rows {'written' if written else 'not run yet'}"]
+    reference = study.references(task, out_dir, plant) if written else None
+    base = rule.split(task)[0]
+    chosen_on_task = None
+    if base != task:
+        try:
+            chosen_on_task = {label: runs.chosen for label, runs
+                              in study.read_task(base, out_dir, plant).rows.items()}
+        except study.Unfinished:
+            chosen_on_task = {}
+    states = {row.label: row_progress(task, row, out_dir, plant, reference, chosen_on_task)
+              for row in rule.rows(task)}
+    for label, state in states.items():
+        lines.append(f"  {label:<20} {'; '.join(state.text)}{left(state, out_dir, states)}")
+    for label in rule.unavailable(task):
+        lines.append(f"  {label:<20} not run: the rule names it; no learner of the registry "
+                     "takes this task's kind of action")
+    return lines
+
+
+def left(state: RowProgress, out_dir: str, states: dict) -> str:
+    """`; about ... of CPU of trainings left` of a row, at its rate (see the module), or
+    nothing where it has nothing left; the rate unknown where the ledger counts none."""
+    agent_steps = steps(state.pending) + state.later
+    if not agent_steps:
+        return ""
+    rates = progress.cpu_per_agent_step(out_dir, state.known)
+    if not rates:
+        learner = state.known[0].learner
+        rates = progress.cpu_per_agent_step(out_dir, [
+            run for other in states.values() for run in other.known if run.learner == learner])
+    if not rates:
+        return f"; {agent_steps / 1e6:.1f} M agent-steps of training left (no rate yet)"
+    rate = float(np.mean(list(rates.values())))
+    return (f"; about {progress.duration(rate * agent_steps)} of CPU of trainings left "
+            f"({agent_steps / 1e6:.1f} M agent-steps)")
+
+
+def lines(tasks, out_dir: str, plant: str = "analytic") -> list:
+    """Every task's lines, then the ledger's count."""
+    result = [line for task in tasks for line in task_lines(task, out_dir, plant)]
+    spent = compute_spent(out_dir)
+    result.append(f"ledger ({os.path.join(out_dir, 'compute.jsonl')}): {spent['runs']} runs, "
+                  f"{spent['wall_s'] / 3600:.2f} h of wall time, {spent['cpu_s'] / 3600:.2f} h "
+                  "of CPU")
+    return result
