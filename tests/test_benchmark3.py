@@ -169,7 +169,8 @@ def test_a_tiny_third_benchmark_resumes_computing_nothing_twice(tiny, tmp_path, 
     assert [json.loads(line)["runs"] for line in added] == [[lost.key]]
     status, text, err = run_cli(["bench", "status", TASK, "--out", out], capsys)
     assert status == 0, err
-    assert "search rung 3 20/20 evaluated" in text and "on the clock 20/20 evaluated" in text
+    assert "search rung 3, configuration" in text and "on the clock 20/20 evaluated" in text
+    assert "20/20 evaluated; configuration" in text and "left" not in text  # nothing left
 
 
 @pytest.mark.parametrize("argv, words", [

@@ -7,20 +7,28 @@ The estimate: the agent-steps of the trainings not yet written (a population lea
 on the clock are one run, `runners.sweep.families`; a linear learner's each its own; the
 rungs not yet begun by `compute_plan.SEARCH_RUNGS`), at the CPU per agent-step the ledger
 counts for the row's trainings so far (`benchmark.progress.cpu_per_agent_step`), else for
-its learner's on the directory's other rows. Greedy evaluations are not counted; a small
+its learner's on the directory's other rows, else the second benchmark's committed ledger's
+(`compute_plan.rate`, with its stand-ins). Greedy evaluations are not counted; a small
 search run costs more per agent-step than a row of many agents, so the estimate errs high
 for the linear rows.
 """
 
 import os
+import pathlib
 
 import numpy as np
 
-from lwrl.runners.store import RunStore, compute_spent
+import lwrl
+from lwrl.runners.store import RunStore
 from lwrl.runners.sweep import families, longest
 from lwrl.studies.paper.benchmark import compute_plan, progress, protocol
 from lwrl.studies.paper.benchmark import study as second
 from lwrl.studies.paper.benchmark.third import clock, halving, rule, study
+
+
+SECOND = "docs/benchmark2"
+"""The second benchmark's committed runs in lwrl's checkout, whose ledger's rates stand in
+for a learner this directory's ledger does not count yet."""
 
 
 def steps(trainings) -> int:
@@ -115,37 +123,51 @@ def task_lines(task: str, out_dir: str, plant: str = "analytic") -> list:
             chosen_on_task = {}
     states = {row.label: row_progress(task, row, out_dir, plant, reference, chosen_on_task)
               for row in rule.rows(task)}
+    planned, total = planned_rates(), 0.0
     for label, state in states.items():
-        lines.append(f"  {label:<20} {'; '.join(state.text)}{left(state, out_dir, states)}")
+        seconds, text = left(state, out_dir, states, planned)
+        total += seconds
+        lines.append(f"  {label:<20} {'; '.join(state.text)}{text}")
     for label in rule.unavailable(task):
         lines.append(f"  {label:<20} not run: the rule names it; no learner of the registry "
                      "takes this task's kind of action")
+    if total:
+        lines.append(f"  about {progress.duration(total)} of CPU of trainings left on {task} "
+                     "(greedy evaluations apart)")
     return lines
 
 
-def left(state: RowProgress, out_dir: str, states: dict) -> str:
-    """`; about ... of CPU of trainings left` of a row, at its rate (see the module), or
-    nothing where it has nothing left; the rate unknown where the ledger counts none."""
+def left(state: RowProgress, out_dir: str, states: dict, planned) -> tuple:
+    """`(CPU seconds, text)` of the trainings a row has left, at its rate (see the module):
+    `; about ... of CPU of trainings left`, nothing where it has nothing left, the agent-steps
+    alone where no rate is known. `planned`: the second benchmark's ledger rates
+    (`compute_plan.ledger_rates`), for a learner this directory's ledger does not count yet."""
     agent_steps = steps(state.pending) + state.later
     if not agent_steps:
-        return ""
-    rates = progress.cpu_per_agent_step(out_dir, state.known)
-    if not rates:
-        learner = state.known[0].learner
-        rates = progress.cpu_per_agent_step(out_dir, [
-            run for other in states.values() for run in other.known if run.learner == learner])
-    if not rates:
-        return f"; {agent_steps / 1e6:.1f} M agent-steps of training left (no rate yet)"
-    rate = float(np.mean(list(rates.values())))
-    return (f"; about {progress.duration(rate * agent_steps)} of CPU of trainings left "
-            f"({agent_steps / 1e6:.1f} M agent-steps)")
+        return 0.0, ""
+    learner = state.known[0].learner
+    rates = progress.cpu_per_agent_step(out_dir, state.known) or progress.cpu_per_agent_step(
+        out_dir, [run for other in states.values() for run in other.known if run.learner == learner])
+    source = "its ledger's rate"
+    if rates:
+        rate = float(np.mean(list(rates.values())))
+    else:
+        try:
+            rate, of = compute_plan.rate(planned, learner, "training")
+        except ValueError:
+            return 0.0, f"; {agent_steps / 1e6:.1f} M agent-steps of training left (no rate yet)"
+        source = f"the second benchmark's rate of {of}"
+    return rate * agent_steps, (f"; about {progress.duration(rate * agent_steps)} of CPU of "
+                                f"trainings left ({agent_steps / 1e6:.1f} M agent-steps at {source})")
+
+
+def planned_rates():
+    """The second benchmark's ledger rates (`compute_plan.ledger_rates`) where lwrl runs from
+    its checkout, which holds its committed runs (`SECOND`); else none."""
+    return compute_plan.ledger_rates(pathlib.Path(lwrl.__file__).resolve().parent.parent / SECOND)
 
 
 def lines(tasks, out_dir: str, plant: str = "analytic") -> list:
-    """Every task's lines, then the ledger's count."""
-    result = [line for task in tasks for line in task_lines(task, out_dir, plant)]
-    spent = compute_spent(out_dir)
-    result.append(f"ledger ({os.path.join(out_dir, 'compute.jsonl')}): {spent['runs']} runs, "
-                  f"{spent['wall_s'] / 3600:.2f} h of wall time, {spent['cpu_s'] / 3600:.2f} h "
-                  "of CPU")
-    return result
+    """Every task's lines, then the ledger's count (`benchmark.progress.ledger`)."""
+    return [line for task in tasks for line in task_lines(task, out_dir, plant)] + [
+        progress.ledger(out_dir)]

@@ -156,7 +156,8 @@ def search_row(task: str, row: protocol.Row, plant: str, reference: dict, evalua
     for i in alive:
         full = halving.rung_training(task, row, configurations[i], last, plant)
         scores, _, more = clock_row(task, clock.trainings(full), reference, evaluate,
-                                    f"{task}: {row.label}: search rung {last + 1}", False)
+                                    f"{task}: {row.label}: search rung {last + 1}, configuration {i}",
+                                    False)
         keys += more
         finals[i] = scores[clock.POINTS[-1]]
         curves[i] = clock.area([clock.fraction(j) for j in scores],
