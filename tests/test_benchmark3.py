@@ -47,6 +47,7 @@ def seeds(first: int, count: int) -> set:
 
 
 def test_the_rows_seeds_and_starts_are_clear_of_every_seed_any_tuning_used():
+    """Rows train on 3000 up, evaluated from 13 000 up; no tuning ever used any of those."""
     tuned = set().union(*(seeds(first, count) for first, count in rule.TUNING_SEEDS.values()))
     most = max(rule.agents(task, row) for task in rule.TASKS for row in rule.rows(task))
     assert most == compute_plan.LIGHT_AGENTS
@@ -58,6 +59,8 @@ def test_the_rows_seeds_and_starts_are_clear_of_every_seed_any_tuning_used():
 
 
 def test_the_acrobots_greedy_episodes_start_from_states_that_differ_the_same_for_every_row():
+    """Each greedy episode of the acrobot from its own state within 0.1 of the rest, drawn from
+    the agent's seed alone: every row's agent b starts where every other row's does."""
     task = "acrobot.swingup"
     runs = [clock.evaluation_at(clock.trainings(rule.training(task, row, {}, rule.SEED, 2))[18])
             for row in rule.rows(task)[:2]]
@@ -90,7 +93,8 @@ def test_successive_halving_keeps_the_best_quarter_of_each_rung_and_chooses_by_t
     def evaluate(trainings, what, how):
         seen.append({name: (run.agents, run.budget, run.seed) for name, run in trainings.items()})
         if how is clock.evaluation_at:  # the last rung: a later configuration scores better
-            return {j: fake_table(run, 0.5 + 0.01 * len(seen)) for j, run in trainings.items()}, None
+            quality = 0.5 + 0.01 * len(seen)
+            return {j: fake_table(run, quality) for j, run in trainings.items()}, None
         return {i: fake_table(run, 1 / (1 + distance[i])) for i, run in trainings.items()}, None
 
     reference = {"random": np.array([1000.0]), "classical": np.array([100.0])}
@@ -107,13 +111,16 @@ def test_successive_halving_keeps_the_best_quarter_of_each_rung_and_chooses_by_t
 
 
 def test_the_choice_takes_the_better_mean_ties_to_the_larger_area_and_a_diverged_agent_is_worst():
-    assert halving.best({0: [0.5, 0.5], 1: [0.9, np.nan], 2: [0.6, 0.6], 3: [0.5, 0.5]}, 2) == [0, 2]
+    """The rungs keep the best means (a NaN, a diverged agent, the worst; ties to the earlier);
+    the last rung's choice goes by the mean final score, then by the area, then the earlier."""
+    scores = {0: [0.5, 0.5], 1: [0.9, np.nan], 2: [0.6, 0.6], 3: [0.5, 0.5]}
+    assert halving.best(scores, 2) == [0, 2]
     assert halving.choose({4: ([0.8, 0.8], 0.3), 7: ([0.8, 0.8], 0.5)}) == 7
     assert halving.choose({4: ([0.9, 0.8], 0.3), 7: ([0.8, 0.8], 0.5)}) == 4
     assert halving.choose({4: ([0.8, 0.8], 0.5), 7: ([0.8, 0.8], 0.5)}) == 4
 
 
-def test_step_sizes_are_drawn_within_a_factor_of_four_of_the_centre_and_arss_normalisation_is_a_choice():
+def test_step_sizes_are_drawn_within_four_times_the_centre_and_arss_normalisation_is_a_choice():
     for row in rule.rows(TASK):
         configurations = halving.configurations(TASK, row)
         assert len(configurations) == 32 and configurations[0] == row.settings
@@ -141,7 +148,22 @@ def tiny(monkeypatch):
     monkeypatch.setattr(rule, "rows", lambda task: every_row(task)[:1])
 
 
+def test_a_variant_is_its_task_in_the_variants_environment_in_training_and_evaluation():
+    """The cart-pole with observation noise: every run of it, and its evaluations, read noisy
+    observations; its search is its task's (the same configurations)."""
+    task = "cartpole.balance+noise"
+    row = rule.rows(task)[0]
+    runs = clock.trainings(rule.training(task, row, {}, rule.SEED, 2))
+    assert all(run.observation_noise for run in runs.values())
+    assert clock.evaluation_at(runs[18]).observation_noise == runs[18].observation_noise
+    assert halving.configurations(task, row) == halving.configurations("cartpole.balance", row)
+    nominal = rule.training("cartpole.balance", row, {}, rule.SEED, 2)
+    assert dataclasses.replace(runs[18], observation_noise={}) == nominal
+
+
 def test_a_tiny_third_benchmark_resumes_computing_nothing_twice(tiny, tmp_path, capsys):
+    """Run, run again (nothing computed: the same ledger and tables), then lose one
+    evaluation: that one alone is computed; the status then says nothing is left."""
     from conftest import run_cli
     out = str(tmp_path / "b3")
     status, _, err = run_cli(["bench", "run", TASK, "--out", out, "--rule", "3",

@@ -24,7 +24,8 @@ def check(tasks, plant: str) -> list:
     """The tasks (`all`: every task, `rule.TASKS`), each checked; a one-line ValueError for a
     task or plant the third benchmark does not have."""
     if plant not in PLANTS:
-        raise ValueError(f"the third benchmark runs on the {', '.join(PLANTS)} plant; got {plant!r}")
+        raise ValueError(f"the third benchmark runs on the {', '.join(PLANTS)} plant; "
+                         f"got {plant!r}")
     return list(rule.TASKS) if list(tasks) == ["all"] else [rule.check_task(t) for t in tasks]
 
 

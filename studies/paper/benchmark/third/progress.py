@@ -146,8 +146,9 @@ def left(state: RowProgress, out_dir: str, states: dict, planned) -> tuple:
     if not agent_steps:
         return 0.0, ""
     learner = state.known[0].learner
-    rates = progress.cpu_per_agent_step(out_dir, state.known) or progress.cpu_per_agent_step(
-        out_dir, [run for other in states.values() for run in other.known if run.learner == learner])
+    alike = [run for other in states.values() for run in other.known if run.learner == learner]
+    rates = (progress.cpu_per_agent_step(out_dir, state.known)
+             or progress.cpu_per_agent_step(out_dir, alike))
     source = "its ledger's rate"
     if rates:
         rate = float(np.mean(list(rates.values())))
@@ -157,8 +158,9 @@ def left(state: RowProgress, out_dir: str, states: dict, planned) -> tuple:
         except ValueError:
             return 0.0, f"; {agent_steps / 1e6:.1f} M agent-steps of training left (no rate yet)"
         source = f"the second benchmark's rate of {of}"
-    return rate * agent_steps, (f"; about {progress.duration(rate * agent_steps)} of CPU of "
-                                f"trainings left ({agent_steps / 1e6:.1f} M agent-steps at {source})")
+    seconds = rate * agent_steps
+    return seconds, (f"; about {progress.duration(seconds)} of CPU of trainings left "
+                     f"({agent_steps / 1e6:.1f} M agent-steps at {source})")
 
 
 def planned_rates():

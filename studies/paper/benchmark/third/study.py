@@ -109,8 +109,8 @@ def _task_runs(task: str, out_dir: str, plant: str, reference: dict, evaluate) -
     evaluation)` (`second.train_and_evaluate` or `second.read_evaluated`)."""
     base = rule.split(task)[0]
     # a variant runs the configurations chosen on its task, whose runs must all be written
-    chosen_on_task = ({} if base == task else
-                      {label: runs.chosen for label, runs in read_task(base, out_dir, plant).rows.items()})
+    chosen_on_task = {} if base == task else {
+        label: runs.chosen for label, runs in read_task(base, out_dir, plant).rows.items()}
     rows = {}
     for row in rule.rows(task):
         if base == task:
@@ -155,9 +155,8 @@ def search_row(task: str, row: protocol.Row, plant: str, reference: dict, evalua
     finals, curves = {}, {}
     for i in alive:
         full = halving.rung_training(task, row, configurations[i], last, plant)
-        scores, _, more = clock_row(task, clock.trainings(full), reference, evaluate,
-                                    f"{task}: {row.label}: search rung {last + 1}, configuration {i}",
-                                    False)
+        what = f"{task}: {row.label}: search rung {last + 1}, configuration {i}"
+        scores, _, more = clock_row(task, clock.trainings(full), reference, evaluate, what, False)
         keys += more
         finals[i] = scores[clock.POINTS[-1]]
         curves[i] = clock.area([clock.fraction(j) for j in scores],
