@@ -11,6 +11,7 @@ import pandas as pd
 import pytest
 
 from lwrl import tasks
+from lwrl.runners.store import RunStore
 from lwrl.studies.paper.benchmark import compute_plan, evaluation, protocol
 from lwrl.studies.paper.benchmark.third import clock, halving, rule, study
 
@@ -39,6 +40,21 @@ def test_the_clock_has_twenty_points_log_spaced_to_the_budget_with_ten_episodes_
     greedy = clock.evaluation_at(runs[18])
     assert greedy.seed == rule.SEED + evaluation.EVALUATION_SEED and not greedy.learn
     assert greedy.trained == runs[18].key
+
+
+def test_a_row_rises_at_the_budget_where_its_agents_rise_from_half_of_it_beyond_chance():
+    """The rise from 1/2 to 1 of the budget, per agent, with an interval wholly above 0."""
+    rng = np.random.default_rng(0)
+    half = rng.uniform(0.2, 0.6, 20)
+    assert clock.rising({clock.HALF: half, 18: half + 0.1 + rng.normal(0, 0.02, 20)})
+    assert not clock.rising({clock.HALF: half, 18: half + rng.normal(0, 0.05, 20)})
+    assert not clock.rising({clock.HALF: half, 18: half})
+    full = rule.training(TASK, rule.rows(TASK)[0], {}, rule.SEED, 2)
+    longer = clock.longer_trainings(full)
+    assert list(longer) == list(range(19, 25)) and longer[24].budget == 4 * full.budget
+    assert all(dataclasses.replace(run, budget=full.budget, episodes=full.episodes) == full
+               for run in longer.values())
+    assert [clock.evaluation_at(run).episodes for run in longer.values()] == [1] * 5 + [10]
 
 
 def seeds(first: int, count: int) -> set:
@@ -137,7 +153,8 @@ def test_step_sizes_are_drawn_within_four_times_the_centre_and_arss_normalisatio
 @pytest.fixture
 def tiny(monkeypatch):
     """The paper's agent alone on Mountain-Car, a budget of 1 000 steps, 3 agents, a search
-    of 4 configurations on 1, 2 and 3 seeds, evaluation episodes capped at 200 steps."""
+    of 4 configurations on 1, 2 and 3 seeds, evaluation episodes capped at 200 steps; the
+    row taken as still rising at the budget."""
     monkeypatch.setitem(protocol.BUDGETS, TASK, 1000)
     monkeypatch.setattr(protocol, "SHORTEST_EPISODE", 100)
     monkeypatch.setattr(compute_plan, "SEARCH_RUNGS", ((4, 1, 0.125), (2, 2, 0.5), (1, 3, 1.0)))
@@ -146,6 +163,7 @@ def tiny(monkeypatch):
     monkeypatch.setattr(evaluation, "STEP_CAP", 200)
     every_row = rule.rows
     monkeypatch.setattr(rule, "rows", lambda task: every_row(task)[:1])
+    monkeypatch.setattr(clock, "rising", lambda scores: True)  # continued to 4 times
 
 
 def test_a_variant_is_its_task_in_the_variants_environment_in_training_and_evaluation():
@@ -172,10 +190,22 @@ def test_a_tiny_third_benchmark_resumes_computing_nothing_twice(tiny, tmp_path, 
     assert json.loads((tmp_path / "b3" / rule.EDITION_FILE).read_text()) == {"rule": rule.EDITION}
     ledger = (tmp_path / "b3" / "compute.jsonl").read_text().splitlines()
     tables = {path.name: path.read_bytes() for path in (tmp_path / "b3" / "runs").glob("*.csv.gz")}
-    # 4 + 2 rung runs and 20 runs of the finalist and of the row on the clock, each evaluated
-    assert len(tables) == 2 * (4 + 2 + 20 + 20)
+    # 4 + 2 rung runs, 20 runs of the finalist and of the row on the clock, and 6 past the
+    # budget, each evaluated
+    assert len(tables) == 2 * (4 + 2 + 20 + 20 + 6)
     report = (tmp_path / "b3" / "README.md").read_text()
     assert "| paper | 3 |" in report and "Not run: stream_ac" in report
+    assert "(carried)" not in report and "not run |" not in report
+    # the run continued past the budget is the row's run until the budget cuts it: every
+    # episode the same but the one the budget cut
+    row = study.read_task(TASK, out).rows["paper"]
+    runs = RunStore(out).read([row.trainings[18], clock.longer_trainings(row.trainings[18])[19]])
+    one, longer = (part for _, part in runs.groupby("budget"))
+    columns = ["seed", "episode", "steps", "return"]
+    for (_, cut), (_, going_on) in zip(one.groupby("seed"), longer.groupby("seed")):
+        assert cut[columns].iloc[:-1].reset_index(drop=True).equals(
+            going_on[columns].iloc[:len(cut) - 1].reset_index(drop=True))
+        assert cut.steps.iloc[-1] < going_on.steps.iloc[len(cut) - 1]
     # again, without --rule: the directory says which benchmark it is; nothing is computed
     status, _, err = run_cli(["bench", "run", TASK, "--out", out, "--workers", "1"], capsys)
     assert status == 0, err
@@ -192,6 +222,7 @@ def test_a_tiny_third_benchmark_resumes_computing_nothing_twice(tiny, tmp_path, 
     status, text, err = run_cli(["bench", "status", TASK, "--out", out], capsys)
     assert status == 0, err
     assert "search rung 3, configuration" in text and "on the clock 20/20 evaluated" in text
+    assert "continued to 4 times it 6/6 evaluated" in text
     assert "20/20 evaluated; configuration" in text and "left" not in text  # nothing left
 
 

@@ -35,8 +35,11 @@ def benchmark(tasks, out_dir: str, command: str, plant: str = "analytic", sweep=
     started = time.perf_counter()
     tasks = check(tasks, plant)
     rule.write_edition(out_dir)
-    computed = [study.study_task(task, out_dir, plant, sweep) for task in tasks]
-    return report.write(out_dir, command, plant, started, computed)
+    computed = {}
+    for task, continued in rule.stages(tasks):
+        computed[task] = (study.continue_task if continued else study.study_task)(
+            task, out_dir, plant, sweep)
+    return report.write(out_dir, command, plant, started, computed.values())
 
 
 def rebuild(out_dir: str, command: str, plant: str = "analytic") -> str:

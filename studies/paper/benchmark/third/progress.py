@@ -1,7 +1,8 @@
 """How far the third benchmark has got in a directory, read from its files alone (nothing is
 run, claimed or written), `lwrl bench status`: per task its reference rows, per row its
 search's rungs (configurations evaluated of each), the configuration it chose, its runs on
-the clock, and an estimate of the CPU of the trainings it has left.
+the clock and, on the rule's first stage's tasks, past the budget where it still rises
+(`study.longer`; its runs counted once the row's on the clock are written), and an estimate of the CPU of the trainings it has left.
 
 The estimate: the agent-steps of the trainings not yet written (a population learner's runs
 on the clock are one run, `runners.sweep.families`; a linear learner's each its own; the
@@ -101,8 +102,13 @@ def row_progress(task: str, row: protocol.Row, out_dir: str, plant: str, referen
         return state
     state.text.append(f"configuration {chosen} chosen")
     try:
-        state.evaluate(runs, f"its {rule.agents(task, row)} agents on the clock",
-                       clock.evaluation_at)
+        scores, _, _ = study.clock_row(task, runs, reference, state.evaluate,
+                                       f"its {rule.agents(task, row)} agents on the clock", True)
+        if task in rule.STAGE_1 and not clock.rising(scores):
+            state.text.append("not rising at the budget: carried to 4 times it")
+        elif task in rule.STAGE_1:
+            state.evaluate(clock.longer_trainings(runs[clock.POINTS[-1]]),
+                           "rising at the budget: continued to 4 times it", clock.evaluation_at)
     except study.Unfinished:
         pass
     return state

@@ -28,7 +28,8 @@ def write(out_dir: str, command: str, plant: str, started: float, computed=()) -
     sections, unfinished = [], []
     for task in study.held(out_dir, plant):
         try:
-            runs = given[task] if task in given else study.read_task(task, out_dir, plant)
+            runs = given[task] if task in given else study.read_longer(
+                study.read_task(task, out_dir, plant), out_dir)
         except study.Unfinished as missing:
             unfinished.append(str(missing))
             continue
@@ -47,19 +48,29 @@ def write(out_dir: str, command: str, plant: str, started: float, computed=()) -
     return path
 
 
+def at_four(task: str, row: "study.RowRuns") -> str:
+    """A row's normalised score at 4 times the budget: continued, carried from 1 (not rising
+    there), or not run (a variant's, or the stage not run yet)."""
+    if row.longer is None or task not in rule.STAGE_1:
+        return "not run"
+    if not row.longer:
+        return f"{mean_interval(row.scores[clock.POINTS[-1]]).text(2)} (carried)"
+    return mean_interval(row.longer[clock.LONGER[-1]]).text(2)
+
+
 def task_section(runs: "study.TaskRuns", out_dir: str) -> list:
     """The lines of one task: a table of its rows."""
     lines = [f"## {runs.task}", "",
              "| row | agents | configuration | search's final score | normalised score at 1/4 "
-             "| final normalised score | CPU h (row) | CPU h (search) |",
-             "|---|---|---|---|---|---|---|---|"]
+             "| final normalised score | at 4 times the budget | CPU h (row) | CPU h (search) |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for label, row in runs.rows.items():
         final = row.scores[clock.POINTS[-1]]
         search = (f"{mean_interval(row.rungs[-1][row.chosen]).text(2)}" if row.rungs
                   else "(its task's)")
         lines.append(f"| {label} | {len(final)} | {row.chosen} | {search} | "
                      f"{mean_interval(row.scores[QUARTER]).text(2)} | "
-                     f"{mean_interval(final).text(2)} | "
+                     f"{mean_interval(final).text(2)} | {at_four(runs.task, row)} | "
                      f"{compute_spent(out_dir, set(row.own))['cpu_s'] / 3600:.3f} | "
                      f"{compute_spent(out_dir, set(row.searched))['cpu_s'] / 3600:.3f} |")
     lines.append("")

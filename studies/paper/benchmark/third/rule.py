@@ -49,6 +49,18 @@ TASKS = (*STAGE_1, *(f"{task}{JOIN}{variant}" for task, variant in VARIANTS.item
          "pendulum.swingup-continuous")
 """Every task of the third benchmark in the order `all` runs them: the rule's stages 1, 2
 and 4 (stage 3, the rows continued to 4 times the budget, follows the verdicts at 1)."""
+
+
+def stages(tasks) -> list:
+    """`[(task, continued)]`: the `tasks` in the order the rule's stages run them, the first
+    stage's tasks and the variants first, then (`continued` True) the first stage's tasks'
+    rows still rising at the budget (stage 3), then the continuous pendulum (stage 4)."""
+    ordered = [task for task in TASKS if task in tasks]
+    before = [(task, False) for task in ordered if task != TASKS[-1]]
+    return (before + [(task, True) for task in ordered if task in STAGE_1]
+            + [(task, False) for task in ordered if task == TASKS[-1]])
+
+
 RIVALS = {"discrete": {"ars": "ars", "stream_q": "stream_q", "stream_ac": "stream_ac"},
           "continuous": {"ars": "ars_continuous", "stream_ac": "stream_ac"}}
 """`{label: learner}` of the rows the third benchmark adds, by the task's kind of action."""

@@ -7,7 +7,10 @@ batches, Ray), into one directory `OUT` that records the rule's edition (`rule.E
 2. row by row, in the protocol's order: its search by successive halving (`halving`; on a
    variant, none: the configuration chosen on its task), then the chosen configuration
    trained by the row's agents (`rule.agents`) on seeds `rule.SEED` up and evaluated at
-   every point of the clock (`clock`).
+   every point of the clock (`clock`);
+3. once every task of the rule's first stage and the variants have run, the rule's third
+   stage (`longer`): on each of the first stage's tasks the rows still rising at the budget
+   continued to 4 times it (`clock.longer_trainings`), the others carried.
 
 Every run's per-episode table is `OUT/runs/<key>.csv.gz`, written whole by the sweep runner
 (`runners.store`); a training whose evaluation is written is not run again, so the tables
@@ -48,6 +51,10 @@ class RowRuns:
     """The keys of the row's runs, its trainings' and their evaluations'."""
     searched: list
     """The keys of its search's runs, trainings and evaluations (none on a variant)."""
+    longer: dict | None = None
+    """`{j: (agents,) normalised scores}` past the budget (`clock.LONGER`) of a row still
+    rising at 1 (`clock.rising`), continued; `{}` for a row that is not, whose score at 4
+    times the budget is its score at 1, carried; None where the stage has not run."""
 
 
 @dataclasses.dataclass
@@ -123,6 +130,46 @@ def _task_runs(task: str, out_dir: str, plant: str, reference: dict, evaluate) -
                                             f"{task}: {row.label}", diverged_as_worst=True)
         rows[row.label] = RowRuns(row, rungs, chosen, scores, trainings, more, keys)
     return TaskRuns(task, reference, rows)
+
+
+def longer(runs: TaskRuns, evaluate) -> TaskRuns:
+    """`runs` with each row's `longer` (the rule's third stage): a row still rising at the
+    budget (`clock.rising`) continued to 4 times it, evaluated at the clock's points past it
+    by `evaluate` (`study_task`'s or `read_task`'s); the others `{}`, carried."""
+    for label, row in runs.rows.items():
+        row.longer = {}
+        if clock.rising(row.scores):
+            row.longer, _, keys = clock_row(
+                runs.task, clock.longer_trainings(row.trainings[clock.POINTS[-1]]),
+                runs.references, evaluate, f"{runs.task}: {label}: to 4 times the budget", True)
+            row.own += keys
+    return runs
+
+
+def continue_task(task: str, out_dir: str, plant: str = "analytic", sweep=None) -> TaskRuns:
+    """`study_task`, then its rows still rising at the budget continued (`longer`),
+    resuming what `out_dir` holds."""
+    sweep = sweep or {}
+
+    def evaluate(trainings, what, how):
+        return second.train_and_evaluate(trainings, out_dir, sweep, what, how)
+
+    return longer(study_task(task, out_dir, plant, sweep), evaluate)
+
+
+def read_longer(runs: TaskRuns, out_dir: str) -> TaskRuns:
+    """`runs` (`read_task`'s) with the third stage's rows where all its runs are written
+    (`longer`), else as they are (`RowRuns.longer` None), computing nothing."""
+
+    def evaluate(trainings, what, how):
+        return second.read_evaluated(trainings, out_dir, what, how)
+
+    try:
+        return longer(runs, evaluate)
+    except Unfinished:
+        for row in runs.rows.values():
+            row.longer = None
+        return runs
 
 
 def clock_row(task: str, trainings: dict, reference: dict, evaluate, what: str,
