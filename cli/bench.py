@@ -110,6 +110,13 @@ THIRD = "lwrl.studies.paper.benchmark.third.benchmark"
 """The third benchmark's commands, for a directory that records its rule (`third.rule`)."""
 
 
+def figures(directory: str) -> list:
+    """The line of `output.done` naming a benchmark's figures, where it drew any (the third
+    benchmark's report has none yet)."""
+    path = os.path.join(directory, "figures")
+    return [f"the figures in {path}"] if os.path.isdir(path) else []
+
+
 def third(directory: str, asked=None):
     """The third benchmark's module where `asked` is "3" or `directory` records its rule,
     else None (the second's)."""
@@ -263,7 +270,7 @@ def run_second(args) -> int:
     path = module.benchmark(tasks, args.out, shlex.join(["lwrl", *args.argv]), plant=args.plant,
                             sweep={"backend": args.backend, "workers": args.workers,
                                    "address": args.address})
-    output.done(started, [path, f"the figures in {os.path.join(args.out, 'figures')}"])
+    output.done(started, [path, *figures(args.out)])
     return 0
 
 
@@ -292,7 +299,7 @@ def run_report(args) -> int:
     outputs.claim_output(args.directory, "DIR")
     started = time.perf_counter()
     path = module.rebuild(args.directory, shlex.join(["lwrl", *args.argv]), plant=args.plant)
-    output.done(started, [path, f"the figures in {os.path.join(args.directory, 'figures')}"])
+    output.done(started, [path, *figures(args.directory)])
     return 0
 
 

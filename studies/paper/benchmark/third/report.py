@@ -3,7 +3,8 @@ score with its 95 % interval (`analysis.statistics.mean_interval`), at 1/4 of th
 its agents, the configuration its search chose and what the ledger counts of its CPU (the
 row's runs and its search's apart, `runners.store.compute_spent`); the rivals the rule
 names that no learner runs and the rows whose observation normalisation is not searched,
-named; a task whose runs are not all written named as such. The verdicts by the rule
+named; a row whose runs are not all written named as such (`study.read_task`'s partial
+reading), and a task whose reference rows are not. The verdicts by the rule
 (margins, Holm, the curves, the compute to the level) are `analysis`'.
 
 `lwrl bench report DIR` writes it from the directory alone, computing nothing.
@@ -29,7 +30,7 @@ def write(out_dir: str, command: str, plant: str, started: float, computed=()) -
     for task in study.held(out_dir, plant):
         try:
             runs = given[task] if task in given else study.read_longer(
-                study.read_task(task, out_dir, plant), out_dir)
+                study.read_task(task, out_dir, plant, partial=True), out_dir)
         except study.Unfinished as missing:
             unfinished.append(str(missing))
             continue
@@ -74,6 +75,8 @@ def task_section(runs: "study.TaskRuns", out_dir: str) -> list:
                      f"{compute_spent(out_dir, set(row.own))['cpu_s'] / 3600:.3f} | "
                      f"{compute_spent(out_dir, set(row.searched))['cpu_s'] / 3600:.3f} |")
     lines.append("")
+    lines += [f"- not all run yet: {why}" for why in runs.unfinished.values()]
+    lines += [""] if runs.unfinished else []
     missing = rule.unavailable(runs.task)
     if missing:
         lines += [f"Not run: {', '.join(missing)} (the rule names it; no learner of the "

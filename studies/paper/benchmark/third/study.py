@@ -65,6 +65,8 @@ class TaskRuns:
     references: dict
     rows: dict
     """`{label: RowRuns}`, in the protocol's order."""
+    unfinished: dict = dataclasses.field(default_factory=dict)
+    """`{label: what is not written}` of the rows a partial reading left out (`read_task`)."""
 
 
 def references_path(task: str, out_dir: str, plant: str) -> str:
@@ -99,37 +101,54 @@ def study_task(task: str, out_dir: str, plant: str = "analytic", sweep=None) -> 
     return _task_runs(task, out_dir, plant, references(task, out_dir, plant), evaluate)
 
 
-def read_task(task: str, out_dir: str, plant: str = "analytic") -> TaskRuns:
+def read_task(task: str, out_dir: str, plant: str = "analytic", partial: bool = False) -> TaskRuns:
     """`study_task`'s answer from what `out_dir` holds, computing and writing nothing: an
-    `Unfinished` error naming the task where a run is not written."""
+    `Unfinished` error naming the task where a run is not written, or with `partial` the rows
+    whose runs are all written, the others in `TaskRuns.unfinished`."""
     if not os.path.exists(references_path(task, out_dir, plant)):
         raise Unfinished(f"{task}: the reference rows are not written")
 
     def evaluate(trainings, what, how):
         return second.read_evaluated(trainings, out_dir, what, how)
 
-    return _task_runs(task, out_dir, plant, references(task, out_dir, plant), evaluate)
+    return _task_runs(task, out_dir, plant, references(task, out_dir, plant), evaluate, partial)
 
 
-def _task_runs(task: str, out_dir: str, plant: str, reference: dict, evaluate) -> TaskRuns:
+def _task_runs(task: str, out_dir: str, plant: str, reference: dict, evaluate,
+               partial: bool = False) -> TaskRuns:
     """Every row of `task`, their evaluations from `evaluate(trainings, description,
-    evaluation)` (`second.train_and_evaluate` or `second.read_evaluated`)."""
+    evaluation)` (`second.train_and_evaluate` or `second.read_evaluated`); with `partial`,
+    a row whose runs are not all written left out (`TaskRuns.unfinished`)."""
     base = rule.split(task)[0]
-    # a variant runs the configurations chosen on its task, whose runs must all be written
+    # a variant runs the configurations chosen on its task, whose rows must be written
     chosen_on_task = {} if base == task else {
-        label: runs.chosen for label, runs in read_task(base, out_dir, plant).rows.items()}
-    rows = {}
+        label: runs.chosen
+        for label, runs in read_task(base, out_dir, plant, partial).rows.items()}
+    rows, unfinished = {}, {}
     for row in rule.rows(task):
-        if base == task:
-            rungs, chosen, keys = search_row(task, row, plant, reference, evaluate)
-        else:
-            rungs, chosen, keys = [], chosen_on_task[row.label], []
-        settings = halving.configurations(task, row)[chosen]
-        full = rule.training(task, row, settings, rule.SEED, rule.agents(task, row), 1.0, plant)
-        scores, trainings, more = clock_row(task, clock.trainings(full), reference, evaluate,
-                                            f"{task}: {row.label}", diverged_as_worst=True)
-        rows[row.label] = RowRuns(row, rungs, chosen, scores, trainings, more, keys)
-    return TaskRuns(task, reference, rows)
+        try:
+            rows[row.label] = _row_runs(task, row, plant, reference, evaluate, chosen_on_task)
+        except Unfinished as missing:
+            if not partial:
+                raise
+            unfinished[row.label] = str(missing)
+    return TaskRuns(task, reference, rows, unfinished)
+
+
+def _row_runs(task: str, row: protocol.Row, plant: str, reference: dict, evaluate,
+              chosen_on_task: dict) -> RowRuns:
+    """One row of `task` (`_task_runs`); on a variant, its configuration `chosen_on_task`."""
+    if rule.split(task)[0] == task:
+        rungs, chosen, keys = search_row(task, row, plant, reference, evaluate)
+    elif row.label in chosen_on_task:
+        rungs, chosen, keys = [], chosen_on_task[row.label], []
+    else:
+        raise Unfinished(f"{task}: {row.label}: its task's row is not written")
+    settings = halving.configurations(task, row)[chosen]
+    full = rule.training(task, row, settings, rule.SEED, rule.agents(task, row), 1.0, plant)
+    scores, trainings, more = clock_row(task, clock.trainings(full), reference, evaluate,
+                                        f"{task}: {row.label}", diverged_as_worst=True)
+    return RowRuns(row, rungs, chosen, scores, trainings, more, keys)
 
 
 def longer(runs: TaskRuns, evaluate) -> TaskRuns:
