@@ -218,7 +218,8 @@ def test_a_tiny_third_benchmark_resumes_computing_nothing_twice(tiny, tmp_path, 
     with pytest.raises(study.Unfinished):
         study.read_task(TASK, out)
     partial = study.read_task(TASK, out, partial=True)
-    assert not partial.rows and "1 of 20 greedy evaluations not written" in partial.unfinished["paper"]
+    assert not partial.rows
+    assert "1 of 20 greedy evaluations not written" in partial.unfinished["paper"]
     status, _, err = run_cli(["bench", "run", TASK, "--out", out, "--workers", "1"], capsys)
     assert status == 0, err
     added = (tmp_path / "b3" / "compute.jsonl").read_text().splitlines()[len(ledger):]

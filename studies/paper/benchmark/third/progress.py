@@ -2,7 +2,8 @@
 run, claimed or written), `lwrl bench status`: per task its reference rows, per row its
 search's rungs (configurations evaluated of each), the configuration it chose, its runs on
 the clock and, on the rule's first stage's tasks, past the budget where it still rises
-(`study.longer`; its runs counted once the row's on the clock are written), and an estimate of the CPU of the trainings it has left.
+(`study.longer`; its runs counted once the row's on the clock are written), and an
+estimate of the CPU of the trainings it has left.
 
 The estimate: the agent-steps of the trainings not yet written (a population learner's runs
 on the clock are one run, `runners.sweep.families`; a linear learner's each its own; the
