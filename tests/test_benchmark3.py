@@ -137,15 +137,22 @@ def test_the_choice_takes_the_better_mean_ties_to_the_larger_area_and_a_diverged
 
 
 def test_step_sizes_are_drawn_within_four_times_the_centre_and_arss_normalisation_is_a_choice():
-    for row in rule.rows(TASK):
-        configurations = halving.configurations(TASK, row)
-        assert len(configurations) == 32 and configurations[0] == row.settings
-        centre = halving.search.start(TASK, row)
-        for name in halving.STEP_SIZES:
-            drawn = [c[name] for c in configurations[1:] if name in c]
-            if drawn:
-                ratio = np.asarray(drawn) / centre[name]
-                assert ratio.min() >= 0.25 and ratio.max() <= 4.0, (row.label, name)
+    """Within x1/4 to x4 of the row's centre, and below the bound of a step size the learner
+    takes up to one only (the actor-critic's beta, whose centre is its defaults)."""
+    for task in (TASK, "pendulum.swingup-continuous"):
+        for row in rule.rows(task):
+            configurations = halving.configurations(task, row)
+            assert len(configurations) == 32 and configurations[0] == row.settings
+            centre = halving.search.start(task, row)
+            for name in halving.STEP_SIZES:
+                drawn = np.asarray([c[name] for c in configurations[1:] if name in c])
+                if len(drawn):
+                    ratio = drawn / centre[name]
+                    assert ratio.min() >= 0.25 and ratio.max() <= 4.0, (row.label, name)
+                    assert drawn.max() <= halving.CAPS.get((row.learner, name), np.inf)
+    critic = rule.rows("pendulum.swingup-continuous")[0]
+    assert (halving.search.start("pendulum.swingup-continuous", critic)["beta"]
+            == halving.search.learner_settings("actor_critic", None).beta != 0.5)
     ars = next(row for row in rule.rows(TASK) if row.learner == "ars")
     assert {c["variant"] for c in halving.configurations(TASK, ars)[1:]} == {"v1", "v2"}
 

@@ -25,10 +25,13 @@ x1/4 to x4 of the centre's, the other settings the second benchmark's ranges
 stream per task and row (`SEED`): the same on every machine, and resumable.
 """
 
+import dataclasses
+import math
+
 import numpy as np
 
 from lwrl.studies.paper.benchmark import compute_plan, protocol, search
-from lwrl.studies.paper.benchmark.search import Choice, LogUniform
+from lwrl.studies.paper.benchmark.search import Choice
 from lwrl.studies.paper.benchmark.third import clock, rule
 
 CONFIGURATIONS = compute_plan.SEARCH_RUNGS[0][0]
@@ -42,16 +45,31 @@ critic's), the actor-critic's alpha and beta, the deep learners', ARS's and ObGD
 rate."""
 AROUND = (0.25, 4.0)
 """A step size's range, in factors of the centre's."""
+CAPS = {("actor_critic", "beta"): 1.0}
+"""`{(learner, step size): bound}` of the step sizes a learner takes up to a bound only (the
+actor-critic's actor step beta, a fraction of the way to the action tried, in (0, 1]): drawn
+within `AROUND` of the centre and below the bound."""
+
+
+@dataclasses.dataclass(frozen=True)
+class StepSize:
+    """A step size drawn log-uniformly within `AROUND` of the centre's, and at most `cap`."""
+
+    name: str
+    cap: float = math.inf
+
+    def draw(self, rng, start: dict):
+        centre = start[self.name]
+        high = min(AROUND[1], self.cap / centre)
+        return float(centre * math.exp(rng.uniform(math.log(AROUND[0]), math.log(high))))
 NORMALISATION = {"ars": Choice("variant", ("v1", "v2")),
                  "ars_continuous": Choice("variant", ("v1", "v2"))}
 """`{learner: the choice of observation normalisation}` of the learners whose settings
 have it: ARS's V1 (the state as it is) and V2 (the state normalised by its running mean and
 standard deviation, Mania et al. 2018). The streaming learners always normalise, as their
 authors' code does; the deep learners' JAX populations have no setting for it (`unsearched`)."""
-NEW_RANGES = {"ars": (LogUniform("learning_rate", *AROUND, around=True),),
-              "ars_continuous": (LogUniform("learning_rate", *AROUND, around=True),),
-              "stream_q": (LogUniform("learning_rate", *AROUND, around=True),),
-              "stream_ac": (LogUniform("learning_rate", *AROUND, around=True),)}
+NEW_RANGES = {learner: (StepSize("learning_rate"),)
+              for learner in ("ars", "ars_continuous", "stream_q", "stream_ac")}
 """The ranges of the learners the second benchmark did not search: their step size (the
 second benchmark has no ranges of theirs for the rest)."""
 
@@ -61,8 +79,8 @@ def ranges(row: protocol.Row) -> tuple:
     if row.learner in NEW_RANGES:
         drawn = NEW_RANGES[row.learner]
     else:
-        drawn = tuple(LogUniform(item.name, *AROUND, around=True) if item.name in STEP_SIZES
-                      else item for item in search.ranges(row))
+        drawn = tuple(StepSize(item.name, CAPS.get((row.learner, item.name), math.inf))
+                      if item.name in STEP_SIZES else item for item in search.ranges(row))
     normalisation = NORMALISATION.get(row.learner)
     return drawn + ((normalisation,) if normalisation else ())
 
