@@ -48,8 +48,9 @@ class RowProgress:
     (`pending`), every training known (`known`) and the agent-steps of those not yet known
     (`later`)."""
 
-    def __init__(self, out_dir: str, reference):
-        self.out_dir, self.reference, self.store = out_dir, reference, RunStore(out_dir, make=False)
+    def __init__(self, out_dir: str, reference, learner: str):
+        self.out_dir, self.reference, self.learner = out_dir, reference, learner
+        self.store = RunStore(out_dir, make=False)
         self.text, self.pending, self.known, self.later, self.stages = [], [], [], 0, 0
 
     def evaluate(self, trainings: dict, what: str, evaluate) -> tuple:
@@ -84,7 +85,7 @@ def row_progress(task: str, row: protocol.Row, out_dir: str, plant: str, referen
                  chosen_on_task) -> RowProgress:
     """The state of `row` of `task` (`reference`: the task's reference rows, or None while
     they are not written; `chosen_on_task`: a variant's configurations, None on a task)."""
-    state = RowProgress(out_dir, reference)
+    state = RowProgress(out_dir, reference, row.learner)
     chosen = None
     if chosen_on_task is None:
         try:
@@ -152,8 +153,8 @@ def left(state: RowProgress, out_dir: str, states: dict, planned) -> tuple:
     agent_steps = steps(state.pending) + state.later
     if not agent_steps:
         return 0.0, ""
-    learner = state.known[0].learner
-    alike = [run for other in states.values() for run in other.known if run.learner == learner]
+    alike = [run for other in states.values() for run in other.known
+             if run.learner == state.learner]
     rates = (progress.cpu_per_agent_step(out_dir, state.known)
              or progress.cpu_per_agent_step(out_dir, alike))
     source = "its ledger's rate"
@@ -161,7 +162,7 @@ def left(state: RowProgress, out_dir: str, states: dict, planned) -> tuple:
         rate = float(np.mean(list(rates.values())))
     else:
         try:
-            rate, of = compute_plan.rate(planned, learner, "training")
+            rate, of = compute_plan.rate(planned, state.learner, "training")
         except ValueError:
             return 0.0, f"; {agent_steps / 1e6:.1f} M agent-steps of training left (no rate yet)"
         source = f"the second benchmark's rate of {of}"
