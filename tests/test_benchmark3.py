@@ -262,3 +262,18 @@ def test_a_directory_of_one_benchmark_is_refused_to_the_other(tmp_path, capsys):
     (third / rule.EDITION_FILE).write_text(json.dumps({"rule": "benchmark3-0"}))
     status, _, err = run_cli(["bench", "run", TASK, "--out", str(third)], capsys)
     assert status == 2 and len(err) == 1 and "benchmark3-0" in err[0], err
+
+
+def test_the_status_of_a_directory_not_begun_estimates_every_rows_trainings(tmp_path):
+    """Nothing run: every row of a task waits for its search, a variant's for its task's,
+    each with the agent-steps and, at the second benchmark's rates, the CPU they will take."""
+    from lwrl.studies.paper.benchmark.third import progress
+    lines = progress.lines([TASK, "acrobot.swingup+physics"], str(tmp_path))
+    assert lines[0].endswith("reference rows not run yet")
+    rows = [line for line in lines if line.startswith("  ") and "not run:" not in line
+            and not line.startswith("  about")]
+    assert len(rows) == len(rule.rows(TASK)) + len(rule.rows("acrobot.swingup+physics"))
+    assert all("agent-steps" in line for line in rows)
+    assert sum("wait for its task's search" in line for line in rows) == len(
+        rule.rows("acrobot.swingup+physics"))
+    assert "ledger (" in lines[-1]
