@@ -29,8 +29,10 @@ def write(out_dir: str, command: str, plant: str, started: float, computed=()) -
     sections, unfinished = [], []
     for task in study.held(out_dir, plant):
         try:
-            runs = given[task] if task in given else study.read_longer(
-                study.read_task(task, out_dir, plant, partial=True), out_dir)
+            runs = given[task] if task in given else study.read_task(task, out_dir, plant,
+                                                                     partial=True)
+            if task not in given and task in rule.STAGE_1:
+                runs = study.read_longer(runs, out_dir)
         except study.Unfinished as missing:
             unfinished.append(str(missing))
             continue
@@ -52,7 +54,7 @@ def write(out_dir: str, command: str, plant: str, started: float, computed=()) -
 def at_four(task: str, row: "study.RowRuns") -> str:
     """A row's normalised score at 4 times the budget: continued, carried from 1 (not rising
     there), or not run (a variant's, or the stage not run yet)."""
-    if row.longer is None or task not in rule.STAGE_1:
+    if row.longer is None:
         return "not run"
     if not row.longer:
         return f"{mean_interval(row.scores[clock.POINTS[-1]]).text(2)} (carried)"
