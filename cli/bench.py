@@ -8,8 +8,11 @@
                                                          library's policy, as a results file
     lwrl bench score RESULTS... [--out DIR] [--replace]  an outside learner's results, checked
                                                          and placed in that benchmark
-    lwrl bench first TASK... [--learners ...] ...        the first benchmark, kept with its
-                                                         report; `lwrl bench TASK...` is it
+    lwrl bench export DIR --parquet OUT                  its runs as one Parquet dataset with
+                                                         a data card
+
+The first benchmark (docs/benchmark) is an archive: its report, costs and controllers are
+kept, its code is in lwrl's history (docs/benchmark/README.md names the commits).
 """
 
 import importlib
@@ -22,22 +25,13 @@ import time
 import lwrl
 from lwrl import outputs
 from lwrl.agent import io as agent_io
-from lwrl.cli import output, reproduce
+from lwrl.cli import bench_export, output, reproduce
 from lwrl.cli.output import Parser
 
-ACTIONS = ("run", "status", "report", "evaluate", "score", "first")
 SECOND = "benchmark2"
 """The second benchmark's default directory."""
 COMMITTED = {"analytic": "docs/benchmark2", "mujoco": "docs/benchmark2/mujoco"}
 """The committed second benchmark of each plant, in lwrl's checkout."""
-
-
-def legacy(argv: list) -> list:
-    """`lwrl bench TASK...` as it was written before `bench` had actions: `lwrl bench first
-    TASK...` (the first benchmark's reports name their command so)."""
-    if len(argv) > 1 and argv[0] == "bench" and argv[1] not in ACTIONS and not argv[1].startswith("-"):
-        return ["bench", "first", *argv[1:]]
-    return argv
 
 
 def add_parser(commands) -> None:
@@ -50,8 +44,7 @@ def add_parser(commands) -> None:
                     "`status`: how far it has got. `report`: its report rewritten from its "
                     "directory alone. `evaluate`: any library's policy evaluated as the "
                     "protocol evaluates every row. `score`: an outside learner's results "
-                    "placed in it. `first`: the first "
-                    "benchmark (`lwrl bench TASK...`).")
+                    "placed in it. `export`: its runs as one Parquet dataset.")
     actions = bench.add_subparsers(dest="action", required=True, metavar="ACTION",
                                    parser_class=Parser)
     add_run(actions)
@@ -59,7 +52,7 @@ def add_parser(commands) -> None:
     add_report(actions)
     add_evaluate(actions)
     add_score(actions)
-    add_first(actions)
+    bench_export.add_export(actions)
 
 
 def add_plant(parser) -> None:
@@ -215,42 +208,6 @@ def committed_benchmark(plant: str):
     checkout, else None."""
     path = pathlib.Path(lwrl.__file__).resolve().parent.parent / COMMITTED[plant]
     return str(path) if (path / "configs.jsonl").is_file() else None
-
-
-def add_first(actions) -> None:
-    bench = actions.add_parser(
-        "first", help="the first benchmark, with its costs",
-        description="Run every learner of the registry on the tasks under one protocol (the "
-                    "same seeds, episodes and starts), measure what each costs, and write the "
-                    "report with per-task tables, Pareto figures and learning curves. The same "
-                    "command resumes an interrupted run.")
-    bench.add_argument("tasks", metavar="TASK", nargs="+",
-                       help="tasks of the benchmark (DOMAIN.TASK), or all")
-    bench.add_argument("--learners", metavar="L,L,...", type=lambda text: text.split(","),
-                       help="learner rows to run (default: all of each task's): paper, "
-                            "sarsa-accumulating, sarsa-replacing, true_online_sarsa, cmac, "
-                            "ase_ace, dqn, ppo, dqn_jax, ppo_jax")
-    bench.add_argument("--agents-per-cell", metavar="N", type=reproduce.agents_per_cell, default=5,
-                       help="agents per learner and task (seeds 0 to N-1; default 5)")
-    bench.add_argument("--quick", action="store_true", help="tiny episodes and budgets: a smoke test (minutes, most of it the costs)")
-    add_plant_and_out(bench, "benchmark", "output directory")
-    reproduce.add_sweep_flags(bench)
-    bench.set_defaults(run=run_bench)
-
-
-def run_bench(args) -> int:
-    study, protocol = output.study_modules("bench", "lwrl.studies.paper.bench",
-                                           "lwrl.studies.paper.bench_protocol")
-    started = time.perf_counter()
-    tasks = list(protocol.TASKS) if args.tasks == ["all"] else args.tasks
-    output.claim_outputs(args, "out")
-    outputs.check_directory(args.out, "--out")  # a benchmark resumes in its directory
-    command = shlex.join(["lwrl", *args.argv])
-    path = study.bench(tasks, args.learners, args.out, plant=args.plant,
-                       agents=args.agents_per_cell, quick=args.quick, backend=args.backend,
-                       workers=args.workers, address=args.address, command=command)
-    output.done(started, [path, f"the figures in {os.path.join(args.out, 'figures')}"])
-    return 0
 
 
 def run_second(args) -> int:

@@ -1,7 +1,7 @@
 """`lwrl device`: the C learner learning on an emulated Cortex-M4 (QEMU), and its cost.
 
     lwrl device run DOMAIN.TASK [--episodes K] [--seed S] [--real R]
-    lwrl device costs DOMAIN.TASK... [--real R] [--mhz F]
+    lwrl device costs DOMAIN.TASK... [--learner L] [--action-kind K] [--real R] [--mhz F]
     lwrl device hil DOMAIN.TASK [--plant P] [--episodes K] [--seed S] [--env-seed E]
                     [--emulated | --port PORT [--baud B]] [--realtime] [--real R]
                     [--time-limit SECONDS] [--timeout T] [--link-timeout W]
@@ -23,7 +23,9 @@ weights (fetched by frames; they load in `lwrl eval`), `--rrd` a recording.
 `run` builds the task's learner with its plant in C for the host and for a bare-metal
 Cortex-M4, runs both (the M4 under qemu-system-arm, mps2-an386) and prints the steps per
 episode of each side by side; `costs` measures bytes and instructions per learning step and
-per decision (export/device.py). Needs gcc-arm-none-eabi, libnewlib-arm-none-eabi,
+per decision (export/device.py), or for a learner without a C learner (`--learner`: ARS, the
+streaming learners) its greedy controller's bytes and instructions per decision, beside its
+counted arithmetic and the memory its learning needs. Needs gcc-arm-none-eabi, libnewlib-arm-none-eabi,
 qemu-system-arm and, for `costs`, valgrind.
 """
 
@@ -32,9 +34,16 @@ import time
 
 import numpy as np
 
+from lwrl import agent as learners
 from lwrl import outputs
 from lwrl.cli import fields, output
 from lwrl.export import device, frames
+from lwrl.tasks.task_definition import ACTIONS
+
+BOARD_RAM = 192 * 1024
+"""The STM32F405's SRAM (128 KB and 64 KB of core-coupled memory; ST's datasheet DS8626),
+the board whose 168 MHz clock the time estimates take: what a learner must fit on a real
+Cortex-M4 (the emulated mps2-an386 has 4 MB)."""
 
 
 def add_parser(commands) -> None:
@@ -47,8 +56,19 @@ def add_parser(commands) -> None:
     run.add_argument("--seed", type=fields.non_negative_int, default=0, help="the agent's seed")
     run.add_argument("--real", choices=("float", "double"), default="float")
     run.set_defaults(run=run_device)
-    costs = actions.add_parser("costs", help="bytes and instructions of the tasks' learners")
+    costs = actions.add_parser("costs", help="bytes and instructions of the tasks' learners, or "
+                                             "of a learner's greedy controller")
     costs.add_argument("tasks", metavar="DOMAIN.TASK", nargs="+")
+    costs.add_argument("--learner", choices=learners.LEARNER_NAMES, default=None,
+                       help="a new agent of this learner with its defaults (default: the "
+                            "task's); one without a C learner is measured as its exported "
+                            "greedy controller (lwrl export)")
+    costs.add_argument("--action-kind", choices=ACTIONS, default=None,
+                       help="the tasks' kind of action (default: the task's)")
+    costs.add_argument("--train", type=fields.positive_int, default=200_000, metavar="STEPS",
+                       help="environment steps a controller's agent learns before it is "
+                            "measured, so that its normalisation is not the identity the "
+                            "compiler folds away (default 200000)")
     costs.add_argument("--real", choices=("float", "double"), default="float")
     costs.add_argument("--mhz", type=fields.finite_number, default=168.0,
                        help="clock of the time estimate (default 168, the STM32F405's)")
@@ -118,23 +138,69 @@ def run_device(args) -> int:
 
 def measure_costs(args) -> int:
     started = time.perf_counter()
+    settings = {name: value for name, value in (("learner", args.learner),
+                                                ("actions", args.action_kind)) if value}
+    in_c = [task for task in args.tasks if device.learns_in_c(task, **settings)]
+    if in_c:
+        learning_costs(in_c, args, settings)
+    controllers = [task for task in args.tasks if task not in in_c]
+    if controllers:
+        controller_costs(controllers, args, settings)
+    output.done(started)
+    return 0
+
+
+def learning_costs(names, args, settings) -> None:
+    """The table of the learners that learn in C, one row per task."""
     print(f"per task: RAM computed; code: the learner object for the Cortex-M4 (-O2, {args.real}); "
           f"flash: the whole bench firmware with libm and start-up; "
           f"instructions per call, host x86-64 (callgrind) and emulated M4 (QEMU plugin); "
-          f"time an estimate at {args.mhz:g} MHz and one instruction per cycle")
+          f"time an estimate at {args.mhz:g} MHz and one instruction per cycle; counted "
+          f"multiply-adds/transcendentals per decision and per learning step (Learner.arithmetic)")
     print(f"{'task':<26} {'RAM B':>6} {'code B':>6} {'flash B':>7} {'stack B':>7} "
           f"{'learn x86':>9} {'learn M4':>8} {'decide x86':>10} {'decide M4':>9} {'learn us':>8}"
-          f"  learner")
-    for task in args.tasks:
-        result = device.costs(task, args.real)
+          f" {'counted decision':>16} {'counted step':>14}  learner")
+    for task in names:
+        result = device.costs(task, args.real, **settings)
         print(f"{task:<26} "
               f"{result['ram']['total']:>6} {result['object']['text']:>6} "
               f"{result['firmware']['text'] + result['firmware']['data']:>7} {result['stack']:>7} "
               f"{result['host_learn']:>9.0f} {result['m4_learn']:>8.0f} {result['host_decide']:>10.0f} "
               f"{result['m4_decide']:>9.0f} {device.estimate_us(result['m4_learn'], args.mhz):>8.1f}"
+              f" {counted(result['counts'].decision):>16} {counted(result['counts'].step):>14}"
               f"  {result['summary']}")
-    output.done(started)
-    return 0
+
+
+def controller_costs(names, args, settings) -> None:
+    """The table of the learners without a C learner: a new agent's greedy controller,
+    measured, and the learner's counted arithmetic and memory, one row per task."""
+    print(f"per task, the greedy controller (lwrl export, {args.real}) of an agent after "
+          f"{args.train} steps of learning: code+const: the "
+          f"controller object for the Cortex-M4 (-O2: code, weights, constants); flash: the whole "
+          f"bench firmware; stack: its only RAM; instructions per decision, host x86-64 "
+          f"(callgrind) and emulated M4 (QEMU plugin); time an estimate at {args.mhz:g} MHz; "
+          f"counted multiply-adds/transcendentals per decision and per learning step "
+          f"(Learner.arithmetic); the learner's memory (Learner.memory) against the "
+          f"{BOARD_RAM // 1024} KB of an STM32F405's RAM")
+    print(f"{'task':<26} {'code+const B':>12} {'flash B':>7} {'stack B':>7} {'decide x86':>10} "
+          f"{'decide M4':>9} {'decide us':>9} {'counted decision':>16} {'counted step':>14} "
+          f"{'memory B':>9}  learner")
+    for task in names:
+        result = device.new_policy_costs(task, args.real, args.train, **settings)
+        decision, step = result["counts"].decision, result["counts"].step
+        fits = "fits" if result["memory"] <= BOARD_RAM else "does not fit"
+        print(f"{task:<26} {result['object']['text'] + result['object']['data']:>12} "
+              f"{result['firmware']['text'] + result['firmware']['data']:>7} {result['stack']:>7} "
+              f"{result['host_decide']:>10.0f} {result['m4_decide']:>9.0f} "
+              f"{device.estimate_us(result['m4_decide'], args.mhz):>9.2f} "
+              f"{counted(decision):>16} {counted(step):>14} {result['memory']:>9} ({fits})  {result['learner'].name}: {result['counts'].source}")
+
+
+def counted(count) -> str:
+    """A `Count` as `multiply-adds/transcendentals`, a share of an update's to one decimal."""
+    def number(value):
+        return f"{value:.0f}" if float(value).is_integer() else f"{value:.1f}"
+    return f"{number(count.macs)}/{number(count.exps)}"
 
 
 BITS_PER_BYTE = 10

@@ -71,16 +71,16 @@ def add_parser(commands) -> None:
 
 def study_implementations(args) -> int:
     """Run (or resume) the study and write its report."""
-    module, bench = output.study_modules("implementations",
-                                         "lwrl.studies.implementations.study",
-                                         "lwrl.studies.paper.bench_protocol")
+    module, budgets = output.study_modules("implementations",
+                                           "lwrl.studies.implementations.study",
+                                           "lwrl.studies.paper.episode_budgets")
     started = time.perf_counter()
     args.out = args.out or OUT[args.actions]
     output.claim_outputs(args, "out")
     outputs.check_directory(args.out, "--out")  # a study resumes in its directory
     command = shlex.join(["lwrl", *args.argv])
     path = module.implementations(args.task, args.out, agents=args.agents,
-                                  budgets=bench.episode_budgets(),  # the benchmark's protocol
+                                  budgets=budgets.episode_budgets(),  # the first benchmark's
                                   episodes=args.episodes, timesteps=args.timesteps,
                                   time_limit=args.time_limit, backend=args.backend,
                                   workers=args.workers, address=args.address, command=command,

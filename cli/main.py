@@ -13,7 +13,7 @@
                                                    the paper's figures and table, and a report
     lwrl compare DOMAIN.TASK [--seeds N] [--episodes K] [--out DIR] [--rrd PATH] [--quick]
                                                    the analytic and MuJoCo plants compared
-    lwrl bench run TASK... | score RESULTS... | first TASK...
+    lwrl bench run TASK... | status TASK... | report DIR | score RESULTS...
                                                    the light-weight claim's benchmark
     lwrl robustness DOMAIN.TASK... [--agents N] [--episodes K] [--out DIR] [--quick]
                                                    trained controllers away from the paper's plant
@@ -56,7 +56,7 @@ def main(argv=None) -> int:
     stopped by SIGTERM)."""
     parser = build_parser()
     given = list(sys.argv[1:] if argv is None else argv)
-    args = parser.parse_args(bench.legacy(given))
+    args = parser.parse_args(given)
     args.argv = given  # the command as it was given
     output.INTERRUPTS = output.Interrupts(args.command)
     with output.INTERRUPTS:

@@ -61,8 +61,8 @@ def command_line(args) -> str:
 
 def study_robustness(args) -> int:
     """Run (or resume) the study and write its report."""
-    module, bench = output.study_modules("robustness", "lwrl.studies.robustness.robustness",
-                                         "lwrl.studies.paper.bench_protocol")
+    module, budgets = output.study_modules("robustness", "lwrl.studies.robustness.robustness",
+                                           "lwrl.studies.paper.episode_budgets")
     started = time.perf_counter()
     output.claim_outputs(args, "out")
     outputs.check_directory(args.out, "--out")  # a study resumes in its directory
@@ -71,6 +71,6 @@ def study_robustness(args) -> int:
                              evaluation_episodes=args.evaluation_episodes, learners=args.learners,
                              sweep={"backend": args.backend, "workers": args.workers,
                                     "address": args.address},
-                             stepped=bench.episode_budgets())  # DQN and PPO: the benchmark's
+                             stepped=budgets.episode_budgets())  # DQN, PPO: the first benchmark's
     output.done(started, [path, f"the figures in {args.out}/figures", f"the runs in {args.out}/runs"])
     return 0

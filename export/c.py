@@ -4,7 +4,9 @@ Främling (2008) argues that the trained controller is cheap enough for embedded
 `export_c` writes one saved agent (a file of `lwrl train --save`, read by `agent.io.load`)
 whose learner has a C controller (`Agents.controller`: the template it fills and the values;
 NRBF agents, below, and the Stable-Baselines3 learners' networks, template `mlp_policy`: a
-plain forward pass over `const` weights, `tanhf`/`tanh` where the actor uses tanh) as two
+plain forward pass over `const` weights, `tanhf`/`tanh` where the actor uses tanh; for ARS
+and the streaming learners the forms of `agent.controller_forms`, the same template with
+the state's normalisation, layer normalisation and leaky ReLU) as two
 files in `out_dir`:
 
 - `lwrl_policy.h`: the interface. For a learner of discrete actions (`Learner.actions`),
@@ -63,6 +65,7 @@ from importlib import resources
 import numpy as np
 
 from lwrl import outputs, tasks
+from lwrl.agent import controller_forms
 from lwrl.agent import io as agent_io
 from lwrl.runners.stepped import kind_of
 from lwrl.tasks.task_definition import ACTIONS
@@ -80,6 +83,15 @@ INTERFACES = {
 """Per kind of action (`Learner.actions`), what the controller templates' code names: the
 function that writes the outputs (`values`: Q(s, .), or the actor's output), their count
 (`outputs`) and the comment before row a of the weights (`row`, formatted with a)."""
+PLAIN_MLP = {"title": "a Stable-Baselines3 network", "between": "", "output": "TANH",
+             "inputs": "the state in task units, as the network was trained on it (no "
+                       "normalisation)", "normalise": 0, "layer_norm": 0, "leaky_slope": "0",
+             "layer_norm_eps": "0", "input_mean": "0", "input_scale": "1"}
+"""The `mlp_policy` template's options at a plain network's values (Stable-Baselines3's:
+`agent.dqn.mlp_form`), for the forms that leave them out: no normalisation of the state or
+of the layers, tanh after a continuous actor's last layer."""
+TEMPLATE_DEFAULTS = {"mlp_policy": PLAIN_MLP}
+"""Per template, the values of the placeholders a form may leave out."""
 SECTION = "%% "
 """A template's line `%% KIND` starts the lines kept for the kind of action KIND only,
 `%% end` ends them."""
@@ -104,6 +116,8 @@ def template(name: str, actions: str = "discrete") -> string.Template:
 
 def _literal(value, dtype: str) -> str:
     """A C literal that reads back as exactly `value` rounded to `dtype`."""
+    if np.isinf(value):  # <math.h>'s INFINITY, a float that converts to double exactly
+        return "INFINITY" if value > 0 else "-INFINITY"
     if dtype == "float":
         text = str(np.float32(value))  # shortest string that round-trips the float32
         suffix = "f"
@@ -225,7 +239,7 @@ def export_c(agent_path, out_dir, agent_index: int = 0, dtype: str = "float") ->
     agent, metadata = agent_io.load(agent_path)
     b = _check_index(agent_index, agent.batch_size)
     try:
-        form = agent.controller(b)
+        form = controller_forms.controller(agent, b)
     except ValueError as error:
         raise ValueError(f"{agent_path}: {error}") from None
     weights = form.values["weights"]
@@ -271,7 +285,8 @@ def export_c(agent_path, out_dir, agent_index: int = 0, dtype: str = "float") ->
     kind = kind_of(agent)[1]
     interface = INTERFACES[kind]
     fields = dict(
-        {name: _rendered(value, dtype, interface["row"]) for name, value in rounded.items()},
+        {**TEMPLATE_DEFAULTS.get(form.template, {}),
+         **{name: _rendered(value, dtype, interface["row"]) for name, value in rounded.items()}},
         header=HEADER, source=SOURCE, real=dtype, task=_comment(task), dim=dim,
         num_actions=num_actions, values=interface["values"], outputs=interface["outputs"],
         state_lines="\n".join(f" *   state[{j}] {_comment(name)}" for j, name in enumerate(names)),
@@ -284,7 +299,7 @@ def export_c(agent_path, out_dir, agent_index: int = 0, dtype: str = "float") ->
         weight_bytes=weight_bytes, flash_bytes=weight_bytes + constant_bytes,
         zero=_literal(0.0, dtype), one=_literal(1.0, dtype), half=_literal(0.5, dtype),
         exp="expf" if dtype == "float" else "exp", fabs="fabsf" if dtype == "float" else "fabs",
-        tanh="tanhf" if dtype == "float" else "tanh",
+        tanh="tanhf" if dtype == "float" else "tanh", sqrt="sqrtf" if dtype == "float" else "sqrt",
     )
     paths = write_files(out_dir, {HEADER: template(f"{form.template}.h", kind).substitute(fields),
                                   SOURCE: template(f"{form.template}.c", kind).substitute(fields)})

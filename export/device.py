@@ -22,6 +22,12 @@ and `cos`. glibc's and newlib's differ in the last bit for some arguments (`libm
 counts how often), so the two runs' weights may differ by some units in the last place;
 the steps are equal as long as no action choice sits on such a difference.
 
+`policy_costs(path)` measures an exported greedy controller (`export.c`) the same way: its
+object's bytes, its stack, and instructions per decision (`lwrl_act`) on both machines;
+`new_policy_costs(task, learner=...)` those of an agent of a learner without a C learner
+(today's rivals) after some learning, with the learner's counted arithmetic and memory
+beside them.
+
 `costs(task)` measures what the learner costs: the learner object's bytes (flash: code and
 constants; RAM: static data, with `arm-none-eabi-size`; stack with `-fstack-usage`), and
 instructions per learning step (`lwrl_learn`) and per decision (`lwrl_greedy`) on a table
@@ -32,6 +38,7 @@ built here). Each count is the difference of two runs of 200 and 1200 calls divi
 in. Instructions are not cycles: a time at a clock rate is an estimate (`estimate_us`).
 """
 
+import dataclasses
 import os
 import string
 import re
@@ -43,10 +50,15 @@ from importlib import resources
 import numpy as np
 
 from lwrl import tasks
+from lwrl import agent as learners
+from lwrl.agent import io as agent_io
 from lwrl.agent.streams import SPLITMIX64
 from lwrl.export import learner
-from lwrl.export.c import DTYPES, _literal, compile_in, find_compiler, template
+from lwrl.export.c import (DTYPES, SOURCE, _literal, compile_in, export_c, find_compiler,
+                           template)
 from lwrl.export.c_plants import C_PLANTS
+from lwrl.runners.config import RunConfig
+from lwrl.runners.run import run
 
 CROSS = {"arm-none-eabi-gcc": "gcc-arm-none-eabi", "arm-none-eabi-size": "binutils-arm-none-eabi",
          "qemu-system-arm": "qemu-system-arm"}
@@ -67,6 +79,8 @@ TABLE = 64
 QEMU_TIMEOUT = 600
 SOURCES = ["program.c", "lwrl_learner.c", "io_common.c"]
 """A device program's own sources; the host adds io_host.c, the M4 io_semihosting.c."""
+POLICY_SOURCES = ["program.c", SOURCE, "io_common.c"]
+"""The sources of the bench of an exported greedy controller (`policy_costs`)."""
 
 
 def device_file(name: str) -> str:
@@ -129,16 +143,17 @@ def write_fixed_files(build) -> None:
             file.write(device_file(name))
 
 
-def build_host(build, output="host", compiler=None, defines=()) -> str:
-    """The program in `build` for this machine; the executable's path."""
-    compile_in([find_compiler(compiler), *COMMON_FLAGS, *defines, *SOURCES, "io_host.c", "-o", output, "-lm"], build)
+def build_host(build, output="host", compiler=None, defines=(), sources=SOURCES) -> str:
+    """The program of `sources` in `build` for this machine; the executable's path."""
+    compile_in([find_compiler(compiler), *COMMON_FLAGS, *defines, *sources, "io_host.c", "-o",
+                output, "-lm"], build)
     return os.path.join(build, output)
 
 
-def build_m4(build, output="device.elf", defines=()) -> str:
-    """The program in `build` for the bare-metal Cortex-M4; the ELF's path."""
+def build_m4(build, output="device.elf", defines=(), sources=SOURCES) -> str:
+    """The program of `sources` in `build` for the bare-metal Cortex-M4; the ELF's path."""
     check_tools(("arm-none-eabi-gcc",))
-    compile_in(["arm-none-eabi-gcc", *M4_FLAGS, *COMMON_FLAGS, *defines, *SOURCES, "io_semihosting.c",
+    compile_in(["arm-none-eabi-gcc", *M4_FLAGS, *COMMON_FLAGS, *defines, *sources, "io_semihosting.c",
               *M4_LINK, "-o", output, "-lm"], build)
     return os.path.join(build, output)
 
@@ -257,10 +272,10 @@ def costs(task: str, dtype: str = "float", **settings) -> dict:
     the start-up and the semihosting output), `stack` (an upper bound of lwrl_learn's stack
     within the learner, -fstack-usage),
     and instructions per `learn` step and per `decide` (greedy decision) on the `host`
-    (callgrind) and on the emulated `m4` (the QEMU plugin)."""
+    (callgrind) and on the emulated `m4` (the QEMU plugin); and what `learner_counts` gives."""
     source = learner.from_task(task, **settings)
     check_tools()
-    result = {"task": task, "dtype": dtype}
+    result = {"task": task, "dtype": dtype, **learner_counts(task, **settings)}
     with tempfile.TemporaryDirectory() as build:
         written = write_program(build, source, dtype, "bench.c", steps="STEPS_FROM_BUILD",
                                 table=TABLE, decisions="DECISIONS_FROM_BUILD")
@@ -271,21 +286,94 @@ def costs(task: str, dtype: str = "float", **settings) -> dict:
         result["stack"] = stack_bytes(os.path.join(build, "lwrl_learner.su"))
         plugin = build_plugin(build)
         for kind, decisions in (("learn", 0), ("decide", 1)):
-            counts = {"host": [], "m4": []}
-            for calls in BENCH_CALLS:
-                defines = [f"-DSTEPS_FROM_BUILD={calls}", f"-DDECISIONS_FROM_BUILD={decisions}"]
-                name = f"{kind}{calls}"
-                counts["host"].append(callgrind_instructions(build_host(build, name, defines=defines)))
-                elf = build_m4(build, f"{name}.elf", defines=defines)
-                text, instructions = qemu(elf, plugin)
-                if kind == "learn":
-                    result["firmware"] = size_of(elf)
-                if "diverged 0" not in text:
-                    raise ValueError(f"the {task} bench diverged: its count would not be a learning step's")
-                counts["m4"].append(instructions)
-            span = BENCH_CALLS[1] - BENCH_CALLS[0]
-            for machine, (low, high) in counts.items():
-                result[f"{machine}_{kind}"] = (high - low) / span
+            counts, elf, texts = per_call(build, kind, [f"-DDECISIONS_FROM_BUILD={decisions}"],
+                                          SOURCES, plugin)
+            if kind == "learn":
+                result["firmware"] = size_of(elf)
+            if any("diverged 0" not in text for text in texts):
+                raise ValueError(f"the {task} bench diverged: its count would not be a learning step's")
+            result.update({f"{machine}_{kind}": count for machine, count in counts.items()})
+    return result
+
+
+def per_call(build, name: str, defines, sources, plugin) -> tuple:
+    """Instructions per call of a bench program in `build` (`STEPS_FROM_BUILD` calls, with
+    the other `defines`): `({"host": callgrind's, "m4": the QEMU plugin's}, the last M4
+    build's ELF, each M4 run's output)`, each count the difference of the runs of
+    `BENCH_CALLS` calls divided by the calls between them, so that the set-up cancels."""
+    counts, texts = {"host": [], "m4": []}, []
+    for calls in BENCH_CALLS:
+        flags = [f"-DSTEPS_FROM_BUILD={calls}", *defines]
+        output = f"{name}{calls}"
+        counts["host"].append(callgrind_instructions(build_host(build, output, defines=flags,
+                                                                sources=sources)))
+        elf = build_m4(build, f"{output}.elf", defines=flags, sources=sources)
+        text, instructions = qemu(elf, plugin)
+        texts.append(text)
+        counts["m4"].append(instructions)
+    span = BENCH_CALLS[1] - BENCH_CALLS[0]
+    return {machine: (high - low) / span for machine, (low, high) in counts.items()}, elf, texts
+
+
+def learns_in_c(task: str, **settings) -> bool:
+    """Whether a new agent for `task` with `settings` (`export.learner.from_task`) has a C
+    learner (`Agents.learner_form`); bad settings are a one-line error of their own."""
+    source = learner.from_task(task, **settings)
+    try:
+        source.form
+    except ValueError:
+        return False
+    return True
+
+
+def new_policy_costs(task: str, dtype: str = "float", train: int = 200_000, **settings) -> dict:
+    """`policy_costs` of a new agent for `task` (a `RunConfig`'s `settings`: `learner`, its
+    settings, `actions`; seed 0) after `train` environment steps of learning on the analytic
+    plant: a controller's cost is set by its shapes, but a new agent's normalisation holds
+    the mean 0 and the scale 1, which the compiler folds away (x - 0 = x, x / 1 = x), so the
+    agent learns first. Adds `learner_counts`' and `trained` (the steps it learned)."""
+    config = RunConfig(task=task, agents=1, seed=0, plant="analytic", budget=train,
+                       episodes=train, **settings)
+    agents, _ = run(config)
+    with tempfile.TemporaryDirectory() as scratch:
+        path = os.path.join(scratch, "agent.npz")
+        agent_io.save(path, agents, {"config": dataclasses.asdict(config)})
+        result = policy_costs(path, 0, dtype)
+    return {**result, **learner_counts(task, **settings), "trained": train}
+
+
+def learner_counts(task: str, **settings) -> dict:
+    """What a new agent's learner says of itself for `task` (a `RunConfig`'s `settings`):
+    `learner` (its `Learner`), `counts` (its counted arithmetic, `Learner.arithmetic`) and
+    `memory` (the bytes one agent needs, `Learner.memory`)."""
+    config = RunConfig(task=task, agents=1, seed=0, **settings)
+    spec = learners.learner(config.learner)
+    return {"learner": spec, "counts": spec.arithmetic(config.agent, config.task_info),
+            "memory": spec.memory(config.agent, config.task_info)}
+
+
+def policy_costs(agent_path, agent_index: int = 0, dtype: str = "float") -> dict:
+    """What agent `agent_index` of a saved file costs as its greedy controller
+    (`export.c.export_c`): `written` (the export's report: weights and constants in bytes),
+    `object` (`lwrl_policy.o` for the M4 at -O2: `text` its code and `const` weights and
+    constants, `data`, `bss`: no static RAM), `stack` (the frames of every function of the
+    controller added up, -fstack-usage, an upper bound: a frozen controller's only RAM),
+    `firmware` (the whole bench for the M4, libm and start-up with it) and instructions
+    per decision (`lwrl_act`) on the `host` (callgrind) and the emulated `m4` (the QEMU
+    plugin), on a table of `TABLE` observations drawn in the task's ranges."""
+    check_tools()
+    with tempfile.TemporaryDirectory() as build:
+        written = export_c(agent_path, build, agent_index=agent_index, dtype=dtype)
+        write_fixed_files(build)
+        with open(os.path.join(build, "program.c"), "w") as file:
+            file.write(template("device/policy_bench.c").substitute(
+                steps="STEPS_FROM_BUILD", table=TABLE, splitmix=learner.splitmix_c(SPLITMIX64)))
+        compile_in(["arm-none-eabi-gcc", *M4_FLAGS, *COMMON_FLAGS, "-fstack-usage", "-c",
+                    SOURCE, "-o", "lwrl_policy.o"], build)
+        result = {"written": written, "object": size_of(os.path.join(build, "lwrl_policy.o")),
+                  "stack": sum(frames(os.path.join(build, "lwrl_policy.su")).values())}
+        counts, elf, _ = per_call(build, "decide", [], POLICY_SOURCES, build_plugin(build))
+        result.update(firmware=size_of(elf), host_decide=counts["host"], m4_decide=counts["m4"])
     return result
 
 
@@ -294,13 +382,18 @@ def stack_bytes(su_path) -> int:
     lwrl_learn and of every function of the learner object outside its interface (those
     it may have below it), added up (an upper bound: they are not all on the stack at
     once; libm's exp comes on top)."""
-    frames = {}
+    return sum(size for name, size in frames(su_path).items()
+               if name == "lwrl_learn" or name not in learner.INTERFACE)
+
+
+def frames(su_path) -> dict:
+    """`{function: bytes of its stack frame}` of an object's -fstack-usage file."""
+    sizes = {}
     with open(su_path) as file:
         for line in file:
             where, size = line.split("\t")[:2]
-            frames[where.rsplit(":", 1)[-1]] = int(size)
-    return sum(size for name, size in frames.items()
-               if name == "lwrl_learn" or name not in learner.INTERFACE)
+            sizes[where.rsplit(":", 1)[-1]] = int(size)
+    return sizes
 
 
 def estimate_us(instructions: float, megahertz: float, cycles_per_instruction: float = 1.0) -> float:

@@ -34,9 +34,18 @@ registers them again if needed and is idempotent.
 - **Observations**: a float64 `Box` of shape `(d,)` in the order of the task's state names
   (`observation_names`), within the task's `bounds` (`TaskDefinition.bounds`, stated and
   argued in each domain's module), which hold the terminal observation too.
-- **Episode end**: `terminated` on a terminal state (the dm_env step's discount 0); `truncated` on the task's own time limit
-  (discount 1). Never both. No `TimeLimit` wrapper is registered: the task truncates, and
-  `time_limit=` changes where. Stepping after the end without `reset()` raises.
+- **Episode end**: `terminated` on a terminal state (the dm_env step's discount 0);
+  `truncated` on the task's own time limit (discount 1), never both. Every id has the
+  task's limit at its default options as its `max_episode_steps` (`max_episode_steps()`;
+  `env.spec.max_episode_steps`, as Gymnasium's own ids have it), so `gymnasium.make` wraps
+  the environment in Gymnasium's `TimeLimit` at the step the task truncates at by itself.
+  Where a terminal state falls on that very step, `TimeLimit` marks it `truncated` too (its
+  rule, as on CartPole-v1): read `terminated` first, as Stable-Baselines3 does. The earlier
+  of the two limits ends an episode: to lengthen one, give both, e.g.
+  `gymnasium.make(id, time_limit=120.0, max_episode_steps=6000)` on the pendulum, or
+  `max_episode_steps=None` with the task's `time_limit=` alone; `SuiteEnv` made directly has
+  the task's limit only. The vector environment (`gymnasium.make_vec`) truncates at the
+  earlier of the two itself, never both. Stepping after the end without `reset()` raises.
 - **Seeding**: `reset(seed=s)` seeds Gymnasium's `np_random`, and the task draws its starts
   from that very generator (`env.unwrapped.suite_task.random`). Gymnasium's generator for seed s is
   NumPy's `default_rng(s)`, so `reset(seed=s)` followed by seedless resets gives the
@@ -423,7 +432,8 @@ class SuiteVectorEnv(VectorEnv):
     `gymnasium.make_vec(id, num_envs=B)`. Takes `SuiteEnv`'s arguments and `num_envs`;
     with continuous actions, `step` takes them `(B, 1)` (the batched Box) or `(B,)`;
     `autoreset_mode` can only be Gymnasium's default, `NEXT_STEP`, which `BatchedEnv`
-    implements."""
+    implements; `max_episode_steps` (the id's, which `make_vec` passes) truncates the copies'
+    episodes where it comes before the task's own limit, as that limit does."""
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
     """Gymnasium's: the autoreset mode, no render modes, and (an instance's) frames per
@@ -431,7 +441,7 @@ class SuiteVectorEnv(VectorEnv):
 
     def __init__(self, domain: str, task: str, plant=None, num_envs: int = 1,
                  autoreset_mode=AutoresetMode.NEXT_STEP, render_mode=None,
-                 actions: str = "discrete", **options):
+                 actions: str = "discrete", max_episode_steps=None, **options):
         if render_mode is not None:
             raise ValueError(f"the vector environment does not render (render_mode must be None, "
                              f"got {render_mode!r}); gymnasium.make gives one environment that does")
@@ -441,6 +451,16 @@ class SuiteVectorEnv(VectorEnv):
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer; got {num_envs!r}")
         single = SuiteEnv(domain, task, plant, actions=actions, **options)  # checks them
+        if max_episode_steps is not None:
+            if (isinstance(max_episode_steps, bool) or not isinstance(max_episode_steps, (int, np.integer))
+                    or max_episode_steps < 1):
+                raise ValueError(f"max_episode_steps must be a positive integer or None; got "
+                                 f"{max_episode_steps!r}")
+            if max_episode_steps < single.step_limit:  # the earlier limit, as the task's own
+                single.close()
+                options = {**options, "time_limit": int(max_episode_steps)
+                           * single.definition.control_timestep}
+                single = SuiteEnv(domain, task, plant, actions=actions, **options)
         self.domain, self.task_name, self.plant = single.domain, single.task_name, single.plant
         self.actions = single.actions
         """The kind of action, `SuiteEnv.actions`."""
@@ -517,6 +537,13 @@ class SuiteVectorEnv(VectorEnv):
         self._batched = None
 
 
+def max_episode_steps(domain: str, task: str) -> int:
+    """The steps of the task's own time limit at its default options, every id's
+    `max_episode_steps` (`tasks.spaces.TaskSpec.step_limit`): 10 000 for Mountain-Car and the
+    acrobot, 3 000 for the pendulum (60 s), 12 000 for the cart-pole (240 s)."""
+    return int(tasks.spec(f"{domain}.{task}").step_limit)
+
+
 def register_envs() -> tuple:
     """Register every id of `ENV_IDS`, `CONTINUOUS_ENV_IDS` and `DEFAULT_ENV_IDS` with
     Gymnasium (those not registered yet), those of continuous actions with
@@ -527,6 +554,7 @@ def register_envs() -> tuple:
             kind = {} if actions == "discrete" else {"actions": actions}
             gymnasium.register(id=id_, entry_point=ENTRY_POINT,
                                vector_entry_point=VECTOR_ENTRY_POINT,
+                               max_episode_steps=max_episode_steps(domain, task),
                                kwargs={"domain": domain, "task": task, "plant": plant, **kind})
     return ENV_IDS
 

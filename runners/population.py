@@ -149,7 +149,7 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
             if pending and _reaches(carry, pending[0]):
                 smaller = pending.pop(0)
                 checkpoints[smaller](*_ended(agent.snapshot(), _run_out(chunk, carry, smaller),
-                                             episodes))
+                                             episodes, kept))
                 continue
             before = int(np.asarray(carry["done"]).sum())
             carry = chunk(carry, budget)
@@ -159,11 +159,10 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
                 kept.keep(carry)
     except KeyboardInterrupt:
         interrupted = True
-    _, results = _ended(agent, carry, episodes)
+    _, results = _ended(agent, carry, episodes, kept)
     results.interrupted = interrupted
     if kept is not None:
         kept.keep(carry) if interrupted else kept.remove()
-        results.earlier_compute = kept.earlier
     return results
 
 
@@ -194,9 +193,10 @@ def _run_out(chunk, carry, budget: int) -> dict:
     return carry
 
 
-def _ended(agent, carry, episodes: int) -> tuple:
+def _ended(agent, carry, episodes: int, kept=None) -> tuple:
     """`(agent, results)`: `agent` given the learners' states and clocks of `carry`, and the
-    episodes `carry` finished."""
+    episodes `carry` finished, with what the processes before this one spent on the run
+    where it went on from the state they `kept` (`Resume.earlier`)."""
     agent.finished(carry["learner"], np.asarray(carry["clock"]))
     results = EpisodeResults.empty(agent.batch_size, episodes)
     ran = np.arange(episodes)[None, :] < np.asarray(carry["done"])[:, None]
@@ -206,6 +206,8 @@ def _ended(agent, carry, episodes: int) -> tuple:
     results.truncated[ran] = np.asarray(carry["truncated"])[ran]
     results.diverged_episode[:] = np.asarray(carry["diverged_episode"])
     agent.arrays.diverged[:] |= results.diverged_episode >= 0
+    if kept is not None:
+        results.earlier_compute = kept.earlier
     return agent, results
 
 

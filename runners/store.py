@@ -1,6 +1,8 @@
 """The runs directory of a sweep, `OUT/runs/`: finished runs, damaged ones set aside, claims.
 
-- A finished run is `<key>.csv.gz`, written whole or not at all (`lwrl.outputs`).
+- A finished run is `<key>.csv.gz`, written whole or not at all (`lwrl.outputs`), after
+  its records `records/<key>.csv.gz` (what its training cost and where it ran,
+  `runners.records`; in a folder of their own, so that `runs/*.csv.gz` are the runs' tables).
 - A file there that cannot be read (truncated, empty, not gzip, not the run's table) is
   reported by name, moved aside to `<key>.csv.gz.damaged`, and its run computed again.
 - A batch of runs being computed is claimed (`lwrl.outputs.claim`) by a file `<batch>.claim`
@@ -102,6 +104,12 @@ class RunStore:
         return pathlib.Path(out_dir) / "runs" / f"{key}.agents.npz"
 
     @staticmethod
+    def records_file(out_dir, key: str) -> pathlib.Path:
+        """Where the records of the run `key` of the sweep in `out_dir` are kept
+        (`runners.records`)."""
+        return pathlib.Path(out_dir) / "runs" / "records" / f"{key}.csv.gz"
+
+    @staticmethod
     def resume_file(out_dir, key: str) -> pathlib.Path:
         """Where the run `key` of the sweep in `out_dir` keeps its state while it runs
         (`runners.resume`: population runs)."""
@@ -115,8 +123,9 @@ class RunStore:
     def repair(self, configs) -> list[str]:
         """Set aside every unreadable run file of `configs` (return one line per file), and
         remove the files a process killed mid-write left half-written
-        (`outputs.remove_abandoned`)."""
-        outputs.remove_abandoned(self.directory)
+        (`outputs.remove_abandoned`), the records' among them."""
+        for directory in (self.directory, self.directory / "records"):
+            outputs.remove_abandoned(directory)
         lines = []
         for config in configs:
             path = self.path(config)
@@ -149,8 +158,11 @@ class RunStore:
         with open(self.ledger, "a") as file:
             file.write(line)
 
-    def write(self, config, table: pd.DataFrame) -> None:
-        """Write the run's table whole (`lwrl.outputs.write_table`)."""
+    def write(self, config, table: pd.DataFrame, records: pd.DataFrame | None = None) -> None:
+        """Write the run's table whole (`lwrl.outputs.write_table`), after its `records`
+        (`runners.records`) where given: a run's table is never there without them."""
+        if records is not None:
+            outputs.write_table(records, self.records_file(self.directory.parent, config.key))
         outputs.write_table(table, self.path(config))
 
     def read(self, configs) -> pd.DataFrame:

@@ -2,7 +2,9 @@
 
 Each run's per-agent, per-episode results go to `OUT/runs/<key>.csv.gz`, where the key is
 the run's name and a hash of its whole configuration; the file appears whole (written to a
-temporary name, then renamed) only once the run has finished (`runners.store`). Running the
+temporary name, then renamed) only once the run has finished (`runners.store`), after the
+run's records, `OUT/runs/records/<key>.csv.gz`: each agent's share of its batch's CPU of
+training, its counted arithmetic and where it ran (`runners.records`). Running the
 same sweep again skips every run whose file exists, so an interrupted sweep (Ctrl-C, kill,
 power cut) resumes where it stopped and recomputes nothing that finished (a batch that was
 running when interrupted runs again whole, but for a population learner's, which goes on
@@ -33,6 +35,7 @@ from lwrl import agent as learners
 from lwrl import outputs
 from lwrl.agent import io as agent_io
 from lwrl.agent import threads
+from lwrl.runners import records
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent, run
 from lwrl.runners.store import RunStore
@@ -120,47 +123,59 @@ def trained_agents(configs, directory):
 
 def run_batch(configs, progress=None, directory=None, keep_agents: bool = False) -> list:
     """Run several configurations as one batch of agents, or a family (`families`: the
-    longest run, the others its checkpoints); one tidy table per configuration, equal to
-    running each alone (agents are independent; a budget cuts a run without changing what
-    came before). `progress(agent_episodes)` is called as episodes finish. Agents go on
-    from a kept run where the configurations name one (`RunConfig.trained`,
-    `trained_agents`); with `keep_agents` each configuration's agents are saved to
-    `directory` for such runs."""
+    longest run, the others its checkpoints); per configuration its tidy table and its
+    records (`runners.records`: what its training cost, each agent's share of the batch's
+    CPU, and where it ran), the table equal to running each alone (agents are independent;
+    a budget cuts a run without changing what came before). `progress(agent_episodes)` is
+    called as episodes finish. Agents go on from a kept run where the configurations name
+    one (`RunConfig.trained`, `trained_agents`); with `keep_agents` each configuration's
+    agents are saved to `directory` for such runs."""
     family = len({config.budget for config in configs}) > 1
     base = longest(configs) if family else configs[0]
     joined = [base] if family else configs
     agent = trained_agents(joined, directory) if base.trained else make_agent(*joined)
     population = directory is not None and agent.learner.population
-    tables = {}
-    checkpoints = {config.budget: functools.partial(_finish, tables, config, directory,
-                                                    keep_agents)
+    finished, clock = {}, records.TrainingClock()
+    shared_by = sum(config.agents for config in joined)
+
+    def checkpoint(config):
+        def reached(agents, results):  # the CPU spent up to the checkpoint
+            _finish(finished, config, directory, keep_agents, clock, shared_by,
+                    clock.seconds() + results.earlier_compute[1], agents, results)
+        return reached
+
+    checkpoints = {config.budget: checkpoint(config)
                    for config in configs if config is not base} if family else None
     _, results = run(base, agent=agent, seeds=[seed for config in joined for seed in config.seeds],
                      progress=progress, learn=base.learn, greedy=base.greedy, batch=joined,
                      checkpoints=checkpoints,
                      resume=RunStore.resume_file(directory, base.key) if population else None)
+    cpu_s = clock.seconds() + results.earlier_compute[1]
     if results.interrupted:  # a population run keeps its state and what it spent to go on
         raise KeyboardInterrupt
     if any(results.earlier_compute):  # what the processes stopped before this one spent
         RunStore(directory).record_compute(configs, *results.earlier_compute)
     starts = np.cumsum([0] + [config.agents for config in joined])
     for config, start in zip(joined, starts):
-        _finish(tables, config, directory, keep_agents, agent,
+        _finish(finished, config, directory, keep_agents, clock, shared_by, cpu_s, agent,
                 results.agents(start, start + config.agents), write=False)
-    return [tables[config.key] for config in configs]
+    return [finished[config.key] for config in configs]
 
 
-def _finish(tables: dict, config, directory, keep_agents: bool, agents, results,
-            write: bool = True) -> None:
-    """Keep `config`'s table in `tables`, and with `keep_agents` save its `agents`; with
-    `write`, its table is written at once too (a family's checkpoint: what a stop of the
-    longer run later would otherwise lose)."""
-    tables[config.key] = results_table(config, results)
-    if keep_agents:
-        agent_io.save(RunStore.agents_file(directory, config.key), agents,
-                      {"config": dataclasses.asdict(config)})
-    if write and directory is not None:
-        RunStore(directory).write(config, tables[config.key])
+def _finish(finished: dict, config, directory, keep_agents: bool, clock, shared_by: int,
+            cpu_s: float, agents, results, write: bool = True) -> None:
+    """Keep `config`'s table and records (`cpu_s` CPU seconds of training of a batch of
+    `shared_by` agents) in `finished`, and with `keep_agents` save its `agents`; with
+    `write`, they are written at once too (a family's checkpoint: what a stop of the longer
+    run later would otherwise lose). What this costs is `clock`'s aside, not training's."""
+    with clock.aside():
+        finished[config.key] = (results_table(config, results),
+                                records.table(config, results, cpu_s, shared_by))
+        if keep_agents:
+            agent_io.save(RunStore.agents_file(directory, config.key), agents,
+                          {"config": dataclasses.asdict(config)})
+        if write and directory is not None:
+            RunStore(directory).write(config, *finished[config.key])
 
 
 def results_table(config: RunConfig, results) -> pd.DataFrame:
@@ -176,7 +191,8 @@ def _agent_episodes(configs) -> int:
 
 
 def timed_batch(configs, progress=None, *options) -> tuple:
-    """`(run_batch's tables, wall seconds, CPU seconds of the process that ran it)`."""
+    """`(run_batch's tables and records, wall seconds, CPU seconds of the process that ran
+    it)`."""
     wall, cpu = time.perf_counter(), time.process_time()
     tables = run_batch(configs, progress, *options)
     return tables, time.perf_counter() - wall, time.process_time() - cpu
@@ -269,10 +285,10 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
 
 
 def _keep(store: RunStore, batch, tables, wall_s: float, cpu_s: float) -> None:
-    """Write a finished batch's tables and what it cost (`RunStore.record_compute`), then
-    release its claim."""
-    for config, table in zip(batch, tables):
-        store.write(config, table)
+    """Write a finished batch's tables and records, and what it cost
+    (`RunStore.record_compute`), then release its claim."""
+    for config, (table, run_records) in zip(batch, tables):
+        store.write(config, table, run_records)
     store.record_compute(batch, wall_s, cpu_s)
     store.release(batch)
 

@@ -162,7 +162,7 @@ SLOW = {
     r"test_typing\.py::test_mypy_": "runs mypy on the package",
     r"test_device\.py::(test_the_emulated_cortex_m4_|test_costs_are_measured_on_both_"
     r"|test_libm_agreement)": "cross-compiles for the Cortex-M4 and runs it under QEMU",
-    r"test_bench\.py::test_callgrind_": "runs the exported controller under valgrind",
+    r"test_timed_costs\.py::test_callgrind_": "runs the exported controller under valgrind",
     r"test_reproduce\.py::test_ray_backend": "starts a local Ray instance",
     r"test_robustness\.py::test_a_study_on_ray": "starts a local Ray instance",
     r"test_conventions\.py::test_physics_renders_pixels_headless"
@@ -253,14 +253,17 @@ SLOW = {
         "benchmark: searches, trains and evaluates every linear row (and measures its costs)",
     r"test_budget\.py::(test_a_population|test_a_budget_cuts_the_run_it_would_have_been\[cartpole)":
         "compiles a JAX program; runs the cart-pole twice (Mountain-Car's case stays)",
-    r"test_bench\.py::test_population_agents_act": "compiles a JAX network",
+    r"test_timed_costs\.py::test_population_agents_act": "compiles a JAX network",
+    r"test_table_schemas\.py::test_(every_run_table|a_run_table_of_every_tenth)_keeps": "reads "
+        "the committed benchmark's run tables (all of them, or every tenth) against their schema",
+    r"test_benchmark_dataset\.py::test_the_committed_dataset": "reads the committed Parquet "
+        "dataset and a run table of every fifty",
     r"test_reproduce\.py::(test_a_killed_sweep_resumes|test_quick_reproduction_writes|test_fig3_"
     r"verdict_counts_both_conditions\[(?!60\.0-40-))": "a reproduction sweep; fig. 3's "
         "verdict drawn for each case (one stays)",
     r"test_config\.py::test_reproduce_sets_readings_from_the_command_line": "a reproduction sweep",
     r"test_compare\.py::(test_quick_cli_run_writes|test_recording_holds_an_entity|test_replay_on_"
     r"mujoco)": "`lwrl compare --quick`; an episode replayed on MuJoCo",
-    r"test_bench\.py::test_lwrl_bench_writes_its_report": "a benchmark study",
     r"test_benchmarks\.py::test_\w+_quick_prints_its_table": "a quick benchmark",
     r"test_sb3_cost\.py::test_every_configuration_is_measured": "trains SB3's DQN and PPO "
     "(a quick benchmark)",

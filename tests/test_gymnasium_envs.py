@@ -52,7 +52,7 @@ def rollout(env, policy, episodes, seed, max_steps=None):
 
 def test_every_task_and_plant_is_registered():
     """Every (task, plant) of the suite has the id lwrl/{domain}-{task}-{plant}-v0, made by
-    SuiteEnv, with no TimeLimit of Gymnasium's on top (the task truncates)."""
+    SuiteEnv, its `max_episode_steps` the task's own step limit."""
     expected = {f"lwrl/{d}-{t}-{p}-v0" for d, t, p in TASK_PLANTS}
     assert set(ENV_IDS) == expected and len(ENV_IDS) == len(TASK_PLANTS) == 7
     assert "lwrl/cartpole-balance-mujoco-v0" in ENV_IDS
@@ -61,7 +61,7 @@ def test_every_task_and_plant_is_registered():
         spec = gymnasium.spec(id_)
         assert spec.entry_point == "lwrl.gym:SuiteEnv"
         assert spec.kwargs == {"domain": domain, "task": task, "plant": plant}
-        assert spec.max_episode_steps is None
+        assert spec.max_episode_steps == tasks.definition(domain, task).step_limit
         assert spec.namespace == "lwrl"
 
 
@@ -124,7 +124,7 @@ def test_check_env(id_):
 @pytest.mark.parametrize("domain, task, plant", TASK_PLANTS)
 def test_make(domain, task, plant):
     """gymnasium.make gives the task on the plant: Discrete actions, a float64 Box of the
-    state variables, Gymnasium's two checking wrappers and no TimeLimit."""
+    state variables, Gymnasium's two checking wrappers and its TimeLimit at the task's limit."""
     env = gymnasium.make(env_id(domain, task, plant))
     raw = env.unwrapped
     assert isinstance(raw, SuiteEnv)
@@ -134,7 +134,8 @@ def test_make(domain, task, plant):
     assert env.observation_space.dtype == np.float64
     assert env.observation_space.shape == (len(definition.state_names),)
     assert raw.observation_names == definition.state_names
-    assert not any(isinstance(w, gymnasium.wrappers.TimeLimit) for w in _wrappers(env))
+    limits = [w for w in _wrappers(env) if isinstance(w, gymnasium.wrappers.TimeLimit)]
+    assert [w._max_episode_steps for w in limits] == [definition.step_limit]
     assert env.render_mode is None and env.metadata["render_modes"] == render_modes(domain)
     observation, info = env.reset(seed=0)
     assert observation.dtype == np.float64 and observation in env.observation_space
@@ -494,7 +495,8 @@ def test_continuous_ids_are_registered_beside_the_discrete():
     for (domain, task, plant), id_ in zip(TASK_PLANTS, CONTINUOUS_ENV_IDS):
         assert id_ == env_id(domain, task, plant, "continuous")
         spec = gymnasium.spec(id_)
-        assert spec.entry_point == "lwrl.gym:SuiteEnv" and spec.max_episode_steps is None
+        assert spec.entry_point == "lwrl.gym:SuiteEnv"
+        assert spec.max_episode_steps == tasks.definition(domain, task).step_limit
         assert spec.kwargs == {"domain": domain, "task": task, "plant": plant,
                                "actions": "continuous"}
         low, high = tasks.definition(domain, task).control_range
@@ -608,3 +610,43 @@ def test_kwargs_cannot_change_the_kind_of_action():
     with pytest.raises(ValueError, match="actions must be one of: discrete, continuous"):
         SuiteVectorEnv("cartpole", "balance", "analytic", num_envs=2, actions="box")
 
+
+
+# Episode length as Gymnasium's ids state it ---------------------------------------------
+
+@pytest.mark.parametrize("env_id", [*DEFAULT_ENV_IDS, *ENV_IDS])
+def test_every_id_states_the_task_s_step_limit(env_id):
+    """`env.spec.max_episode_steps` is the task's own limit, and `make` wraps `TimeLimit`."""
+    spec = gymnasium.spec(env_id)
+    definition = tasks.resolve_environment(spec.kwargs["domain"], spec.kwargs["task"],
+                                           spec.kwargs["plant"])[0]
+    assert spec.max_episode_steps == definition.step_limit
+    env = gymnasium.make(env_id)
+    assert env.spec.max_episode_steps == definition.step_limit
+    assert any(isinstance(wrapper, gymnasium.wrappers.TimeLimit) for wrapper in _wrappers(env))
+    env.close()
+
+
+def test_the_shorter_of_time_limit_and_max_episode_steps_ends_an_episode():
+    """A pendulum episode (no terminal state) ends truncated at the earlier limit."""
+    for kwargs, steps in (({"max_episode_steps": 7}, 7), ({"time_limit": 0.1}, 5),
+                          ({"time_limit": 0.2, "max_episode_steps": 20}, 10)):
+        env = gymnasium.make("lwrl/pendulum-swingup-analytic-v0", **kwargs)
+        env.reset(seed=0)
+        for taken in range(1, steps + 1):
+            _, _, terminated, truncated, _ = env.step(0)
+            assert not terminated and truncated == (taken == steps), (kwargs, taken)
+
+
+def test_vector_environment_truncates_at_max_episode_steps():
+    """`make_vec` passes the id's `max_episode_steps`; a smaller one truncates the copies
+    there, a bad one is refused in one line."""
+    envs = gymnasium.make_vec("lwrl/pendulum-swingup-analytic-v0", num_envs=2,
+                              vectorization_mode="vector_entry_point", max_episode_steps=4)
+    envs.reset(seed=0)
+    for taken in range(1, 5):
+        _, _, terminated, truncated, _ = envs.step(np.zeros(2, dtype=np.int64))
+        assert not terminated.any() and truncated.all() == (taken == 4)
+    envs.close()
+    with pytest.raises(ValueError, match="max_episode_steps must be a positive integer"):
+        SuiteVectorEnv("pendulum", "swingup", "analytic", max_episode_steps=0)

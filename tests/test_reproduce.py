@@ -140,7 +140,8 @@ def test_batched_runs_equal_runs_alone(tmp_path):
     assert [len(batch) for batch in sweep.batches(configs, max_agents=4)] == [1, 2]
     table, computed = sweep.run_sweep(configs, str(tmp_path))
     assert computed == 3
-    alone = pd.concat([sweep.run_batch([config])[0] for config in configs], ignore_index=True)
+    alone = pd.concat([one for config in configs for one, _ in sweep.run_batch([config])],
+                      ignore_index=True)
     pd.testing.assert_frame_equal(table, alone)
 
 
@@ -149,7 +150,8 @@ def test_mujoco_runs_batch_too(tmp_path):
     configs = [RunConfig(task="cartpole.balance", plant="mujoco", alpha=alpha, lam=0.7,
                          agents=2, episodes=3) for alpha in (0.5, 1.0)]
     table, _ = sweep.run_sweep(configs, str(tmp_path))
-    alone = pd.concat([sweep.run_batch([config])[0] for config in configs], ignore_index=True)
+    alone = pd.concat([one for config in configs for one, _ in sweep.run_batch([config])],
+                      ignore_index=True)
     pd.testing.assert_frame_equal(table, alone)
 
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from lwrl.agent import jax_population
+from lwrl.runners import records
 from lwrl.runners.config import RunConfig
 from lwrl.runners.population import CHUNK
 from lwrl.runners.resume import kept
@@ -80,6 +81,9 @@ def test_a_stopped_family_keeps_its_checkpoints_and_computes_the_rest(tmp_path):
     assert computed == 1 and not RunStore.resume_file(tmp_path, configs[-1].key).exists()
     earlier, this = ledger_lines(tmp_path)
     assert earlier["runs"] == this["runs"] == [configs[-1].key] and earlier["cpu_s"] > 0
+    spent = records.read(tmp_path, configs[-1:])  # the stopped process's CPU among it
+    total = spent["cpu_s"].iloc[0] * spent["cpu_shared_by"].iloc[0]
+    assert earlier["cpu_s"] - 1e-3 <= total <= earlier["cpu_s"] + this["cpu_s"] + 1e-3  # rounded
     alone = tmp_path / "alone"
     for config in configs:
         run_sweep([config], str(alone), keep_agents=True)

@@ -362,10 +362,10 @@ def test_a_learner_of_the_stepped_loop_trains_the_benchmarks_agents_with_its_tun
     the compiled loop's learners keep the count asked for, the paper's protocol and their
     defaults (their runs' keys unchanged)."""
     from lwrl.runners.config import tuned_settings
-    from lwrl.studies.paper import bench_protocol
+    from lwrl.studies.paper.episode_budgets import episode_budgets
 
     task = "cartpole.balance"
-    stepped = bench_protocol.episode_budgets()  # as lwrl robustness passes them
+    stepped = episode_budgets()  # as lwrl robustness passes them
     trainings = plan.trainings(task, "analytic", agents=30, stepped=stepped)
     for (name, _), config in trainings.items():
         learner = learners.LEARNERS[name]
@@ -379,7 +379,7 @@ def test_a_learner_of_the_stepped_loop_trains_the_benchmarks_agents_with_its_tun
             else:
                 assert config.agents == plan.STEPPED_AGENTS < 30
             assert (config.episodes, config.task_options) == (30, {"time_limit": 60.0}) == (
-                bench_protocol.TASKS[task].episodes, bench_protocol.TASKS[task].task_options)
+                stepped[task])
             assert tuned_settings(task, name) or not learner.tuned  # SAC, TD3: their defaults
             for setting, value in tuned_settings(task, name).items():
                 assert getattr(config.agent, setting) == value
@@ -396,7 +396,7 @@ def test_a_learner_of_the_stepped_loop_trains_the_benchmarks_agents_with_its_tun
 def test_lwrl_robustness_gives_the_stepped_learners_the_benchmarks_episodes(tmp_path, capsys,
                                                                             monkeypatch):
     """The command passes the benchmark's episodes on to the study, and its sweep flags."""
-    from lwrl.studies.paper import bench_protocol
+    from lwrl.studies.paper.episode_budgets import episode_budgets
     from lwrl.studies.robustness import robustness
 
     passed = {}
@@ -405,7 +405,7 @@ def test_lwrl_robustness_gives_the_stepped_learners_the_benchmarks_episodes(tmp_
     status, _, _ = run_cli(["robustness", "cartpole.balance", "--out", str(tmp_path / "study"),
                             "--backend", "ray", "--workers", "2"], capsys)
     assert status == 0
-    assert passed["stepped"] == bench_protocol.episode_budgets()
+    assert passed["stepped"] == episode_budgets()
     assert passed["stepped"]["cartpole.balance"] == (30, {"time_limit": 60.0})
     assert passed["sweep"] == {"backend": "ray", "workers": 2, "address": None}
 

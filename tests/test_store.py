@@ -89,8 +89,8 @@ def test_a_batch_claimed_by_a_live_process_is_left_to_it(tmp_path, clean):
     try:
         def the_other_process_finishes():
             time.sleep(1.0)
-            for config, table in zip(configs, sweep.run_batch(configs)):
-                store.write(config, table)
+            for config, (table, records) in zip(configs, sweep.run_batch(configs)):
+                store.write(config, table, records)
             other.kill()  # the other process ends, its claim file left behind
             other.wait()
 
@@ -143,10 +143,10 @@ def test_a_table_that_cannot_be_written_stops_the_sweep_and_the_others_are_kept(
     configs = grid() + [RunConfig(task="pendulum.swingup", agents=1, episodes=1)]
     store, write = RunStore(tmp_path), RunStore.write
 
-    def failing(self, config, table):
+    def failing(self, config, table, records):
         if config.task_name == "swingup":
             raise OSError("no space left on device")
-        write(self, config, table)
+        write(self, config, table, records)
 
     monkeypatch.setattr(RunStore, "write", failing)
     with pytest.raises(OSError, match="no space left"):

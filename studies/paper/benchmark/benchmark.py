@@ -9,6 +9,12 @@ Layout of the output directory (every table a gzip CSV, resumable by the same co
                                  `episode`, `steps`, `return`, `uptime_s` (s), `truncated`,
                                  `diverged`; a training's episodes as far as its budget, an
                                  evaluation's (`trained`, `greedy`) its greedy episodes
+    runs/records/<key>.csv.gz    per agent, what its run cost and where it ran
+                                 (`runners.records`): its share of its batch's CPU seconds,
+                                 at each budget of a family the CPU up to it, its counted
+                                 arithmetic, lwrl's version and commit, the CPU, Python's and
+                                 the libraries' versions (the second benchmark's runs were
+                                 written before runs recorded them: not recorded)
     runs/<key>.agents.npz        a training's agents until its evaluation is written (not kept
                                  in git: the tables alone resume the study)
     references/<task>-<plant>.csv.gz
@@ -16,12 +22,12 @@ Layout of the output directory (every table a gzip CSV, resumable by the same co
     outside/<learner>-<task>.csv.gz
                                  an outside learner's results (`lwrl bench score`,
                                  `outside`'s schema), in the report's leaderboard
-    costs.json                   CPU per learning step of each row (studies/paper/bench_costs.py)
+    costs.json                   CPU per learning step of each row (`timed_costs`)
     compute.jsonl                what each computed batch of runs cost (wall and CPU seconds,
                                  host, CPU: `runners.store`), a line each, kept across
                                  interruptions: the report's cost line
-    configs.jsonl                every run's full configuration (lwrl's version in `learner`'s
-                                 settings, the host in timings)
+    configs.jsonl                every run's full configuration, a line each (where it ran: its
+                                 records)
     figures/                     the aggregates, the profiles, each task's curves and the
                                  pendulum's training curves with both kinds of action
     README.md                    the report, the command at its top
@@ -41,8 +47,7 @@ import time
 from lwrl import outputs
 from lwrl.analysis.statistics import mean_interval
 from lwrl.runners.sweep import config_line
-from lwrl.studies.paper import bench_costs
-from lwrl.studies.paper.benchmark import outside, protocol, report, study
+from lwrl.studies.paper.benchmark import outside, protocol, report, study, timed_costs
 
 OUTSIDE = "outside"
 FIGURES = "figures"
@@ -56,7 +61,7 @@ def benchmark(tasks, out_dir: str, command: str, plant: str = "analytic", sweep=
     started = time.perf_counter()
     tasks = [protocol.check_task(task, plant) for task in tasks]
     computed = [study.study_task(task, out_dir, plant, sweep) for task in tasks]
-    bench_costs.measure_all(cost_cells(computed), out_dir)
+    timed_costs.measure_all(cost_cells(computed), out_dir)
     return write_report(out_dir, command, plant, started, computed)
 
 
@@ -130,7 +135,7 @@ def line_task(line: dict) -> str:
 
 def cost_cells(task_runs) -> list:
     """`(task, label, RunConfig)` of each row's full-budget training: the runs whose costs
-    `bench_costs` measures."""
+    `timed_costs` measures."""
     return [(runs.task, label, config) for runs in task_runs
             for (label, fraction), config in runs.trainings.items() if fraction == 1.0]
 

@@ -21,7 +21,6 @@ import pandas as pd
 from lwrl import tasks
 from lwrl.runners.config import RunConfig
 from lwrl.runners.stepped import run_batched
-from lwrl.studies.paper.bench_protocol import STEPS, UPTIME, Measure
 from lwrl.studies.paper.benchmark import protocol
 from lwrl.studies.paper.benchmark.protocol import variant
 from lwrl.studies.paper.benchmark.references import ROWS
@@ -37,6 +36,22 @@ STEP_CAP = 1000
 reach the goal counts this."""
 
 
+@dataclasses.dataclass(frozen=True)
+class Measure:
+    """A task's measure from the paper: a column of the results, averaged over an agent's
+    episodes, and which way is better."""
+
+    column: str
+    label: str
+    higher_is_better: bool
+
+
+STEPS = Measure("steps", "mean steps per episode", False)
+"""Mountain-Car's and the acrobot's measure: steps per episode (the paper's Fig. 2 and 3)."""
+UPTIME = Measure("uptime_s", "mean up-time per episode (s)", True)
+"""The pendulum's and the cart-pole's: seconds up per episode (Fig. 5, 6 and 8)."""
+
+
 def task_definition(task: str) -> TaskDefinition:
     """The definition of `task` (DOMAIN.TASK, or a benchmark task's `DOMAIN.TASK-continuous`,
     `protocol.variant`) at its defaults, or a one-line ValueError naming the suite's tasks
@@ -47,7 +62,7 @@ def task_definition(task: str) -> TaskDefinition:
 
 def task_measure(task: str) -> Measure:
     """The up-time where the task keeps one (the pendulum, the cart-pole), else the steps
-    per episode (Mountain-Car, the acrobot): the measures of the first benchmark."""
+    per episode (Mountain-Car, the acrobot)."""
     return UPTIME if task_definition(task).has_uptime else STEPS
 
 

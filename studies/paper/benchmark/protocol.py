@@ -9,8 +9,8 @@ budget: the budget cuts a run without changing what came before it (`tests/test_
 so that run's agents are the full run's as they were after f of it.
 
 The rows: the paper's agent (NRBF Sarsa(lambda) with the task's settings), its other trace,
-true online Sarsa(lambda), the CMAC on Mountain-Car and ASE/ACE on the cart-pole (the rows
-`lwrl bench`'s first protocol also has, `studies.paper.bench_protocol`), and DQN and PPO, each
+true online Sarsa(lambda), the CMAC on Mountain-Car (Fig. 2) and ASE/ACE on the cart-pole
+(Table 1) (`linear_rows`, the first benchmark's rows, docs/benchmark), and DQN and PPO, each
 on its fastest implementation, the JAX populations `dqn_jax` and `ppo_jax` that
 docs/implementations holds to Stable-Baselines3's, starting from rl-baselines3-zoo's sets
 with their horizon the budget (so that DQN's exploration and the linear schedules run over
@@ -26,8 +26,7 @@ steps the same model with the same step, agreeing with the C engine to round-off
 import dataclasses
 
 from lwrl import tasks
-from lwrl.runners.config import RunConfig, tuned_settings
-from lwrl.studies.paper import bench_protocol
+from lwrl.runners.config import RunConfig, task_defaults, tuned_settings
 
 VERSION = "benchmark2-1"
 """The protocol's version, which an outside results file records (`outside`): a change to the
@@ -60,6 +59,8 @@ that search, which then chose its defaults (`agent.actor_critic`), kept here so 
 search, its runs' keys and what it chose stay as they were."""
 CONTINUOUS_DEEP = {"sac": "sac_jax", "td3": "td3_jax"}
 """The deep rows of a continuous task and the implementation each runs on."""
+OTHER_TRACE = {"replacing": "accumulating", "accumulating": "replacing"}
+"""The trace of the row beside the paper's agent, by the trace of the task's settings."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -70,6 +71,25 @@ class Row:
     label: str
     learner: str
     settings: dict
+
+
+TASK_ROWS = {
+    "mountain_car.cost_to_go": (Row("cmac", "sarsa", dict(
+        features="cmac", trace="replacing_reset", lam=0.9, alpha=0.5, normalise_alpha=True)),),
+    "cartpole.balance": (Row("ase_ace", "ase_ace", {}),),
+}
+"""The linear rows of one task beyond every task's: the CMAC on Mountain-Car (the paper's
+Fig. 2 compares it with the NRBF there) and ASE/ACE on the cart-pole (Table 1's rival)."""
+
+
+def linear_rows(name: str) -> list:
+    """The linear rows of the suite's task `name`, the paper's agent first: NRBF
+    Sarsa(lambda) with the task's settings (`lwrl train`'s defaults), the same with the other
+    trace (`OTHER_TRACE`), true online Sarsa(lambda), then the task's own (`TASK_ROWS`)."""
+    trace = OTHER_TRACE[task_defaults(name)["trace"]]
+    return [Row("paper", "sarsa", {}), Row("sarsa-" + trace, "sarsa", {"trace": trace}),
+            Row("true_online_sarsa", "true_online_sarsa", {}),
+            *(Row(row.label, row.learner, dict(row.settings)) for row in TASK_ROWS.get(name, ()))]
 
 
 def check_task(task: str, plant: str = "analytic") -> str:
@@ -105,9 +125,9 @@ def deep(task: str) -> dict:
 
 
 def rows(task: str) -> list:
-    """The task's rows, the light-weight one first: for a discrete task the first
-    protocol's rows but DQN and PPO, which run on their JAX populations with their horizon
-    the budget; for a continuous one the actor-critic, then SAC and TD3 alike, every row
+    """The task's rows, the light-weight one first: for a discrete task the linear rows
+    (`linear_rows`), then DQN and PPO on their JAX populations with their horizon the
+    budget; for a continuous one the actor-critic, then SAC and TD3 alike, every row
     made with continuous actions."""
     check_task(task)
     name, actions = variant(task)
@@ -116,9 +136,7 @@ def rows(task: str) -> list:
         linear = [Row(LIGHT[actions], "actor_critic", dict(kind, **ACTOR_CRITIC_START))]
     else:
         kind = {}
-        linear = [Row(label, learner, dict(settings))
-                  for label, learner, settings in bench_protocol.learners(name)
-                  if label not in bench_protocol.DEEP]
+        linear = linear_rows(name)
     deep_rows = [Row(label, learner, dict(tuned_settings(name, label), timesteps=BUDGETS[task],
                                           **kind))
                  for label, learner in deep(task).items()]

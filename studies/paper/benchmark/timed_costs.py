@@ -1,5 +1,6 @@
-"""What each learner of `lwrl bench` costs, measured the same way for all, one process per
-(task, learner) (a fresh process, so its peak memory is the learner's):
+"""What each row of the second benchmark costs (`costs.json`, the report's CPU per learning
+step), timed apart from its runs, the same way for all, one process per (task, row) (a fresh
+process, so its peak memory is the learner's):
 
 - CPU time per learning step: one agent learning on the task, one thread, each learner's own
   fast path (`runners.run.run`: the compiled loop for lwrl's learners, the stepped loop with
@@ -69,10 +70,8 @@ int main(void)
 """
 
 
-def step_budget(config, quick: bool) -> int:
+def step_budget(config) -> int:
     """Learning steps to time: past the start of learning (see the module)."""
-    if quick:
-        return 500
     settings = config.agent
     if not hasattr(settings, "timesteps"):
         return 20_000
@@ -153,7 +152,7 @@ def _controller(agent, config, c_dir: str) -> dict:
             "c_instructions_per_decision": callgrind_instructions(c_dir), "compiler": sizes["compiler"]}
 
 
-def measure_cell(config, label: str, c_dir: str | None, quick: bool) -> dict:
+def measure_cell(config, label: str, c_dir: str | None) -> dict:
     """The costs of one (task, learner) (see the module); runs in a process of its own."""
     from lwrl.agent import threads
     from lwrl.runners.run import make_agent
@@ -166,7 +165,7 @@ def measure_cell(config, label: str, c_dir: str | None, quick: bool) -> dict:
     one = dataclasses.replace(config, agents=1, seed=1000)
     _learn(dataclasses.replace(one, seed=2000), make_agent(dataclasses.replace(one, seed=2000)), 50)  # warm-up
     agent = make_agent(one)
-    steps = step_budget(config, quick)
+    steps = step_budget(config)
     start = time.process_time()
     taken = _learn(one, agent, steps)
     seconds = time.process_time() - start
@@ -185,7 +184,7 @@ def measure_cell(config, label: str, c_dir: str | None, quick: bool) -> dict:
     return costs
 
 
-def measure_all(cells, out_dir: str, quick: bool = False) -> dict:
+def measure_all(cells, out_dir: str) -> dict:
     """`{run key: costs}` of every cell, measured where `costs.json` in `out_dir` does not
     hold them yet (it is rewritten after each), each in a fresh process (a RuntimeError
     where that process dies, killed or crashed, rather than waiting for it)."""
@@ -201,7 +200,7 @@ def measure_all(cells, out_dir: str, quick: bool = False) -> dict:
         c_dir = (os.path.join(out_dir, "controllers", f"{task}-{label}") if label in EXPORTED else None)
         with ProcessPoolExecutor(1, mp_context=context) as pool:
             try:
-                measured = pool.submit(measure_cell, config, label, c_dir, quick).result()
+                measured = pool.submit(measure_cell, config, label, c_dir).result()
             except BrokenProcessPool:
                 raise RuntimeError(f"the process measuring the costs of {label} on {task} died "
                                    f"without a result; the costs measured before it are in "

@@ -1,0 +1,120 @@
+"""The committed tables of the second benchmark (docs/benchmark2, both plants) against their
+Table Schemas (runners/schemas/, studies/paper/benchmark/schemas/): the run tables, the
+configurations, the compute ledger and the reference rows; the checker finds what breaks a
+schema; and frictionless itself, where installed, reads the schemas as Table Schemas and
+agrees on a sample of tables."""
+
+import glob
+import importlib.util
+import json
+import pathlib
+
+import pandas as pd
+import pytest
+
+from lwrl.runners import table_schema
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+BENCHMARKS = [ROOT / "docs" / "benchmark2", ROOT / "docs" / "benchmark2" / "mujoco"]
+REFERENCES = ROOT / "studies" / "paper" / "benchmark" / "schemas" / "references.json"
+SCHEMAS = {"run_table": table_schema.SCHEMAS / "run_table.json",
+           "configs": table_schema.SCHEMAS / "configs.json",
+           "compute": table_schema.SCHEMAS / "compute.json", "references": REFERENCES}
+FRICTIONLESS = pytest.mark.skipif(importlib.util.find_spec("frictionless") is None,
+                                  reason="frictionless is not installed (pip install -e '.[dev]')")
+
+
+def run_tables(directory: pathlib.Path, every: int = 1) -> list:
+    """The run tables of a benchmark directory, every `every`-th in name order."""
+    return sorted(glob.glob(str(directory / "runs" / "*.csv.gz")))[::every]
+
+
+@pytest.mark.parametrize("directory", BENCHMARKS, ids=["analytic", "mujoco"])
+def test_the_ledger_configurations_and_reference_rows_keep_their_schemas(directory):
+    for name in ("configs", "compute"):
+        schema = table_schema.load(SCHEMAS[name])
+        table = table_schema.read_jsonl(directory / f"{name}.jsonl")
+        assert len(table) > 0 and table_schema.violations(table, schema, name) == []
+    schema = table_schema.load(REFERENCES)
+    paths = sorted(glob.glob(str(directory / "references" / "*.csv.gz")))
+    assert len(paths) >= 4 and table_schema.table_violations(paths, schema) == []
+
+
+@pytest.mark.parametrize("directory", BENCHMARKS, ids=["analytic", "mujoco"])
+def test_a_run_table_of_every_tenth_keeps_its_schema(directory):
+    paths = run_tables(directory, every=10)
+    assert len(paths) >= 50
+    assert table_schema.table_violations(paths, table_schema.load(SCHEMAS["run_table"])) == []
+
+
+@pytest.mark.parametrize("directory", BENCHMARKS, ids=["analytic", "mujoco"])
+def test_every_run_table_keeps_its_schema(directory):
+    paths = run_tables(directory)
+    assert len(paths) >= 700
+    assert table_schema.table_violations(paths, table_schema.load(SCHEMAS["run_table"])) == []
+
+
+def test_the_checker_finds_what_breaks_a_schema(tmp_path):
+    """A reference table with each fault in turn: a column the schema lacks, a required cell
+    empty, a value of another type, one below its minimum, one outside its enum, a repeated
+    key; each named with its field and row, and the file."""
+    schema = table_schema.load(REFERENCES)
+    good = pd.DataFrame({"agent": [0, 0], "seed": [10000, 10000], "episode": [1, 2],
+                         "steps": [5.0, 7.0], "return": [-5.0, -7.0], "uptime_s": [None, None],
+                         "truncated": [False, True], "diverged": [False, False],
+                         "row": ["random", "random"]})
+    faults = {"are not the schema's fields": good.assign(extra=1),
+              "field 'return': a required value is missing at row 2": good.assign(**{"return": [-5.0, None]}),
+              "field 'episode': '1.5' at row 1 is no integer": good.assign(episode=["1.5", "2"]),
+              "field 'truncated': 'yes' at row 2 is no boolean": good.assign(truncated=["False", "yes"]),
+              "field 'steps': '0.0' at row 1 is beyond the minimum 1": good.assign(steps=[0.0, 7.0]),
+              "field 'row': 'greedy' at row 2 is not one of": good.assign(row=["random", "greedy"]),
+              "primary key ['row', 'agent', 'episode'] repeats at row 2": good.assign(episode=[1, 1])}
+    path = tmp_path / "good.csv.gz"
+    good.to_csv(path, index=False)
+    assert table_schema.table_violations([str(path)], schema) == []
+    for fault, table in faults.items():
+        path = tmp_path / "table.csv.gz"
+        table.to_csv(path, index=False)
+        found = table_schema.table_violations([str(tmp_path / "good.csv.gz"), str(path)], schema)
+        assert len(found) == 1 and fault in found[0] and str(path) in found[0], (fault, found)
+
+
+def test_a_json_lines_value_of_another_type_is_found(tmp_path):
+    path = tmp_path / "compute.jsonl"
+    path.write_text('{"runs": ["a"], "wall_s": 1.0, "cpu_s": 2, "host": "h", '
+                    '"finished": "2026-12-04T14:33:01+0000"}\n'
+                    '{"runs": "b", "wall_s": true, "cpu_s": -1, "host": "h", '
+                    '"finished": "yesterday"}\n')
+    found = table_schema.violations(table_schema.read_jsonl(path),
+                                    table_schema.load(SCHEMAS["compute"]), "compute")
+    assert [line.split(":")[1].strip() for line in found] == [
+        "field 'runs'", "field 'wall_s'", "field 'cpu_s'", "field 'finished'"], found
+
+
+def test_a_schema_with_what_the_checker_does_not_check_is_refused(tmp_path):
+    path = tmp_path / "schema.json"
+    path.write_text('{"fields": [{"name": "x", "type": "integer", "constraints": {"pattern": "1"}}]}')
+    with pytest.raises(ValueError, match="constraint 'pattern'; allowed: required"):
+        table_schema.load(path)
+
+
+@FRICTIONLESS
+@pytest.mark.parametrize("name", list(SCHEMAS))
+def test_frictionless_reads_each_schema_as_a_table_schema(name):
+    from frictionless import Schema
+    report = Schema.validate_descriptor(str(SCHEMAS[name]))
+    assert report.valid, report.flatten(["message"])
+
+
+@FRICTIONLESS
+def test_frictionless_agrees_on_a_sample_of_tables():
+    from frictionless import Resource, Schema
+    directory = BENCHMARKS[0]
+    cases = [(path, "run_table", None) for path in run_tables(directory, every=250)]
+    cases += [(path, "references", None) for path in glob.glob(str(directory / "references" / "*"))[:1]]
+    cases += [(str(directory / f"{name}.jsonl"), name, "jsonl") for name in ("configs", "compute")]
+    for path, name, form in cases:
+        report = Resource(path=str(pathlib.Path(path).relative_to(ROOT)), basepath=str(ROOT),
+                          format=form, schema=Schema.from_descriptor(json.loads(SCHEMAS[name].read_text()))).validate()
+        assert report.valid, (path, report.flatten(["message"])[:3])
