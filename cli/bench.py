@@ -86,13 +86,41 @@ def add_second(actions, name: str, summary: str, description: str, positional: t
 
 def add_run(actions) -> None:
     run = add_second(
-        actions, "run", "the second benchmark (resumable)",
+        actions, "run", "the second benchmark (resumable), or the third (--rule 3)",
         "Run (or resume) the second benchmark on the tasks: the reference rows, every row's "
         "search, the chosen configurations at each fraction of the budget, their greedy "
         "evaluations and costs; then the report with the verdicts, the aggregates across "
         "tasks and the figures. Runs are written as they finish: the same command resumes, "
-        "on a fresh clone from the committed tables.", TASKS, "output directory", run_second)
+        "on a fresh clone from the committed tables. With --rule 3, or in a directory that "
+        "records it (rule.json), the third benchmark (studies/paper/benchmark/third).",
+        TASKS, "output directory", run_second)
+    run.add_argument("--rule", choices=("2", "3"),
+                     help="the benchmark's rule (default: the one --out records, else 2)")
     reproduce.add_sweep_flags(run)
+
+
+THIRD = "lwrl.studies.paper.benchmark.third.benchmark"
+"""The third benchmark's commands, for a directory that records its rule (`third.rule`)."""
+
+
+def figures(directory: str) -> list:
+    """The line of `output.done` naming a benchmark's figures, where it drew any (the third
+    benchmark's report has none yet)."""
+    path = os.path.join(directory, "figures")
+    return [f"the figures in {path}"] if os.path.isdir(path) else []
+
+
+def third(directory: str, asked=None):
+    """The third benchmark's module where `asked` is "3" or `directory` records its rule,
+    else None (the second's)."""
+    rule, = output.study_modules("bench", "lwrl.studies.paper.benchmark.third.rule")
+    if asked == "2" and rule.edition(directory) is not None:
+        raise ValueError(f"{directory} records the rule {rule.edition(directory)} "
+                         f"({rule.EDITION_FILE}); --rule 2 runs the second benchmark in a "
+                         "directory of its own")
+    if asked == "3" or rule.edition(directory) is not None:
+        return output.study_modules("bench", THIRD)[0]
+    return None
 
 
 def add_status(actions) -> None:
@@ -187,20 +215,28 @@ def run_second(args) -> int:
     module, protocol = output.study_modules("bench", "lwrl.studies.paper.benchmark.benchmark",
                                             "lwrl.studies.paper.benchmark.protocol")
     started = time.perf_counter()
-    tasks = protocol.tasks_on(args.plant) if args.tasks == ["all"] else args.tasks
-    for task in tasks:
-        protocol.check_task(task, args.plant)
+    newer = third(args.out, args.rule)
+    if newer is not None:
+        module, tasks = newer, newer.check(args.tasks, args.plant)
+    else:
+        tasks = protocol.tasks_on(args.plant) if args.tasks == ["all"] else args.tasks
+        for task in tasks:
+            protocol.check_task(task, args.plant)
     output.claim_outputs(args, "out")
     outputs.check_directory(args.out, "--out")  # a benchmark resumes in its directory
     path = module.benchmark(tasks, args.out, shlex.join(["lwrl", *args.argv]), plant=args.plant,
                             sweep={"backend": args.backend, "workers": args.workers,
                                    "address": args.address})
-    output.done(started, [path, f"the figures in {os.path.join(args.out, 'figures')}"])
+    output.done(started, [path, *figures(args.out)])
     return 0
 
 
 def run_status(args) -> int:
     """Print how far the benchmark in `--out` has got."""
+    newer = third(args.out)
+    if newer is not None:
+        print("\n".join(newer.status(args.tasks, args.out, args.plant)))
+        return 0
     module, protocol = output.study_modules("bench", "lwrl.studies.paper.benchmark.progress",
                                             "lwrl.studies.paper.benchmark.protocol")
     tasks = protocol.tasks_on(args.plant) if args.tasks == ["all"] else args.tasks
@@ -213,12 +249,14 @@ def run_status(args) -> int:
 
 def run_report(args) -> int:
     """Rewrite the report of the benchmark in DIR from what it holds."""
-    module, = output.study_modules("bench", "lwrl.studies.paper.benchmark.benchmark")
-    module.check_benchmark(args.directory, args.plant)
+    module = third(args.directory)
+    if module is None:
+        module, = output.study_modules("bench", "lwrl.studies.paper.benchmark.benchmark")
+        module.check_benchmark(args.directory, args.plant)
     outputs.claim_output(args.directory, "DIR")
     started = time.perf_counter()
     path = module.rebuild(args.directory, shlex.join(["lwrl", *args.argv]), plant=args.plant)
-    output.done(started, [path, f"the figures in {os.path.join(args.directory, 'figures')}"])
+    output.done(started, [path, *figures(args.directory)])
     return 0
 
 

@@ -44,7 +44,9 @@ Task `swingup`:
   model is compiled anew rather than patched field by field; the torque is the motor's
   control range.
 - **Reward**: -1 every step, 0 on the step that reaches the goal (cost to go).
-- **Start**: all four variables 0, at rest hanging down (deterministic).
+- **Start**: all four variables 0, at rest hanging down (deterministic); with the task option
+  `start_spread` s > 0 each variable drawn uniformly in [-s, s] around that rest for every
+  episode (Gymnasium's Acrobot-v1 start, s = 0.1).
 - **Episode end**: terminal (discount 0) when the tip is more than one link above the
   shoulder, -l1 cos theta1 - l2 cos(theta1 + theta2) > l1; truncated (discount 1) after
   `time_limit` = 2000 s (10 000 steps), a safety cap (the book has none).
@@ -244,6 +246,17 @@ def initial_states(rng: np.random.Generator, count: int) -> np.ndarray:
     return np.zeros((count, len(STATE_NAMES)))
 
 
+def spread_starts(spread: float):
+    """`initial_states` for the option `start_spread`: each of the four variables uniform in
+    [-spread, spread] around the rest hanging down (Gymnasium's Acrobot-v1 draws its starts
+    so, spread 0.1); `initial_states` itself where `spread` is 0."""
+    if spread < 0 or not math.isfinite(spread):
+        raise ValueError(f"start_spread must be a finite number >= 0; got {spread!r}")
+    if spread == 0:
+        return initial_states
+    return lambda rng, count: rng.uniform(-spread, spread, size=(count, len(STATE_NAMES)))
+
+
 def _observe(state):
     state = np.asarray(state, dtype=np.float64)
     return np.stack([wrap_angle(state[..., 0]), state[..., 1], wrap_angle(state[..., 2]),
@@ -259,15 +272,17 @@ AGENT = RunDefaults(
 """Found for this suite (docs/acrobot/README.md): no paper gives an NRBF agent here."""
 
 
-def swingup(time_limit: float = TIME_LIMIT, params=None) -> TaskDefinition:
+def swingup(time_limit: float = TIME_LIMIT, params=None,
+            start_spread: float = 0.0) -> TaskDefinition:
     """The book's swing-up task; `time_limit` in seconds (a truncation), `params` the
-    physical parameters' values `{name: value}` (`PARAMETERS`)."""
+    physical parameters' values `{name: value}` (`PARAMETERS`), `start_spread` the half-width
+    of the starts around the rest (`spread_starts`; 0, the book's: at rest)."""
     return TaskDefinition(
         domain="acrobot", task="swingup", state_names=STATE_NAMES, controls_of=controls,
         control_name="torque",
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
-        initial_states=initial_states, observe=_observe, outcome=outcome, transition=transition,
-        arrive=arrive,
+        initial_states=spread_starts(start_spread), observe=_observe, outcome=outcome,
+        transition=transition, arrive=arrive,
         bounds=BOUNDS, defaults=AGENT, angles=("shoulder_angle", "elbow_angle"),
         has_uptime=False, physical=tuple(PARAMETERS.values(params).tolist()),
     )

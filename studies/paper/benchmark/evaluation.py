@@ -122,27 +122,30 @@ def evaluation(trained: RunConfig) -> RunConfig:
 
 
 def evaluation_env(task: str, agents: int, plant: str, seed: int = 0,
-                   environment=None) -> BatchedEnv:
+                   environment=None, options=None) -> BatchedEnv:
     """The environments of the evaluation of `agents` agents of seeds `seed` up
     (`evaluation`'s seeds, starts and episodes) of `task` on `plant`, made with its kind of
     action (`protocol.variant`) and the environment options `environment` (`BatchedEnv`'s:
-    `randomise`, `observation_noise`, `action_delay`; none by default)."""
+    `randomise`, `observation_noise`, `action_delay`; none by default); `options`: task
+    options beside the evaluation's (`episode_options`)."""
     name, actions = variant(task)
     domain, task_name = tasks.split_name(name)
     return BatchedEnv(domain, task_name, plant,
                       [EVALUATION_SEED + seed + b for b in range(agents)], actions=actions,
-                      **episode_options(task), **(environment or {}))
+                      **episode_options(task), **(options or {}), **(environment or {}))
 
 
 def run_references(task: str, agents: int = 20, plant: str = "analytic",
-                   episodes: int = EPISODES, environment=None) -> dict:
+                   episodes: int = EPISODES, environment=None, seed: int = 0,
+                   options=None) -> dict:
     """`{row: per-episode results}` of the reference rows (`references.ROWS`) on `task`:
-    `agents` agents each, on the starts of the evaluation of agents of seeds 0 up
-    (`evaluation_env`, with the environment options `environment`), `episodes` episodes
-    each; the results as a table of `EpisodeResults.columns` (`seed` the environment's)."""
+    `agents` agents each, on the starts of the evaluation of agents of seeds `seed` up
+    (`evaluation_env`, with the environment options `environment` and the task options
+    `options`), `episodes` episodes each; the results as a table of
+    `EpisodeResults.columns` (`seed` the environment's)."""
     tables = {}
     for row, make in ROWS.items():
-        env = evaluation_env(task, agents, plant, environment=environment)
+        env = evaluation_env(task, agents, plant, seed, environment, options)
         results = run_batched(env, make(env), episodes, learn=False, greedy=True)
         tables[row] = pd.DataFrame(results.columns(env.seeds))
     return tables

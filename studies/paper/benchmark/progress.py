@@ -144,9 +144,11 @@ def _done(store: RunStore, training) -> bool:
 
 def lines(tasks, out_dir: str, plant: str = "analytic") -> list:
     """Every task's lines, then the ledger's count (`runners.store.compute_spent`)."""
-    result = [line for task in tasks for line in task_lines(task, out_dir, plant)]
+    return [line for task in tasks for line in task_lines(task, out_dir, plant)] + [ledger(out_dir)]
+
+
+def ledger(out_dir: str) -> str:
+    """The line of what the ledger of `out_dir` counts (`runners.store.compute_spent`)."""
     spent = compute_spent(out_dir)
-    result.append(f"ledger ({os.path.join(out_dir, 'compute.jsonl')}): {spent['runs']} runs, "
-                  f"{spent['wall_s'] / 3600:.2f} h of wall time, {spent['cpu_s'] / 3600:.2f} h "
-                  "of CPU")
-    return result
+    return (f"ledger ({os.path.join(out_dir, 'compute.jsonl')}): {spent['runs']} runs, "
+            f"{spent['wall_s'] / 3600:.2f} h of wall time, {spent['cpu_s'] / 3600:.2f} h of CPU")

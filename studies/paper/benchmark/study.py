@@ -90,10 +90,12 @@ def normalised(task: str, values, reference: dict) -> np.ndarray:
                                      evaluation.task_measure(task).higher_is_better)
 
 
-def train_and_evaluate(trainings: dict, out_dir: str, sweep: dict, description: str) -> tuple:
-    """Run the trainings `{name: RunConfig}` (agents kept) whose greedy evaluation is not
-    written yet, then every evaluation; return `({name: evaluation table}, every table)`."""
-    evaluations = {name: evaluation.evaluation(config) for name, config in trainings.items()}
+def train_and_evaluate(trainings: dict, out_dir: str, sweep: dict, description: str,
+                       evaluate=evaluation.evaluation) -> tuple:
+    """Run the trainings `{name: RunConfig}` (agents kept) whose greedy evaluation
+    (`evaluate(training)`, the benchmark's by default) is not written yet, then every
+    evaluation; return `({name: evaluation table}, every table)`."""
+    evaluations = {name: evaluate(config) for name, config in trainings.items()}
     store = RunStore(out_dir)
     pending = [config for name, config in trainings.items() if not store.finished(evaluations[name])]
     if pending:
@@ -104,10 +106,11 @@ def train_and_evaluate(trainings: dict, out_dir: str, sweep: dict, description: 
     return _evaluated(trainings, evaluations, table, store)
 
 
-def read_evaluated(trainings: dict, out_dir: str, description: str) -> tuple:
+def read_evaluated(trainings: dict, out_dir: str, description: str,
+                   evaluate=evaluation.evaluation) -> tuple:
     """`train_and_evaluate`'s answer from the tables `out_dir` holds, computing nothing: an
     `Unfinished` error where an evaluation is not written."""
-    evaluations = {name: evaluation.evaluation(config) for name, config in trainings.items()}
+    evaluations = {name: evaluate(config) for name, config in trainings.items()}
     store = RunStore(out_dir)
     missing = sum(not store.finished(run) for run in evaluations.values())
     if missing:
