@@ -3,6 +3,7 @@ from each other's failures; Ctrl-C stops the work, never the writing."""
 
 import os
 import pathlib
+import re
 import signal
 import subprocess
 import sys
@@ -238,6 +239,18 @@ def test_a_table_read_back_has_every_float_as_written(tmp_path):
         read = outputs.read_table(tmp_path / name)
         assert read["return"].to_numpy().tobytes() == numbers.tobytes()
         assert read.equals(table)
+
+
+def test_every_table_lwrl_reads_is_read_by_read_table():
+    """No module of the package calls pandas' CSV reader but `outputs.read_table`, so that no
+    table is read with pandas 2's inexact default."""
+    package = pathlib.Path(outputs.__file__).parent
+    modules = [pathlib.Path(folder, name) for folder, _, names in os.walk(package, followlinks=True)
+               for name in names if name.endswith(".py")]
+    assert len(modules) > 100  # the rooms behind lwrl/'s links are walked
+    callers = [str(path.relative_to(package)) for path in modules
+               if re.search(r"\b(pd|pandas)\.read_csv\(", path.read_text())]
+    assert callers == ["outputs.py"]
 
 
 def test_a_file_left_half_written_is_removed_and_one_being_written_is_not(tmp_path):
