@@ -115,14 +115,14 @@ def write_table(table, path) -> None:
 
 def read_table(path, **options):
     """The CSV table at `path` (gzip'd for `.gz`) as a pandas DataFrame (`pandas.read_csv`
-    with `options`), every float the one whose shortest repr was written. pandas before 3.0
-    parses decimals with a fast converter that can miss by an ulp (0.00017686265734202648
-    read as 0.000176862657342) unless asked for `float_precision="round_trip"`; from 3.0 the
-    default is exact and that option is deprecated, so it is asked for on pandas 2 only. Every
-    table lwrl reads is read here."""
+    with `options`), every float the one whose shortest repr was written. pandas 2 parses
+    decimals with a converter that can miss by an ulp (0.00017686265734202648 read as
+    0.000176862657342) unless asked for `float_precision="round_trip"`; pandas 3.1 deprecates
+    that option, every converter of its being exact (pandas-dev/pandas#64666), so it is asked
+    for before 3.1 only. Every table lwrl reads is read here."""
     import pandas as pd  # the 'paper' extra: only what reads tables needs it
 
-    if int(pd.__version__.split(".")[0]) < 3:
+    if tuple(int(part) for part in pd.__version__.split(".")[:2]) < (3, 1):
         options.setdefault("float_precision", "round_trip")
     return pd.read_csv(path, **options)
 
