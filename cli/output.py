@@ -193,8 +193,6 @@ def read_run(path: str) -> tuple:
     """`(configuration, episodes)` of a run directory that `write_run` wrote: its config.json
     as a dict and its episodes.csv as a table; a one-line ValueError for a directory that is
     not one."""
-    import pandas as pd  # the 'paper' extra: only the commands that read runs need it
-
     files = [os.path.join(path, name) for name in RUN_FILES]
     if not all(os.path.isfile(file) for file in files):
         raise ValueError(f"{path}: not a run directory (lwrl train --out DIR writes "
@@ -202,7 +200,7 @@ def read_run(path: str) -> tuple:
     try:
         with open(files[0]) as file:
             configuration = json.load(file)
-        episodes = pd.read_csv(files[1])
+        episodes = outputs.read_table(files[1])
     except (OSError, ValueError, UnicodeDecodeError) as error:
         raise ValueError(f"{path}: unreadable run ({type(error).__name__})") from None
     missing = {"task", "learner"} - set(configuration)

@@ -17,7 +17,7 @@
 - `BackgroundWriter`: outputs written on a thread of their own while the work goes on, every
   one on disk, or its error raised, before the writer is done.
 - `write_table(table, path)`: a table written whole as CSV (gzip'd for `.gz`), the same
-  bytes each time it is written.
+  bytes each time it is written; `read_table(path)` reads one back, every number as written.
 
 Every room may use it; it imports no other part of lwrl.
 """
@@ -111,6 +111,20 @@ def write_table(table, path) -> None:
     gzipped = {"method": "gzip", "mtime": 0, "filename": ""} if str(path).endswith(".gz") else None
     with atomic_write(path, "wb") as file:
         table.to_csv(file, index=False, compression=gzipped)
+
+
+def read_table(path, **options):
+    """The CSV table at `path` (gzip'd for `.gz`) as a pandas DataFrame (`pandas.read_csv`
+    with `options`), every float the one whose shortest repr was written. pandas 2 parses
+    decimals with a converter that can miss by an ulp (0.00017686265734202648 read as
+    0.000176862657342) unless asked for `float_precision="round_trip"`; pandas 3.1 deprecates
+    that option, every converter of its being exact (pandas-dev/pandas#64666), so it is asked
+    for before 3.1 only. Every table lwrl reads is read here."""
+    import pandas as pd  # the 'paper' extra: only what reads tables needs it
+
+    if tuple(int(part) for part in pd.__version__.split(".")[:2]) < (3, 1):
+        options.setdefault("float_precision", "round_trip")
+    return pd.read_csv(path, **options)
 
 
 def _exchange(first: pathlib.Path, second: pathlib.Path) -> bool:

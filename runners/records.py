@@ -55,7 +55,7 @@ import numpy as np
 import pandas as pd
 
 import lwrl
-from lwrl import agent as learners
+from lwrl import agent as learners, outputs
 from lwrl.agent.arithmetic import NotCounted
 from lwrl.runners.store import RunStore, cpu
 
@@ -177,7 +177,7 @@ def read(out_dir, configs) -> pd.DataFrame:
     for config in configs:
         path = RunStore.records_file(out_dir, config.key)
         if path.exists():
-            tables.append(pd.read_csv(path).assign(recorded=True))
+            tables.append(outputs.read_table(path).assign(recorded=True))
         else:
             tables.append(pd.DataFrame({"run": config.key, "agent": np.arange(config.agents),
                                         "seed": config.seeds}).reindex(columns=list(COLUMNS))

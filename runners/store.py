@@ -132,7 +132,7 @@ class RunStore:
             if not path.exists():
                 continue
             try:
-                table = pd.read_csv(path)
+                table = outputs.read_table(path)
                 if table.empty or "episode" not in table.columns:
                     raise ValueError("no rows of episodes")
             except (OSError, EOFError, zlib.error, ValueError, pd.errors.ParserError) as error:
@@ -170,7 +170,7 @@ class RunStore:
         settings was a column (`RunConfig.columns`) gets that column from the run."""
         tables = []
         for config in configs:
-            table = pd.read_csv(self.path(config))
+            table = outputs.read_table(self.path(config))
             missing = {name: value for name, value in config.columns().items()
                        if name not in table.columns}
             tables.append(table.assign(**missing) if missing else table)

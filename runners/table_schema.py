@@ -23,6 +23,8 @@ import re
 import numpy as np
 import pandas as pd
 
+from lwrl import outputs
+
 SCHEMAS = pathlib.Path(__file__).resolve().parent / "schemas"
 """The schemas of the tables `runners` writes."""
 TYPES = ("string", "integer", "number", "boolean", "object", "array", "datetime")
@@ -59,8 +61,8 @@ def load(path) -> dict:
 def read_csv(path, schema: dict) -> pd.DataFrame:
     """A CSV table as text, a cell of `missingValues` (default: the empty string) missing,
     marked as read from CSV (`attrs["csv"]`) for `violations`."""
-    table = pd.read_csv(path, dtype=str, keep_default_na=False,
-                        na_values=schema.get("missingValues", [""]))
+    table = outputs.read_table(path, dtype=str, keep_default_na=False,
+                               na_values=schema.get("missingValues", [""]))
     table.attrs["csv"] = True
     return table
 

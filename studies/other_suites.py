@@ -14,6 +14,7 @@ import os
 
 import pandas as pd
 
+from lwrl import outputs
 from lwrl.analysis.plots import plot_learning_curve, save_figure
 from lwrl.runners.summary import mean_and_error
 
@@ -30,7 +31,7 @@ def plot_run(run_dir: str, figure_dir: str) -> str:
     directory); return its line of numbers."""
     with open(os.path.join(run_dir, "config.json")) as file:
         config = json.load(file)
-    episodes = pd.read_csv(os.path.join(run_dir, "episodes.csv"))
+    episodes = outputs.read_table(os.path.join(run_dir, "episodes.csv"))
     seeds = sorted(episodes["seed"].unique())
     count = int(episodes["episode"].max())
     tenth = max(1, count // 10)

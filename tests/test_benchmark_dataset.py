@@ -12,6 +12,7 @@ import pandas as pd
 import pytest
 from conftest import run_cli
 
+from lwrl import outputs
 from lwrl.runners import table_schema
 
 pytest.importorskip("pyarrow")
@@ -40,7 +41,7 @@ def test_the_runs_load_in_one_line_as_the_tables_hold_them(benchmark, tmp_path, 
     assert status == 0 and "runs.parquet" in printed
     runs = pd.read_parquet(out / "runs.parquet")
     assert list(runs.columns) == [field["name"] for field in SCHEMA["fields"]]
-    tables = [pd.read_csv(path) for path in sorted((benchmark / "runs").glob("*.csv.gz"))]
+    tables = [outputs.read_table(path) for path in sorted((benchmark / "runs").glob("*.csv.gz"))]
     assert len(runs) == sum(map(len, tables))
     for table in tables:
         mine = runs[runs["run"] == table["run"].iloc[0]].reset_index(drop=True)

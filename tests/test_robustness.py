@@ -13,11 +13,10 @@ import os
 import pathlib
 
 import numpy as np
-import pandas as pd
 import pytest
 
 from lwrl import agent as learners
-from lwrl import tasks
+from lwrl import outputs, tasks
 from lwrl.agent import io as agent_io
 from lwrl.agent.jax_population import missing_jax
 from lwrl.runners import sweep
@@ -182,7 +181,7 @@ def test_lwrl_train_takes_the_physics_and_the_sensors(tmp_path, capsys):
                                    "--action-delay", "1", "--observation-noise", "pole_angle=0.01",
                                    "--action-noise", "0.5", "--out", str(out_dir)], capsys)
     assert status == 0
-    table = pd.read_csv(out_dir / "episodes.csv")
+    table = outputs.read_table(out_dir / "episodes.csv")
     assert list(table.columns)[-1] == "force" and table["force"].between(5, 12).all()
     config = RunConfig(task="cartpole.balance", plant="analytic", agents=2, episodes=3,
                        params={"pole_mass": 0.2}, randomise={"force": (5.0, 12.0)}, action_delay=1,

@@ -14,6 +14,7 @@ plan's table): the first runs' own records replace it.
 
 import pandas as pd
 
+from lwrl import outputs
 from lwrl.runners.store import RunStore, ledger_lines
 from lwrl.studies.paper.benchmark import evaluation, protocol
 
@@ -56,8 +57,8 @@ def ledger_rates(out_dir) -> pd.DataFrame:
     runs = RunStore(out_dir, make=False).directory
     counted = []
     for line in ledger_lines(out_dir):
-        tables = [pd.read_csv(runs / f"{key}.csv.gz",
-                              usecols=["task", "actions", "learner", "greedy", "steps"])
+        tables = [outputs.read_table(runs / f"{key}.csv.gz",
+                                     usecols=["task", "actions", "learner", "greedy", "steps"])
                   for key in line["runs"]]
         kinds = {(t.task.iloc[0] + (protocol.CONTINUOUS if t.actions.iloc[0] == "continuous"
                                     else ""), t.learner.iloc[0], bool(t.greedy.iloc[0]))

@@ -60,7 +60,8 @@ def arrow_schema(schema: dict):
 def typed_table(path: str, schema: dict) -> pd.DataFrame:
     """One run table with every field of `schema`, typed by it (a missing column all null),
     or a one-line ValueError naming the table and the column that is not of its type."""
-    table = pd.read_csv(path, keep_default_na=False, na_values=schema.get("missingValues", [""]))
+    table = outputs.read_table(path, keep_default_na=False,
+                               na_values=schema.get("missingValues", [""]))
     pandas_types = {"string": "string", "integer": "Int64", "number": "float64", "boolean": "boolean"}
     columns = {}
     for field in schema["fields"]:

@@ -32,6 +32,7 @@ import zlib
 import numpy as np
 import pandas as pd
 
+from lwrl import outputs
 from lwrl.studies.paper.benchmark import evaluation, protocol, study
 
 COLUMNS = ("learner", "task", "budget", "fraction", "seed", "episode", "steps", "protocol",
@@ -50,8 +51,8 @@ def read(path: str, plant: str = "analytic") -> pd.DataFrame:
     """The results file at `path`, checked (see the module) against the protocol on `plant`;
     a one-line ValueError for a file that cannot be read or does not follow the protocol."""
     try:
-        table = pd.read_csv(path)
-        cells = pd.read_csv(path, header=None, dtype=str, keep_default_na=False)
+        table = outputs.read_table(path)
+        cells = outputs.read_table(path, header=None, dtype=str, keep_default_na=False)
     except (OSError, EOFError, zlib.error, ValueError, UnicodeDecodeError) as error:
         damaged = isinstance(error, (EOFError, zlib.error))  # a gzip file cut short or changed
         why = "damaged compressed data" if damaged else type(error).__name__
