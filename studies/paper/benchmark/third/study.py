@@ -87,7 +87,7 @@ def references(task: str, out_dir: str, plant: str = "analytic") -> dict:
         table = pd.concat([t.assign(row=row) for row, t in tables.items()], ignore_index=True)
         os.makedirs(os.path.dirname(path), exist_ok=True)
         outputs.write_table(table, path)
-    table = pd.read_csv(path)
+    table = outputs.read_table(path)
     return {row: evaluation.measure(part, base) for row, part in table.groupby("row")}
 
 
