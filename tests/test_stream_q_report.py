@@ -31,6 +31,7 @@ def fake_runs(directory, budget=60, lwrl_lengths=None, authors_lengths=None, **c
                          "truncated": int(episode > len(lengths)), "return": -1.0})
     pd.DataFrame(rows).to_csv(os.path.join(directory, "lwrl.csv.gz"), index=False)
     configuration = {"task": "cartpole.balance", "plant": "analytic", "budget": budget,
+                     "learner": "the learner",
                      "seed": 0, "agents": len(lwrl_lengths),
                      "agent": {**stream_q_torch.SETTINGS, "timesteps": budget}}
     configuration.update(changes)
@@ -63,7 +64,9 @@ def test_the_report_states_the_numbers_it_computed(tmp_path):
     out = tmp_path / "stream_q.md"
     result = report.write(str(tmp_path), str(out), "the command")
     text = out.read_text()
-    assert f"| {report.LWRL}, 2 agents | {result['lwrl'].text(1)} |" in text
+    assert (f"| {report.MEASURES[0][0]} | {result['lwrl'].text(1)} | "
+            f"{result['authors'].text(1)} | {result['difference'].text(1)} |") in text
+    assert f"| 1 | {(2 * 30 + 9 * 20) / 11:.1f} | {(2 * 40 + 9 * 10) / 11:.1f} | 2 | 2 |" in text
     assert result["lwrl"].value == pytest.approx(((10 * 20 + 30) / 11 + (2 * 30 + 9 * 20) / 11) / 2)
     assert result["difference"].value == pytest.approx(
         result["lwrl"].value - result["authors"].value)
@@ -95,7 +98,7 @@ def test_an_lwrl_agent_short_of_the_budget_is_refused(tmp_path):
     reason="the comparison's runs are not committed")
 def test_the_committed_report_recomputes_from_the_committed_runs(tmp_path):
     out = tmp_path / "stream_q.md"
-    report.write(KEPT, str(out), "the command")
+    report.write(KEPT, str(out), report.command_line("docs/implementations/stream_q",
+                                                     "docs/implementations/stream_q.md"))
     with open(REPORT) as file:
-        committed = [line for line in file.read().splitlines() if line.startswith("|")]
-    assert committed == [line for line in out.read_text().splitlines() if line.startswith("|")]
+        assert out.read_text() == file.read()

@@ -74,13 +74,19 @@ def difference_of_means(x, y, axis=-1):
     return np.mean(x, axis=axis) - np.mean(y, axis=axis)
 
 
-def comparison(lwrl_values, authors_values) -> dict:
-    """The final window's statistics (see the module)."""
+def finished_counts(table: pd.DataFrame) -> np.ndarray:
+    """Each agent's (by seed) number of episodes finished within the budget."""
+    return table.groupby("seed", sort=True)["episode"].count().to_numpy(dtype=float)
+
+
+def comparison(lwrl_values, authors_values, higher_is_better: bool = True) -> dict:
+    """One measure's statistics (see the module)."""
     sd = [float(np.std(v, ddof=1)) for v in (lwrl_values, authors_values)]
     return {"lwrl": st.mean_interval(lwrl_values),
             "authors": st.mean_interval(authors_values),
             "difference": st.interval(difference_of_means, lwrl_values, authors_values),
-            "improvement": st.improvement_interval(lwrl_values, authors_values),
+            "improvement": st.improvement_interval(lwrl_values, authors_values,
+                                                   higher_is_better),
             "detectable": power.detectable_difference(sd[0], sd[1], len(lwrl_values),
                                                       len(authors_values), family=2),
             "sd": sd}
@@ -127,21 +133,34 @@ def check_same_settings(configuration: dict, episodes: pd.DataFrame, document: d
     return int(budget)
 
 
+MEASURES = (("final window: steps per episode (more is better)", True),
+            ("episodes finished within the budget (fewer is better: longer episodes)", False))
+"""The report's measures and whether more is better: the final window's, which the verdict is
+on, and the episodes finished, a whole-budget count."""
+
+
 def write(directory: str, out: str, command: str) -> dict:
-    """The report and its figure from the runs kept in `directory`; its numbers."""
+    """The report and its figure from the runs kept in `directory`; its numbers, the final
+    window's, with `measures`' of both measures and each implementation's per-agent
+    `values`."""
     configuration, episodes, document = read(directory)
     budget = check_same_settings(configuration, episodes, document)
     task = configuration["task"]
+    limit = int(tasks.spec(task).step_limit)
     tables = {LWRL: lwrl_table(episodes, task), AUTHORS: authors_table(document)}
-    values = {name: final_window(table, budget) for name, table in tables.items()}
-    result = comparison(values[LWRL], values[AUTHORS])
+    per_agent = {name: (final_window(table, budget), finished_counts(table))
+                 for name, table in tables.items()}
+    results = [comparison(per_agent[LWRL][k], per_agent[AUTHORS][k], higher)
+               for k, (_, higher) in enumerate(MEASURES)]
+    result = results[0]
     figure = plots.plot_runs(list(tables.items()), "steps", "steps per episode", by_steps=True)
-    figure.axes[0].set_title(f"{task}, {len(values[LWRL])} and {len(values[AUTHORS])} agents")
+    agents = {name: len(values[0]) for name, values in per_agent.items()}
+    figure.axes[0].set_title(f"{task}, {agents[LWRL]} and {agents[AUTHORS]} agents")
     paths = plots.save_figure(figure, os.path.join(os.path.dirname(out) or ".", "figures"),
                               os.path.splitext(os.path.basename(out))[0])
-    agents = {LWRL: len(values[LWRL]), AUTHORS: len(values[AUTHORS])}
     seconds = sum(agent["seconds"] for agent in document["agents"])
     authors_steps = budget * len(document["agents"])
+    seeds = document_seeds(document)
     lines = [
         "# lwrl's stream-Q(λ) against the authors' PyTorch code",
         "",
@@ -154,83 +173,114 @@ def write(directory: str, out: str, command: str) -> dict:
         f"from the runs that `bash docs/implementations/stream_q/run.sh "
         f"PATH/streaming-drl` made (it runs both, then this report).",
         "",
-        "| | final window: steps per episode, mean over agents (95 % interval) |",
-        "|---|---|",
-        f"| {LWRL}, {agents[LWRL]} agents | {result['lwrl'].text(1)} |",
-        f"| {AUTHORS}, {agents[AUTHORS]} agents | {result['authors'].text(1)} |",
-        f"| difference of the means (lwrl − authors) | {result['difference'].text(1)} |",
-        f"| smallest difference detectable (80 % power, two-sided 0.05) | "
-        f"{result['detectable']:.1f} |",
+        f"| measure (mean over agents, 95 % interval) | {LWRL}, {agents[LWRL]} agents | "
+        f"{AUTHORS}, {agents[AUTHORS]} agents | difference (lwrl − authors) | smallest "
+        f"difference detectable | P(lwrl better) |",
+        "|---|---|---|---|---|---|",
+        *[f"| {name} | {r['lwrl'].text(1)} | {r['authors'].text(1)} | "
+          f"{r['difference'].text(1)} | {r['detectable']:.1f} | {r['improvement'].text(2)} |"
+          for (name, _), r in zip(MEASURES, results)],
         "",
-        f"**{verdict(result['improvement'], AUTHORS, LWRL, agents)}** Standard deviations "
-        f"over the agents: {result['sd'][0]:.1f} (lwrl) and {result['sd'][1]:.1f} (the "
-        f"authors'). With these spreads and {agents[LWRL]} agents a side, a true difference "
-        f"of the means smaller than about {result['detectable']:.0f} steps per episode is "
-        f"missed more than one time in five: where no difference is found, the comparison "
-        f"does not show the two equal, only that they do not differ by that much or more "
-        f"(with that power).",
+        f"**Final window: {lowered(verdict(result['improvement'], AUTHORS, LWRL, agents))}** "
+        f"The agents spread (standard deviations {result['sd'][0]:.0f} and "
+        f"{result['sd'][1]:.0f} steps per episode): {above_half(per_agent, limit)}. With "
+        f"these spreads and {agents[LWRL]} agents a side, the smallest difference of the means "
+        f"a two-sided Welch test at 0.05 detects with 80 % power is about "
+        f"{result['detectable']:.0f} steps per episode: a smaller true difference is missed "
+        f"more than one time in five, so that finding no difference does not show the two "
+        f"equal. Episodes finished: "
+        f"{lowered(verdict(results[1]['improvement'], AUTHORS, LWRL, agents))}",
+        "",
+        "The curves: at equal numbers of environment steps, each agent's last finished episode "
+        "(as `lwrl plot --by-steps` draws them), from the step by which every agent had "
+        "finished an episode to the step by which every agent had finished its last; the mean "
+        "over the agents with its 95 % interval.",
         "",
         *plots.markdown_images(paths, os.path.dirname(out)),
         "",
         "## Protocol",
         "",
-        f"- Task: `{task}` on the `{configuration.get('plant')}` plant; lwrl's through "
-        f"`lwrl train`, the authors' through lwrl's Gymnasium face "
-        f"(`gymnasium.make(\"{document['env_id']}\")`).",
-        f"- Budget: {budget:,} environment steps per agent, the horizon of both (lwrl's "
-        f"`--timesteps`, the authors' `total_steps`: ε falls from 1 to 0.01 over its first "
-        f"5 %). The benchmark's cart-pole budget is 250 000: this one is a fifth of it, so "
-        f"that the authors' code, about {1000 * seconds / authors_steps:.1f} ms per step here "
-        f"on one thread, ran its agents within the time there was.",
-        f"- Agents: {agents[LWRL]} of each, seeds {min(document_seeds(document))} to "
-        f"{max(document_seeds(document))}; each implementation draws its own random numbers "
-        f"(JAX's streams; PyTorch's and NumPy's), so the comparison is between the two sets "
-        f"of agents, not agent by agent.",
+        f"- Task: `{task}` on the `{configuration.get('plant')}` plant; lwrl's "
+        f"`{configuration['learner']}` through `lwrl train`, the authors' code through lwrl's "
+        f"Gymnasium face (`gymnasium.make(\"{document['env_id']}\")`).",
+        f"- Budget: {spaced(budget)} environment steps per agent, the horizon of both (lwrl's "
+        f"`--timesteps` and `--budget`, the authors' `total_steps`: ε falls from 1 to 0.01 "
+        f"over its first 5 %), less than the benchmark's (docs/guide/learners.md, \"First "
+        f"results\"), so that the authors' code, {1000 * seconds / authors_steps:.1f} ms per "
+        f"step here on one thread of a shared machine, ran its agents within the time there "
+        f"was.",
+        f"- Agents: {agents[LWRL]} of each, seeds {seeds[0]} to {seeds[-1]}; each "
+        f"implementation draws its own random numbers (JAX's streams; PyTorch's and NumPy's), "
+        f"so the comparison is between the two sets of agents, not agent by agent.",
         "- Settings: the authors' defaults for both: ObGD with α 1, γ 0.99, λ 0.8, κ 2; two "
         "hidden layers of 32 with layer normalisation without learned parameters and leaky "
         "ReLU; sparse initialisation at 0.9; observations normalised and rewards scaled by "
         "running statistics; ε-greedy, the trace cleared after an exploratory action.",
-        f"- The authors' code: {document['authors']} (CC BY-NC 4.0: imported from a checkout, "
-        f"not copied), run by `studies/implementations/stream_q_torch.py` (torch "
-        f"{document['torch']}, Python {document['python']}), whose glue follows their "
-        "script's `main`. Adapted there: the environment keeps the task's own time limit "
-        "(their `main` sets 10 000 steps; the cart-pole's is 12 000) and has no `AddTimeInfo` "
-        "feature (the episode's elapsed time in the observation), as lwrl's `stream_q` has "
-        "none.",
+        f"- The authors' code: `mohmdelsayed/streaming-drl` at `{document['authors'][-40:]}` "
+        f"(CC BY-NC 4.0: imported from a checkout, not copied), run as it is (their `StreamQ`, "
+        f"`ObGD`, `sparse_init` and normalisation wrappers) by "
+        f"`studies/implementations/stream_q_torch.py` (torch {document['torch']}, Python "
+        f"{document['python']}), whose glue follows their script's `main`. Adapted there: the "
+        f"environment keeps the task's own time limit, {spaced(limit)} steps (their `main` "
+        "sets 10 000), and has no `AddTimeInfo` feature (the episode's elapsed time in the "
+        "observation), as lwrl's `stream_q` has none.",
         "- Where lwrl's `stream_q` departs from the authors' algorithm (docs/guide/learners.md): "
         "a time limit is not a terminal state (lwrl bootstraps from it; the authors' "
-        "`update_params` takes `terminated or truncated` as the end). On this task it "
-        "touches one transition of each episode that reaches the 12 000-step limit.",
-        f"- Final window: the last {WINDOW:.0%} of the budget; each agent's steps of its last "
-        f"finished episode at {WINDOW_POINTS} evenly spaced numbers of steps there, averaged. "
-        "Intervals: 95 % percentile bootstrap over agents; P(lwrl better): the probability "
-        "that an agent of lwrl's has more steps per episode than one of the authors' "
-        "(Agarwal et al. 2021), ties half; the detectable difference: Welch's test "
-        "(`analysis.power.detectable_difference`, one side at 0.025).",
-        f"- Episodes an agent finished: lwrl "
-        f"{episode_counts(tables[LWRL])}; the authors' {episode_counts(tables[AUTHORS])} "
-        "(median [least, most] over agents).",
+        "`update_params` takes `terminated or truncated` as the end), which touches one "
+        f"transition of each episode that reaches the {spaced(limit)}-step limit.",
+        f"- Final window: the last {WINDOW * 100:.0f} % of the budget; each agent's steps of "
+        f"its last finished episode at {WINDOW_POINTS} evenly spaced numbers of steps there, "
+        "averaged. Episodes finished: those that ended within the budget (lwrl's last "
+        "episode, cut by the budget, not counted, as `lwrl plot` leaves it out). Intervals: "
+        "95 % percentile bootstrap over agents; P(lwrl better): the probability that an agent "
+        "of lwrl's does better than one of the authors' (Agarwal et al. 2021), ties half; the "
+        "smallest difference detectable: Welch's test at the measured standard deviations, "
+        "80 % power, two-sided 0.05 (`analysis.power.detectable_difference`, one side at "
+        "0.025).",
         "",
         "## Per agent",
         "",
-        "| seed | lwrl: final window | authors': final window |",
-        "|---|---|---|",
-        *[f"| {seed} | {a:.1f} | {b:.1f} |" for seed, a, b in
-          zip(document_seeds(document), values[LWRL], values[AUTHORS])],
+        "| seed | lwrl: final window | authors': final window | lwrl: episodes | "
+        "authors': episodes |",
+        "|---|---|---|---|---|",
+        *[f"| {seed} | {a:.1f} | {b:.1f} | {c:.0f} | {d:.0f} |" for seed, a, b, c, d in
+          zip(seeds, *per_agent[LWRL][:1], *per_agent[AUTHORS][:1], per_agent[LWRL][1],
+              per_agent[AUTHORS][1])],
         "",
     ]
     with open(out, "w") as file:
         file.write("\n".join(lines))
-    return {"values": values, **result}
+    return {**result, "measures": results,
+            "values": {name: values[0] for name, values in per_agent.items()}}
+
+
+def lowered(sentence: str) -> str:
+    """`sentence` to follow a colon: its first letter lower-case."""
+    return sentence[:1].lower() + sentence[1:]
+
+
+def above_half(per_agent: dict, limit: int) -> str:
+    """How many agents of each implementation averaged more than half the episode's step
+    `limit` in the final window."""
+    counts = [int(np.sum(values[0] > limit / 2)) for values in per_agent.values()]
+    total = [len(values[0]) for values in per_agent.values()]
+    return (f"{counts[0]} of lwrl's {total[0]} agents and {counts[1]} of the authors' "
+            f"{total[1]} averaged more than half the {spaced(limit)}-step limit in the final "
+            f"window, the others less")
+
+
+def spaced(number: int) -> str:
+    """50 000, as the documentation writes numbers."""
+    return f"{number:,}".replace(",", " ")
 
 
 def document_seeds(document: dict) -> list:
     return sorted(agent["seed"] for agent in document["agents"])
 
 
-def episode_counts(table: pd.DataFrame) -> str:
-    counts = table.groupby("seed")["episode"].count()
-    return f"{int(counts.median())} [{counts.min()}, {counts.max()}]"
+def command_line(directory: str, out: str) -> str:
+    """The command that writes the report from the runs kept in `directory` (its first line)."""
+    return f"python -m lwrl.studies.implementations.stream_q_report --dir {directory} --out {out}"
 
 
 def main(argv=None) -> int:
@@ -243,10 +293,8 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.lwrl_run:
         keep_lwrl_run(args.lwrl_run, args.dir)
-    command = "python -m lwrl.studies.implementations.stream_q_report " + " ".join(
-        f"--{name} {value}" for name, value in (("dir", args.dir), ("out", args.out)))
     try:
-        result = write(args.dir, args.out, command)
+        result = write(args.dir, args.out, command_line(args.dir, args.out))
     except (OSError, ValueError, KeyError) as error:
         print(f"stream_q_report: {error}", file=sys.stderr)
         return 2
