@@ -31,6 +31,7 @@ own rewards (`RecordEpisodeStatistics` sits below the reward scaling, as in `mai
 
 import argparse
 import gzip
+import importlib
 import importlib.util
 import json
 import os
@@ -62,12 +63,12 @@ def authors_modules(path: str):
     """The authors' script and `normalization_wrappers` module, imported from the checkout
     at `path` (its directory put first on `sys.path`, as running the script there would)."""
     sys.path.insert(0, os.path.abspath(path))
-    import normalization_wrappers
+    wrappers = importlib.import_module("normalization_wrappers")
     spec = importlib.util.spec_from_file_location("streaming_drl_script",
                                                   os.path.join(path, AUTHORS_SCRIPT))
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    return module, normalization_wrappers
+    return module, wrappers
 
 
 def run_agent(script, wrappers, env_id: str, seed: int, timesteps: int) -> dict:
