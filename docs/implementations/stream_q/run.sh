@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # lwrl's stream-Q(lambda) against the authors' PyTorch code on the cart-pole
-# (docs/implementations/stream_q.md): 10 agents of each (seeds 0-9), the authors' defaults,
+# (docs/implementations/stream_q.md): 20 agents of each (seeds 0-19), the authors' defaults,
 # 50 000 environment steps per agent, one process after the other; then the report.
 #
 #     git clone https://github.com/mohmdelsayed/streaming-drl /tmp/streaming-drl
@@ -17,10 +17,10 @@ cd "$(dirname "$0")/../../.."
 PYTHON=${PYTHON:-python}
 TIMESTEPS=50000
 "$PYTHON" -m lwrl.studies.implementations.stream_q_torch --authors "$AUTHORS" \
-    --env-id lwrl/cartpole-balance-analytic-v0 --timesteps "$TIMESTEPS" --seeds 0-9 \
+    --env-id lwrl/cartpole-balance-analytic-v0 --timesteps "$TIMESTEPS" --seeds 0-19 \
     --out docs/implementations/stream_q/torch.json.gz
-[ -d runs/stream_q-cartpole ] || "$PYTHON" -m lwrl.cli train cartpole.balance --plant analytic \
-    --learner stream_q --agents 10 --seed 0 --budget "$TIMESTEPS" --timesteps "$TIMESTEPS" \
-    --episodes $((TIMESTEPS / 10)) --out runs/stream_q-cartpole
+[ -d runs/stream_q-cartpole-20 ] || "$PYTHON" -m lwrl.cli train cartpole.balance --plant analytic \
+    --learner stream_q --agents 20 --seed 0 --budget "$TIMESTEPS" --timesteps "$TIMESTEPS" \
+    --episodes $((TIMESTEPS / 10)) --out runs/stream_q-cartpole-20
 "$PYTHON" -m lwrl.studies.implementations.stream_q_report --dir docs/implementations/stream_q \
-    --lwrl-run runs/stream_q-cartpole --out docs/implementations/stream_q.md
+    --lwrl-run runs/stream_q-cartpole-20 --out docs/implementations/stream_q.md
