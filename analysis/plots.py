@@ -80,16 +80,29 @@ def curve_by_steps(table: pd.DataFrame, value: str, points: int = STEP_POINTS) -
     every agent has finished an episode to the step by which every agent has finished its
     last (so that learners whose episodes differ in length are compared at equal steps).
     Episodes an agent did not run (no steps: NaN rows of episodes.csv) are left out."""
+    finished, values = finished_episodes(table, value)
+    steps = np.linspace(max(ends[0] for ends in finished), min(ends[-1] for ends in finished),
+                        points)
+    return steps, values_at_steps(finished, values, steps)
+
+
+def finished_episodes(table: pd.DataFrame, value: str) -> tuple:
+    """`(ends, values)`, per agent in the order of their seeds: the environment step by
+    which each episode it ran had finished (its steps summed) and the episode's `value`."""
     finished, values = [], []
     ran = table[table["steps"].notna()]
     for _, agent in ran.sort_values("episode").groupby("seed", sort=True):
         finished.append(agent["steps"].cumsum().to_numpy())
         values.append(agent[value].to_numpy())
-    steps = np.linspace(max(ends[0] for ends in finished), min(ends[-1] for ends in finished),
-                        points)
-    grid = np.array([agent_values[np.searchsorted(ends, steps, side="right") - 1]
+    return finished, values
+
+
+def values_at_steps(finished: list, values: list, steps) -> np.ndarray:
+    """agents x len(`steps`): each agent's value of the last episode it had finished by each
+    number of `steps` (`finished_episodes`' ends and values; every step at or after the
+    agent's first end)."""
+    return np.array([agent_values[np.searchsorted(ends, steps, side="right") - 1]
                      for ends, agent_values in zip(finished, values)])
-    return steps, grid
 
 
 def curve_end(table: pd.DataFrame, value: str, by_steps: bool = False) -> tuple:

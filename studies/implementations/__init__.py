@@ -12,6 +12,10 @@ the same for both implementations; the report lists them field by field (the tra
 Modules: `plan` (the pairs, the runs, the measures, the translation), `costs` (CPU and wall
 time per agent-step of each implementation), `report` (the statistics, the figures and
 `report.md`), `study` (the runs through `runners.sweep`, resumable, and the report).
+Beside them, one comparison with a reference outside the registry: `stream_q_torch` (the
+authors' PyTorch stream-Q(lambda), imported from a checkout, on a task through the Gymnasium
+face) and `stream_q_report` (it against lwrl's `stream_q`: `stream_q.md`, its runs in
+`stream_q/`).
 
 Layout of the output directory:
 
