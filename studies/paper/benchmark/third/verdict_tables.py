@@ -15,6 +15,19 @@ from lwrl.analysis.statistics import Estimate
 from lwrl.studies.paper.benchmark import protocol
 from lwrl.studies.paper.benchmark.third import judging, rule
 
+EXPLAINED = [
+    "Per task and point, the light-weight row (the paper's agent; the actor-critic on the "
+    "continuous pendulum) against each rival: d = mean(light) − mean(rival) of the final "
+    "normalised scores, with its 95 % bootstrap interval; the p values of \"not worse\", "
+    "\"worse\" and \"better\" (adjusted across the family); the outcome; the smallest "
+    "difference the rows could detect where undecided; TOST's p (equivalence within the "
+    "margin, beside, not in the outcome); the area's d and outcome (a family of its own); the "
+    "ratios of restricted mean steps and CPU to the level 0.5 (light / rival, bootstrap "
+    "intervals), the log-rank p of the steps and the pace. Then per row its agents at the "
+    "level, the Kaplan-Meier medians of steps and CPU seconds to it, and, where the task is "
+    "reached or not, the share of agents reaching it in every greedy episode "
+    "(Clopper-Pearson interval).", ""]
+"""The report's words on the tables of every task and point."""
 PROFILE = (0.25, 0.5, 0.75, 1.0)
 """The normalised scores at which the report gives the performance profiles."""
 AGGREGATED = (*rule.STAGE_1, *(t for t in rule.TASKS if rule.JOIN in t))
@@ -37,8 +50,8 @@ def family_line(name: str, size: int) -> str:
     if not size:
         return f"- at {name} times the budget: no comparison is run yet."
     return (f"- at {name} times the budget: {size} comparison{'s' * (size != 1)} run, of the "
-            f"{planned()} the rule's rows make; \"not worse\" and \"worse\" start at {outcomes.ALPHA} / "
-            f"{2 * size} each (the final scores' family; the areas' alike).")
+            f"{planned()} the rule's rows make; \"not worse\" and \"worse\" start at "
+            f"{outcomes.ALPHA} / {2 * size} each (the final scores' family; the areas' alike).")
 
 
 def summary_lines(judged: dict) -> list:
@@ -53,7 +66,16 @@ def summary_lines(judged: dict) -> list:
                                                  for n in names) + " |")
     lines += ["", "The families of the graphical Holm procedure (Bretz et al. 2009; margin "
               f"{outcomes.MARGIN}), one per budget point over every task:", ""]
-    return lines + [family_line(n, judged[n][1]) for n in names] + [""]
+    return lines + [family_line(n, judged[n][1]) for n in names] + [""] + EXPLAINED
+
+
+def significant(estimate: Estimate) -> str:
+    """`estimate` with its interval in two significant digits (CPU seconds and their ratios
+    span orders of magnitude)."""
+    if not math.isfinite(estimate.low):
+        return two_digits(estimate.value)
+    return (f"{two_digits(estimate.value)} [{two_digits(estimate.low)}, "
+            f"{two_digits(estimate.high)}]")
 
 
 def comparison_row(c) -> str:
@@ -61,23 +83,18 @@ def comparison_row(c) -> str:
     if not c.run:
         return f"| {c.rival} | not run |" + " — |" * 11
     f, a = c.final, c.area
-    tests = ", ".join(f"{two_digits(f.p_values[h])} ({two_digits(f.adjusted[h])})" for h in HYPOTHESES)
+    tests = ", ".join(f"{two_digits(f.p_values[h])} ({two_digits(f.adjusted[h])})"
+                      for h in HYPOTHESES)
     return (f"| {c.rival} | {'passes' if c.gate.judged else c.gate.reason} | "
             f"{c.difference.text(2)} | {tests} | **{f.outcome}** | {two_digits(f.detectable)} | "
             f"{two_digits(f.equivalence)} | {c.area_difference.text(2)} | {a.outcome} | "
-            f"{c.steps_ratio.text(2)} | {two_digits(c.logrank)} | {c.cpu_ratio.text(3)} | {c.pace} |")
+            f"{c.steps_ratio.text(2)} | {two_digits(c.logrank)} | {significant(c.cpu_ratio)} | "
+            f"{c.pace} |")
 
 
 def comparison_lines(judged_task) -> list:
-    """The light-weight row's comparisons on one task at one point."""
-    light = protocol.light(rule.split(judged_task.task)[0])
-    return [f"{light} against each rival: d = mean({light}) − mean(rival), with its 95 % "
-            "bootstrap interval; the p values of \"not worse\", \"worse\" and \"better\" "
-            "(adjusted across the family); the smallest difference the rows could detect "
-            "where undecided; TOST's p (equivalence within the margin, beside); the area's "
-            "d and outcome; the ratios of restricted mean steps and CPU to the level 0.5 "
-            "(light / rival, bootstrap intervals) and the log-rank p of the steps.", "",
-            "| rival | gate | d | p not worse, worse, better (adjusted) | outcome | "
+    """The light-weight row's comparisons on one task at one point (`EXPLAINED`)."""
+    return ["| rival | gate | d | p not worse, worse, better (adjusted) | outcome | "
             "detectable | TOST p | area's d | area's outcome | steps ratio | log-rank p | "
             "CPU ratio | pace |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
             *map(comparison_row, judged_task.comparisons), ""]
@@ -98,7 +115,7 @@ def row_lines(judged_task, out_dir: str) -> list:
                  if shares else "—")
         carried = " (carried)" if row_curve.carried else ""
         lines.append(f"| {label}{carried} | {int(pace.reached.sum())} of {len(pace.reached)} | "
-                     f"{pace.median_steps.text(0)} | {pace.median_cpu.text(3)} | {share} |")
+                     f"{pace.median_steps.text(0)} | {significant(pace.median_cpu)} | {share} |")
     return lines + [""]
 
 
