@@ -14,8 +14,9 @@ time", "The rule"), from the runs a directory holds, at each budget point the ve
   rivals (`rivals`: the deep rows and the rule's new rivals the registry runs): the gate
   (`verdicts.above_random_gate`), the final normalised score's and the area's outcomes
   (`analysis.outcomes.judge`, each in a family of its own of every comparison run at that
-  point, over every task), the steps' and CPU's Kaplan-Meier medians, log-rank p and ratio
-  of restricted means with their bootstrap intervals (`analysis.curves`), "faster/slower"
+  point, over every task), the steps' and CPU's Kaplan-Meier medians, the steps' log-rank p
+  (none where neither row reaches the level: nothing to compare) and the ratios of
+  restricted means with their bootstrap intervals (`analysis.curves`), "faster/slower"
   (`curves.pace`);
 - the **task verdict** (`analysis.task_verdict.verdict`) from the final score's outcomes
   and the CPU ratios.
@@ -183,7 +184,8 @@ def compare(task: str, light: tuple, rival: tuple, label: str, random) -> Compar
         difference=statistics.interval(_difference, x_final, y_final),
         area_difference=statistics.interval(_difference, x_area, y_area),
         logrank=curves.logrank_p_value(x_pace.steps, x_pace.reached, y_pace.steps,
-                                       y_pace.reached),
+                                       y_pace.reached)
+        if x_pace.reached.any() or y_pace.reached.any() else math.nan,
         steps_ratio=curves.restricted_mean_ratio(x_pace.steps, x_pace.reached, y_pace.steps,
                                                  y_pace.reached, budget),
         cpu_ratio=cpu, pairs=((x_final, y_final), (x_area, y_area)))
