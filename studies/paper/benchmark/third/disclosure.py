@@ -30,14 +30,21 @@ def prior_tuning(task: str, row: protocol.Row) -> str:
     search, the zoo's sets, the authors' settings."""
     base = rule.split(task)[0]
     name, actions = protocol.variant(base)
-    zoo = bool(tuned_settings(name, row.learner))
+    deep = row.label in protocol.deep(base)
+    # the deep rows take the zoo's set by their label (`protocol.rows`), the rivals by learner
+    zoo = bool(tuned_settings(name, row.label if deep else row.learner))
     if row.learner == "actor_critic":
         return ("its defaults, chosen by the second benchmark's search on this task (seeds 1000 "
                 "to 1002)")
-    if row.label in protocol.deep(base) or row.label in rule.RIVALS[actions]:
-        if zoo:
-            return "the zoo's set, tuned on Gymnasium's counterpart of the task"
-        return f"its authors' settings ({AUTHORS.get(row.learner, 'its source')})"
+    if zoo and (deep or row.label in rule.RIVALS[actions]):
+        return "the zoo's set, tuned on Gymnasium's counterpart of the task"
+    if row.learner in AUTHORS:
+        return f"its authors' settings ({AUTHORS[row.learner]})"
+    if deep and actions == "continuous":
+        return ("its defaults: the zoo's set for Pendulum-v1, tuned on Gymnasium's counterpart "
+                "of the task")
+    if deep:
+        return "the learner's defaults (the zoo has no set for this task)"
     if row.label in OWN_ROWS:
         return OWN_ROWS[row.label]
     if name == "acrobot.swingup":
