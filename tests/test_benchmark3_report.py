@@ -2,7 +2,8 @@
 judging.py): on a tiny benchmark of two rows, it names every task and row, gives a verdict
 per task at each budget point and the family's size, and is written again the same; the CPU
 to the level is read from the runs' records at each agent's first evaluation at the level,
-censored at the budget where never."""
+censored at the budget where never; a budget point's family spans every task; every row's
+prior tuning is named."""
 
 import numpy as np
 import pandas as pd
@@ -108,3 +109,40 @@ def test_a_row_not_rising_stands_at_4_times_the_budget_with_its_score_and_cpu_at
     assert all(np.array_equal(carried.scores[:, -k], at_one.scores[:, -1])
                and np.array_equal(carried.cpu[:, -k], at_one.cpu[:, -1])
                for k in range(1, past + 1))
+
+
+def test_a_points_family_holds_every_tasks_comparisons_run_and_none_not_run():
+    """Two tasks' comparisons judged as one family: each one's adjusted p-values are at least
+    those it has alone (the level is shared), and a comparison not run stays out of it."""
+    rng = np.random.default_rng(0)
+    pairs = [(rng.normal(0.8, 0.1, 20), rng.normal(0.5, 0.1, 20)),
+             (rng.normal(0.8, 0.1, 20), rng.normal(0.8, 0.1, 20))]
+
+    def comparisons(count):
+        return [judging.Comparison(f"task {i}", "dqn", True, pairs=(pair, pair))
+                for i, pair in enumerate(pairs[:count])] + [judging.Comparison("x", "ppo", False)]
+
+    alone, together = comparisons(1), comparisons(2)
+    assert judging.judge_families(alone) == 1 and judging.judge_families(together) == 2
+    assert together[-1].final is None and together[-1].pace == ""
+    for hypothesis in ("not worse", "worse", "better"):
+        assert (together[0].final.adjusted[hypothesis]
+                >= alone[0].final.adjusted[hypothesis])
+    assert together[0].final.adjusted["better"] > alone[0].final.adjusted["better"]
+    assert judging.verdict(together[-1:]) == ("not run", "no rival's row is run this far")
+
+
+def test_every_rows_centre_names_its_prior_tuning():
+    """The rule's list: the acrobot's defaults and their seeds, the actor-critic's second
+    search, the zoo's sets, the new rivals' authors; the paper's Fig. 2 elsewhere."""
+    from lwrl.studies.paper.benchmark.third import disclosure
+    said = {(task, row.label): disclosure.prior_tuning(task, row)
+            for task in (*rule.STAGE_1, rule.TASKS[-1]) for row in rule.rows(task)}
+    assert "seeds 0 to 19" in said["acrobot.swingup", "paper"]
+    assert "Fig. 2" in said[TASK, "paper"] and "Fig. 2" in said["cartpole.balance", "paper"]
+    assert "second benchmark's search" in said[rule.TASKS[-1], "actor_critic"]
+    assert "zoo" in said[TASK, "dqn"] and "zoo" in said[rule.TASKS[-1], "sac"]
+    assert "Elsayed" in said[TASK, "stream_q"] and "Mania" in said["acrobot.swingup", "ars"]
+    lines = disclosure.prior_tuning_lines([TASK, "acrobot.swingup+physics"])
+    assert sum(line.startswith(f"| {TASK} |") for line in lines) == len(rule.rows(TASK))
+    assert not any("+physics" in line for line in lines)  # a variant runs its task's
