@@ -162,6 +162,11 @@ def tiny(monkeypatch):
     """The paper's agent alone on Mountain-Car, a budget of 1 000 steps, 3 agents, a search
     of 4 configurations on 1, 2 and 3 seeds, evaluation episodes capped at 200 steps; the
     row taken as still rising at the budget."""
+    shrink(monkeypatch)
+
+
+def shrink(monkeypatch):
+    """The `tiny` benchmark's settings, by `monkeypatch` (a `pytest.MonkeyPatch`)."""
     monkeypatch.setitem(protocol.BUDGETS, TASK, 1000)
     monkeypatch.setattr(protocol, "SHORTEST_EPISODE", 100)
     monkeypatch.setattr(compute_plan, "SEARCH_RUNGS", ((4, 1, 0.125), (2, 2, 0.5), (1, 3, 1.0)))

@@ -7,7 +7,8 @@ tasks' rows (`benchmark.protocol`). What it adds, a module each: `rule` (its edi
 rows with the new rivals and their agents, the seeds, the variants as tasks), `clock` (20
 greedy evaluations log-spaced over the budget), `halving` (every row's search by
 successive halving around its own centre), `study` (the runs in order, resumable from their
-tables alone), `progress` (what is left, `lwrl bench status`) and `report` (per task and row
-the final normalised score, its agents and the ledger's CPU). The verdicts' statistics are
-`analysis`'.
+tables alone), `progress` (what is left, `lwrl bench status`) and `report` (the report,
+judged by the rule: `judging` the comparisons, curves and verdicts, `verdict_tables` their
+tables, `disclosure` the rows' prior tuning and the runs' provenance). The verdicts'
+statistics are `analysis`'.
 """

@@ -1,11 +1,15 @@
-"""The third benchmark's report, as far as its runs go: per task and row the final normalised
-score with its 95 % interval (`analysis.statistics.mean_interval`), at 1/4 of the budget too,
-its agents, the configuration its search chose and what the ledger counts of its CPU (the
-row's runs and its search's apart, `runners.store.compute_spent`); the rivals the rule
-names that no learner runs and the rows whose observation normalisation is not searched,
-named; a row whose runs are not all written named as such (`study.read_task`'s partial
-reading), and a task whose reference rows are not. The verdicts by the rule
-(margins, Holm, the curves, the compute to the level) are `analysis`'.
+"""The third benchmark's report, as far as its runs go, judged by its rule (docs/FINDINGS.md,
+"The light-weight claim judged a third time"): first every task's verdict at 1/4, 1 and 4
+times the budget and the families of the multiple-test procedure (`verdict_tables`); per
+task and row the final normalised score with its 95 % interval (`analysis.statistics.
+mean_interval`), at 1/4 of the budget too, its agents, the configuration its search chose and
+what the ledger counts of its CPU (the row's runs and its search's apart,
+`runners.store.compute_spent`); per task and budget point the light-weight row's comparisons
+with each rival, the rows' times to the level and success shares (`judging`); the rivals the
+rule names that no learner runs and the rows whose observation normalisation is not
+searched, named; a row whose runs are not all written named as such (`study.read_task`'s
+partial reading), and a task whose reference rows are not; then the rows' prior tuning and
+the runs' provenance (`disclosure`) and the aggregates across tasks.
 
 `lwrl bench report DIR` writes it from the directory alone, computing nothing.
 """
@@ -16,7 +20,8 @@ import time
 from lwrl import outputs
 from lwrl.analysis.statistics import mean_interval
 from lwrl.runners.store import compute_spent
-from lwrl.studies.paper.benchmark.third import clock, halving, rule, study
+from lwrl.studies.paper.benchmark.third import (clock, disclosure, halving, judging, rule,
+                                                study, verdict_tables)
 
 QUARTER = 12
 """The clock's point at 1/4 of the budget."""
@@ -26,7 +31,7 @@ def write(out_dir: str, command: str, plant: str, started: float, computed=()) -
     """Write `out_dir/README.md` from every task it holds: `computed`'s (`study.TaskRuns`) as
     they are, the others read; its path."""
     given = {runs.task: runs for runs in computed}
-    sections, unfinished = [], []
+    held, unfinished = [], []
     for task in study.held(out_dir, plant):
         try:
             runs = given[task] if task in given else study.read_task(task, out_dir, plant,
@@ -36,15 +41,22 @@ def write(out_dir: str, command: str, plant: str, started: float, computed=()) -
         except study.Unfinished as missing:
             unfinished.append(str(missing))
             continue
-        sections.append(task_section(runs, out_dir))
+        held.append(runs)
+    judged = judging.judge(held, out_dir)
+    sections = [task_section(runs, out_dir) + verdict_tables.task_lines(runs.task, judged, out_dir)
+                for runs in held]
     spent = compute_spent(out_dir)
     text = [f"# The third benchmark ({rule.EDITION})", "",
             f"Written by `{command}` ({plant} plant) in {time.perf_counter() - started:.0f} s; "
             "the rule is docs/FINDINGS.md's \"The light-weight claim judged a third time\". "
             f"The ledger counts {spent['runs']} runs, {spent['cpu_s'] / 3600:.2f} h of CPU.", ""]
+    text += verdict_tables.summary_lines(judged) if held else []
     text += [line for section in sections for line in section]
     if unfinished:
         text += ["## Not all run yet", ""] + [f"- {line}" for line in unfinished] + [""]
+    text += disclosure.prior_tuning_lines([runs.task for runs in held])
+    text += disclosure.provenance_lines(out_dir)
+    text += verdict_tables.aggregate_lines(judged) if held else []
     path = os.path.join(out_dir, "README.md")
     with outputs.atomic_write(path) as file:
         file.write("\n".join(text))

@@ -1,0 +1,95 @@
+"""What the third benchmark's report discloses beside its verdicts (docs/FINDINGS.md, the
+third benchmark's rule, "Prior tuning, disclosed" and "Provenance and schemas"): what tuned
+each row's centre before its search drew around it (`prior_tuning`), and where the runs were
+computed, read from their own records (`provenance`: `runners.records`' columns).
+"""
+
+import glob
+import os
+
+import pandas as pd
+
+from lwrl.runners.config import tuned_settings
+from lwrl.runners.store import RunStore
+from lwrl.studies.paper.benchmark import protocol
+from lwrl.studies.paper.benchmark.third import rule
+
+AUTHORS = {"ars": "Mania, Guy & Recht 2018", "ars_continuous": "Mania, Guy & Recht 2018",
+           "stream_q": "Elsayed, Vasan & Mahmood 2024",
+           "stream_ac": "Elsayed, Vasan & Mahmood 2024"}
+"""The sources of the new rivals' settings."""
+OWN_ROWS = {"cmac": "the CMAC of the paper's Fig. 2 comparison (its tilings and step size)",
+            "ase_ace": "ASE/ACE's settings of its source (Barto, Sutton & Anderson 1983), the "
+                       "paper's Table 1 rival"}
+"""What set the centre of a task's own linear rows (`protocol.TASK_ROWS`)."""
+
+
+def prior_tuning(task: str, row: protocol.Row) -> str:
+    """What tuned `row`'s centre on `task` before the third benchmark's search (the rule's
+    list): the paper's Fig. 2 grids, the acrobot's defaults, the actor-critic's second
+    search, the zoo's sets, the authors' settings."""
+    base = rule.split(task)[0]
+    name, actions = protocol.variant(base)
+    deep = row.label in protocol.deep(base)
+    # the deep rows take the zoo's set by their label (`protocol.rows`), the rivals by learner
+    zoo = bool(tuned_settings(name, row.label if deep else row.learner))
+    if row.learner == "actor_critic":
+        return ("its defaults, chosen by the second benchmark's search on this task (seeds 1000 "
+                "to 1002)")
+    if zoo and (deep or row.label in rule.RIVALS[actions]):
+        return "the zoo's set, tuned on Gymnasium's counterpart of the task"
+    if row.learner in AUTHORS:
+        return f"its authors' settings ({AUTHORS[row.learner]})"
+    if deep and actions == "continuous":
+        return ("its defaults: the zoo's set for Pendulum-v1, tuned on Gymnasium's counterpart "
+                "of the task")
+    if deep:
+        return "the learner's defaults (the zoo has no set for this task)"
+    if row.label in OWN_ROWS:
+        return OWN_ROWS[row.label]
+    if name == "acrobot.swingup":
+        return ("the acrobot's defaults, tuned on seeds 0 to 19 (the second benchmark's "
+                "evaluation seeds)")
+    return "the paper's agent's alpha and lambda on this task, from the paper's Fig. 2 grids"
+
+
+def prior_tuning_lines(tasks) -> list:
+    """A table of every row's prior tuning on the first stage's tasks and the continuous
+    pendulum among `tasks` (a variant's rows run their task's configurations)."""
+    lines = ["## The rows' centres: their prior tuning", "",
+             "Each row's search draws around its centre; what tuned that centre before "
+             "(a variant runs the configurations chosen on its task):", "",
+             "| task | row | its centre was tuned by |", "|---|---|---|"]
+    for task in tasks:
+        if rule.split(task)[0] == task:
+            lines += [f"| {task} | {row.label} | {prior_tuning(task, row)} |"
+                      for row in rule.rows(task)]
+    return lines + [""]
+
+
+def provenance(out_dir: str) -> pd.DataFrame:
+    """Every record of the runs in `out_dir` (`runners.records`' tables), one row per agent
+    of a run."""
+    paths = sorted(glob.glob(str(RunStore.records_file(out_dir, "*"))))
+    if not paths:
+        return pd.DataFrame(columns=["run", "lwrl_version", "lwrl_commit", "host_cpu",
+                                     "python", "libraries"])
+    return pd.concat([pd.read_csv(path) for path in paths], ignore_index=True)
+
+
+def provenance_lines(out_dir: str) -> list:
+    """Where the runs were computed: per (commit, host, Python, libraries) the runs, from
+    their records; the runs without records counted."""
+    table = provenance(out_dir)
+    runs = len(glob.glob(os.path.join(out_dir, "runs", "*.csv.gz")))
+    recorded = table.run.nunique()
+    lines = ["## Provenance", "",
+             f"{recorded} of the {runs} runs' tables have records (`runs/records/`); per "
+             "commit, host and libraries:", "",
+             "| runs | lwrl | commit | host CPU | Python | libraries |",
+             "|---|---|---|---|---|---|"]
+    keys = ["lwrl_version", "lwrl_commit", "host_cpu", "python", "libraries"]
+    if recorded:
+        for values, part in table.fillna("").astype({k: str for k in keys}).groupby(keys):
+            lines.append(f"| {part.run.nunique()} | " + " | ".join(values) + " |")
+    return lines + [""]

@@ -1,0 +1,148 @@
+"""The third benchmark's report judged by its rule (studies/paper/benchmark/third/report.py,
+judging.py): on a tiny benchmark of two rows, it names every task and row, gives a verdict
+per task at each budget point and the family's size, and is written again the same; the CPU
+to the level is read from the runs' records at each agent's first evaluation at the level,
+censored at the budget where never; a budget point's family spans every task; every row's
+prior tuning is named."""
+
+import numpy as np
+import pandas as pd
+import pytest
+from test_benchmark3 import TASK, shrink
+
+from lwrl.analysis import task_verdict
+from lwrl.runners.store import RunStore
+from lwrl.studies.paper.benchmark.third import benchmark, clock, judging, rule, study
+
+RIVAL = "true_online_sarsa"
+"""The tiny benchmark's rival: a linear row, cheap, standing in for the rule's rivals."""
+
+
+@pytest.fixture(scope="module")
+def judged(tmp_path_factory):
+    """The tiny benchmark (test_benchmark3's `tiny`) with the paper's agent and `RIVAL`,
+    judged as a rival, run into a directory; the patches hold while the module's tests
+    read it."""
+    every_row = rule.rows
+    with pytest.MonkeyPatch.context() as patch:
+        shrink(patch)
+        patch.setattr(rule, "rows", lambda task: [row for row in every_row(task)
+                                                  if row.label in ("paper", RIVAL)])
+        patch.setattr(judging, "rivals", lambda task: [RIVAL])
+        out = str(tmp_path_factory.mktemp("b3"))
+        benchmark.benchmark([TASK], out, "lwrl bench run", sweep={"workers": 1})
+        yield out
+
+
+def report_of(out: str) -> list:
+    """The report `lwrl bench report` writes of `out`, its lines but the first paragraph's
+    (which says how long the writing took)."""
+    with open(benchmark.rebuild(out, "lwrl bench report")) as file:
+        return file.read().splitlines()[3:]
+
+
+def test_the_report_names_every_task_and_row_a_verdict_per_task_and_the_familys_size(judged):
+    lines = report_of(judged)
+    text = "\n".join(lines)
+    assert f"## {TASK}" in lines
+    for label in ("paper", RIVAL):
+        assert any(line.startswith(f"| {label} | 3 |") for line in lines), label
+    runs = study.read_longer(study.read_task(TASK, judged, partial=True), judged)
+    found = judging.judge([runs], judged)
+    allowed = (*task_verdict.VERDICTS, "not run")
+    summary = next(line for line in lines if line.startswith(f"| {TASK} |"))
+    words = [cell.strip().strip("*") for cell in summary.split("|")[2:-1]]
+    assert words == [found[name][0][0].verdict[0] for name in judging.POINTS]
+    assert all(word in allowed for word in words)
+    assert sum(line.startswith("Verdict: **") for line in lines) == len(judging.POINTS)
+    # one comparison run at each point: its hypotheses start at 0.05 / 2
+    assert {size for _, size in found.values()} == {1}
+    assert text.count("1 comparison run, of the") == len(judging.POINTS)
+    assert "start at 0.05 / 2 each" in text
+    at_one = lines.index("### At 1 times the budget")
+    comparison = next(line for line in lines[at_one:] if line.startswith(f"| {RIVAL} | "))
+    assert found["1"][0][0].comparisons[0].final.outcome in comparison
+    assert "## The rows' centres: their prior tuning" in lines
+    assert "## Provenance" in lines and "## Aggregates across tasks (rliable)" in lines
+
+
+def test_the_report_is_written_again_the_same(judged):
+    assert report_of(judged) == report_of(judged)
+
+
+def test_the_cpu_to_the_level_is_read_at_the_first_evaluation_at_it_censored_where_never():
+    """Agents x points: the first reaches 0.5 at the second point, the second never (censored
+    at the last point, its CPU there), the third (diverged at first: NaN) at the second."""
+    scores = np.array([[0.1, 0.6, 0.7], [0.2, 0.3, 0.4], [np.nan, 0.5, 0.9]])
+    cpu = np.array([[1.0, 2.0, 3.0], [1.0, 2.0, 4.0], [1.5, 5.0, 6.0]])
+    steps, seconds, reached = judging.to_level([10, 20, 40], scores, cpu)
+    assert steps.tolist() == [20, 40, 20] and seconds.tolist() == [2.0, 4.0, 5.0]
+    assert reached.tolist() == [True, False, True]
+
+
+def test_the_report_reads_each_agents_cpu_to_the_level_from_its_runs_records(judged):
+    """The paper's agents in the tiny benchmark: each agent's CPU to the level is its record's
+    `cpu_s` in the run that ends at its first evaluation at 0.5, or at the budget's run where
+    it never reaches it."""
+    row = study.read_task(TASK, judged).rows["paper"]
+    pace = judging.pace_of(judging.curve(TASK, row, judged, clock.POINTS[-1]))
+    for agent in range(len(pace.cpu)):
+        at = [j for j in clock.POINTS if row.scores[j][agent] >= 0.5]
+        run = row.trainings[at[0] if at else clock.POINTS[-1]]
+        record = pd.read_csv(RunStore.records_file(judged, run.key))
+        assert pace.cpu[agent] == record.cpu_s[record.agent == agent].item()
+        assert pace.reached[agent] == bool(at) and pace.steps[agent] == run.budget
+
+
+def test_a_row_not_rising_stands_at_4_times_the_budget_with_its_score_and_cpu_at_1(judged):
+    """Carried past the budget: its curve to 4 times it holds its agents' scores and CPU at 1
+    at every point past it, marked as carried."""
+    row = study.read_task(TASK, judged).rows["paper"]
+    row.longer = {}
+    carried = judging.curve(TASK, row, judged, clock.VERDICTS[-1])
+    at_one = judging.curve(TASK, row, judged, clock.POINTS[-1])
+    past = len(clock.LONGER)
+    assert carried.carried and not at_one.carried
+    assert carried.steps[-1] == 4 * at_one.steps[-1]
+    assert np.array_equal(carried.scores[:, :-past], at_one.scores)
+    assert np.array_equal(carried.cpu[:, :-past], at_one.cpu)
+    assert all(np.array_equal(carried.scores[:, -k], at_one.scores[:, -1])
+               and np.array_equal(carried.cpu[:, -k], at_one.cpu[:, -1])
+               for k in range(1, past + 1))
+
+
+def test_a_points_family_holds_every_tasks_comparisons_run_and_none_not_run():
+    """Two tasks' comparisons judged as one family: each one's adjusted p-values are at least
+    those it has alone (the level is shared), and a comparison not run stays out of it."""
+    rng = np.random.default_rng(0)
+    pairs = [(rng.normal(0.8, 0.1, 20), rng.normal(0.5, 0.1, 20)),
+             (rng.normal(0.8, 0.1, 20), rng.normal(0.8, 0.1, 20))]
+
+    def comparisons(count):
+        return [judging.Comparison(f"task {i}", "dqn", True, pairs=(pair, pair))
+                for i, pair in enumerate(pairs[:count])] + [judging.Comparison("x", "ppo", False)]
+
+    alone, together = comparisons(1), comparisons(2)
+    assert judging.judge_families(alone) == 1 and judging.judge_families(together) == 2
+    assert together[-1].final is None and together[-1].pace == ""
+    for hypothesis in ("not worse", "worse", "better"):
+        assert (together[0].final.adjusted[hypothesis]
+                >= alone[0].final.adjusted[hypothesis])
+    assert together[0].final.adjusted["better"] > alone[0].final.adjusted["better"]
+    assert judging.verdict(together[-1:]) == ("not run", "no rival's row is run this far")
+
+
+def test_every_rows_centre_names_its_prior_tuning():
+    """The rule's list: the acrobot's defaults and their seeds, the actor-critic's second
+    search, the zoo's sets, the new rivals' authors; the paper's Fig. 2 elsewhere."""
+    from lwrl.studies.paper.benchmark.third import disclosure
+    said = {(task, row.label): disclosure.prior_tuning(task, row)
+            for task in (*rule.STAGE_1, rule.TASKS[-1]) for row in rule.rows(task)}
+    assert "seeds 0 to 19" in said["acrobot.swingup", "paper"]
+    assert "Fig. 2" in said[TASK, "paper"] and "Fig. 2" in said["cartpole.balance", "paper"]
+    assert "second benchmark's search" in said[rule.TASKS[-1], "actor_critic"]
+    assert "zoo" in said[TASK, "dqn"] and "zoo" in said[rule.TASKS[-1], "sac"]
+    assert "Elsayed" in said[TASK, "stream_q"] and "Mania" in said["acrobot.swingup", "ars"]
+    lines = disclosure.prior_tuning_lines([TASK, "acrobot.swingup+physics"])
+    assert sum(line.startswith(f"| {TASK} |") for line in lines) == len(rule.rows(TASK))
+    assert not any("+physics" in line for line in lines)  # a variant runs its task's
