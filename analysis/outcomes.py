@@ -81,18 +81,27 @@ def _finite(values):
     return values
 
 
-def judge(pairs: Sequence[tuple], margin: float = MARGIN, alpha: float = ALPHA) -> list:
+def judge(pairs: Sequence[tuple], margin: float = MARGIN, alpha: float = ALPHA,
+          family: int | None = None) -> list:
     """The `Outcome` of each comparison of `pairs` (a sequence of (light-weight row's scores,
-    rival's scores), one score per agent, the whole family), its hypotheses judged together
-    by the graphical procedure of `graphical.margin_graph` at family-wise `alpha`."""
+    rival's scores), one score per agent), its hypotheses judged together by the graphical
+    procedure of `graphical.margin_graph` at family-wise `alpha`. `family`, the comparisons
+    the family holds (`len(pairs)` where None), may be more than those run: the others'
+    hypotheses are never shown (p 1), so their levels stay theirs and the family's levels do
+    not depend on which runs are written."""
     if not pairs:
         raise ValueError("the family needs at least one comparison")
+    comparisons = len(pairs) if family is None else family
+    if isinstance(comparisons, bool) or not isinstance(comparisons, int) or comparisons < len(pairs):
+        raise ValueError(f"family must be a whole number of comparisons at least the "
+                         f"{len(pairs)} run; got {family!r}")
     pairs = [(_finite(x), _finite(y)) for x, y in pairs]
     p_values = [hypothesis_p_values(x, y, margin) for x, y in pairs]
     flat = [p[h] for p in p_values for h in graphical.HYPOTHESES]
-    weights, transitions = graphical.margin_graph(len(pairs))
+    flat += [1.0] * (len(graphical.HYPOTHESES) * (comparisons - len(pairs)))
+    weights, transitions = graphical.margin_graph(comparisons)
     adjusted = graphical.adjusted_p_values(flat, weights, transitions)
-    family = 2 * len(pairs)
+    family = 2 * comparisons
     outcomes = []
     for c, ((x, y), p) in enumerate(zip(pairs, p_values)):
         mine = dict(zip(graphical.HYPOTHESES, (float(a) for a in adjusted[3 * c:3 * c + 3])))

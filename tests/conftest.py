@@ -254,6 +254,8 @@ SLOW = {
     r"test_budget\.py::(test_a_population|test_a_budget_cuts_the_run_it_would_have_been\[cartpole)":
         "compiles a JAX program; runs the cart-pole twice (Mountain-Car's case stays)",
     r"test_timed_costs\.py::test_population_agents_act": "compiles a JAX network",
+    r"test_benchmark3_report\.py::test_(the_report|a_row_not_rising)": "runs a tiny third "
+        "benchmark (the CPU to the level's reading on arrays stays)",
     r"test_table_schemas\.py::test_(every_run_table|a_run_table_of_every_tenth)_keeps": "reads "
         "the committed benchmark's run tables (all of them, or every tenth) against their schema",
     r"test_benchmark_dataset\.py::test_the_committed_dataset": "reads the committed Parquet "

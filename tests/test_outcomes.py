@@ -70,3 +70,18 @@ def test_a_diverged_agent_is_not_dropped_and_an_empty_family_refused():
         with pytest.raises(ValueError) as error:
             call()
         assert words in str(error.value) and "\n" not in str(error.value)
+
+
+def test_a_family_larger_than_the_comparisons_run_keeps_the_others_levels():
+    """Comparisons not run keep their share of the level (p 1, never shown): one run alone
+    in a family of 5 has its "not worse" at 10 times its p value, as it would beside four
+    comparisons of equal rows whose hypotheses nothing shows; a family smaller than the
+    comparisons run is refused in one line."""
+    rng = np.random.default_rng(3)
+    x, y = rng.normal(0.9, 0.1, 30), rng.normal(0.7, 0.1, 30)
+    raw = outcomes.hypothesis_p_values(x, y)["not worse"]
+    alone = outcomes.judge([(x, y)], family=5)[0]
+    assert alone.adjusted["not worse"] == pytest.approx(min(1.0, 10 * raw))
+    assert outcomes.judge([(x, y)], family=1)[0].adjusted == outcomes.judge([(x, y)])[0].adjusted
+    with pytest.raises(ValueError, match="family must be a whole number of comparisons at least"):
+        outcomes.judge([(x, y), (y, x)], family=1)

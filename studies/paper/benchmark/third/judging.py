@@ -21,10 +21,12 @@ time", "The rule"), from the runs a directory holds, at each budget point the ve
 - the **task verdict** (`analysis.task_verdict.verdict`) from the final score's outcomes
   and the CPU ratios.
 
-A comparison whose rows are not both run at the point is "not run", outside the family:
-the family is the comparisons run, so its levels tighten as more runs are written. A
-comparison that does not pass the gate stays in the family (its hypotheses take their share
-of the level) but not in the verdict.
+The family at a point is the rule's: every comparison its rows make over every task
+(`family_size`, 39: five rivals on each discrete task and variant, four on the continuous
+pendulum), whatever is run. A comparison whose rows are not both run at the point is "not
+run": its hypotheses keep their share of the level and are never shown (p 1), so the levels
+of those run do not move as runs are written, and a verdict stands once given. A comparison
+that does not pass the gate stays in the family but not in the verdict.
 """
 
 import dataclasses
@@ -191,14 +193,22 @@ def compare(task: str, light: tuple, rival: tuple, label: str, random) -> Compar
         cpu_ratio=cpu, pairs=((x_final, y_final), (x_area, y_area)))
 
 
+def family_size() -> int:
+    """The comparisons the rule's family holds at a budget point: the light-weight row
+    against every rival the rule names on every task, those no learner of the registry can
+    run among them (`rule.unavailable`)."""
+    return sum(len(rivals(task)) + len(rule.unavailable(task)) for task in rule.TASKS)
+
+
 def judge_families(comparisons: list) -> int:
     """Fill in each run comparison's `final` and `area` outcomes, each family (the final
-    scores', the areas') judged together (`outcomes.judge`), and its `pace`; the family's
-    size, its comparisons run."""
+    scores', the areas') judged together (`outcomes.judge`) as the rule's whole family
+    (`family_size`), and its `pace`; the number of comparisons run."""
     run = [c for c in comparisons if c.run]
     if run:
-        for c, final, area in zip(run, outcomes.judge([c.pairs[0] for c in run]),
-                                  outcomes.judge([c.pairs[1] for c in run])):
+        family = max(family_size(), len(run))
+        for c, final, area in zip(run, outcomes.judge([c.pairs[0] for c in run], family=family),
+                                  outcomes.judge([c.pairs[1] for c in run], family=family)):
             c.final, c.area = final, area
             c.pace = curves.pace(area.rejected, c.steps_ratio)
     return len(run)

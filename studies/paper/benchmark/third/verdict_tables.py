@@ -40,18 +40,14 @@ def two_digits(value: float) -> str:
     return f"{value:.2g}" if math.isfinite(value) else "—"
 
 
-def planned() -> int:
-    """The comparisons the rule's rows make at a budget point, over every task."""
-    return sum(len(judging.rivals(task)) for task in rule.TASKS)
-
-
 def family_line(name: str, size: int) -> str:
     """What the family is at the point `name`."""
     if not size:
         return f"- at {name} times the budget: no comparison is run yet."
+    family = judging.family_size()
     return (f"- at {name} times the budget: {size} comparison{'s' * (size != 1)} run, of the "
-            f"{planned()} the rule's rows make; \"not worse\" and \"worse\" start at "
-            f"{outcomes.ALPHA} / {2 * size} each (the final scores' family; the areas' alike).")
+            f"rule's family of {family}; \"not worse\" and \"worse\" start at "
+            f"{outcomes.ALPHA} / {2 * family} each (the final scores' family; the areas' alike).")
 
 
 def summary_lines(judged: dict) -> list:
