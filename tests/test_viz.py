@@ -403,7 +403,7 @@ def test_q_on_grid_equals_the_feature_maps(task, kind):
     agents = agents_of(task, features=kind)
     features = agents.features
     weights = np.random.default_rng(3).normal(size=(2, features.num_features))
-    low, high = np.array(task_defaults(task)["low"]), np.array(task_defaults(task)["high"])
+    low, high = map(np.array, tasks.definition(*tasks.split_name(task)).ranges)
     for scale in (1, 40):
         grid = value.value_grid(task, low * scale, high * scale, size=17)
         expected = features.features(grid.states().reshape(-1, features.dim)) @ weights.T
