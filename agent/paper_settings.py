@@ -70,15 +70,13 @@ def has_paper_settings(task: str) -> bool:
 
 def paper_settings(task: str) -> PaperSettings:
     """The paper agent's settings on `task` (DOMAIN.TASK), or a one-line ValueError naming
-    the tasks that have them and the entry-point group through which a package adds them."""
-    if not has_paper_settings(task):
-        named = ", ".join(f"{domain}.{name}" for domain, per_task in PAPER_SETTINGS.items()
-                          for name in per_task)
-        domain = task.partition(".")[0]
-        raise ValueError(f"no paper agent's settings for the task {task!r} (the tasks with them: "
-                         f"{named}); an installed package adds them with an entry point "
-                         f"'{domain} = module:attribute' of the group "
-                         f"{PAPER_SETTINGS.group!r}, the attribute a dict of "
-                         f"agent.paper_settings.PaperSettings by task")
+    the domains (or the domain's tasks) that have them and the entry-point group through
+    which a package adds them."""
     domain, _, name = task.partition(".")
-    return PAPER_SETTINGS[domain][name]
+    per_task = PAPER_SETTINGS.of(domain)
+    if name not in per_task:
+        raise ValueError(f"no {PAPER_SETTINGS.noun} for the task {task!r} (the domain's tasks "
+                         f"with them: {', '.join(per_task) or 'none'}); the entry point "
+                         f"'{domain} = module:attribute' of the group {PAPER_SETTINGS.group!r} "
+                         f"names them, a dict of PaperSettings by task")
+    return per_task[name]

@@ -98,7 +98,7 @@ def edit_model(spec, p) -> None:
     spec.actuator("force").ctrlrange = [-p[P.force], p[P.force]]
 
 
-ANALYTIC, MUJOCO = physics_classes("ToyMass", object, STATE_NAMES, "force")
+ANALYTIC, MUJOCO = physics_classes("ToyMass", None, STATE_NAMES, "force")
 DOMAIN = Domain(name="toy_mass", tasks={"reach": reach}, plants=DomainPlants(
     step=step, timestep=TIMESTEP, analytic_physics=ANALYTIC, parameters=PARAMETERS,
     analytic_options=("integrator",), mujoco_physics=MUJOCO, edit_model=edit_model,
