@@ -21,7 +21,7 @@ import rerun as rr
 
 from lwrl import tasks
 from lwrl.cli import main as cli
-from lwrl.runners.config import RunConfig, task_defaults
+from lwrl.runners.config import RunConfig
 from lwrl.viz.scenes import mountain_car
 from lwrl.runners.recording import EpisodeRecording
 from lwrl.runners.run import EpisodeResults, make_agent
@@ -262,7 +262,7 @@ def test_value_images_and_learning_curves(saved):
     greedy = np.array(column(temporal(chunks, names.GREEDY_ACTION), "SegmentationImage:buffer")[0][0])
     np.testing.assert_array_equal(greedy, saved["images"]["greedy"].ravel())
     centroids = np.array(column(static(chunks, names.CENTROIDS), "Points2D:positions")[0])
-    assert len(centroids) == task_defaults(saved["name"])["n"] ** 2
+    assert len(centroids) == RunConfig(task=saved["name"]).agent.n ** 2
     assert np.all((centroids > 0) & (centroids < value.GRID))
     state = temporal(chunks, names.VALUE_STATE, episode=7)
     assert column(state, names.STEP) == list(range(saved["episodes"][1].steps + 1))

@@ -5,10 +5,10 @@ refuses it in one line naming its entry-point group), written against lwrl's tas
 (`lwrl.tasks.*`, `lwrl.kernels.copy_into`) and admitted by its entry point `toy_mass =
 lwrl_toy_task.toy_mass:DOMAIN` of the group `lwrl.tasks` (pyproject.toml) alone.
 
-Task `reach`: actions index -F, 0, +F (F = 1 N), or with `actions="continuous"` the force
-itself in [-F, F]; observations `position` x (m) and `velocity` v (m/s); m x_dd = u at
-dt = 0.05 s, Euler's method on the `analytic` plant, MuJoCo on `mujoco` (`toy_mass.xml`);
-parameters `mass` m (kg) and `force` F (N), 1 each, in [0.1, 10]; reward +1 within 0.1 m of
+Task `reach`: actions index -F, 0, +F, or with `actions="continuous"` the force itself in
+[-F, F]; observations `position` x (m) and `velocity` v (m/s); m x_dd = u at dt = 0.05 s,
+Euler's method on the `analytic` plant, MuJoCo on `mujoco` (`toy_mass.xml`); parameters
+`mass` m (kg) 1, in [0.1, 10] and `force` F (N) 1, in [0.1, 10]; reward +1 within 0.1 m of
 the origin (up-time), -1 and terminal beyond |x| = 1 m; starts x ~ U[-0.8, 0.8], v = 0;
 truncated after `time_limit` = 10 s. Normalisation ranges x in [-1, 1], v in [-2, 2].
 """
