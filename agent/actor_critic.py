@@ -5,7 +5,7 @@ functions of the same normalised features (Främling 2008, eq. 8 and 9), one pas
 per step, no replay and no gradient through a network.
 
 Each agent has an actor and a critic, both linear in the features phibar(s) (`agent.linear`:
-the NRBF grid of the task's run defaults, or a CMAC):
+the NRBF grid of the paper agent's settings on the task, `agent.paper_settings`, or a CMAC):
 
 - critic V(s) = sum_i v_i phibar_i(s), TD error delta = r + gamma d V(s') - V(s) (d the
   discount, 0 at a terminal state), eligibility traces over the v_i by the Sarsa(lambda)

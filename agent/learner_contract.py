@@ -11,7 +11,7 @@ What a learner gives (`Learner`):
 
 - `settings`: a frozen dataclass of its settings (`lwrl.settings`): each field is a flag of
   `lwrl train`, a column of the results tables and, unless its metadata says otherwise, part
-  of a run's key; fields marked `task_default` take the task's setting when left None;
+  of a run's key; fields marked `per_task` take the task's setting (else their own) when left None;
 - `make(settings, task, seeds)`: a batch of B independent agents (`Agents`) on the task
   whose spec is `task` (`lwrl.spaces.TaskSpec`: its spaces, state names, normalisation
   ranges, ...; A, where it needs it, is `task.action.n`), agent b with `settings[b]` and

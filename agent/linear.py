@@ -45,11 +45,12 @@ FeatureSpec = collections.namedtuple("FeatureSpec", "kind low high n r2 tilings"
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class FeatureSettings:
-    """The feature map of a linear learner (None: the task's default)."""
+    """The feature map of a linear learner (None: the task's setting, else the field's own,
+    `per_task`: n 8)."""
 
     features: str = setting("nrbf", choices=FEATURE_MAPS)
     """`nrbf` (the paper's network) or `cmac` (the tile-coding baseline)."""
-    n: int | None = setting(flags=("--n", "--centroids"), task_default=True)
+    n: int | None = setting(flags=("--n", "--centroids"), per_task=8)
     """NRBF centroids per dimension (>= 2), or CMAC intervals per dimension."""
     r2: float = setting(DEFAULT_R2, reading=True, only_with=("features", "nrbf"))
     """NRBF spread r^2 of eq. 8, in normalised units (the paper: 0.01)."""
@@ -113,17 +114,20 @@ class FeatureSettings:
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class TraceSettings(LearnerSettings):
-    """The trace rule and step sizes of Sarsa(lambda) (None: the task's default)."""
+    """The trace rule and step sizes of Sarsa(lambda) (None: the task's setting, the paper
+    agent's (`agent.paper_settings`), else the field's own, `per_task`: replacing traces,
+    alpha 0.5, lambda 0.9, epsilon 0.1, gamma 1; starting values for a task nobody tuned,
+    from the middle of the paper's settings, not tuned themselves)."""
 
-    trace: str | None = setting(choices=TRACES, task_default=True, per_agent=True)
+    trace: str | None = setting(choices=TRACES, per_task="replacing", per_agent=True)
     """Trace rule: `replacing` (eq. 6), `accumulating` (eq. 2) or `replacing_reset` (eq. 5)."""
-    alpha: float | None = setting(task_default=True, per_agent=True)
+    alpha: float | None = setting(per_task=0.5, per_agent=True)
     """Learning rate alpha > 0 (eq. 1)."""
-    lam: float | None = setting(flags=("--lambda",), task_default=True, per_agent=True)
+    lam: float | None = setting(flags=("--lambda",), per_task=0.9, per_agent=True)
     """Trace decay lambda in [0, 1]."""
-    epsilon: float | None = setting(task_default=True, per_agent=True, reading=True)
+    epsilon: float | None = setting(per_task=0.1, per_agent=True, reading=True)
     """Exploration rate in [0, 1] of the epsilon-greedy policy."""
-    gamma: float | None = setting(task_default=True)
+    gamma: float | None = setting(per_task=1.0)
     """Discount rate in [0, 1] (1 in all the paper's tasks)."""
 
 

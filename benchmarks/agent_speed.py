@@ -1,7 +1,7 @@
 """Agent-steps per second of lwrl's learner against a plain per-step NumPy loop.
 
 On Mountain-Car and Cart-Pole (the analytic plant, semi-implicit Euler), with the paper's
-agent of each task (`TaskDefinition.defaults`), one run of this script measures:
+agent of each task (`agent.paper_settings`), one run of this script measures:
 
 1. **plain loop**: one agent written here as a straightforward per-step NumPy loop (the
    reference point, not project code): eq. 8 over all n^d centroids, Q = phi @ w, epsilon-
@@ -44,7 +44,7 @@ import numpy as np
 from benchmarks import arithmetic_bound
 from lwrl import tasks
 from lwrl.agent.threads import workers
-from lwrl.runners.config import RunConfig, task_defaults
+from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent, run_compiled
 from lwrl.tasks import cartpole, mountain_car
 
@@ -83,9 +83,9 @@ class PlainSarsa:
     """One gradient-descent Sarsa(lambda) agent with NRBF features, in plain NumPy."""
 
     def __init__(self, config: RunConfig, num_actions: int, rng: np.random.Generator):
-        paper = task_defaults(config.task)
-        self.low = np.array(paper["low"])
-        self.span = np.array(paper["high"]) - self.low
+        ranges = config.task_spec.ranges
+        self.low = np.array(ranges.low)
+        self.span = np.array(ranges.high) - self.low
         settings = config.agent
         grid = (np.arange(settings.n) + 0.5) / settings.n
         axes = np.meshgrid(*[grid] * len(self.low), indexing="ij")

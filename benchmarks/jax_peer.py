@@ -86,7 +86,7 @@ after every transition equal lwrl's learner's to round-off (the test allows 1e-1
 largest weight; the two-factor Q adds in another order than lwrl's dot products).
 
 One run of this script measures, on Mountain-Car and Cart-Pole with the paper's agent of
-each task (`TaskDefinition.defaults`), for 1, 30 and 300 agents (`--tasks`, `--agents`
+each task (`agent.paper_settings`), for 1, 30 and 300 agents (`--tasks`, `--agents`
 choose others):
 
 1. **lwrl**: `runners.compiled.run_compiled`, as `benchmarks.agent_speed` measures it

@@ -8,7 +8,7 @@ agent-step (one plant transition of one agent):
    torques, as `tasks.plants.MujocoPlant` calls it (its `Rollout`, its thread count and
    `MjData`s, one call per step with the states it returned fed back); and, for reference,
    one call that rolls all the steps out at once (no return to Python between steps);
-2. **learning**: `runners.run.run` of the paper's pendulum agent (`TaskDefinition.defaults`)
+2. **learning**: `runners.run.run` of the paper's pendulum agent (`agent.paper_settings`)
    with `plant="mujoco"`, 512 agents for `--episodes` episodes of 3000 steps: the compiled
    loop (`runners.compiled`), which calls MuJoCo's `mj_step` itself (`tasks.engine`) with
    each agent's episodes run through on one thread; the same run acting greedily

@@ -7,8 +7,9 @@ from them, so that no list of field names is kept by hand:
 - `flags`: the command-line flags (default `--name-with-hyphens`); `cli=False` keeps a
   field off the command line. The help is the field's docstring (`cli.fields`).
 - `choices`: the allowed values, checked for every configuration (`check_choices`).
-- `task_default`: a field left None takes the task's default of the same name
-  (`TaskDefinition.defaults`, the paper's settings).
+- `per_task`: the field's own default where a task gives none: a field left None takes
+  the task's setting of the same name (the paper agent's, `agent.paper_settings`) where
+  the task has one, else this value (`runners.config.task_defaults`).
 - `key`: how the field enters a run's key (`runners.config.RunConfig.key_json`): named
   always, in field order (the default); `WHEN_SET`: only where it departs from its
   default, so that results computed before the field existed keep their key; `LATE`: as
@@ -37,12 +38,13 @@ LATE = "late"
 """A field's `key`: as `WHEN_SET`, after the protocol's fields."""
 
 
-def setting(default=None, *, choices=None, flags=None, cli=True, task_default=False,
+def setting(default=None, *, choices=None, flags=None, cli=True, per_task=None,
             key=None, per_agent=False, reading=False, only_with=None, default_factory=None,
             describe=None):
     """A dataclass field with the metadata above."""
-    metadata = {"cli": cli, "task_default": task_default, "per_agent": per_agent,
-                "reading": reading}
+    metadata = {"cli": cli, "per_agent": per_agent, "reading": reading}
+    if per_task is not None:
+        metadata["per_task"] = per_task
     if describe is not None:
         metadata["describe"] = describe
     if choices is not None:

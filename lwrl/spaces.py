@@ -128,7 +128,7 @@ class TaskSpec:
     ranges: Box | None = None
     """The box a learner's representation spans unless its settings say otherwise: each
     state variable's normalisation range (finite where `observation` may not be: the
-    pendulum's speed), `TaskDefinition.defaults`' `low` and `high`; None: the task gives
+    pendulum's speed), `TaskDefinition.ranges`; None: the task gives
     none."""
 
     @property

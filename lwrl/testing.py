@@ -412,7 +412,7 @@ def random_episode_steps(env, rng: np.random.Generator, max_steps: int) -> list:
 
 
 def check_domain_declaration(domain: Domain | str) -> None:
-    """The domain gives its physics: tasks with bounds, defaults and angles over its state
+    """The domain gives its physics: tasks with bounds, normalisation ranges and angles over its state
     variables."""
     name = domain_name(domain)
     with _held(f"domain {name!r}", "check_domain_declaration"):
@@ -428,9 +428,11 @@ def check_domain_declaration(domain: Domain | str) -> None:
             low, high = definition.bounds
             _expect(len(low) == len(high) == len(state_names) and np.all(np.less(low, high)),
                     f"task {task!r}: bounds are not below-above pairs over the state variables")
-            defaults = definition.defaults
-            _expect(len(defaults.low) == len(defaults.high) == len(state_names),
-                    f"task {task!r}: the defaults' ranges are not over the state variables")
+            low, high = definition.ranges
+            _expect(len(low) == len(high) == len(state_names)
+                    and np.all(np.isfinite(low) & np.isfinite(high) & np.less(low, high)),
+                    f"task {task!r}: the normalisation ranges are not finite below-above "
+                    f"pairs over the state variables")
 
 
 @_task_check

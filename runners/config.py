@@ -12,8 +12,9 @@ Each field's docstring is its documentation and its command-line help: the `lwrl
 flags are generated from these fields (`cli.fields`), so a new field needs one edit; its
 metadata (`lwrl.settings`) says everything else that is derived from it: the run's key,
 the results tables' columns, what a batch may vary, what `--set` may change. Fields left
-None take the task's defaults (`TaskDefinition.defaults`: the paper's settings, SPEC.md),
-resolved once, as the configuration is made; it cannot change afterwards.
+None take the task's defaults (`task_defaults`: the paper agent's settings on the task,
+SPEC.md, else each field's own), resolved once, as the configuration is made; it cannot
+change afterwards.
 """
 
 import dataclasses
@@ -22,6 +23,7 @@ import json
 
 from lwrl import agent, tasks
 from lwrl.agent.learner_contract import LearnerSettings
+from lwrl.agent.paper_settings import has_paper_settings, paper_settings
 from lwrl.spaces import TaskSpec
 from lwrl.agent.zoo import TUNED_AS
 from lwrl.settings import (LATE, SCALARS, WHEN_SET, base_type, check_choices, check_count,
@@ -35,11 +37,19 @@ from lwrl.tasks.task_definition import ACTIONS
 
 
 def task_defaults(task: str) -> dict:
-    """The settings of a run of `task` (DOMAIN.TASK) unless told otherwise: the NRBF grid
-    and ranges, the trace, alpha, lambda, epsilon and the protocol (`TaskDefinition.defaults`)."""
+    """The settings a run of `task` (DOMAIN.TASK) takes for those it is not given, by name.
+
+    The one rule of a run's defaults: a field marked `per_task` (`lwrl.settings`: the NRBF
+    grid n, the trace, alpha, lambda, epsilon, gamma, the protocol's episodes and agents)
+    and left None takes the paper agent's setting of the same name on the task
+    (`agent.paper_settings.PAPER_SETTINGS`) where the task has them, else the field's own
+    `per_task` value (`unset_per_task`); tuned sets (`tuned_settings`) and the run's own
+    values come before both. The normalisation ranges are the task's (`TaskSpec.ranges`),
+    not among these. {} for a task without the paper agent's settings (an outside task's
+    learner then runs on its own defaults); a one-line error for an unknown task."""
     if task not in tasks.TASK_NAMES:
         raise ValueError(f"unknown task {task!r}; available: {', '.join(tasks.TASK_NAMES)}")
-    return dataclasses.asdict(tasks.definition(*tasks.split_name(task)).defaults)
+    return dataclasses.asdict(paper_settings(task)) if has_paper_settings(task) else {}
 
 
 def tuned_settings(task: str, learner: str) -> dict:
@@ -59,11 +69,17 @@ def task_spec(task: str, task_options: dict | None = None,
     return tasks.spec(task, **(task_options or {}), actions=actions)
 
 
+def unset_per_task(settings, defaults: dict) -> dict:
+    """`{name: value}` of each `per_task` field of the dataclass `settings` left None: the
+    value of `defaults` (`task_defaults`) of its name, else the field's own `per_task`."""
+    return {field.name: defaults.get(field.name, field.metadata["per_task"])
+            for field in dataclasses.fields(settings)
+            if "per_task" in field.metadata and getattr(settings, field.name) is None}
+
+
 def with_defaults(settings, defaults: dict):
-    """`settings` with each of its `task_default` fields that is None set from `defaults`."""
-    values = {field.name: defaults[field.name] for field in dataclasses.fields(settings)
-              if field.metadata.get("task_default") and getattr(settings, field.name) is None
-              and field.name in defaults}
+    """`settings` with its `per_task` fields left None set (`unset_per_task`)."""
+    values = unset_per_task(settings, defaults)
     return dataclasses.replace(settings, **values) if values else settings
 
 
@@ -149,9 +165,9 @@ randomisation and the sensors and actuator."""
 class ProtocolSettings:
     """How many agents, for how many episodes, from which seed (None: the task's)."""
 
-    episodes: int | None = setting(task_default=True)
+    episodes: int | None = setting(per_task=100)
     """Episodes per agent."""
-    agents: int | None = setting(task_default=True, per_agent=True)
+    agents: int | None = setting(per_task=10, per_agent=True)
     """Agents B; agent b is seeded with `seed + b` (its starts and its random stream)."""
     seed: int = setting(0, per_agent=True)
     """Seed of the first agent."""
@@ -173,6 +189,12 @@ class ProtocolSettings:
     def seeds(self) -> list:
         """One seed per agent: `seed`, `seed + 1`, ..."""
         return list(range(self.seed, self.seed + self.agents))
+
+
+def protocol_defaults(task: str) -> dict:
+    """`{"episodes": ..., "agents": ...}`: the protocol a run of `task` (DOMAIN.TASK) has
+    unless told otherwise (`task_defaults`' rule)."""
+    return unset_per_task(ProtocolSettings(), task_defaults(task))
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -254,8 +276,7 @@ class RunConfig(LearnerChoice, ProtocolSettings, EnvironmentSettings):
                                  "differ; give the kind of action once, as actions")
             fill(self, task_options=options, actions=kind)
         defaults = task_defaults(self.task)
-        fill(self, **{name: defaults[name] for name in ("episodes", "agents")
-                      if getattr(self, name) is None})
+        fill(self, **unset_per_task(self, defaults))
         check_choices(self)
         for field in dataclasses.fields(EnvironmentSettings):
             value = getattr(self, field.name)

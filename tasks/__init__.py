@@ -176,7 +176,7 @@ def spec_of(definition: TaskDefinition) -> TaskSpec:
     """What a learner may know of the task `definition` (`lwrl.spaces.TaskSpec`): its
     observation bounds, its actions (`Discrete` of its controls, or with continuous actions
     a `Box` of the actuator's range), state names, timestep, step limit, physical
-    parameters' values by name and normalisation ranges (its run defaults')."""
+    parameters' values by name and normalisation ranges (`TaskDefinition.ranges`)."""
     if definition.continuous:
         low, high = definition.control_range
         action = Box((low,), (high,))
@@ -186,7 +186,7 @@ def spec_of(definition: TaskDefinition) -> TaskSpec:
     return TaskSpec(definition.name, Box(*definition.bounds), action, definition.state_names,
                     definition.control_timestep, definition.step_limit,
                     dict(zip(names, definition.physical)),
-                    Box(definition.defaults.low, definition.defaults.high))
+                    Box(*definition.ranges))
 
 
 def spec(name: str, **options) -> TaskSpec:

@@ -51,7 +51,8 @@ Task `swingup`:
   shoulder, -l1 cos theta1 - l2 cos(theta1 + theta2) > l1; truncated (discount 1) after
   `time_limit` = 2000 s (10 000 steps), a safety cap (the book has none).
 - **Up-time**: none (reported as NaN).
-- **Agent** (found for this suite, `docs/acrobot/README.md`; the book's agent is a tile
+- **Normalisation ranges** (`RANGES`) and the paper's **agent** (its settings in
+  `agent.paper_settings`; found for this suite, `docs/acrobot/README.md`; the book's agent is a tile
   coding, not an NRBF): NRBF 6^4 over theta1, theta2 in [-pi, pi], theta1_dot in
   [-2 pi, 2 pi], theta2_dot in [-4 pi, 4 pi] (half and four ninths of the limits, which
   hold 99.6 % or more of the states of the learning agents' episodes; speeds outside
@@ -67,7 +68,7 @@ import math
 import numpy as np
 from numba.extending import register_jitable
 
-from lwrl.tasks.task_definition import RunDefaults, TaskDefinition, step_limit, wrap_angle
+from lwrl.tasks.task_definition import TaskDefinition, step_limit, wrap_angle
 from lwrl.tasks.domain_contract import Domain
 from lwrl.tasks.integrators import euler_pair
 from lwrl.tasks.parameters import Parameter, Parameters
@@ -266,10 +267,9 @@ def _observe(state):
 BOUNDS = ((-np.pi, -MAX_SHOULDER_SPEED, -np.pi, -MAX_ELBOW_SPEED),
           (np.pi, MAX_SHOULDER_SPEED, np.pi, MAX_ELBOW_SPEED))
 """Every observation: the wrapped angles and the velocity limits."""
-AGENT = RunDefaults(
-    n=6, low=(-np.pi, -2 * np.pi, -np.pi, -4 * np.pi), high=(np.pi, 2 * np.pi, np.pi, 4 * np.pi),
-    trace="replacing", alpha=1.0, lam=0.9, epsilon=0.0, episodes=200, agents=10)
-"""Found for this suite (docs/acrobot/README.md): no paper gives an NRBF agent here."""
+RANGES = ((-np.pi, -2 * np.pi, -np.pi, -4 * np.pi), (np.pi, 2 * np.pi, np.pi, 4 * np.pi))
+"""The normalisation ranges `(low, high)` of theta1, theta1_dot, theta2, theta2_dot (found
+for this suite, docs/acrobot/README.md)."""
 
 
 def swingup(time_limit: float = TIME_LIMIT, params=None,
@@ -283,7 +283,7 @@ def swingup(time_limit: float = TIME_LIMIT, params=None,
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
         initial_states=spread_starts(start_spread), observe=_observe, outcome=outcome,
         transition=transition, arrive=arrive,
-        bounds=BOUNDS, defaults=AGENT, angles=("shoulder_angle", "elbow_angle"),
+        bounds=BOUNDS, ranges=RANGES, angles=("shoulder_angle", "elbow_angle"),
         has_uptime=False, physical=tuple(PARAMETERS.values(params).tolist()),
     )
 

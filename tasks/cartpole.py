@@ -35,7 +35,8 @@ Task `balance`:
   `track_limit=None`, |x| > `track_limit` (default 2.4 m, as in Barto et al.; the paper
   names only the angle); truncated (discount 1) after `time_limit` = 240 s (12 000 steps).
 - **Up-time**: seconds before failure (the pole is up while the episode lasts).
-- **Agent** (the author's script; the paper gives no best agent): NRBF 6^4 over
+- **Normalisation ranges** (`RANGES`) and the paper's **agent** (its settings in
+  `agent.paper_settings`; the author's script; the paper gives no best agent): NRBF 6^4 over
   x in [-2.4, 2.4], x_dot in [-1.5, 1.5], theta in [-12, 12] deg, theta_dot in
   [-150, 150] deg/s; accumulating traces, alpha 0.5, lambda 0.7, epsilon 0.1; 10 agents x
   200 episodes.
@@ -48,7 +49,7 @@ import numpy as np
 from numba.extending import register_jitable
 
 from lwrl.kernels import copy_into
-from lwrl.tasks.task_definition import RunDefaults, TaskDefinition, positive_number, step_limit
+from lwrl.tasks.task_definition import TaskDefinition, positive_number, step_limit
 from lwrl.tasks.domain_contract import Domain
 from lwrl.tasks.integrators import euler_pair
 from lwrl.tasks.parameters import Parameter, Parameters
@@ -181,11 +182,10 @@ def bounds(track_limit: float) -> tuple:
     return (-position, -inf, -angle, -inf), (position, inf, angle, inf)
 
 
-PAPER_AGENT = RunDefaults(
-    n=6, low=(-TRACK_LIMIT, -1.5, -FAIL_ANGLE, -5 * math.pi / 6),
-    high=(TRACK_LIMIT, 1.5, FAIL_ANGLE, 5 * math.pi / 6), trace="accumulating", alpha=0.5,
-    lam=0.7, epsilon=0.1, episodes=200, agents=10)
-"""The author's script's agent and ranges (SPEC.md's readings), the paper's epsilon."""
+RANGES = ((-TRACK_LIMIT, -1.5, -FAIL_ANGLE, -5 * math.pi / 6),
+          (TRACK_LIMIT, 1.5, FAIL_ANGLE, 5 * math.pi / 6))
+"""The normalisation ranges `(low, high)` of x, x_dot, theta and theta_dot (the author's
+script's, SPEC.md's readings)."""
 
 
 def balance(time_limit: float = TIME_LIMIT, track_limit=TRACK_LIMIT, params=None) -> TaskDefinition:
@@ -198,7 +198,7 @@ def balance(time_limit: float = TIME_LIMIT, track_limit=TRACK_LIMIT, params=None
         control_name="force",
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
         initial_states=initial_states, observe=lambda state: state, outcome=outcome,
-        transition=transition, arrive=arrive, bounds=bounds(limit), defaults=PAPER_AGENT,
+        transition=transition, arrive=arrive, bounds=bounds(limit), ranges=RANGES,
         angles=("pole_angle",), params=(limit,),
         physical=tuple(PARAMETERS.values(params).tolist()),
     )

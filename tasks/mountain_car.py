@@ -26,7 +26,8 @@ Task `cost_to_go`:
   `time_limit` steps (default 10 000, a safety cap: the paper has none). A step counts as
   one unit of time.
 - **Up-time**: none (reported as NaN).
-- **Agent** (the paper's best, Fig. 3): NRBF 8 x 8 over x in [-1.2, 0.5], v in
+- **Normalisation ranges** (`RANGES`) and the paper's **agent** (its settings in
+  `agent.paper_settings`; the paper's best, Fig. 3): NRBF 8 x 8 over x in [-1.2, 0.5], v in
   [-0.07, 0.07]; replacing traces, alpha 3.9, lambda 0.9, epsilon 0 (SPEC.md's reading);
   30 agents x 40 episodes.
 """
@@ -37,7 +38,7 @@ from numba.extending import register_jitable
 from lwrl.kernels import copy_into
 from lwrl.tasks.domain_contract import Domain
 from lwrl.tasks.parameters import Parameter, Parameters
-from lwrl.tasks.task_definition import RunDefaults, TaskDefinition, step_limit
+from lwrl.tasks.task_definition import TaskDefinition, step_limit
 from lwrl.tasks.physics import AnalyticPhysics
 from lwrl.tasks.plants import DomainPlants
 
@@ -128,10 +129,8 @@ def initial_states(rng: np.random.Generator, count: int) -> np.ndarray:
 
 BOUNDS = ((MIN_POSITION, -MAX_SPEED), (GOAL_POSITION + MAX_SPEED, MAX_SPEED))
 """Every observation of an episode: the goal step moves at most MAX_SPEED past the goal."""
-PAPER_AGENT = RunDefaults(n=8, low=(MIN_POSITION, -MAX_SPEED), high=(GOAL_POSITION, MAX_SPEED),
-                          trace="replacing", alpha=3.9, lam=0.9, epsilon=0.0, episodes=40,
-                          agents=30)
-"""The paper's best agent (Fig. 3) and SPEC.md's epsilon."""
+RANGES = ((MIN_POSITION, -MAX_SPEED), (GOAL_POSITION, MAX_SPEED))
+"""The normalisation ranges `(low, high)` of x and v: the state's own (the paper's, Fig. 3)."""
 
 
 def cost_to_go(time_limit: float = STEP_LIMIT, params=None) -> TaskDefinition:
@@ -143,7 +142,7 @@ def cost_to_go(time_limit: float = STEP_LIMIT, params=None) -> TaskDefinition:
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
         initial_states=initial_states,
         observe=lambda state: state, outcome=outcome, transition=transition, arrive=arrive,
-        bounds=BOUNDS, defaults=PAPER_AGENT, has_uptime=False,
+        bounds=BOUNDS, ranges=RANGES, has_uptime=False,
         physical=tuple(PARAMETERS.values(params).tolist()),
     )
 

@@ -30,16 +30,17 @@ Task `swingup`:
 - **Episode end**: no terminal state; truncated (discount 1) after `time_limit` = 60 s
   (3000 steps).
 - **Up-time**: seconds with |theta| <= pi/2; more than 40 s means balanced to the end.
-- **Agent** (the paper's best, Fig. 5): NRBF 10 x 10 over theta in [-pi, pi], theta_dot in
-  [-1.5, 1.5] (speeds outside allowed); replacing traces, alpha 1.5, lambda 0.4, epsilon
-  0.1; 10 agents x 200 episodes (the author's script).
+- **Normalisation ranges** (`RANGES`) and the paper's **agent** (its settings in
+  `agent.paper_settings`; the paper's best, Fig. 5): NRBF 10 x 10 over theta in [-pi, pi],
+  theta_dot in [-1.5, 1.5] (speeds outside allowed); replacing traces, alpha 1.5, lambda
+  0.4, epsilon 0.1; 10 agents x 200 episodes (the author's script).
 """
 
 
 import numpy as np
 from numba.extending import register_jitable
 
-from lwrl.tasks.task_definition import RunDefaults, TaskDefinition, step_limit, wrap_angle
+from lwrl.tasks.task_definition import TaskDefinition, step_limit, wrap_angle
 from lwrl.tasks.domain_contract import Domain
 from lwrl.tasks.integrators import euler
 from lwrl.tasks.parameters import Parameter, Parameters
@@ -150,9 +151,8 @@ def _observe(state):
     return np.stack([wrap_angle(state[..., 0]), state[..., 1]], axis=-1)
 
 
-PAPER_AGENT = RunDefaults(n=10, low=(-np.pi, -1.5), high=(np.pi, 1.5), trace="replacing",
-                          alpha=1.5, lam=0.4, epsilon=0.1, episodes=200, agents=10)
-"""The paper's best agent (Fig. 5); epsilon and the protocol of the author's script."""
+RANGES = ((-np.pi, -1.5), (np.pi, 1.5))
+"""The normalisation ranges `(low, high)` of theta and theta_dot (the paper's, Fig. 5)."""
 
 
 def swingup(time_limit: float = TIME_LIMIT, params=None) -> TaskDefinition:
@@ -164,7 +164,7 @@ def swingup(time_limit: float = TIME_LIMIT, params=None) -> TaskDefinition:
         control_timestep=TIMESTEP, step_limit=step_limit(time_limit, TIMESTEP),
         initial_states=initial_states, observe=_observe, outcome=outcome, transition=transition,
         arrive=arrive,
-        bounds=((-np.pi, -np.inf), (np.pi, np.inf)), defaults=PAPER_AGENT, angles=("angle",),
+        bounds=((-np.pi, -np.inf), (np.pi, np.inf)), ranges=RANGES, angles=("angle",),
         physical=tuple(PARAMETERS.values(params).tolist()),
     )
 

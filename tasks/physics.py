@@ -137,13 +137,15 @@ class MujocoPhysics(dm_mujoco.Physics):
         self.named.data.ctrl[self.ACTUATOR] = control_value
 
 
-def physics_classes(domain: str, accessors: type, state_names: tuple, actuator: str):
-    """A domain's `(analytic, MuJoCo)` Physics classes: its accessor mixin over each plant.
+def physics_classes(domain: str, accessors: type | None, state_names: tuple, actuator: str):
+    """A domain's `(analytic, MuJoCo)` Physics classes: its accessor mixin (None: none) over
+    each plant.
 
     `actuator` names the MJCF actuator that the action drives.
     """
-    analytic = type(f"AnalyticPhysics{domain}", (accessors, AnalyticPhysics), {
+    mixins = () if accessors is None else (accessors,)
+    analytic = type(f"AnalyticPhysics{domain}", (*mixins, AnalyticPhysics), {
         "STATE_NAMES": state_names, "__doc__": f"The paper's {domain} equations as a dm_control Physics."})
-    mujoco = type(f"MujocoPhysics{domain}", (accessors, MujocoPhysics), {
+    mujoco = type(f"MujocoPhysics{domain}", (*mixins, MujocoPhysics), {
         "STATE_NAMES": state_names, "ACTUATOR": actuator, "__doc__": f"The MJCF {domain} in MuJoCo."})
     return analytic, mujoco

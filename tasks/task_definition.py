@@ -31,33 +31,6 @@ controls, or the control itself within the actuator's range."""
 
 
 @dataclasses.dataclass(frozen=True)
-class RunDefaults:
-    """The settings a run of a task takes unless told otherwise: the paper's (SPEC.md) for
-    its tasks, documented ones for the others."""
-
-    n: int
-    """NRBF centroids per dimension: the network has n^d neurons."""
-    low: tuple
-    """Lower end of each state variable's normalisation range (maps to 0)."""
-    high: tuple
-    """Upper end of each state variable's normalisation range (maps to 1)."""
-    trace: str
-    """The best trace rule (`agent.traces.TRACES`)."""
-    alpha: float
-    """The best learning rate alpha."""
-    lam: float
-    """The best trace decay lambda."""
-    epsilon: float
-    """Exploration rate of the epsilon-greedy policy."""
-    episodes: int
-    """Episodes per agent of the protocol."""
-    agents: int
-    """Agents of the protocol."""
-    gamma: float = 1.0
-    """Discount rate (1 in all the paper's tasks)."""
-
-
-@dataclasses.dataclass(frozen=True)
 class TaskDefinition:
     """One task of the suite, as array functions."""
 
@@ -98,8 +71,12 @@ class TaskDefinition:
     bounds: tuple
     """`(low, high)`, one value per state variable: every observation of an episode lies
     within them, the terminal one included (`inf` where a variable is unbounded)."""
-    defaults: RunDefaults
-    """The settings of a run of this task unless told otherwise."""
+    ranges: tuple
+    """`(low, high)`, one finite value per state variable: each state variable's
+    normalisation range, the box a learner's representation spans unless its settings say
+    otherwise (`TaskSpec.ranges`; where `bounds` may be infinite, such as a speed, the range
+    of the speeds an episode mostly has). A learner's settings on a task live beside the
+    learner (`agent.paper_settings`), not here."""
     physical: tuple
     """The values of the domain's physical parameters (`Domain.parameters`, in its order)
     that the definition's plants have: the paper's unless the task's `params` option says

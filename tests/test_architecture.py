@@ -54,11 +54,11 @@ LWRL_PACKAGES = ("jax",)
 the repository's root would shadow the library for code run from there)."""
 DOMAIN_FACTS = ("viz/scenes/", "export/c_plants/", "studies/compare/domains.py",
                 "studies/robustness/domains.py", "studies/paper/benchmark/classical/",
-                "studies/paper/benchmark/variants.py", "agent/zoo.py")
+                "studies/paper/benchmark/variants.py", "agent/zoo.py", "agent/paper_settings.py")
 """Each part's facts about the domains (`lwrl.outside.DomainFacts`: the viewer's scenes, the
 plants in C, the plant comparison's tolerances, the robustness axes, the benchmark's
-classical controllers and randomised physics, the zoo's counterparts) name the domains they are about, and their
-parameters and state variables."""
+classical controllers and randomised physics, the zoo's counterparts, the paper agent's
+settings) name the domains they are about, and their parameters and state variables."""
 NAMING_DOMAINS_ALLOWED = ("studies/paper/", *DOMAIN_FACTS)
 """The paper's study names the tasks of its figures as data, and the parts' facts."""
 NAMING_LEARNERS_ALLOWED = ("agent/", "studies/paper/")

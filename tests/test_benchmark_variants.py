@@ -14,7 +14,7 @@ from lwrl.studies.paper.benchmark import evaluation, variants
 def test_candidates_are_the_suites_options():
     definition = evaluation.task_definition("cartpole.balance")
     noise = variants.environment("cartpole.balance", "noise")["observation_noise"]
-    span = np.asarray(definition.defaults.high) - np.asarray(definition.defaults.low)
+    span = np.subtract(definition.ranges[1], definition.ranges[0])
     assert list(noise) == list(definition.state_names)
     assert np.allclose(list(noise.values()), variants.NOISE * span)
     assert variants.environment("cartpole.balance", "delay") == {"action_delay": variants.DELAY}

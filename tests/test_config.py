@@ -7,7 +7,11 @@ import sys
 import numpy as np
 import pytest
 
-from lwrl.runners.config import RunConfig
+import dataclasses
+
+from lwrl import agent
+from lwrl.agent.paper_settings import PAPER_SETTINGS, paper_settings
+from lwrl.runners.config import ProtocolSettings, RunConfig, task_defaults, unset_per_task
 from lwrl.studies.paper.items import ITEMS
 from lwrl.studies.paper.reproduce import with_alphas, with_readings
 from lwrl.runners.run import make_agent, run
@@ -38,6 +42,41 @@ def test_ranges_default_to_the_paper_and_can_be_set():
         RunConfig(task="pendulum.swingup", low=(-1, -1, -1))
     with pytest.raises(ValueError, match="unknown centroids 'corners'; allowed: midpoints, edges"):
         RunConfig(task="pendulum.swingup", centroids="corners")
+
+
+def test_a_run_takes_the_paper_agents_settings_on_its_task_and_what_it_is_given():
+    """The one rule of a run's defaults: given values, else the paper agent's settings on
+    the task (`agent.paper_settings`), field by field."""
+    paper = paper_settings("mountain_car.cost_to_go")
+    config = RunConfig(task="mountain_car.cost_to_go", alpha=0.25)
+    assert (config.agent.alpha, config.agent.n, config.agent.trace, config.agent.lam,
+            config.agent.epsilon, config.agent.gamma, config.episodes, config.agents) == (
+        0.25, paper.n, paper.trace, paper.lam, paper.epsilon, paper.gamma, paper.episodes,
+        paper.agents)
+    assert task_defaults("mountain_car.cost_to_go") == dataclasses.asdict(paper)
+
+
+def test_a_task_without_the_paper_agents_settings_takes_the_fields_own():
+    """A task with no entry (an outside one) gets each `per_task` field's own value; the
+    paper's settings asked for it are refused in one line naming the group to register
+    under."""
+    own = {field.name: field.metadata["per_task"] for cls in
+           (agent.learner("sarsa").settings, ProtocolSettings)
+           for field in dataclasses.fields(cls) if "per_task" in field.metadata}
+    assert set(own) == {"n", "trace", "alpha", "lam", "epsilon", "gamma", "episodes", "agents"}
+    filled = {**unset_per_task(agent.learner("sarsa").settings(), {}),
+              **unset_per_task(ProtocolSettings(), {})}
+    assert filled == own
+    given = agent.learner("sarsa").settings(alpha=2.0)
+    assert unset_per_task(given, {"alpha": 3.0, "n": 4})["n"] == 4
+    assert "alpha" not in unset_per_task(given, {"alpha": 3.0})
+    with pytest.raises(ValueError) as refused:
+        paper_settings("nowhere.reach")
+    message = str(refused.value)
+    assert "\n" not in message and "'nowhere'" in message
+    assert f"of the group '{PAPER_SETTINGS.group}'" in message
+    with pytest.raises(ValueError, match="for the task 'pendulum.balance' .*swingup"):
+        paper_settings("pendulum.balance")
 
 
 def test_optional_readings_enter_a_runs_key_only_when_set():

@@ -29,7 +29,7 @@ from lwrl.agent import io as agent_io
 from lwrl.agent.cmac import CMAC
 from lwrl.agent.nrbf import NRBF
 from lwrl.agent.sarsa import BatchedSarsa
-from lwrl.runners.config import RunConfig, task_defaults
+from lwrl.runners.config import RunConfig
 from lwrl.export.c import export_c, measure
 from lwrl.runners.run import make_agent, run
 
@@ -306,9 +306,8 @@ def test_bad_inputs_are_refused_in_one_line(agent_files, tmp_path):
     one_line_error(lambda: export_c(tmp_path / "missing.npz", tmp_path), "no such agent file")
     (tmp_path / "text.npz").write_text("not an agent")
     one_line_error(lambda: export_c(tmp_path / "text.npz", tmp_path), "not an lwrl agent file")
-    cmac = BatchedSarsa(CMAC(task_defaults("mountain_car.cost_to_go")["low"],
-                             task_defaults("mountain_car.cost_to_go")["high"]), 3, alpha=0.5, lam=0.9,
-                        epsilon=0.0, trace="replacing", seeds=[0])
+    cmac = BatchedSarsa(CMAC(*tasks.definition("mountain_car", "cost_to_go").ranges), 3,
+                        alpha=0.5, lam=0.9, epsilon=0.0, trace="replacing", seeds=[0])
     agent_io.save(tmp_path / "cmac.npz", cmac)
     one_line_error(lambda: export_c(tmp_path / "cmac.npz", tmp_path / "out"), "only NRBF", "CMAC")
     for bad_index in (2, -1, True, 1.0, "0"):

@@ -17,6 +17,7 @@ Gymnasium ids).
 """
 
 import csv
+import dataclasses
 import importlib.util
 import json
 import pathlib
@@ -29,7 +30,7 @@ import numpy as np
 import pytest
 import rerun as rr
 
-from lwrl import tasks
+from lwrl import agent, tasks
 from test_outside_learner import admitted, child, install, warned_as_expected
 
 TOY = pathlib.Path(__file__).resolve().parent / "toy_task"
@@ -178,6 +179,10 @@ def test_lwrl_train_and_eval_run_the_installed_task(installed_site, tmp_path):
     config = json.loads((out / "config.json").read_text())
     assert (config["task"], config["plant"], config["learner"]) == ("toy_mass.reach", "mujoco",
                                                                     "sarsa")
+    own = {field.name: field.metadata["per_task"]  # no paper agent's settings: the learner's
+           for field in dataclasses.fields(agent.learner("sarsa").settings)
+           if "per_task" in field.metadata}
+    assert own and {name: config["agent"][name] for name in own} == own
     with open(out / "episodes.csv") as file:
         rows = list(csv.DictReader(file))
     assert len(rows) == 6 and all(1 <= float(row["steps"]) <= 200 for row in rows)
@@ -207,6 +212,7 @@ def test_lwrl_train_and_eval_run_the_installed_task(installed_site, tmp_path):
 
 
 LACKS = """
+from lwrl.agent.paper_settings import paper_settings
 from lwrl.export import device
 from lwrl.studies.paper.benchmark.references import ClassicalPolicy
 from lwrl.studies.robustness import plan
@@ -215,7 +221,7 @@ from lwrl import tasks
 definition = tasks.definition("toy_mass", "reach")
 for ask in (lambda: device.plant_header("toy_mass.reach"),
             lambda: ClassicalPolicy(definition, [definition.physical]),
-            lambda: plan.axes("toy_mass.reach")):
+            lambda: plan.axes("toy_mass.reach"), lambda: paper_settings("toy_mass.reach")):
     try:
         ask()
     except ValueError as error:
@@ -226,12 +232,12 @@ for ask in (lambda: device.plant_header("toy_mass.reach"),
 @pytest.mark.slow
 def test_what_the_toy_brings_no_facts_for_is_refused_in_one_line(installed_site, tmp_path):
     """The toy is a spec and its physics: the device programs' plant in C, the benchmark's
-    classical controller, the robustness axes and the plant comparison's tolerances are
-    each asked for and refused in one line naming the entry-point group to add one under;
+    classical controller, the robustness axes, the paper agent's settings and the plant
+    comparison's tolerances are each asked for and refused in one line naming the entry-point group to add one under;
     the command exits with status 2."""
     asked = child(installed_site, "-c", LACKS)
     assert asked.returncode == 0, asked.stderr
-    groups = ["lwrl.c_plants", "lwrl.classical", "lwrl.robustness"]
+    groups = ["lwrl.c_plants", "lwrl.classical", "lwrl.robustness", "lwrl.paper_settings"]
     lines = asked.stdout.splitlines()
     assert len(lines) == len(groups)
     for line, group in zip(lines, groups):

@@ -64,7 +64,7 @@ def test_the_spec_is_what_the_task_definition_says(name, actions):
         assert spec.action == Box((definition.control_range[0],), (definition.control_range[1],))
     else:
         assert spec.action == Discrete(len(definition.controls))
-    assert spec.ranges == Box(definition.defaults.low, definition.defaults.high)
+    assert spec.ranges == Box(*definition.ranges)
     assert spec.actions == actions
 
 

@@ -80,7 +80,7 @@ def test_transition_is_the_plant_step_and_the_task(domain, task, integrator, equ
     plant = tasks.domain(domain).plants.batch("analytic", 200, **options)
     transition = numba.njit(definition.transition)
     rng = np.random.default_rng(0)
-    low, high = map(np.asarray, (definition.defaults.low, definition.defaults.high))
+    low, high = map(np.asarray, definition.ranges)
     # States within twice the normalisation ranges: past the ranges, the limits (the
     # acrobot's speeds) and the terminal states.
     states = rng.uniform(-1, 1, size=(200, len(low))) * 2 * np.maximum(np.abs(low), np.abs(high))

@@ -21,7 +21,7 @@ import rerun as rr
 
 from lwrl import tasks
 from lwrl.cli import main as cli
-from lwrl.runners.config import RunConfig, task_defaults
+from lwrl.runners.config import RunConfig
 from lwrl.viz.scenes import mountain_car
 from lwrl.runners.recording import EpisodeRecording
 from lwrl.runners.run import EpisodeResults, make_agent
@@ -262,7 +262,7 @@ def test_value_images_and_learning_curves(saved):
     greedy = np.array(column(temporal(chunks, names.GREEDY_ACTION), "SegmentationImage:buffer")[0][0])
     np.testing.assert_array_equal(greedy, saved["images"]["greedy"].ravel())
     centroids = np.array(column(static(chunks, names.CENTROIDS), "Points2D:positions")[0])
-    assert len(centroids) == task_defaults(saved["name"])["n"] ** 2
+    assert len(centroids) == RunConfig(task=saved["name"]).agent.n ** 2
     assert np.all((centroids > 0) & (centroids < value.GRID))
     state = temporal(chunks, names.VALUE_STATE, episode=7)
     assert column(state, names.STEP) == list(range(saved["episodes"][1].steps + 1))
@@ -403,7 +403,7 @@ def test_q_on_grid_equals_the_feature_maps(task, kind):
     agents = agents_of(task, features=kind)
     features = agents.features
     weights = np.random.default_rng(3).normal(size=(2, features.num_features))
-    low, high = np.array(task_defaults(task)["low"]), np.array(task_defaults(task)["high"])
+    low, high = map(np.array, tasks.definition(*tasks.split_name(task)).ranges)
     for scale in (1, 40):
         grid = value.value_grid(task, low * scale, high * scale, size=17)
         expected = features.features(grid.states().reshape(-1, features.dim)) @ weights.T

@@ -1,7 +1,7 @@
 """Closed-loop comparison of the plants: the same agents learning on each, then transferred.
 
 Each plant of `PLANTS` trains the same agent configuration (the task's defaults,
-`TaskDefinition.defaults`) with the same seeds; every trained batch is then run
+`agent.paper_settings`) with the same seeds; every trained batch is then run
 greedily (ε = 0, no learning) on every plant, from starts drawn with seeds away from the
 training ones (`EVAL_SEED`, as `lwrl eval`).
 """

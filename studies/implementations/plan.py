@@ -17,7 +17,7 @@ import numpy as np
 from lwrl import agent as learners
 from lwrl import tasks
 from lwrl.agent.zoo import TUNED_AS
-from lwrl.runners.config import RunConfig, task_defaults, tuned_settings
+from lwrl.runners.config import RunConfig, protocol_defaults, task_defaults, tuned_settings
 
 PLANT = "analytic"
 """The plant of every run: the population learners train on the JAX ports of the analytic
@@ -137,7 +137,7 @@ def tuned_as(task: str) -> str:
 def protocol(task: str, budgets: dict, episodes: int | None, time_limit: float | None) -> tuple:
     """`(episodes, task options)` of `task`: `budgets[task]` (the command's default per
     task) or the task's own episodes, then the study's overrides."""
-    default, options = budgets.get(task, (task_defaults(task)["episodes"], {}))
+    default, options = budgets.get(task, (protocol_defaults(task)["episodes"], {}))
     options = dict(options)
     if time_limit is not None:
         options["time_limit"] = float(time_limit)

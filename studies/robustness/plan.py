@@ -24,7 +24,7 @@ the agents go on as they ended, `Agents.take_over`) in every cell:
 - the grid of the robustness parameters, each at `FACTORS` times its paper value (clipped to
   the values the plants accept);
 - observation noise on every state variable at once, sigma a fraction `NOISE_LEVELS` of the
-  variable's normalisation span (the task's `RunDefaults.low` to `high`);
+  variable's normalisation span (the task's `TaskDefinition.ranges`);
 - actuation delays of `DELAYS` control steps.
 
 The evaluation episodes start from seeds of their own (`EVALUATION_SEED` + the agent's
@@ -39,7 +39,7 @@ import numpy as np
 from lwrl import agent as learners
 from lwrl import tasks
 from lwrl.agent import LEARNERS
-from lwrl.runners.config import RunConfig, task_defaults, task_spec, tuned_settings
+from lwrl.runners.config import RunConfig, protocol_defaults, task_spec, tuned_settings
 from lwrl.studies.robustness.domains import ROBUSTNESS
 
 FACTORS = (0.25, 0.5, 1.0, 2.0, 4.0)
@@ -124,7 +124,7 @@ def agents_for(task: str, learner: str, agents=None):
     chosen = learners.learner(learner)
     if chosen.compiles or chosen.population:
         return agents
-    return min(agents or task_defaults(task)["agents"], STEPPED_AGENTS)
+    return min(agents or protocol_defaults(task)["agents"], STEPPED_AGENTS)
 
 
 def stepped_protocol(task: str, learner: str, episodes, quick: bool, stepped=None) -> tuple:
@@ -195,7 +195,7 @@ def evaluation(task: str, trained: RunConfig, cell: Cell, episodes: int,
     episodes each, without learning, on the task's own episodes (`task_options`) whatever
     the training's were, so that every learner is measured alike."""
     definition = tasks.definition(*tasks.split_name(task))
-    span = np.asarray(definition.defaults.high) - np.asarray(definition.defaults.low)
+    span = np.subtract(definition.ranges[1], definition.ranges[0])
     noise = ({name: float(cell.noise * width) for name, width in zip(definition.state_names, span)}
              if cell.noise else {})
     return dataclasses.replace(trained, randomise={}, params=values(task, cell),

@@ -26,7 +26,8 @@ steps the same model with the same step, agreeing with the C engine to round-off
 import dataclasses
 
 from lwrl import tasks
-from lwrl.runners.config import RunConfig, task_defaults, tuned_settings
+from lwrl.agent.paper_settings import paper_settings
+from lwrl.runners.config import RunConfig, tuned_settings
 
 VERSION = "benchmark2-1"
 """The protocol's version, which an outside results file records (`outside`): a change to the
@@ -86,7 +87,7 @@ def linear_rows(name: str) -> list:
     """The linear rows of the suite's task `name`, the paper's agent first: NRBF
     Sarsa(lambda) with the task's settings (`lwrl train`'s defaults), the same with the other
     trace (`OTHER_TRACE`), true online Sarsa(lambda), then the task's own (`TASK_ROWS`)."""
-    trace = OTHER_TRACE[task_defaults(name)["trace"]]
+    trace = OTHER_TRACE[paper_settings(name).trace]
     return [Row("paper", "sarsa", {}), Row("sarsa-" + trace, "sarsa", {"trace": trace}),
             Row("true_online_sarsa", "true_online_sarsa", {}),
             *(Row(row.label, row.learner, dict(row.settings)) for row in TASK_ROWS.get(name, ()))]

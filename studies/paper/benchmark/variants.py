@@ -6,7 +6,7 @@ The candidates come from the suite's own axes (docs/guide/tasks.md, "Sensors and
 and "Randomised physics while learning"; the robustness study's, docs/guide/robustness.md):
 
 - `noise`: Gaussian observation noise, sigma `NOISE` of each state variable's normalisation
-  span (the task's `RunDefaults.low` to `high`), drawn anew each step;
+  span (the task's `TaskDefinition.ranges`), drawn anew each step;
 - `delay`: the control applied `DELAY` control steps after it was chosen;
 - `physics`: the domain's load and its actuator's strength (`RANDOMISED`, the parameters the
   robustness study spans too) drawn anew for every episode, uniformly between `FACTORS`
@@ -79,7 +79,7 @@ def environment(task: str, candidate: str) -> dict:
     if candidate == "nominal":
         return {}
     if candidate == "noise":
-        span = np.asarray(definition.defaults.high) - np.asarray(definition.defaults.low)
+        span = np.subtract(definition.ranges[1], definition.ranges[0])
         return {"observation_noise": {name: float(NOISE * width)
                                       for name, width in zip(definition.state_names, span)}}
     if candidate == "delay":

@@ -6,7 +6,7 @@ import functools
 import numpy as np
 
 from lwrl.studies.paper.benchmark.classical.controller import Classical
-from lwrl.tasks.cartpole import FAIL_ANGLE, P, PAPER_AGENT, TIMESTEP, TRACK_LIMIT
+from lwrl.tasks.cartpole import FAIL_ANGLE, P, RANGES, TIMESTEP, TRACK_LIMIT
 
 
 def linearised(p) -> tuple:
@@ -27,7 +27,7 @@ def linearised(p) -> tuple:
     return a, b
 
 
-LQR_LIMITS = (TRACK_LIMIT, PAPER_AGENT.high[1], FAIL_ANGLE, PAPER_AGENT.high[3])
+LQR_LIMITS = (TRACK_LIMIT, RANGES[1][1], FAIL_ANGLE, RANGES[1][3])
 """Bryson's rule's largest acceptable value of each state variable, for the LQR's weights
 1 / limit^2: the track limit (2.4 m), the failure angle (12 deg), and the author's ranges
 of the speeds (1.5 m/s, 150 deg/s); the force's weight is 1 / F^2."""
