@@ -33,6 +33,7 @@ from lwrl.agent.jax_population import (PopulationAgents, Program, adam, adam_ini
                                        replay_due, replay_gradient_steps, replay_hyper,
                                        replay_sample, replay_update)
 from lwrl.agent.learner_contract import Learner
+from lwrl.agent.observation_normalisation import ObservationNormalisation
 from lwrl.agent.stable_baselines import network_bytes
 from lwrl.settings import setting
 
@@ -43,8 +44,9 @@ HYPER = ("learning_rate", "gamma", "max_grad_norm", "learning_starts", "tau", "t
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
-class DqnJaxSettings(DqnSettings):
-    """`dqn`'s settings, field for field; a batch shares those that shape the program."""
+class DqnJaxSettings(ObservationNormalisation, DqnSettings):
+    """`dqn`'s settings, field for field, and the observation normalisation
+    (`agent.observation_normalisation`); a batch shares those that shape the program."""
 
     batch_size: int = setting(32)
     """Transitions per gradient step."""
