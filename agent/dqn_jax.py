@@ -33,7 +33,7 @@ from lwrl.agent.jax_population import (PopulationAgents, Program, adam, adam_ini
                                        replay_due, replay_gradient_steps, replay_hyper,
                                        replay_sample, replay_update)
 from lwrl.agent.learner_contract import Learner
-from lwrl.agent.observation_normalisation import ObservationNormalisation
+from lwrl.agent.observation_normalisation import ObservationNormalisation, counted
 from lwrl.agent.stable_baselines import network_bytes
 from lwrl.settings import setting
 
@@ -173,6 +173,6 @@ LEARNER = Learner(
     source="Mnih et al. (2015), Nature 518; Raffin et al. (2021), JMLR 22(268): "
            "stable_baselines3.DQN, in JAX as PureJaxRL (Lu et al. 2022)",
     settings=DqnJaxSettings, make=make, load=load, memory=memory,
-    fits=fits_with_jax("dqn_jax"), tuned=ZOO_SETS, population=True, arithmetic=arithmetic)
+    fits=fits_with_jax("dqn_jax"), tuned=ZOO_SETS, population=True, arithmetic=counted(arithmetic))
 """The `dqn_jax` learner as the registry holds it (`agent.LEARNERS`)."""
 DqnJaxAgents.learner = LEARNER

@@ -22,11 +22,13 @@ statistics of the time it is drawn.
 
 The statistics are a part of each agent's state (`observation_stats`), so they are saved
 and loaded and carried in checkpoints with it, and a part of what it has learned
-(`PopulationAgents.learned_tree`), so that its values at states read them.
+(`PopulationAgents.learned_tree`), so that its values at states read them. Its arithmetic
+is counted with the learner's (`counted`).
 """
 
 import dataclasses
 
+from lwrl.agent.arithmetic import Count
 from lwrl.settings import WHEN_SET, check_flag, setting
 
 CLIP = 10.0
@@ -40,8 +42,10 @@ class ObservationNormalisation:
     """The setting that turns the normalisation on (mixed into a learner's settings)."""
 
     normalize_observations: bool = setting(False, key=WHEN_SET)
-    """Normalise observations by the running mean and variance of those seen in learning,
-    clipped to +-10 (SB3's `VecNormalize(norm_obs=True)`)."""
+    """Normalise each observation by the running mean and variance of those seen in
+    learning: the deep learners' JAX populations as SB3's `VecNormalize(norm_obs=True)`
+    (clipped to +-10; off by default), the streaming learners as their authors'
+    `NormalizeObservation` (on by default)."""
 
     def check(self, task) -> None:
         """The learner's checks, and a one-line ValueError where `normalize_observations`
@@ -92,3 +96,24 @@ def normalising(program):
                               hyper, clock, due)
 
     return dataclasses.replace(program, act=act, record=record, update=update)
+
+
+def counted(arithmetic):
+    """The learner's `arithmetic` (`Learner.arithmetic`) with the normalisation's where the
+    settings turn it on, counted as the streaming learners' (`stream_agents.observation_counts`):
+    an observation normalised, d multiply-adds and d square roots, in a greedy decision; in an
+    agent-step of learning, three (the observation where the agent acts on it and where the
+    transition is recorded, and the next observation) and the observation into the
+    statistics (2 d). The statistics are frozen in a greedy decision, so its square roots
+    could be constants of a controller; they are counted as computed here."""
+    def with_normalisation(settings, task, steps=None):
+        counts = arithmetic(settings, task, steps)
+        if not settings.normalize_observations:
+            return counts
+        dim = len(task.state_names)
+        normalised = Count(dim, dim)
+        return dataclasses.replace(
+            counts, decision=counts.decision + normalised,
+            step=counts.step + 3 * normalised + Count(2 * dim),
+            source=f"{counts.source}, observations normalised ({__name__}.counted)")
+    return with_normalisation

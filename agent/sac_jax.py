@@ -37,7 +37,7 @@ from lwrl.agent.jax_population import adam, adam_init, fits_with_jax, masked, po
 from lwrl.agent.learner_contract import Learner
 from lwrl.agent.off_policy import fits_continuous
 from lwrl.agent.off_policy_jax import ActorCriticAgents
-from lwrl.agent.observation_normalisation import ObservationNormalisation
+from lwrl.agent.observation_normalisation import ObservationNormalisation, counted
 from lwrl.agent.off_policy_jax import memory as off_policy_memory
 from lwrl.agent.sac import SacSettings, arithmetic
 
@@ -154,6 +154,6 @@ LEARNER = Learner(
            "stable_baselines3.SAC, in JAX as PureJaxRL (Lu et al. 2022)",
     settings=SacJaxSettings, make=make, load=load, memory=memory,
     fits=fits_continuous("sac_jax", fits_with_jax("sac_jax")), actions="continuous",
-    population=True, arithmetic=arithmetic)
+    population=True, arithmetic=counted(arithmetic))
 """The `sac_jax` learner as the registry holds it (`agent.LEARNERS`)."""
 SacJaxAgents.learner = LEARNER

@@ -67,8 +67,10 @@ class StreamSettings(LearnerSettings):
     sparsity: float = setting(0.9)
     """Fraction of each layer's weights initialised to 0, in [0, 1)."""
     normalize_observations: bool = setting(True, key=WHEN_SET)
-    """Normalise each observation by the running statistics of those seen (the authors'
-    `NormalizeObservation`); false: the learner reads the observation in task units."""
+    """Normalise each observation by the running mean and variance of those seen in
+    learning: the deep learners' JAX populations as SB3's `VecNormalize(norm_obs=True)`
+    (clipped to +-10; off by default), the streaming learners as their authors'
+    `NormalizeObservation` (on by default)."""
 
     def layers(self) -> list:
         """The hidden layers' widths of `net_arch`, checked."""
@@ -214,11 +216,12 @@ def trained_pass(sizes) -> Count:
     return Count((1 + BACKWARD_MACS) * forward.macs, forward.exps)
 
 
-def observation_counts(dim: int) -> tuple:
+def observation_counts(dim: int, normalise: bool = True) -> tuple:
     """`(normalised, transition)`: an observation normalised, d multiply-adds and d square
-    roots; and what a transition adds beside the networks: the next observation into the
-    statistics (2 d), normalised, and the reward scaled (4 and a square root)."""
-    normalised = Count(dim, dim)
+    roots (none where the settings turn the normalisation off); and what a transition adds
+    beside the networks: the next observation into the statistics (2 d), normalised, and the
+    reward scaled (4 and a square root)."""
+    normalised = Count(dim, dim) if normalise else Count(0)
     return normalised, normalised + Count(2 * dim + 4, 1)
 
 

@@ -4,8 +4,9 @@ Each field becomes one flag: `--name-with-hyphens` unless its metadata names `fl
 help is the field's docstring; its parser follows its type (a finite number, an integer, a
 comma-separated tuple of finite numbers, a word among the field's `choices`, a switch
 for a bool, `--name` and `--no-name`, or repeated `NAME=VALUE` pairs for a dict,
-`NAME=LOW:HIGH` where its values are ranges). Unset flags stay out of the configuration, which then takes its defaults. So a
-field added to a dataclass is on the command line without a second edit.
+`NAME=LOW:HIGH` where its values are ranges). Unset flags stay out of the configuration,
+which then takes its defaults. So a field added to a dataclass is on the command line
+without a second edit.
 
 A bad value is one line: `lwrl train: error: argument --alpha: must be a finite number;
 got 'inf'`.
@@ -149,7 +150,8 @@ def flags_of(field: dataclasses.Field) -> tuple:
 
 
 def _add_flag(group, field: dataclasses.Field, help_text: str, allowed=None) -> None:
-    """The flag of one field: a switch for a bool (`--NAME` and `--no-NAME`), else a value read by its type."""
+    """The flag of one field: a switch for a bool (`--NAME` and `--no-NAME`), else a value
+    read by its type."""
     if field.metadata.get("describe"):
         help_text = f"{help_text} Allowed: {field.metadata['describe']()}."
     help_text = help_text.replace("%", "%%")

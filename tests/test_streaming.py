@@ -52,7 +52,8 @@ def test_running_statistics_are_the_sample_mean_and_variance():
     for sample in samples[1:]:
         stats = running_stats.stats_add(stats, sample)
     np.testing.assert_allclose(stats["mean"], samples.mean(axis=0), rtol=1e-12)
-    np.testing.assert_allclose(running_stats.stats_variance(stats), samples.var(axis=0, ddof=1), rtol=1e-12)
+    np.testing.assert_allclose(running_stats.stats_variance(stats), samples.var(axis=0, ddof=1),
+                               rtol=1e-12)
 
 
 def test_rewards_are_scaled_by_the_discounted_return_s_spread():
