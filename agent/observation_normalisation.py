@@ -53,6 +53,12 @@ class ObservationNormalisation:
         check_flag("normalize_observations", self.normalize_observations)
         super().check(task)
 
+    def describe(self, dim: int) -> str:
+        """The learner's description, and the normalisation where it is on."""
+        return super().describe(dim) + (", observations normalised (running mean and "
+                                        "variance, clipped to +-10)"
+                                        if self.normalize_observations else "")
+
 
 def normalised(observation, stats):
     """`observation` normalised by the running statistics `stats` and clipped to +-`CLIP`,

@@ -89,7 +89,8 @@ class StreamSettings(LearnerSettings):
         """The network and ObGD's settings in words, for a run's header."""
         return (f"MLP {self.net_arch} (layer norm, leaky ReLU, {self.sparsity:g} sparse), "
                 f"ObGD lr {self.learning_rate:g} kappa {self.kappa:g}, gamma {self.gamma:g}, "
-                f"lambda {self.lam:g}, {self.timesteps} steps")
+                f"lambda {self.lam:g}, {self.timesteps} steps"
+                + ("" if self.normalize_observations else ", observations in task units"))
 
 
 HYPER = ("timesteps", "learning_rate", "gamma", "lam", "kappa")
