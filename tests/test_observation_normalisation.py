@@ -129,3 +129,29 @@ def test_a_bad_value_is_refused_in_one_line(learner):
     one_line_error(lambda: RunConfig(task="cartpole.balance", learner=learner,
                                      normalize_observations="yes"),
                    "normalize_observations must be true or false", "'yes'")
+
+
+def test_a_stopped_normalising_run_goes_on_from_its_kept_statistics():
+    """The statistics are a part of the state a stopped run keeps (`runners.resume`): going on
+    gives the numbers, the weights and the statistics of the run computed in one go."""
+    import tempfile
+    from pathlib import Path
+    from lwrl.runners.population import CHUNK
+    config = dataclasses.replace(DQN, episodes=2000, budget=3 * CHUNK, timesteps=3 * CHUNK)
+    whole_agents, whole = run(config)
+    calls = []
+
+    def stop_at_second(_):
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "run.resume.npz"
+        _, stopped = run(config, resume=path, progress=stop_at_second)
+        assert stopped.interrupted
+        agents, resumed = run(config, resume=path)
+    assert not resumed.interrupted and resumed.earlier_compute[0] > 0
+    for field in ("steps", "returns", "truncated", "diverged_episode"):
+        np.testing.assert_array_equal(getattr(resumed, field), getattr(whole, field))
+    np.testing.assert_array_equal(agents.arrays.weights, whole_agents.arrays.weights)
+    assert float(agents.state["observation_stats"]["count"][0]) > CHUNK
