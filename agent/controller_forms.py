@@ -14,7 +14,7 @@ their learners (`FORMS`), the learner's own `Agents.controller` for the others.
   argmax of the scores, a continuous one the output clipped to [-1, 1]
   (`random_search.continuous_action`).
 - **Stream Q(lambda)** (Elsayed, Vasan & Mahmood 2024): the observation normalised by the
-  running statistics, (x - mu) / sqrt(var + 1e-8) (`agent.streaming.normalised`: the
+  running statistics, (x - mu) / sqrt(var + 1e-8) (`agent.running_stats.normalised`: the
   scale is computed here by the learner's own `stats_variance`), then Q's network, every
   hidden layer linear, layer-normalised without learned parameters (eps 1e-5) and leaky
   ReLU (slope 0.01) (`streaming.forward`); the greedy action is the argmax of Q.
@@ -94,18 +94,24 @@ def linear_form(agents, b: int) -> ControllerForm:
 
 
 def _stream_form(agents, b: int, layers, outputs, title: str) -> ControllerForm:
-    """A streaming learner's network `layers` (see the module), its statistics agent b's."""
-    from lwrl.agent import streaming
-    stats = _tree(agents, b)["observations"]
-    scale = np.sqrt(np.asarray(streaming.stats_variance(stats), np.float64) + streaming.STATS_EPS)
+    """A streaming learner's network `layers` (see the module), its statistics agent b's,
+    or none where its settings turn the normalisation off."""
+    from lwrl.agent import running_stats, streaming
     flat, sizes = _network(layers, outputs)
-    return _form(agents, flat, sizes, title, activation="LEAKY_RELU", output="CLIP",
-                 between=", each hidden layer normalised (N) before it", normalise="1",
-                 layer_norm="1", leaky_slope=streaming.LEAKY_SLOPE,
-                 layer_norm_eps=streaming.LAYER_NORM_EPS,
+    network = dict(activation="LEAKY_RELU", output="CLIP",
+                   between=", each hidden layer normalised (N) before it", layer_norm="1",
+                   leaky_slope=streaming.LEAKY_SLOPE, layer_norm_eps=streaming.LAYER_NORM_EPS)
+    if not agents.settings[b].normalize_observations:
+        return _form(agents, flat, sizes, title, normalise="0",
+                     inputs="the state in task units (no normalisation)", **network)
+    stats = _tree(agents, b)["observations"]
+    scale = np.sqrt(np.asarray(running_stats.stats_variance(stats), np.float64)
+                    + running_stats.STATS_EPS)
+    return _form(agents, flat, sizes, title, normalise="1",
                  input_mean=np.asarray(stats["mean"], np.float64), input_scale=scale,
                  inputs="the state in task units, normalised by the running statistics of "
-                        "the observations seen in learning: (s - mu) / sqrt(var + 1e-8)")
+                        "the observations seen in learning: (s - mu) / sqrt(var + 1e-8)",
+                 **network)
 
 
 def stream_q_form(agents, b: int) -> ControllerForm:

@@ -33,6 +33,7 @@ from lwrl.agent.jax_population import (PopulationAgents, Program, adam, adam_ini
                                        replay_due, replay_gradient_steps, replay_hyper,
                                        replay_sample, replay_update)
 from lwrl.agent.learner_contract import Learner
+from lwrl.agent.observation_normalisation import ObservationNormalisation, counted
 from lwrl.agent.stable_baselines import network_bytes
 from lwrl.settings import setting
 
@@ -43,8 +44,9 @@ HYPER = ("learning_rate", "gamma", "max_grad_norm", "learning_starts", "tau", "t
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
-class DqnJaxSettings(DqnSettings):
-    """`dqn`'s settings, field for field; a batch shares those that shape the program."""
+class DqnJaxSettings(ObservationNormalisation, DqnSettings):
+    """`dqn`'s settings, field for field, and the observation normalisation
+    (`agent.observation_normalisation`); a batch shares those that shape the program."""
 
     batch_size: int = setting(32)
     """Transitions per gradient step."""
@@ -171,6 +173,6 @@ LEARNER = Learner(
     source="Mnih et al. (2015), Nature 518; Raffin et al. (2021), JMLR 22(268): "
            "stable_baselines3.DQN, in JAX as PureJaxRL (Lu et al. 2022)",
     settings=DqnJaxSettings, make=make, load=load, memory=memory,
-    fits=fits_with_jax("dqn_jax"), tuned=ZOO_SETS, population=True, arithmetic=arithmetic)
+    fits=fits_with_jax("dqn_jax"), tuned=ZOO_SETS, population=True, arithmetic=counted(arithmetic))
 """The `dqn_jax` learner as the registry holds it (`agent.LEARNERS`)."""
 DqnJaxAgents.learner = LEARNER

@@ -327,7 +327,7 @@ _INITIALISERS: dict = {}
 
 
 def initialiser(agents):
-    """`keys (B, 2) -> state`: `agents.initial_state` of each key, jitted once per process
+    """`keys (B, 2) -> state`: `agents.agent_state` of each key, jitted once per process
     for each `agents.initialiser_key()`, so that a new batch of the same kind compiles
     nothing (a program made anew for every batch compiled for 1.5 s each time here, where
     JAX's disk cache did not hold it). One program, the agents one after another: vmapped,
@@ -338,7 +338,7 @@ def initialiser(agents):
     key = agents.initialiser_key()
     if key not in _INITIALISERS:
         jax, shell = agents.jax, copy.copy(agents)
-        _INITIALISERS[key] = jax.jit(lambda keys: jax.lax.map(shell.initial_state, keys))
+        _INITIALISERS[key] = jax.jit(lambda keys: jax.lax.map(shell.agent_state, keys))
     return _INITIALISERS[key]
 
 
@@ -367,7 +367,7 @@ class PopulationAgents(Agents):
         batch = len(self.seeds)
         self.arrays = PopulationArrays(delta=np.full(batch, np.nan),
                                        diverged=np.zeros(batch, dtype=bool),
-                                       weights=flat(self.weight_tree(self.state)))
+                                       weights=flat(self.learned_tree(self.state)))
 
     @property
     def action_space(self):
@@ -408,7 +408,7 @@ class PopulationAgents(Agents):
         return ()
 
     def initial_state(self, key):
-        """One agent's state, from its JAX `key` (`initialiser` maps it over the batch)."""
+        """One agent's state, from its JAX `key`, as the learner makes it."""
         raise NotImplementedError
 
     def program(self) -> Program:
@@ -417,8 +417,45 @@ class PopulationAgents(Agents):
 
     @staticmethod
     def weight_tree(state):
-        """The leaves of `state` that are what the agents have learned (their weights)."""
+        """The leaves of `state` that are what the learner has learned (its weights)."""
         raise NotImplementedError
+
+    def normalises_observations(self) -> bool:
+        """True where the agents' settings turn on the observation normalisation of
+        `agent.observation_normalisation` (the batch shares it)."""
+        from lwrl.agent.observation_normalisation import ObservationNormalisation
+        first = self.settings[0]
+        return isinstance(first, ObservationNormalisation) and first.normalize_observations
+
+    def agent_state(self, key):
+        """One agent's state, from its JAX `key` (`initialiser` maps it over the batch): the
+        learner's `initial_state`, and the observation statistics where the agents normalise
+        their observations (`agent.observation_normalisation`)."""
+        state = self.initial_state(key)
+        if not self.normalises_observations():
+            return state
+        from lwrl.agent import observation_normalisation
+        return {**state, observation_normalisation.STATE:
+                observation_normalisation.initial_stats(self.dim)}
+
+    def trained_program(self) -> Program:
+        """The program the runner trains and acts with: the learner's `program`, reading
+        its observations normalised where the agents normalise them
+        (`observation_normalisation.normalising`)."""
+        if not self.normalises_observations():
+            return self.program()
+        from lwrl.agent import observation_normalisation
+        return observation_normalisation.normalising(self.program())
+
+    def learned_tree(self, state):
+        """What the agents have learned: the learner's `weight_tree`, and the observation
+        statistics where the agents normalise their observations (a greedy decision needs
+        both)."""
+        if not self.normalises_observations():
+            return self.weight_tree(state)
+        from lwrl.agent import observation_normalisation
+        return {"weights": self.weight_tree(state),
+                "observations": state[observation_normalisation.STATE]}
 
     def snapshot(self) -> "PopulationAgents":
         """A copy of these agents whose `finished` leaves these as they are (the state's
@@ -430,7 +467,7 @@ class PopulationAgents(Agents):
     def finished(self, state, clocks) -> None:
         """After a run: the batch's new state and clocks, its weights and divergence."""
         self.state, self.clocks = state, np.asarray(clocks, dtype=np.int64)
-        self.arrays = self.arrays._replace(weights=flat(self.weight_tree(state)))
+        self.arrays = self.arrays._replace(weights=flat(self.learned_tree(state)))
         self.arrays.diverged[:] |= ~np.isfinite(self.arrays.weights).all(axis=1)
 
     def value_box(self) -> tuple:
@@ -438,8 +475,8 @@ class PopulationAgents(Agents):
         return self.task.ranges.low, self.task.ranges.high
 
     def unflatten(self, weights):
-        """One agent's `weight_tree` from its flattened `weights` (`arrays.weights[b]`)."""
-        template = self.jax.tree.map(lambda leaf: leaf[0], self.weight_tree(self.state))
+        """One agent's `learned_tree` from its flattened `weights` (`arrays.weights[b]`)."""
+        template = self.jax.tree.map(lambda leaf: leaf[0], self.learned_tree(self.state))
         leaves, structure = self.jax.tree.flatten(template)
         sizes = np.cumsum([leaf.size for leaf in leaves])[:-1]
         parts = np.split(np.asarray(weights, dtype=np.float64), sizes)
@@ -453,7 +490,12 @@ class PopulationAgents(Agents):
         flat_states = states.reshape(-1, states.shape[-1])
 
         def one(tree):
-            result = np.asarray(values(tree, self.jnp.asarray(flat_states)), dtype=np.float64)
+            observations = self.jnp.asarray(flat_states)
+            if self.normalises_observations():
+                from lwrl.agent import observation_normalisation
+                tree, observations = tree["weights"], observation_normalisation.normalised(
+                    observations, tree["observations"])
+            result = np.asarray(values(tree, observations), dtype=np.float64)
             return result.reshape(states.shape[:-1] + result.shape[1:])
         if weights is not None:
             return one(self.unflatten(weights))
@@ -471,7 +513,7 @@ class PopulationAgents(Agents):
                              "(learn=False, greedy=True)")
         observation = self.check_observation(observation)
         if self._greedy is None:
-            program, jax = self.program(), self.jax
+            program, jax = self.trained_program(), self.jax
             key = jax.random.PRNGKey(0)  # unused: a greedy act draws nothing
             self._hyper = program.hyper
             self._greedy = jax.jit(jax.vmap(

@@ -32,6 +32,7 @@ from lwrl.agent.jax_population import (PopulationAgents, Program, adam, adam_ini
                                        clip_by_norm, fits_with_jax, hyper_arrays, masked, mlp,
                                        mlp_init)
 from lwrl.agent.learner_contract import Learner
+from lwrl.agent.observation_normalisation import ObservationNormalisation, counted
 from lwrl.agent.ppo import ZOO_SETS, PpoSettings, arithmetic
 from lwrl.agent.stable_baselines import network_bytes
 from lwrl.settings import setting
@@ -42,8 +43,9 @@ HYPER = ("learning_rate", "gamma", "gae_lambda", "clip_range", "ent_coef", "vf_c
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
-class PpoJaxSettings(PpoSettings):
-    """`ppo`'s settings, field for field; a batch shares those that shape the program."""
+class PpoJaxSettings(ObservationNormalisation, PpoSettings):
+    """`ppo`'s settings, field for field, and the observation normalisation
+    (`agent.observation_normalisation`); a batch shares those that shape the program."""
 
     batch_size: int = setting(64)
     """Transitions per minibatch (a divisor of `n_steps`)."""
@@ -219,6 +221,6 @@ LEARNER = Learner(
     source="Schulman et al. (2017), arXiv:1707.06347; Raffin et al. (2021), JMLR 22(268): "
            "stable_baselines3.PPO, in JAX as PureJaxRL (Lu et al. 2022)",
     settings=PpoJaxSettings, make=make, load=load, memory=memory,
-    fits=fits_with_jax("ppo_jax"), tuned=ZOO_SETS, population=True, arithmetic=arithmetic)
+    fits=fits_with_jax("ppo_jax"), tuned=ZOO_SETS, population=True, arithmetic=counted(arithmetic))
 """The `ppo_jax` learner as the registry holds it (`agent.LEARNERS`)."""
 PpoJaxAgents.learner = LEARNER

@@ -5,6 +5,10 @@ with its own variance and scaling. Float64. This module imports JAX."""
 
 import jax.numpy as jnp
 
+STATS_EPS = 1e-8
+"""The normalisation wrappers' epsilon (`NormalizeObservation`, `ScaleReward`; SB3's
+`VecNormalize`)."""
+
 
 def stats_start(shape=()):
     """Running statistics of no sample (`SampleMeanStd`): mean 0, sum of squared
@@ -21,3 +25,14 @@ def stats_add(stats, x):
     count = stats["count"] + 1.0
     mean = stats["mean"] + (x - stats["mean"]) / count
     return {"mean": mean, "p": stats["p"] + (x - stats["mean"]) * (x - mean), "count": count}
+
+
+def stats_variance(stats):
+    """The sample variance p / (n - 1), 1 before two samples (`SampleMeanStd`)."""
+    return jnp.where(stats["count"] < 2, 1.0, stats["p"] / jnp.maximum(stats["count"] - 1.0, 1.0))
+
+
+def normalised(x, stats):
+    """An observation normalised by the running statistics, (x - mu) / sqrt(var + 1e-8)
+    (`NormalizeObservation.normalize`, after the statistics took x)."""
+    return (x - stats["mean"]) / jnp.sqrt(stats_variance(stats) + STATS_EPS)

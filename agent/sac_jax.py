@@ -3,7 +3,8 @@ learning with a stochastic actor", ICML, PMLR 80:1861-1870; the learned temperat
 Haarnoja et al. 2018b, arXiv:1812.05905, section 5) as Stable-Baselines3 computes it
 (`stable_baselines3.SAC`, `agent.sac`), written in JAX and trained as a whole population in
 one jitted program (`agent.off_policy_jax`: the loop, the buffer, the networks, what differs
-from `sac`): the same settings as `sac` (`SacSettings`), the same equations, PyTorch's Adam.
+from `sac`): the same settings as `sac` (`SacSettings`, and `normalize_observations`),
+the same equations, PyTorch's Adam.
 
 The actor is a Gaussian squashed by tanh (SB3's `SquashedDiagGaussianDistribution`): a =
 tanh(u), u = mu(s) + sigma(s) n, n ~ N(0, 1), log sigma(s) clipped to [-20, 2], and
@@ -27,6 +28,7 @@ A greedy action is tanh(mu(s)). The warm-up's actions are uniform over [-1, 1], 
 of learning the policy's samples.
 """
 
+import dataclasses
 import math
 
 import numpy as np
@@ -35,6 +37,7 @@ from lwrl.agent.jax_population import adam, adam_init, fits_with_jax, masked, po
 from lwrl.agent.learner_contract import Learner
 from lwrl.agent.off_policy import fits_continuous
 from lwrl.agent.off_policy_jax import ActorCriticAgents
+from lwrl.agent.observation_normalisation import ObservationNormalisation, counted
 from lwrl.agent.off_policy_jax import memory as off_policy_memory
 from lwrl.agent.sac import SacSettings, arithmetic
 
@@ -42,6 +45,12 @@ LOG_STD_RANGE = (-20.0, 2.0)
 """SB3's `LOG_STD_MIN`, `LOG_STD_MAX`: the actor's log standard deviation is clipped to it."""
 TARGET_ENTROPY = -1.0
 """SB3's `target_entropy="auto"`: -dim(A), one action."""
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class SacJaxSettings(ObservationNormalisation, SacSettings):
+    """`sac`'s settings, and the observation normalisation
+    (`agent.observation_normalisation`)."""
 
 
 class SacJaxAgents(ActorCriticAgents):
@@ -130,7 +139,7 @@ def make(settings, task, seeds) -> SacJaxAgents:
 
 def load(document, arrays) -> SacJaxAgents:
     """The agents `SacJaxAgents.saved` wrote (a ValueError if the parts do not fit)."""
-    return SacJaxAgents.loaded(document, arrays, SacSettings)
+    return SacJaxAgents.loaded(document, arrays, SacJaxSettings)
 
 
 def memory(settings, task) -> int:
@@ -143,8 +152,8 @@ LEARNER = Learner(
     name="sac_jax", title="SAC in JAX, a population in one program: SB3's equations",
     source="Haarnoja et al. (2018), ICML, PMLR 80:1861-1870; Raffin et al. (2021), JMLR 22(268): "
            "stable_baselines3.SAC, in JAX as PureJaxRL (Lu et al. 2022)",
-    settings=SacSettings, make=make, load=load, memory=memory,
+    settings=SacJaxSettings, make=make, load=load, memory=memory,
     fits=fits_continuous("sac_jax", fits_with_jax("sac_jax")), actions="continuous",
-    population=True, arithmetic=arithmetic)
+    population=True, arithmetic=counted(arithmetic))
 """The `sac_jax` learner as the registry holds it (`agent.LEARNERS`)."""
 SacJaxAgents.learner = LEARNER

@@ -148,15 +148,16 @@ def memory(settings, task) -> int:
 
 def arithmetic(settings, task, steps=None) -> Counts:
     """Its counted arithmetic (`Learner.arithmetic`): a greedy decision normalises the
-    observation and runs the actor (`stream_agents.network_forward`); an agent-step of
-    learning adds the sample (softplus: an exponential and a logarithm), the transition
-    (`observation_counts`), V(x'), a forward and backward pass of both networks at x with
-    the log-probability and entropy (log sigma), and ObGD over every parameter, the same at
-    every step (square roots counted with the exponentials)."""
+    observation (where the settings say so) and runs the actor
+    (`stream_agents.network_forward`); an agent-step of learning adds the sample (softplus:
+    an exponential and a logarithm), the transition (`observation_counts`), V(x'), a forward
+    and backward pass of both networks at x with the log-probability and entropy (log
+    sigma), and ObGD over every parameter, the same at every step (square roots counted with
+    the exponentials)."""
     del steps
     dim, layers = len(task.state_names), settings.layers()
     actor, critic = [dim, *layers, 2], [dim, *layers, 1]
-    normalised, transition = observation_counts(dim)
+    normalised, transition = observation_counts(dim, settings.normalize_observations)
     decision = normalised + network_forward(actor)
     update = (transition + network_forward(critic) + trained_pass(critic) + trained_pass(actor)
               + Count(6, 1) + obgd_count(mlp_parameters(actor) + mlp_parameters(critic)))

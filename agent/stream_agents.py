@@ -8,7 +8,7 @@ Per step, as the authors' wrappers and loops do it (`mohmdelsayed/streaming-drl`
 
 - `act`: an observation that starts an episode first enters the observation statistics
   (one that continues an episode entered them as the previous transition's next
-  observation); the learner acts on it normalised (`streaming.normalised`). Acting greedily
+  observation); the learner acts on it normalised (`running_stats.normalised`). Acting greedily
   (evaluation, or after `timesteps`) the statistics are left as they are;
 - `record`: the next observation enters the statistics and is normalised, the reward is
   scaled (`streaming.scaled_reward`), and the normalised transition is kept;
@@ -40,7 +40,7 @@ from lwrl.agent.arithmetic import BACKWARD_MACS, Count, mlp_forward
 from lwrl.agent.jax_population import PopulationAgents, Program, masked
 from lwrl.agent.learner_contract import LearnerSettings
 from lwrl.agent.stable_baselines import check_layers, check_network
-from lwrl.settings import check_positive, check_unit_interval, setting
+from lwrl.settings import WHEN_SET, check_flag, check_positive, check_unit_interval, setting
 
 SOURCE = ("Elsayed, Vasan & Mahmood (2024), arXiv:2410.14606; mohmdelsayed/streaming-drl at "
           "commit 407dca7")
@@ -66,6 +66,11 @@ class StreamSettings(LearnerSettings):
     """ObGD's bound kappa (the value network's, `kappa_value`)."""
     sparsity: float = setting(0.9)
     """Fraction of each layer's weights initialised to 0, in [0, 1)."""
+    normalize_observations: bool = setting(True, key=WHEN_SET)
+    """Normalise each observation by the running mean and variance of those seen in
+    learning: the deep learners' JAX populations as SB3's `VecNormalize(norm_obs=True)`
+    (clipped to +-10; off by default), the streaming learners as their authors'
+    `NormalizeObservation` (on by default)."""
 
     def layers(self) -> list:
         """The hidden layers' widths of `net_arch`, checked."""
@@ -75,6 +80,7 @@ class StreamSettings(LearnerSettings):
         check_network(self)
         check_unit_interval("lam", self.lam)
         check_positive("kappa", self.kappa)
+        check_flag("normalize_observations", self.normalize_observations)
         if not (isinstance(self.sparsity, (int, float)) and 0.0 <= self.sparsity < 1.0):
             raise ValueError(f"sparsity must be a number in [0, 1) (the fraction of each "
                              f"layer's weights set to 0); got {self.sparsity!r}")
@@ -83,7 +89,8 @@ class StreamSettings(LearnerSettings):
         """The network and ObGD's settings in words, for a run's header."""
         return (f"MLP {self.net_arch} (layer norm, leaky ReLU, {self.sparsity:g} sparse), "
                 f"ObGD lr {self.learning_rate:g} kappa {self.kappa:g}, gamma {self.gamma:g}, "
-                f"lambda {self.lam:g}, {self.timesteps} steps")
+                f"lambda {self.lam:g}, {self.timesteps} steps"
+                + ("" if self.normalize_observations else ", observations in task units"))
 
 
 HYPER = ("timesteps", "learning_rate", "gamma", "lam", "kappa")
@@ -139,9 +146,17 @@ class StreamAgents(PopulationAgents):
         return {"params": state["params"], "observations": state["observations"]}
 
     def normalised_states(self, weights, states):
-        """Task-unit `states` `(n, d)` normalised by one agent's statistics (float32)."""
-        from lwrl.agent import streaming
-        return streaming.normalised(states, weights["observations"]).astype(self.jnp.float32)
+        """Task-unit `states` `(n, d)` as the learner reads them (`input`), float32."""
+        return self.input(states, weights["observations"])
+
+    def input(self, observation, stats):
+        """What the networks read of an observation: normalised by the running statistics
+        `stats` (`running_stats.normalised`), or as it is where the settings say not to
+        normalise; float32."""
+        from lwrl.agent import running_stats
+        if not self.settings[0].normalize_observations:
+            return observation.astype(self.jnp.float32)
+        return running_stats.normalised(observation, stats).astype(self.jnp.float32)
 
     def program(self) -> Program:
         jax, jnp = self.jax, self.jnp
@@ -155,7 +170,7 @@ class StreamAgents(PopulationAgents):
             kept = continuing | greedy
             stats = jax.tree.map(lambda old, new: jnp.where(kept, old, new), state["observations"],
                                  running_stats.stats_add(state["observations"], observation))
-            x = streaming.normalised(observation, stats).astype(jnp.float32)
+            x = self.input(observation, stats)
             action, extras = choose(state["params"], x, key, hyper, greedy, clock)
             return action, {"x": x, "observations": stats, "fresh": ~continuing, "extras": extras}
 
@@ -167,7 +182,7 @@ class StreamAgents(PopulationAgents):
                 reward, state["return_trace"], state["rewards"], hyper["gamma"],
                 ended.astype(jnp.float64))
             transition = {"x": extras["x"], "extras": extras["extras"], "reward": scaled,
-                          "next_x": streaming.normalised(final_observation, stats).astype(jnp.float32),
+                          "next_x": self.input(final_observation, stats),
                           "terminated": terminated, "ended": ended, "fresh": extras["fresh"]}
             return masked(write, state, observations=stats, rewards=rewards, return_trace=trace,
                           last=final_observation.astype(state["last"].dtype), ended=ended,
@@ -202,11 +217,12 @@ def trained_pass(sizes) -> Count:
     return Count((1 + BACKWARD_MACS) * forward.macs, forward.exps)
 
 
-def observation_counts(dim: int) -> tuple:
+def observation_counts(dim: int, normalise: bool = True) -> tuple:
     """`(normalised, transition)`: an observation normalised, d multiply-adds and d square
-    roots; and what a transition adds beside the networks: the next observation into the
-    statistics (2 d), normalised, and the reward scaled (4 and a square root)."""
-    normalised = Count(dim, dim)
+    roots (none where the settings turn the normalisation off); and what a transition adds
+    beside the networks: the next observation into the statistics (2 d), normalised, and the
+    reward scaled (4 and a square root)."""
+    normalised = Count(dim, dim) if normalise else Count(0)
     return normalised, normalised + Count(2 * dim + 4, 1)
 
 

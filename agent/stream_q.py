@@ -130,14 +130,14 @@ def memory(settings, task) -> int:
 
 def arithmetic(settings, task, steps=None) -> Counts:
     """Its counted arithmetic (`Learner.arithmetic`): a greedy decision normalises the
-    observation and runs Q's network (`stream_agents.network_forward`); an agent-step of
-    learning adds the transition (`observation_counts`), Q(x') and a forward and backward
-    pass at x, and ObGD over every parameter, the same at every step (square roots counted
-    with the exponentials)."""
+    observation (where the settings say so) and runs Q's network
+    (`stream_agents.network_forward`); an agent-step of learning adds the transition
+    (`observation_counts`), Q(x') and a forward and backward pass at x, and ObGD over every
+    parameter, the same at every step (square roots counted with the exponentials)."""
     del steps
     dim = len(task.state_names)
     sizes = [dim, *settings.layers(), task.action.n]
-    normalised, transition = observation_counts(dim)
+    normalised, transition = observation_counts(dim, settings.normalize_observations)
     decision = normalised + network_forward(sizes)
     update = (transition + network_forward(sizes) + trained_pass(sizes)
               + obgd_count(mlp_parameters(sizes)))

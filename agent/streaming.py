@@ -18,14 +18,12 @@ import math
 import jax
 import jax.numpy as jnp
 
-from lwrl.agent.running_stats import stats_add
+from lwrl.agent.running_stats import STATS_EPS, stats_add, stats_variance
 
 LAYER_NORM_EPS = 1e-5
 """`torch.nn.functional.layer_norm`'s epsilon."""
 LEAKY_SLOPE = 0.01
 """`torch.nn.functional.leaky_relu`'s negative slope."""
-STATS_EPS = 1e-8
-"""The normalisation wrappers' epsilon (`NormalizeObservation`, `ScaleReward`)."""
 
 
 def sparse_layer(key, fan_in: int, fan_out: int, sparsity: float):
@@ -110,17 +108,6 @@ def cleared(z, reset):
     """The trace zeroed where `reset` (an episode's end; stream-Q's exploratory action,
     Watkins' Q(lambda))."""
     return jax.tree.map(lambda leaf: jnp.where(reset, jnp.zeros_like(leaf), leaf), z)
-
-
-def stats_variance(stats):
-    """The sample variance p / (n - 1), 1 before two samples (`SampleMeanStd`)."""
-    return jnp.where(stats["count"] < 2, 1.0, stats["p"] / jnp.maximum(stats["count"] - 1.0, 1.0))
-
-
-def normalised(x, stats):
-    """An observation normalised by the running statistics, (x - mu) / sqrt(var + 1e-8)
-    (`NormalizeObservation.normalize`, after the statistics took x)."""
-    return (x - stats["mean"]) / jnp.sqrt(stats_variance(stats) + STATS_EPS)
 
 
 def scaled_reward(reward, u_tm1, stats, gamma, ended):

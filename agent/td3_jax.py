@@ -2,7 +2,8 @@
 actor-critic methods", ICML, PMLR 80:1587-1596) as Stable-Baselines3 computes it
 (`stable_baselines3.TD3`, `agent.td3`), written in JAX and trained as a whole population in
 one jitted program (`agent.off_policy_jax`: the loop, the buffer, the networks, what differs
-from `td3`): the same settings as `td3` (`Td3Settings`), the same equations, PyTorch's Adam.
+from `td3`): the same settings as `td3` (`Td3Settings`, and `normalize_observations`),
+the same equations, PyTorch's Adam.
 
 A deterministic actor mu(s) (a tanh output), explored with Gaussian action noise of standard
 deviation `noise_std` (SB3's `NormalActionNoise`, added to the warm-up's uniform actions
@@ -21,12 +22,21 @@ the agent's gradient steps counted over its whole run (SB3's `_n_updates`):
 A greedy action is mu(s).
 """
 
+import dataclasses
+
 from lwrl.agent.jax_population import fits_with_jax, masked, polyak
 from lwrl.agent.learner_contract import Learner
 from lwrl.agent.off_policy import fits_continuous
 from lwrl.agent.off_policy_jax import ActorCriticAgents
+from lwrl.agent.observation_normalisation import ObservationNormalisation, counted
 from lwrl.agent.off_policy_jax import memory as off_policy_memory
 from lwrl.agent.td3 import Td3Settings, arithmetic
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class Td3JaxSettings(ObservationNormalisation, Td3Settings):
+    """`td3`'s settings, and the observation normalisation
+    (`agent.observation_normalisation`)."""
 
 
 class Td3JaxAgents(ActorCriticAgents):
@@ -83,7 +93,7 @@ def make(settings, task, seeds) -> Td3JaxAgents:
 
 def load(document, arrays) -> Td3JaxAgents:
     """The agents `Td3JaxAgents.saved` wrote (a ValueError if the parts do not fit)."""
-    return Td3JaxAgents.loaded(document, arrays, Td3Settings)
+    return Td3JaxAgents.loaded(document, arrays, Td3JaxSettings)
 
 
 def memory(settings, task) -> int:
@@ -95,8 +105,8 @@ LEARNER = Learner(
     name="td3_jax", title="TD3 in JAX, a population in one program: SB3's equations",
     source="Fujimoto et al. (2018), ICML, PMLR 80:1587-1596; Raffin et al. (2021), JMLR 22(268): "
            "stable_baselines3.TD3, in JAX as PureJaxRL (Lu et al. 2022)",
-    settings=Td3Settings, make=make, load=load, memory=memory,
+    settings=Td3JaxSettings, make=make, load=load, memory=memory,
     fits=fits_continuous("td3_jax", fits_with_jax("td3_jax")), actions="continuous",
-    population=True, arithmetic=arithmetic)
+    population=True, arithmetic=counted(arithmetic))
 """The `td3_jax` learner as the registry holds it (`agent.LEARNERS`)."""
 Td3JaxAgents.learner = LEARNER

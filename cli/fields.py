@@ -3,9 +3,10 @@
 Each field becomes one flag: `--name-with-hyphens` unless its metadata names `flags`; its
 help is the field's docstring; its parser follows its type (a finite number, an integer, a
 comma-separated tuple of finite numbers, a word among the field's `choices`, a switch
-for a bool, or repeated `NAME=VALUE` pairs for a dict, `NAME=LOW:HIGH` where its values
-are ranges). Unset flags stay out of the configuration, which then takes its defaults. So a
-field added to a dataclass is on the command line without a second edit.
+for a bool, `--name` and `--no-name`, or repeated `NAME=VALUE` pairs for a dict,
+`NAME=LOW:HIGH` where its values are ranges). Unset flags stay out of the configuration,
+which then takes its defaults. So a field added to a dataclass is on the command line
+without a second edit.
 
 A bad value is one line: `lwrl train: error: argument --alpha: must be a finite number;
 got 'inf'`.
@@ -149,7 +150,8 @@ def flags_of(field: dataclasses.Field) -> tuple:
 
 
 def _add_flag(group, field: dataclasses.Field, help_text: str, allowed=None) -> None:
-    """The flag of one field: a switch for a bool, else a value read by its type."""
+    """The flag of one field: a switch for a bool (`--NAME` and `--no-NAME`), else a value
+    read by its type."""
     if field.metadata.get("describe"):
         help_text = f"{help_text} Allowed: {field.metadata['describe']()}."
     help_text = help_text.replace("%", "%%")
@@ -159,8 +161,8 @@ def _add_flag(group, field: dataclasses.Field, help_text: str, allowed=None) -> 
                            help=help_text)
         return
     if base_type(field.type) is bool:
-        group.add_argument(*flags_of(field), dest=field.name, action="store_true",
-                           default=None, help=help_text)
+        group.add_argument(*flags_of(field), dest=field.name,
+                           action=argparse.BooleanOptionalAction, default=None, help=help_text)
         return
     allowed = allowed if allowed is not None else field.metadata.get("choices")
     metavar = ("{" + ",".join(allowed) + "}" if allowed else "V,V,..."

@@ -112,6 +112,12 @@ def _number(value) -> bool:
     return isinstance(value, (int, float, np.floating, np.integer)) and not isinstance(value, bool)
 
 
+def check_flag(name: str, value) -> None:
+    """True or False, or a one-line error."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be true or false; got {value!r}")
+
+
 def check_unit_interval(name: str, value) -> None:
     """A number in [0, 1], or a one-line error."""
     if not (_number(value) and 0.0 <= value <= 1.0):

@@ -119,13 +119,13 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
     sensors = env.sensors(batch, observation_noise=observation_noise, action_delay=action_delay,
                           action_noise=action_noise)
     starts = jnp.asarray(episode_starts(env.definition, seeds, episodes))
-    program = agent.program()
+    program = agent.trained_program()
     shape = (env.name, repr(sorted(env_options.items())), sensors.max_delay, type(agent),
              agent.dim, agent.action_space, repr(_shared_settings(agent.settings[0])),
              agent.shared(), batch, episodes, bool(learn), bool(greedy), CHUNK)
     if shape not in _CHUNKS:
         _use_disk_cache()
-        _CHUNKS[shape] = _compiled_chunk(env, program, episodes, agent.weight_tree,
+        _CHUNKS[shape] = _compiled_chunk(env, program, episodes, agent.learned_tree,
                                          bool(learn), bool(greedy), agent.continuous)
     step = _CHUNKS[shape]
     carry = _first_carry(env, agent, starts, sensors, episodes)

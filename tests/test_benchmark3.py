@@ -136,9 +136,11 @@ def test_the_choice_takes_the_better_mean_ties_to_the_larger_area_and_a_diverged
     assert halving.choose({4: ([0.8, 0.8], 0.5), 7: ([0.8, 0.8], 0.5)}) == 4
 
 
-def test_step_sizes_are_drawn_within_four_times_the_centre_and_arss_normalisation_is_a_choice():
+def test_step_sizes_are_drawn_within_four_times_the_centre_and_normalisation_is_a_choice():
     """Within x1/4 to x4 of the row's centre, and below the bound of a step size the learner
-    takes up to one only (the actor-critic's beta, whose centre is its defaults)."""
+    takes up to one only (the actor-critic's beta, whose centre is its defaults); every deep
+    row's and new rival's observation normalisation is drawn both ways, and no task has a
+    row whose normalisation is not searched."""
     for task in (TASK, "pendulum.swingup-continuous"):
         for row in rule.rows(task):
             configurations = halving.configurations(task, row)
@@ -155,6 +157,12 @@ def test_step_sizes_are_drawn_within_four_times_the_centre_and_arss_normalisatio
             == halving.search.learner_settings("actor_critic", None).beta != 0.5)
     ars = next(row for row in rule.rows(TASK) if row.learner == "ars")
     assert {c["variant"] for c in halving.configurations(TASK, ars)[1:]} == {"v1", "v2"}
+    for task in (TASK, "pendulum.swingup-continuous"):
+        for row in rule.rows(task):
+            if not rule.linear(task, row) and row.learner not in ("ars", "ars_continuous"):
+                drawn = {c["normalize_observations"] for c in halving.configurations(task, row)[1:]}
+                assert drawn == {False, True}, row.label
+    assert all(halving.unsearched(task) == [] for task in rule.TASKS)
 
 
 @pytest.fixture

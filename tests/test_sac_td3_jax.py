@@ -14,7 +14,7 @@ pytest.importorskip("jax", reason="the population learners need the jax extra: p
 
 from lwrl import agent as learners  # noqa: E402
 from lwrl.agent import sac, td3  # noqa: E402
-from lwrl.runners.config import RunConfig  # noqa: E402
+from lwrl.runners.config import RunConfig, task_spec  # noqa: E402
 from lwrl.runners.run import make_agent, run  # noqa: E402
 
 TINY = dict(task="cartpole.balance", actions="continuous", plant="analytic", agents=2,
@@ -343,7 +343,6 @@ def test_a_batch_shares_what_shapes_its_program(name):
     """SB3's `batch_size` and gradient steps are settings per agent, but one compiled program
     has one minibatch shape and one count of gradient steps: a batch that mixes them is
     refused in one line as the batch is made, as the settings that shape it are."""
-    from lwrl.runners.config import task_spec
     learner = learners.learner(name)
     task = task_spec("pendulum.swingup", actions="continuous")
     first = learner.settings(net_arch="8", buffer_size=16)
@@ -356,11 +355,18 @@ def test_a_batch_shares_what_shapes_its_program(name):
 
 
 def test_they_take_sac_and_td3s_settings_and_counts():
-    """The same settings classes as `sac` and `td3` (their flags, defaults and checks), the
-    same counted arithmetic, continuous actions, the population path."""
+    """`sac`'s and `td3`'s settings (their flags, defaults and checks) and the observation
+    normalisation alone beside them; their counted arithmetic where it is off; continuous
+    actions, the population path."""
+    task = task_spec("pendulum.swingup", actions="continuous")
     for name, twin in (("sac_jax", sac), ("td3_jax", td3)):
         learner = learners.learner(name)
-        assert learner.settings is twin.LEARNER.settings and learner.arithmetic is twin.arithmetic
+        own = {field.name for field in dataclasses.fields(learner.settings)}
+        assert issubclass(learner.settings, twin.LEARNER.settings)
+        assert own - {field.name for field in dataclasses.fields(twin.LEARNER.settings)} == {
+            "normalize_observations"}
+        assert learner.arithmetic(learner.settings(), task) == twin.arithmetic(
+            twin.LEARNER.settings(), task)
         assert learner.actions == "continuous" and learner.population
 
 

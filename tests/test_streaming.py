@@ -47,12 +47,13 @@ def test_running_statistics_are_the_sample_mean_and_variance():
     samples = np.random.default_rng(1).normal(3.0, 2.0, size=(50, 3))
     stats = running_stats.stats_start(3)
     stats = running_stats.stats_add(stats, samples[0])
-    assert np.all(np.asarray(streaming.stats_variance(stats)) == 1.0)  # one sample: 1
-    np.testing.assert_array_equal(streaming.normalised(samples[0], stats), 0.0)
+    assert np.all(np.asarray(running_stats.stats_variance(stats)) == 1.0)  # one sample: 1
+    np.testing.assert_array_equal(running_stats.normalised(samples[0], stats), 0.0)
     for sample in samples[1:]:
         stats = running_stats.stats_add(stats, sample)
     np.testing.assert_allclose(stats["mean"], samples.mean(axis=0), rtol=1e-12)
-    np.testing.assert_allclose(streaming.stats_variance(stats), samples.var(axis=0, ddof=1), rtol=1e-12)
+    np.testing.assert_allclose(running_stats.stats_variance(stats), samples.var(axis=0, ddof=1),
+                               rtol=1e-12)
 
 
 def test_rewards_are_scaled_by_the_discounted_return_s_spread():
