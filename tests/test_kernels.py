@@ -158,7 +158,8 @@ def test_the_compiled_loop_depends_on_its_task_learner_and_loop_alone():
     assert {"lwrl.runners.compiled", "lwrl.tasks.mountain_car", "lwrl.agent.sarsa",
             "lwrl.tasks.disturbances", "lwrl.runners.episodes", "lwrl.kernels"} <= found
     rooms = {name.split(".")[1] for name in found if name != "lwrl"}
-    assert rooms <= {"runners", "tasks", "agent", "models", "kernels", "settings", "outside"}, rooms
+    assert rooms <= {"runners", "tasks", "agent", "models", "kernels", "settings", "outside",
+                     "spaces"}, rooms
     assert not found & {"lwrl.runners.run", "lwrl.runners.sweep", "lwrl.tasks.cartpole",
                         "lwrl.tasks.pendulum", "lwrl.agent.actor_critic", "lwrl.agent.dqn"}
 

@@ -289,7 +289,7 @@ def test_the_exported_network_picks_torchs_greedy_action(learner, tmp_path):
 def around_the_ranges(count: int) -> np.ndarray:
     """`count` states `(count, d)` of the task, uniform in its ranges widened by a quarter
     on each side."""
-    low, high = np.array(task_spec(TASK).low), np.array(task_spec(TASK).high)
+    low, high = np.array(task_spec(TASK).ranges.low), np.array(task_spec(TASK).ranges.high)
     return low + (high - low) * np.random.default_rng(0).uniform(-0.25, 1.25, (count, len(low)))
 
 

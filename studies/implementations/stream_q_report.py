@@ -32,7 +32,7 @@ import sys
 import numpy as np
 import pandas as pd
 
-from lwrl import tasks
+from lwrl import outputs, tasks
 from lwrl.analysis import plots, power
 from lwrl.analysis import statistics as st
 from lwrl.studies.implementations import stream_q_torch
@@ -96,14 +96,14 @@ def read(directory: str) -> tuple:
     """`(lwrl's configuration, lwrl's episodes, the authors' document)` kept in `directory`."""
     with open(os.path.join(directory, "lwrl.json")) as file:
         configuration = json.load(file)
-    episodes = pd.read_csv(os.path.join(directory, "lwrl.csv.gz"))
+    episodes = outputs.read_table(os.path.join(directory, "lwrl.csv.gz"))
     return configuration, episodes, stream_q_torch.load(os.path.join(directory, "torch.json.gz"))
 
 
 def keep_lwrl_run(run_dir: str, directory: str) -> None:
     """What the report reads of an `lwrl train --out` run, kept in `directory`."""
     shutil.copyfile(os.path.join(run_dir, "config.json"), os.path.join(directory, "lwrl.json"))
-    episodes = pd.read_csv(os.path.join(run_dir, "episodes.csv"))
+    episodes = outputs.read_table(os.path.join(run_dir, "episodes.csv"))
     ran = episodes[episodes["steps"].notna()]
     ran[["seed", "episode", "steps", "truncated", "return"]].to_csv(
         os.path.join(directory, "lwrl.csv.gz"), index=False)

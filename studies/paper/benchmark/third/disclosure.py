@@ -9,6 +9,7 @@ import os
 
 import pandas as pd
 
+from lwrl import outputs
 from lwrl.runners.config import tuned_settings
 from lwrl.runners.store import RunStore
 from lwrl.studies.paper.benchmark import protocol
@@ -74,7 +75,7 @@ def provenance(out_dir: str) -> pd.DataFrame:
     if not paths:
         return pd.DataFrame(columns=["run", "lwrl_version", "lwrl_commit", "host_cpu",
                                      "python", "libraries"])
-    return pd.concat([pd.read_csv(path) for path in paths], ignore_index=True)
+    return pd.concat([outputs.read_table(path) for path in paths], ignore_index=True)
 
 
 def provenance_lines(out_dir: str) -> list:
