@@ -10,6 +10,7 @@ import pandas as pd
 import pytest
 from test_benchmark3 import TASK, shrink
 
+from lwrl import outputs
 from lwrl.analysis import task_verdict
 from lwrl.runners.store import RunStore
 from lwrl.studies.paper.benchmark.third import benchmark, clock, judging, rule, study
@@ -102,7 +103,7 @@ def test_the_report_reads_each_agents_cpu_to_the_level_from_its_runs_records(jud
     for agent in range(len(pace.cpu)):
         at = [j for j in clock.POINTS if row.scores[j][agent] >= 0.5]
         run = row.trainings[at[0] if at else clock.POINTS[-1]]
-        record = pd.read_csv(RunStore.records_file(judged, run.key))
+        record = outputs.read_table(RunStore.records_file(judged, run.key))
         assert pace.cpu[agent] == record.cpu_s[record.agent == agent].item()
         assert pace.reached[agent] == bool(at) and pace.steps[agent] == run.budget
 
