@@ -58,7 +58,7 @@ from lwrl import outputs
 from lwrl.cli.output import Parser
 from lwrl.runners.config import learner_settings
 from lwrl.runners.run import make_agent, run
-from lwrl.studies.implementations.plan import pairs
+from lwrl.studies.implementations.plan import pairs, reference_settings
 from lwrl.studies.paper.benchmark import twin_cost
 from lwrl.tasks.task_definition import ACTIONS
 
@@ -78,8 +78,7 @@ def twin_config(config, twin: str, plant: str):
     """One agent of `twin` with the settings of the run `config`'s learner on the
     benchmark's `plant` (on MuJoCo's model the C engine, which SB3 steps, where the JAX
     learner stepped MJX), the rest of the run as it is."""
-    settings = learner_settings(twin, {field.name: getattr(config.agent, field.name)
-                                       for field in dataclasses.fields(config.agent)})
+    settings = learner_settings(twin, reference_settings(twin, config.agent))
     return dataclasses.replace(config, learner=twin, agent=settings, agents=1, plant=plant)
 
 

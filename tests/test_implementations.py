@@ -74,13 +74,26 @@ def test_both_implementations_take_the_same_zoo_settings():
         rows = plan.translation(cell)
         assert rows and all(row.same for row in rows), cell.key
         reference, twin = (cell.config(name, 0).agent for name in cell.pair.names)
-        assert {row.name for row in rows} == {f.name for f in dataclasses.fields(reference)}
+        ours = {f.name for f in dataclasses.fields(reference)}
+        assert {row.name for row in rows} == ours | {f.name for f in dataclasses.fields(twin)}
+        assert [(row.name, row.reference, row.twin) for row in rows if row.name not in ours] == [
+            ("normalize_observations", plan.ABSENT, False)]  # the twin's own, at its default
         for name, value in cell.settings.items():
             assert getattr(reference, name) == getattr(twin, name) == value
             assert cell.sources[name].startswith("the zoo's")
         assert all(row.help for row in rows)  # each field's meaning, from its docstring
     pendulum_ppo = next(c for c in cells if c.task == "pendulum.swingup" and c.pair.reference == "ppo")
     assert pendulum_ppo.settings["n_steps"] == 4096  # Acrobot-v1's set: the zoo's only swing-up
+
+
+def test_a_twin_runs_as_its_reference_only_with_its_own_settings_at_their_default():
+    from lwrl.runners.config import learner_settings
+    twin = learner_settings("dqn_jax", {"learning_rate": 0.002})
+    values = plan.reference_settings("dqn", twin)
+    assert values["learning_rate"] == 0.002 and "normalize_observations" not in values
+    normalising = learner_settings("dqn_jax", {"normalize_observations": True})
+    with pytest.raises(ValueError, match="normalize_observations=True is not a setting of dqn"):
+        plan.reference_settings("dqn", normalising)
 
 
 @needs_both

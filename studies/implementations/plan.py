@@ -172,35 +172,62 @@ def cells(task_names, agents: int, budgets=None, episodes=None, timesteps=None,
     return result
 
 
+ABSENT = "—"
+"""A setting's value for an implementation that does not have it."""
+
+
 @dataclasses.dataclass(frozen=True)
 class Row:
-    """One setting of the translation: its value for each implementation and its source."""
+    """One setting of the translation: its value for each implementation and its source;
+    `default`, for a setting only the twin has, the twin's default (what it does as the
+    reference does, without the setting), else `ABSENT`."""
 
     name: str
     reference: object
     twin: object
     source: str
     help: str
+    default: object = ABSENT
 
     @property
     def same(self) -> bool:
-        return self.reference == self.twin
+        """Both implementations take the value, or only the twin has the setting and holds
+        it at its default."""
+        return self.reference == self.twin or (self.reference == ABSENT
+                                               and self.twin == self.default)
 
 
 def translation(cell: Cell) -> list:
     """The settings of both implementations, field by field in the reference's order, then
-    any field the twin has beyond them."""
+    any field the twin has beyond them (the twin's own setting, e.g. the JAX learners'
+    `normalize_observations`, with its default)."""
     reference, twin = (cell.config(name, 0).agent for name in cell.pair.names)
-    names = [field.name for field in dataclasses.fields(reference)]
-    names += [field.name for field in dataclasses.fields(twin) if field.name not in names]
-    missing = object()
+    ours = {field.name: field for field in dataclasses.fields(reference)}
+    theirs = {field.name: field for field in dataclasses.fields(twin)}
     rows = []
-    for name in names:
+    for name in [*ours, *(name for name in theirs if name not in ours)]:
         source = cell.sources.get(name, "the learner's default")
-        rows.append(Row(name, getattr(reference, name, missing), getattr(twin, name, missing),
-                        source, _field_help(type(reference), name) or _field_help(type(twin), name)))
-    return [dataclasses.replace(row, reference="—" if row.reference is missing else row.reference,
-                                twin="—" if row.twin is missing else row.twin) for row in rows]
+        rows.append(Row(name, getattr(reference, name) if name in ours else ABSENT,
+                        getattr(twin, name) if name in theirs else ABSENT, source,
+                        _field_help(type(reference), name) or _field_help(type(twin), name),
+                        ABSENT if name in ours else theirs[name].default))
+    return rows
+
+
+def reference_settings(reference: str, settings) -> dict:
+    """`{field: value}` of the learner `reference`'s settings that a twin's `settings` (a
+    subclass of the reference's, `pairs`) hold; a one-line ValueError where the twin sets
+    one of its own settings away from its default, which the reference cannot take."""
+    ours = {field.name for field in dataclasses.fields(learners.learner(reference).settings)}
+    values = {}
+    for field in dataclasses.fields(settings):
+        value = getattr(settings, field.name)
+        if field.name in ours:
+            values[field.name] = value
+        elif value != field.default:
+            raise ValueError(f"{field.name}={value!r} is not a setting of {reference}; it "
+                             f"runs as {field.name}={field.default!r} (the default) only")
+    return values
 
 
 @functools.lru_cache(maxsize=None)
