@@ -52,7 +52,9 @@ and on this project's CPU hosts (jax 0.10.2) that serialisation has aborted the 
 intermittently under load in the full test suite, never on a rerun of the same program. An
 abort is not an exception: nothing can catch it, so a cache write must not be able to end a
 run that has not asked for the cache. Without it each process compiles its programs once
-(seconds), which a run of hours does not notice.
+(seconds), which a run of hours does not notice. Nor can a process that compiles hundreds
+of programs die of the memory they map: before compiling, a crowded process lets its
+compiled programs go (`release_when_crowded`, `runners.mappings`).
 """
 
 import dataclasses
@@ -61,6 +63,7 @@ import os
 import numpy as np
 
 from lwrl import kernels, tasks
+from lwrl.runners import mappings
 from lwrl.runners.episodes import EpisodeResults, episode_starts, step_budget
 from lwrl.runners.resume import Resume
 from lwrl.settings import check_count
@@ -124,6 +127,7 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
              agent.dim, agent.action_space, repr(_shared_settings(agent.settings[0])),
              agent.shared(), batch, episodes, bool(learn), bool(greedy), CHUNK)
     if shape not in _CHUNKS:
+        release_when_crowded()
         _use_disk_cache()
         _CHUNKS[shape] = _compiled_chunk(env, program, episodes, agent.learned_tree,
                                          bool(learn), bool(greedy), agent.continuous)
@@ -213,6 +217,20 @@ def _ended(agent, carry, episodes: int, kept=None) -> tuple:
 
 _CHUNKS: dict = {}
 """The compiled chunks of this process, by what shapes them."""
+
+
+def release_when_crowded() -> None:
+    """Before a compilation: where this process holds more than half the memory mappings
+    it may (`runners.mappings`), every compiled program let go (`_CHUNKS` and JAX's caches),
+    so that XLA's next compilation cannot die mapping one too many. A chunk needed again is
+    compiled again; no number changes."""
+    if mappings.crowded():
+        import gc
+
+        import jax
+        _CHUNKS.clear()
+        jax.clear_caches()
+        gc.collect()
 
 
 def _shared_settings(settings) -> tuple:

@@ -326,33 +326,14 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.slow)
 
 
-MAPPINGS_TO_RELEASE = 30_000
-"""Memory mappings of a test process past which JAX's compiled programs are released after a
-test: each loaded XLA program maps memory of its own, and a worker that compiles hundreds
-(tests/test_learners.py over every JAX learner and task) passed Linux's default limit of
-65 530 mappings (`vm.max_map_count`), where XLA's next compilation died with a segmentation
-fault (seen in `test_acting_greedily_touches_nothing[stream_q-acrobot.swingup]`, a worker at
-27 800 mappings midway). Releasing them costs a compilation where a later test needs the
-same program again, and changes no number."""
-
-
-def _mappings() -> int:
-    """The memory mappings of this process (Linux; 0 elsewhere)."""
-    try:
-        with open("/proc/self/maps", "rb") as maps:
-            return sum(1 for _ in maps)
-    except OSError:
-        return 0
-
-
 @pytest.fixture(autouse=True)
 def _release_compiled_programs():
     """After each test, JAX's compiled programs released where this process holds more than
-    `MAPPINGS_TO_RELEASE` memory mappings."""
+    half the memory mappings it may (`runners.mappings`): a worker that compiles hundreds of
+    programs (tests/test_learners.py over every JAX learner and task) passed Linux's limit,
+    where XLA's next compilation died with a segmentation fault. Releasing them costs a
+    compilation where a later test needs the same program again, and changes no number."""
     yield
-    if "jax" in sys.modules and _mappings() > MAPPINGS_TO_RELEASE:
-        import gc
-
-        import jax
-        jax.clear_caches()
-        gc.collect()
+    if "jax" in sys.modules:
+        from lwrl.runners.population import release_when_crowded
+        release_when_crowded()

@@ -369,3 +369,28 @@ def test_the_persistent_compilation_cache_is_used_only_where_asked(asked, tmp_pa
     assert done.returncode == 0, done.stderr[-2000:]
     directory = done.stdout.strip().splitlines()[-1]
     assert directory == (str(tmp_path / "jax") if asked else "None")
+
+
+def test_a_crowded_process_lets_its_compiled_programs_go_and_computes_the_same(monkeypatch):
+    """A process past half its memory mappings' limit (`runners.mappings`) releases every
+    compiled program before compiling another: the run compiles afresh and its numbers are
+    those of the uncrowded run."""
+    from lwrl.runners import mappings
+    config = RunConfig(task="mountain_car.cost_to_go", learner="dqn_jax", agents=2, episodes=2,
+                       seed=5, plant="analytic", task_options={"time_limit": 20.0})
+    kept_agent, kept = run(config)
+    assert population._CHUNKS
+    stale = object()
+    monkeypatch.setattr(population, "_CHUNKS", {"another program": stale})  # this run's to compile
+    monkeypatch.setattr(mappings, "count", lambda: mappings.limit() // 2 + 1)
+    released_agent, released = run(config)
+    assert list(population._CHUNKS.values()) != [stale] and len(population._CHUNKS) == 1
+    for field in ("steps", "returns", "truncated", "diverged_episode"):
+        np.testing.assert_array_equal(getattr(released, field), getattr(kept, field))
+    np.testing.assert_array_equal(released_agent.arrays.weights, kept_agent.arrays.weights)
+
+
+def test_the_mappings_are_counted_against_the_systems_limit():
+    from lwrl.runners import mappings
+    assert 0 < mappings.count() < mappings.limit()  # Linux, where the tests run
+    assert not mappings.crowded()
