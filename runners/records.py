@@ -37,6 +37,8 @@ agent-step of learning times `steps` (`Learner.arithmetic(settings, task, steps)
 updates averaged over those steps, as over a run from the start), or per greedy decision
 times `steps` for a run that does not learn.
 
+The table's Table Schema is `runners/schemas/records.json` (`runners.table_schema`).
+
 **Not recorded is not zero.** A run written before the records were (the second benchmark's,
 `docs/benchmark2`), or a learner without counts, reads as missing values (`read`), never as
 0.

@@ -19,7 +19,9 @@ BENCHMARKS = [ROOT / "docs" / "benchmark2", ROOT / "docs" / "benchmark2" / "mujo
 REFERENCES = ROOT / "studies" / "paper" / "benchmark" / "schemas" / "references.json"
 SCHEMAS = {"run_table": table_schema.SCHEMAS / "run_table.json",
            "configs": table_schema.SCHEMAS / "configs.json",
-           "compute": table_schema.SCHEMAS / "compute.json", "references": REFERENCES}
+           "compute": table_schema.SCHEMAS / "compute.json", "references": REFERENCES,
+           "records": table_schema.SCHEMAS / "records.json"}
+THIRD = ROOT / "docs" / "benchmark3"
 FRICTIONLESS = pytest.mark.skipif(importlib.util.find_spec("frictionless") is None,
                                   reason="frictionless is not installed (pip install -e '.[dev]')")
 
@@ -52,6 +54,28 @@ def test_every_run_table_keeps_its_schema(directory):
     paths = run_tables(directory)
     assert len(paths) >= 700
     assert table_schema.table_violations(paths, table_schema.load(SCHEMAS["run_table"])) == []
+
+
+def test_the_third_benchmarks_runs_records_ledger_and_reference_rows_keep_their_schemas():
+    """docs/benchmark3: every run table, every run's records (those of the 100-agent rows'
+    training runs too, whose tables are not committed), the compute ledger and the reference
+    rows."""
+    paths = run_tables(THIRD)
+    records = sorted(glob.glob(str(THIRD / "runs" / "records" / "*.csv.gz")))
+    names = lambda found: {pathlib.Path(path).name for path in found}
+    assert len(paths) >= 100 and names(paths) < names(records)
+    assert table_schema.table_violations(paths, table_schema.load(SCHEMAS["run_table"])) == []
+    assert table_schema.table_violations(records, table_schema.load(SCHEMAS["records"])) == []
+    ledger = table_schema.read_jsonl(THIRD / "compute.jsonl")
+    assert table_schema.violations(ledger, table_schema.load(SCHEMAS["compute"]), "compute") == []
+    references = sorted(glob.glob(str(THIRD / "references" / "*.csv.gz")))
+    assert references and table_schema.table_violations(references, table_schema.load(REFERENCES)) == []
+
+
+def test_the_records_schema_names_the_columns_a_run_records():
+    from lwrl.runners import records
+    schema = table_schema.load(SCHEMAS["records"])
+    assert tuple(field["name"] for field in schema["fields"]) == records.COLUMNS
 
 
 def test_the_checker_finds_what_breaks_a_schema(tmp_path):
@@ -114,6 +138,7 @@ def test_frictionless_agrees_on_a_sample_of_tables():
     cases = [(path, "run_table", None) for path in run_tables(directory, every=250)]
     cases += [(path, "references", None) for path in glob.glob(str(directory / "references" / "*"))[:1]]
     cases += [(str(directory / f"{name}.jsonl"), name, "jsonl") for name in ("configs", "compute")]
+    cases += [(path, "records", None) for path in glob.glob(str(THIRD / "runs" / "records" / "*"))[:1]]
     for path, name, form in cases:
         report = Resource(path=str(pathlib.Path(path).relative_to(ROOT)), basepath=str(ROOT),
                           format=form, schema=Schema.from_descriptor(json.loads(SCHEMAS[name].read_text()))).validate()
