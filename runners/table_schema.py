@@ -1,7 +1,7 @@
 """lwrl's tables held to their schemas: Frictionless Table Schemas
 (https://specs.frictionlessdata.io/table-schema/, v2's `fieldsMatch` included), one JSON file
-per kind of table beside the code that writes it (`runners/schemas/`: a run's table,
-configs.jsonl, compute.jsonl; `studies/paper/benchmark/schemas/`: the reference rows).
+per kind of table beside the code that writes it (`runners/schemas/`: a run's table, its
+records, configs.jsonl, compute.jsonl; `studies/paper/benchmark/schemas/`: the reference rows).
 
 `violations` checks a table against a schema with pandas, a column at a time, because the
 committed tables hold millions of rows, which frictionless's own validator reads one at a
