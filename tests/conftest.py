@@ -319,11 +319,31 @@ SLOW_TESTS = re.compile("|".join(f"(?:{pattern})" for pattern in SLOW))
 
 
 def pytest_collection_modifyitems(config, items):
-    """Mark `slow` the tests that SLOW names."""
+    """Mark `slow` the tests that SLOW names, and run each learner's checks on a task one
+    after the other (`_by_case`)."""
     root = config.rootpath / "tests"
     for item in items:
         if SLOW_TESTS.match(item.path.relative_to(root).as_posix() + "::" + item.name):
             item.add_marker(pytest.mark.slow)
+    items[:] = _by_case(items)
+
+
+def _by_case(items) -> list:
+    """`items` with the tests of a file parametrized by one `learner` and `task` moved next to
+    the first of that case, in their order (tests/test_learners.py: every check of one learner
+    on one task in a row, not one check over every case then the next), so that its checks
+    share the JAX programs the first compiles (the same run, `testing.contract_config`):
+    run check by check, a worker compiled each case's programs again in each check, after
+    `_release_compiled_programs` had let the first ones go. Files stay whole and in order."""
+    first = {}
+
+    def case(index, item) -> tuple:
+        params = getattr(getattr(item, "callspec", None), "params", {})
+        if "learner" in params and "task" in params:
+            return first.setdefault((item.path, params["learner"], params["task"]), index)
+        return index
+
+    return [item for _, item in sorted(enumerate(items), key=lambda pair: (case(*pair), pair[0]))]
 
 
 @pytest.fixture(autouse=True)
