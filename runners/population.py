@@ -231,6 +231,7 @@ def release_when_crowded() -> None:
         _CHUNKS.clear()
         jax.clear_caches()
         gc.collect()
+        mappings.released()
 
 
 def _shared_settings(settings) -> tuple:

@@ -383,6 +383,7 @@ def test_a_crowded_process_lets_its_compiled_programs_go_and_computes_the_same(m
     stale = object()
     monkeypatch.setattr(population, "_CHUNKS", {"another program": stale})  # this run's to compile
     monkeypatch.setattr(mappings, "count", lambda: mappings.limit() // 2 + 1)
+    monkeypatch.setattr(mappings, "_after_release", 0)  # restored after the test
     released_agent, released = run(config)
     assert list(population._CHUNKS.values()) != [stale] and len(population._CHUNKS) == 1
     for field in ("steps", "returns", "truncated", "diverged_episode"):
@@ -394,3 +395,20 @@ def test_the_mappings_are_counted_against_the_systems_limit():
     from lwrl.runners import mappings
     assert 0 < mappings.count() < mappings.limit()  # Linux, where the tests run
     assert not mappings.crowded()
+
+
+def test_a_release_that_leaves_the_process_crowded_is_not_repeated_until_it_grows(monkeypatch):
+    """After a release that leaves a process past half its limit (mappings JAX does not
+    hold), the next is due only once it holds MARGIN of the limit more."""
+    from lwrl.runners import mappings
+    held = {"now": 40_000}
+    monkeypatch.setattr(mappings, "count", lambda: held["now"])
+    monkeypatch.setattr(mappings, "limit", lambda: 65_530)
+    monkeypatch.setattr(mappings, "_after_release", 0)
+    assert mappings.crowded()
+    population.release_when_crowded()
+    assert mappings._after_release == 40_000 and not mappings.crowded()
+    held["now"] = 40_000 + 8_000
+    assert not mappings.crowded()
+    held["now"] = 40_000 + 8_200
+    assert mappings.crowded()
