@@ -31,7 +31,7 @@ README = ROOT / "README.md"
 FIRST_COMMAND = ("python3.11 -m venv .venv && .venv/bin/pip install -e . && "
                  ".venv/bin/lwrl train mountain_car.cost_to_go")
 TEST_COMMAND = ("python3.11 -m venv .venv && .venv/bin/pip install -e '.[dev]' && "
-                ".venv/bin/python -m pytest -n auto --dist loadfile")
+                ".venv/bin/python -m pytest -n auto --dist worksteal")
 EXTRAS = re.compile(r"pip install[^&]* -e '\.\[([a-z,]+)\]'")
 """The extras of a `pip install -e '.[...]'` command."""
 LINK = re.compile(r"!?\[(?:[^\[\]]|\[[^\]]*\])*\]\(([^()\s]+)\)")
@@ -86,7 +86,7 @@ def test_the_readme_s_full_suite_installs_every_extra_as_ci_does():
     every extra of pyproject.toml (`paper` and `gymnasium` through `dev`): no backend's
     tests skip in the full suite."""
     full = readme_commands()[2]
-    assert full.endswith(".venv/bin/python -m pytest -n auto --dist loadfile")
+    assert full.endswith(".venv/bin/python -m pytest -n auto --dist worksteal")
     ci, = EXTRAS.findall((ROOT / ".ci" / "run").read_text())
     assert EXTRAS.findall(full) == [ci]
     declared = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"][
