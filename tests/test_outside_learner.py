@@ -100,10 +100,12 @@ def toy_source(monkeypatch):
 
 def child(site: pathlib.Path, *argv) -> subprocess.CompletedProcess:
     """`python *argv` at the repository's root, with the distributions of `site` installed
-    (their packages in it)."""
+    (their packages in it); a pytest it runs takes only its own options (not the caller's
+    PYTEST_ADDOPTS, whose --durations listed the toy's tests among its output's lines)."""
     path = [str(site), *filter(None, [os.environ.get("PYTHONPATH")])]
+    env = {key: value for key, value in os.environ.items() if key != "PYTEST_ADDOPTS"}
     return subprocess.run([sys.executable, *argv], capture_output=True, text=True, cwd=ROOT,
-                          env={**os.environ, "PYTHONPATH": os.pathsep.join(path)}, timeout=900)
+                          env={**env, "PYTHONPATH": os.pathsep.join(path)}, timeout=900)
 
 
 def admitted(site: pathlib.Path, group: str, outside, registry: dict) -> tuple[dict, list]:
