@@ -8,6 +8,7 @@ import re
 import shutil
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -346,14 +347,22 @@ def _by_case(items) -> list:
     return [item for _, item in sorted(enumerate(items), key=lambda pair: (case(*pair), pair[0]))]
 
 
+COMPILES = 0.3
+"""Seconds under which a test compiled no population program (each takes seconds): the
+mappings of its small programs, if any, are counted after the next longer test."""
+
+
 @pytest.fixture(autouse=True)
 def _release_compiled_programs():
     """After each test, JAX's compiled programs released where this process holds more than
     half the memory mappings it may (`runners.mappings`): a worker that compiles hundreds of
     programs (tests/test_learners.py over every JAX learner and task) passed Linux's limit,
     where XLA's next compilation died with a segmentation fault. Releasing them costs a
-    compilation where a later test needs the same program again, and changes no number."""
+    compilation where a later test needs the same program again, and changes no number. The
+    mappings (milliseconds to count) are counted after the tests that took `COMPILES` or
+    more."""
+    started = time.perf_counter()
     yield
-    if "jax" in sys.modules:
+    if "jax" in sys.modules and time.perf_counter() - started > COMPILES:
         from lwrl.runners.population import release_when_crowded
         release_when_crowded()
