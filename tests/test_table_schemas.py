@@ -72,6 +72,23 @@ def test_the_third_benchmarks_runs_records_ledger_and_reference_rows_keep_their_
     assert references and table_schema.table_violations(references, table_schema.load(REFERENCES)) == []
 
 
+def test_the_run_tables_schema_has_a_field_for_every_learners_column():
+    """A run's table repeats each scalar setting of its learner (`RunConfig.columns`): every
+    one of the registry is a field of the schema, typed as its setting is."""
+    import dataclasses
+
+    from lwrl import agent
+    from lwrl.settings import SCALARS, base_type
+    fields = {field["name"]: field["type"] for field in
+              table_schema.load(SCHEMAS["run_table"])["fields"]}
+    types = {bool: "boolean", int: "integer", float: "number", str: "string"}
+    for learner in agent.LEARNERS.values():
+        for setting in dataclasses.fields(learner.settings):
+            kind = base_type(setting.type)
+            if kind in SCALARS:
+                assert fields.get(setting.name) == types[kind], (learner.name, setting.name)
+
+
 def test_the_records_schema_names_the_columns_a_run_records():
     from lwrl.runners import records
     schema = table_schema.load(SCHEMAS["records"])
