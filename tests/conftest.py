@@ -338,7 +338,7 @@ def _by_case(items) -> list:
     `_release_compiled_programs` had let the first ones go. Files stay whole and in order."""
     first = {}
 
-    def case(index, item) -> tuple:
+    def case(index, item) -> int:
         params = getattr(getattr(item, "callspec", None), "params", {})
         if "learner" in params and "task" in params:
             return first.setdefault((item.path, params["learner"], params["task"]), index)

@@ -18,6 +18,7 @@ from lwrl import agent as learners
 from lwrl import tasks
 from lwrl.agent.zoo import TUNED_AS
 from lwrl.runners.config import RunConfig, protocol_defaults, task_defaults, tuned_settings
+from lwrl.settings import default_of
 
 PLANT = "analytic"
 """The plant of every run: the population learners train on the JAX ports of the analytic
@@ -210,7 +211,7 @@ def translation(cell: Cell) -> list:
         rows.append(Row(name, getattr(reference, name) if name in ours else ABSENT,
                         getattr(twin, name) if name in theirs else ABSENT, source,
                         _field_help(type(reference), name) or _field_help(type(twin), name),
-                        ABSENT if name in ours else theirs[name].default))
+                        ABSENT if name in ours else default_of(theirs[name])))
     return rows
 
 
@@ -224,9 +225,9 @@ def reference_settings(reference: str, settings) -> dict:
         value = getattr(settings, field.name)
         if field.name in ours:
             values[field.name] = value
-        elif value != field.default:
+        elif value != default_of(field):
             raise ValueError(f"{field.name}={value!r} is not a setting of {reference}; it "
-                             f"runs as {field.name}={field.default!r} (the default) only")
+                             f"runs as {field.name}={default_of(field)!r} (the default) only")
     return values
 
 
