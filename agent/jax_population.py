@@ -327,19 +327,26 @@ _INITIALISERS: dict = {}
 
 
 def initialiser(agents):
-    """`keys (B, 2) -> state`: `agents.agent_state` of each key, jitted once per process
-    for each `agents.initialiser_key()`, so that a new batch of the same kind compiles
-    nothing (a program made anew for every batch compiled for 1.5 s each time here, where
-    JAX's disk cache did not hold it). One program, the agents one after another: vmapped,
-    the orthogonal initialisation's batched QR hangs XLA's CPU runtime in some processes
-    (jaxlib 0.10.2: 5 of 6 fresh processes making 100 ppo_jax agents never returned);
-    mapped, it gives the same bits. The program keeps a copy of `agents` made before its
-    state exists, which holds the settings and the task only."""
+    """`key -> state`: `agents.agent_state` of one agent's key, jitted once per process for
+    each `agents.initialiser_key()`, so that a new batch of the same kind, of any size,
+    compiles nothing (a program made anew for every batch compiled for 1.5 s each time here,
+    where JAX's disk cache did not hold it; one over the batch, for 2 s each size of batch).
+    The program keeps a copy of `agents` made before its state exists, which holds the
+    settings and the task only."""
     key = agents.initialiser_key()
     if key not in _INITIALISERS:
-        jax, shell = agents.jax, copy.copy(agents)
-        _INITIALISERS[key] = jax.jit(lambda keys: jax.lax.map(shell.agent_state, keys))
+        _INITIALISERS[key] = agents.jax.jit(copy.copy(agents).agent_state)
     return _INITIALISERS[key]
+
+
+def initial_states(agents, keys):
+    """The batch's state, `(B, ...)` leaves: `initialiser(agents)` of each of `keys`
+    `(B, 2)`, one agent after another. Not vmapped: the orthogonal initialisation's batched
+    QR hangs XLA's CPU runtime in some processes (jaxlib 0.10.2: 5 of 6 fresh processes
+    making 100 ppo_jax agents never returned); agent by agent gives the same bits."""
+    one, jnp = initialiser(agents), agents.jnp
+    return agents.jax.tree.map(lambda *leaves: jnp.stack(leaves),
+                               *[one(agent_key) for agent_key in keys])
 
 
 class PopulationAgents(Agents):
@@ -359,7 +366,7 @@ class PopulationAgents(Agents):
         self.check_batchable()
         self.dim = len(task.state_names)
         keys = self.jax.vmap(self.jax.random.PRNGKey)(self.jnp.asarray(self.seeds, self.jnp.uint32))
-        self.state = initialiser(self)(keys)
+        self.state = initial_states(self, keys)
         """The agents' state: a pytree of JAX arrays with a leading axis B."""
         self.clocks = np.zeros(len(self.seeds), dtype=np.int64)
         """`(B,)` each agent's steps of learning so far."""

@@ -125,23 +125,25 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
     program = agent.trained_program()
     shape = (env.name, repr(sorted(env_options.items())), sensors.max_delay, type(agent),
              agent.dim, agent.action_space, repr(_shared_settings(agent.settings[0])),
-             agent.shared(), batch, episodes, bool(learn), bool(greedy), CHUNK)
+             agent.shared(), batch, episodes, CHUNK)
     if shape not in _CHUNKS:
         release_when_crowded()
         _use_disk_cache()
         _CHUNKS[shape] = _compiled_chunk(env, program, episodes, agent.learned_tree,
-                                         bool(learn), bool(greedy), agent.continuous)
+                                         agent.continuous)
     step = _CHUNKS[shape]
     carry = _first_carry(env, agent, starts, sensors, episodes)
     limit = lambda steps: jnp.asarray(min(steps, np.iinfo(np.int32).max), jnp.int32)
-    chunk = lambda carry, steps: step(carry, program.hyper, physical, starts, sensors, limit(steps))
+    modes = (jnp.asarray(bool(learn)), jnp.asarray(bool(greedy)))
+    chunk = lambda carry, steps: step(carry, program.hyper, physical, starts, sensors, limit(steps),
+                                      *modes)
     budget = step_budget(budget)
     pending = sorted(_check_checkpoints(checkpoints or {}, budget))
     kept = None
     if resume is not None:
         path, key = resume
         kept = Resume(path, key, step, carry, (program.hyper, physical, starts, sensors,
-                                               limit(budget)))
+                                               limit(budget), *modes))
         resumed = kept.load(carry, pending[0] if pending else None)
         if resumed is not None:
             carry = resumed
@@ -282,10 +284,11 @@ def _first_carry(env, agent, starts, sensors, episodes: int) -> dict:
             "diverged_episode": jnp.full(batch, -1, jnp.int32)}
 
 
-def _compiled_chunk(env, program, episodes: int, weight_tree, learn: bool, greedy: bool,
-                    continuous: bool):
-    """`CHUNK` steps of the batch as one jitted function of the carry; `continuous`: the
-    learner's actions are numbers in [-1, 1], scaled to the actuator's range."""
+def _compiled_chunk(env, program, episodes: int, weight_tree, continuous: bool):
+    """`CHUNK` steps of the batch as one jitted function of the carry, `learn` and `greedy`
+    (`run_population`'s) among its arguments, so that one program trains and evaluates;
+    `continuous`: the learner's actions are numbers in [-1, 1], scaled to the actuator's
+    range."""
     import jax
     import jax.numpy as jnp
     from lwrl.jax.translate import as_jax
@@ -308,9 +311,11 @@ def _compiled_chunk(env, program, episodes: int, weight_tree, learn: bool, greed
                 "truncated": put(row["truncated"], truncated),
                 "done": row["done"] + ended.astype(jnp.int32)}
 
-    def choose(row, hyper):
+    def choose(row, hyper, modes):
         """One agent's action at its observation, `(action, extras, keys)`: `keys` the
-        agent's next random stream and those of its plant's step and of its next start."""
+        agent's next random stream and those of its plant's step and of its next start;
+        `modes` `(learn, greedy)`."""
+        learn, greedy = modes
         clock = row["clock"]
         learning = learn & (clock < hyper["learning_steps"])
         key, act_key, env_key, start_key = jax.random.split(row["key"], 4)
@@ -318,21 +323,21 @@ def _compiled_chunk(env, program, episodes: int, weight_tree, learn: bool, greed
                                      greedy | ~learning, clock)
         return action, extras, (key, env_key, start_key)
 
-    def choices(carry, hyper):
+    def choices(carry, hyper, modes):
         """Every agent's `choose`: over the batch at once, or one agent after another where
         the program asks (`Program.mapped`), reading the agents' states but for what
         `Program.unchanged` names (what acting never reads: a replay buffer)."""
         if not program.mapped:
-            return jax.vmap(choose)(carry, hyper)
+            return jax.vmap(choose, in_axes=(0, 0, None))(carry, hyper, modes)
         acting = {"key": carry["key"], "clock": carry["clock"], "observation": carry["observation"],
                   "learner": {name: value for name, value in carry["learner"].items()
                               if name not in program.unchanged}}
-        return jax.lax.map(lambda row: choose(*row), (acting, hyper))
+        return jax.lax.map(lambda row: choose(*row, modes), (acting, hyper))
 
-    def agent_step(row, choice, hyper, physical, starts, sensors, budget):
+    def agent_step(row, choice, hyper, physical, starts, sensors, budget, learn):
         """One step of one agent, taking its `choice`, in its episode's physics (`physical`
-        `(K, P)`) with its sensors; the step that spends its `budget` ends its episode,
-        truncated, and it."""
+        `(K, P)`) with its sensors, learning or not (`learn`); the step that spends its
+        `budget` ends its episode, truncated, and it."""
         action, extras, (key, env_key, start_key) = choice
         clock = row["clock"]
         learning = learn & (clock < hyper["learning_steps"])
@@ -384,17 +389,19 @@ def _compiled_chunk(env, program, episodes: int, weight_tree, learn: bool, greed
             learner = jax.vmap(program.update)(*arguments)
         return jax.vmap(diverge)({**carry, "learner": learner})
 
-    def one(carry, _, hyper, physical, starts, sensors, budget):
-        carry = jax.vmap(agent_step, in_axes=(0, 0, 0, 0, 0, 0, None))(
-            carry, choices(carry, hyper), hyper, physical, starts, sensors, budget)
+    def one(carry, _, hyper, physical, starts, sensors, budget, modes):
+        carry = jax.vmap(agent_step, in_axes=(0, 0, 0, 0, 0, 0, None, None))(
+            carry, choices(carry, hyper, modes), hyper, physical, starts, sensors, budget,
+            modes[0])
         carry = jax.lax.cond(jnp.any(carry["due"]), lambda c: update(c, hyper), lambda c: c,
                              carry)
         return carry, None
 
     @jax.jit
-    def chunk(carry, hyper, physical, starts, sensors, budget):
+    def chunk(carry, hyper, physical, starts, sensors, budget, learn, greedy):
         carry = {**carry, "due": jnp.zeros_like(carry["active"])}
-        carry = jax.lax.scan(lambda c, x: one(c, x, hyper, physical, starts, sensors, budget),
+        carry = jax.lax.scan(lambda c, x: one(c, x, hyper, physical, starts, sensors, budget,
+                                              (learn, greedy)),
                              carry, None, length=CHUNK)[0]
         return {name: value for name, value in carry.items() if name != "due"}
 

@@ -302,8 +302,9 @@ def test_a_batch_of_settings_that_cannot_be_batched_is_refused_in_one_line():
 
 def test_a_batch_of_a_kind_already_made_compiles_no_initialiser():
     """Agents of the same class, first settings and task share one jitted initialiser (a
-    program made for each batch compiled anew, 1.5 s here); other first settings get their
-    own, and each batch's agents start as they would alone."""
+    program made for each batch compiled anew, 1.5 s here), compiled once for batches of any
+    size; other first settings get their own, and each batch's agents start as they would
+    alone."""
     import jax
     from lwrl.agent import jax_population
     config = RunConfig(task="cartpole.balance", learner="dqn_jax", agents=2, net_arch="8")
@@ -312,6 +313,7 @@ def test_a_batch_of_a_kind_already_made_compiles_no_initialiser():
     assert jax_population.initialiser(first) is jax_population.initialiser(again)
     assert jax_population.initialiser(other) is not jax_population.initialiser(first)
     alone = make_agent(dataclasses.replace(config, agents=1, seed=6))
+    assert jax_population.initialiser(alone)._cache_size() == 1
     for batched, single in zip(*(jax.tree_util.tree_leaves(a.state) for a in (again, alone))):
         np.testing.assert_array_equal(np.asarray(batched)[1], np.asarray(single)[0])
 
