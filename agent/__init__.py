@@ -19,7 +19,7 @@ from lwrl.outside import admitted
 
 LEARNER_MODULES = ("sarsa", "true_online_sarsa", "ase_ace", "actor_critic", "dqn", "ppo", "sac", "td3",
                    "ppo_jax", "dqn_jax", "sac_jax", "td3_jax", "stream_q",
-                   "stream_ac", "ars", "ars_continuous")
+                   "stream_ac", "stream_ac_discrete", "ars", "ars_continuous")
 """lwrl's own learners: the modules of `agent/` that each define one learner, the default
 first."""
 

@@ -21,7 +21,8 @@ their learners (`FORMS`), the learner's own `Agents.controller` for the others.
 - **Stream AC(lambda)**: the same normalisation and the actor's network, of which only
   the mean's output is kept (the last layer's first row; the other output, sigma's, does
   not enter a greedy decision); the greedy action is the mean clipped to [-1, 1]
-  (`StreamAcAgents.choose` where greedy).
+  (`StreamAcAgents.choose` where greedy); for discrete actions (`stream_ac_discrete`) the
+  actor's every output, a preference per action, whose argmax is the greedy action.
 
 The statistics are frozen as the agent was saved: a greedy controller does not update them
 (`agent.stream_agents`: acting greedily leaves them as they are), so the square roots of
@@ -126,7 +127,13 @@ def stream_ac_form(agents, b: int) -> ControllerForm:
                         "Stream AC(lambda)'s actor, its mean")
 
 
+def stream_ac_discrete_form(agents, b: int) -> ControllerForm:
+    """Stream AC(lambda)'s actor of discrete actions: the argmax of its preferences."""
+    return _stream_form(agents, b, _tree(agents, b)["params"]["actor"], None,
+                        "Stream AC(lambda)'s actor, its preferences")
+
+
 FORMS = {"ars": linear_form, "ars_continuous": linear_form, "stream_q": stream_q_form,
-         "stream_ac": stream_ac_form}
+         "stream_ac": stream_ac_form, "stream_ac_discrete": stream_ac_discrete_form}
 """`{learner name: form(agents, b) -> ControllerForm}`: the learners whose controller form
 the export holds."""

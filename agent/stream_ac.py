@@ -34,14 +34,10 @@ from lwrl.settings import check_non_negative, check_positive, setting
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
-class StreamAcSettings(StreamSettings):
-    """Stream AC(lambda)'s settings (the authors' defaults for continuous actions)."""
+class ActorCriticSettings(StreamSettings):
+    """What both stream-AC(lambda) learners take beside the streaming settings: the actor's
+    bound and its entropy coefficient (the authors' defaults)."""
 
-    timesteps: int = setting(2_000_000, per_agent=True)
-    """Environment steps of learning (the authors' `total_steps`); the agent then acts
-    greedily."""
-    net_arch: str = setting("128,128")
-    """Hidden layers' widths of the actor and of the critic, comma-separated."""
     kappa_policy: float = setting(3.0, per_agent=True)
     """The actor's ObGD bound."""
     ent_coef: float = setting(0.01, per_agent=True)
@@ -52,29 +48,88 @@ class StreamAcSettings(StreamSettings):
         check_positive("kappa_policy", self.kappa_policy)
         check_non_negative("ent_coef", self.ent_coef)
 
-    def label(self) -> str:
-        return (f"stream_ac-{self.net_arch.replace(',', 'x')}-lr{self.learning_rate:g}"
-                f"-l{self.lam:g}-t{self.timesteps}")
-
     def describe(self, dim: int) -> str:
         return (f"Stream AC(lambda), {self.describe_stream()}, actor kappa "
                 f"{self.kappa_policy:g}, entropy {self.ent_coef:g}")
 
 
-class StreamAcAgents(StreamAgents):
-    """B Stream AC(lambda) agents as one pytree (see the module)."""
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class StreamAcSettings(ActorCriticSettings):
+    """Stream AC(lambda)'s settings (the authors' defaults for continuous actions)."""
+
+    timesteps: int = setting(2_000_000, per_agent=True)
+    """Environment steps of learning (the authors' `total_steps`); the agent then acts
+    greedily."""
+    net_arch: str = setting("128,128")
+    """Hidden layers' widths of the actor and of the critic, comma-separated."""
+
+    def label(self) -> str:
+        return (f"stream_ac-{self.net_arch.replace(',', 'x')}-lr{self.learning_rate:g}"
+                f"-l{self.lam:g}-t{self.timesteps}")
+
+
+class ActorCriticAgents(StreamAgents):
+    """B stream-AC(lambda) agents as one pytree: an actor and a critic, the update both
+    learners share (see the module). Subclasses give the policy: the actor's outputs
+    (`actor_outputs`), the choice of an action (`choose`) and the log-probability and
+    entropy the actor's trace takes (`objective`)."""
 
     HYPER = HYPER + ("kappa_policy", "ent_coef")
     """The per-agent settings the program takes as arrays: the streaming ones and the
     actor's bound and entropy coefficient."""
+
+    def actor_outputs(self) -> int:
+        """The actor's outputs."""
+        raise NotImplementedError
+
+    def objective(self, actor, x, action, entropy_coef, sign_delta):
+        """`streaming.actor_objective` of the policy of `actor` at `x`, for `action`."""
+        raise NotImplementedError
 
     def networks(self, key):
         from lwrl.agent import streaming
         settings = self.settings[0]
         actor_key, critic_key = self.jax.random.split(key)
         hidden = [self.dim, *settings.layers()]
-        return {"actor": streaming.sparse_network(actor_key, hidden + [2], settings.sparsity),
+        return {"actor": streaming.sparse_network(actor_key, hidden + [self.actor_outputs()],
+                                                  settings.sparsity),
                 "critic": streaming.sparse_network(critic_key, hidden + [1], settings.sparsity)}
+
+    def learn(self, params, traces, transition, hyper):
+        """Stream AC(lambda)'s update (see the module)."""
+        jax, jnp = self.jax, self.jnp
+        from lwrl.agent import streaming
+        critic, actor = params["critic"], params["actor"]
+        v_tm1, critic_grad = jax.value_and_grad(
+            lambda p: streaming.forward(p, transition["x"])[0])(critic)
+        v_t = streaming.forward(critic, transition["next_x"])[0]
+        discount = hyper["gamma"] * (1.0 - transition["terminated"].astype(jnp.float64))
+        delta = streaming.v_td_error(v_tm1, transition["reward"], discount, v_t)
+        sign = jnp.sign(delta).astype(jnp.float32)
+        coef = hyper["ent_coef"].astype(jnp.float32)
+        actor_grad = jax.grad(lambda p: self.objective(
+            p, transition["x"], transition["extras"]["action"], coef, sign))(actor)
+        actor, actor_trace = streaming.obgd(actor, traces["actor"], actor_grad, delta,
+                                            hyper["learning_rate"], hyper["gamma"], hyper["lam"],
+                                            hyper["kappa_policy"])
+        critic, critic_trace = streaming.obgd(critic, traces["critic"], critic_grad, delta,
+                                              hyper["learning_rate"], hyper["gamma"],
+                                              hyper["lam"], hyper["kappa"])
+        return {"actor": actor, "critic": critic}, {"actor": actor_trace, "critic": critic_trace}
+
+    def state_values(self, states, weights=None):
+        """The critic's V(s), `(B, ...)` (or `(...)` for `weights`)."""
+        from lwrl.agent import streaming
+        return self.over_agents(states, weights, lambda tree, s: streaming.forward(
+            tree["params"]["critic"], self.normalised_states(tree, s))[..., 0])
+
+
+class StreamAcAgents(ActorCriticAgents):
+    """B Stream AC(lambda) agents of continuous actions (see the module)."""
+
+    def actor_outputs(self) -> int:
+        """The mean and the spread's pre-activation."""
+        return 2
 
     def blank_extras(self) -> dict:
         jnp = self.jnp
@@ -94,38 +149,17 @@ class StreamAcAgents(StreamAgents):
         sample = jnp.where(greedy, mean, mean + std * jax.random.normal(key, (), jnp.float32))
         return jnp.clip(sample, -1.0, 1.0), {"action": sample, "reset": jnp.zeros((), bool)}
 
-    def learn(self, params, traces, transition, hyper):
-        """Stream AC(lambda)'s update (see the module)."""
-        jax, jnp = self.jax, self.jnp
+    def objective(self, actor, x, action, entropy_coef, sign_delta):
         from lwrl.agent import streaming
-        critic, actor = params["critic"], params["actor"]
-        v_tm1, critic_grad = jax.value_and_grad(
-            lambda p: streaming.forward(p, transition["x"])[0])(critic)
-        v_t = streaming.forward(critic, transition["next_x"])[0]
-        discount = hyper["gamma"] * (1.0 - transition["terminated"].astype(jnp.float64))
-        delta = streaming.v_td_error(v_tm1, transition["reward"], discount, v_t)
-        sign = jnp.sign(delta).astype(jnp.float32)
-        coef = hyper["ent_coef"].astype(jnp.float32)
-        actor_grad = jax.grad(lambda p: streaming.actor_objective(
-            *self.gaussian(p, transition["x"]), transition["extras"]["action"], coef, sign))(actor)
-        actor, actor_trace = streaming.obgd(actor, traces["actor"], actor_grad, delta,
-                                            hyper["learning_rate"], hyper["gamma"], hyper["lam"],
-                                            hyper["kappa_policy"])
-        critic, critic_trace = streaming.obgd(critic, traces["critic"], critic_grad, delta,
-                                              hyper["learning_rate"], hyper["gamma"],
-                                              hyper["lam"], hyper["kappa"])
-        return {"actor": actor, "critic": critic}, {"actor": actor_trace, "critic": critic_trace}
+        mean, std = self.gaussian(actor, x)
+        return streaming.actor_objective(streaming.gaussian_log_prob(mean, std, action),
+                                         streaming.gaussian_entropy(std), entropy_coef,
+                                         sign_delta)
 
     def action_values(self, states, weights=None):
         """The actor's greedy action in [-1, 1], `(B, ..., 1)` (or `(..., 1)` for `weights`)."""
         return self.over_agents(states, weights, lambda tree, s: self.jnp.clip(self.gaussian(
             tree["params"]["actor"], self.normalised_states(tree, s))[0], -1.0, 1.0)[..., None])
-
-    def state_values(self, states, weights=None):
-        """The critic's V(s), `(B, ...)` (or `(...)` for `weights`)."""
-        from lwrl.agent import streaming
-        return self.over_agents(states, weights, lambda tree, s: streaming.forward(
-            tree["params"]["critic"], self.normalised_states(tree, s))[..., 0])
 
 
 def make(settings, task, seeds) -> StreamAcAgents:

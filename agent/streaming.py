@@ -1,12 +1,13 @@
 """The equations of streaming deep reinforcement learning (Elsayed, Vasan & Mahmood 2024,
 "Streaming deep reinforcement learning finally works", arXiv:2410.14606), as small pure JAX
 functions, one equation each, apart from any learner's plumbing (`agent.stream_agents`):
-what `agent.stream_q` and `agent.stream_ac` compute per transition.
+what `agent.stream_q`, `agent.stream_ac` and `agent.stream_ac_discrete` compute per
+transition.
 
 Each follows the paper and the authors' PyTorch code, `mohmdelsayed/streaming-drl` at commit
 407dca7 (`optim.py`, `sparse_init.py`, `normalization_wrappers.py`, `stream_q.py`,
-`stream_ac_continuous.py`), whose file is named at each function. Time-indexed names as in
-rlax: `z_tm1` the trace before the step, `z_t` after it.
+`stream_ac_continuous.py`, `stream_ac_discrete.py`), whose file is named at each function.
+Time-indexed names as in rlax: `z_tm1` the trace before the step, `z_t` after it.
 
 The networks are float32 (the authors' `torch.float`); the running statistics, the TD error
 and the step size float64 (their NumPy statistics and Python floats). This module imports JAX:
@@ -150,7 +151,21 @@ def gaussian_entropy(std):
     return jnp.sum(0.5 + 0.5 * math.log(2.0 * math.pi) + jnp.log(std))
 
 
-def actor_objective(mean, std, action, entropy_coef, sign_delta):
+def categorical_log_prob(preferences, action):
+    """log pi(a|s) of the softmax of the actor's `preferences` (`Categorical.log_prob`)."""
+    return jax.nn.log_softmax(preferences)[action]
+
+
+def categorical_entropy(preferences):
+    """H(pi(.|s)) = -sum_a pi(a|s) log pi(a|s) of the softmax of `preferences`
+    (`Categorical.entropy`)."""
+    log_pi = jax.nn.log_softmax(preferences)
+    return -jnp.sum(jnp.exp(log_pi) * log_pi)
+
+
+def actor_objective(log_prob, entropy, entropy_coef, sign_delta):
     """What stream-AC(lambda)'s actor trace accumulates the gradient of (Stream AC(lambda);
-    `StreamAC.update_params`, negated there): log pi(a|s) + c_e sign(delta) H(pi(.|s))."""
-    return gaussian_log_prob(mean, std, action) + entropy_coef * sign_delta * gaussian_entropy(std)
+    `StreamAC.update_params`, negated there): log pi(a|s) + c_e sign(delta) H(pi(.|s)), of a
+    Gaussian (`gaussian_log_prob`, `gaussian_entropy`; `stream_ac_continuous.py`) or a
+    softmax policy (`categorical_log_prob`, `categorical_entropy`; `stream_ac_discrete.py`)."""
+    return log_prob + entropy_coef * sign_delta * entropy

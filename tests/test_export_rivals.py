@@ -39,6 +39,8 @@ AGENTS = {
     "ars_v1": dict(task="pendulum.swingup", learner="ars", budget=12000, timesteps=12000,
                    variant="v1", directions=2),
     "stream_q": dict(task="cartpole.balance", learner="stream_q", budget=3000, timesteps=3000),
+    "stream_ac_discrete": dict(task="cartpole.balance", learner="stream_ac_discrete",
+                               budget=3000, timesteps=3000),
     "stream_ac": dict(task="pendulum.swingup", learner="stream_ac", actions="continuous",
                       budget=3000, timesteps=3000),
     "ars_continuous": dict(task="pendulum.swingup", learner="ars_continuous",
@@ -83,7 +85,8 @@ def test_the_c_policy_takes_the_python_agents_greedy_decisions(agent_files, tmp_
     continuous = agents.continuous
     states = states_around(agents.task, 3000, np.float32 if dtype == "float" else np.float64)
     c_actions, c_outputs = run_driver(executable, states, continuous=continuous)
-    python = agents.action_values(states)[b]  # scores, Q(s, .), or the clipped action (M, 1)
+    # scores, Q(s, .), the actor's preferences or the clipped action (M, 1)
+    python = getattr(agents, "preferences", agents.action_values)(states)[b]
     rel = ARS_DOUBLE if dtype == "double" and "ars" in name else REL[dtype]
     bound = rel * (1.0 + np.abs(python).max(axis=1))
     if continuous:

@@ -1,6 +1,6 @@
-"""The streaming learners (`stream_q`, `stream_ac`): their equations (`agent.streaming`) held
-to hand-computed cases, their first updates to the authors' step restated in PyTorch on the
-same inputs, and learning on the cart-pole."""
+"""The streaming learners (`stream_q`, `stream_ac`, `stream_ac_discrete`): their equations
+(`agent.streaming`) held to hand-computed cases, their first updates to the authors' step
+restated in PyTorch on the same inputs, and learning on the cart-pole."""
 
 import math
 
@@ -167,13 +167,31 @@ def test_stream_q_s_first_updates_are_the_authors():
         assert_layers_match(params, linears)
 
 
+def gaussian(torch, out, action):
+    """The authors' continuous policy at the actor's outputs `out` (`stream_ac_continuous.py`),
+    and `action` (a number) as it takes it."""
+    policy = torch.distributions.Normal(out[0], torch.nn.functional.softplus(out[1]))
+    return policy, torch.tensor(action, dtype=torch.float)
+
+
+def softmax(torch, out, action):
+    """The authors' discrete policy (`stream_ac_discrete.py`, `Categorical(probs)`), and
+    `action` (an index) as it takes it."""
+    return torch.distributions.Categorical(torch.softmax(out, dim=-1)), torch.tensor(action)
+
+
 @needs_torch
-def test_stream_ac_s_first_updates_are_the_authors():
-    """Two updates of stream_ac against the authors' `StreamAC.update_params` restated in
-    PyTorch: the critic's and the actor's ObGD (kappa 2 and 3), the entropy term."""
+@pytest.mark.parametrize("learner, actions, policy, draw", [
+    ("stream_ac", "continuous", gaussian, lambda rng, task: rng.normal()),
+    ("stream_ac_discrete", "discrete", softmax,
+     lambda rng, task: int(rng.integers(task.action.n)))])
+def test_stream_ac_s_first_updates_are_the_authors(learner, actions, policy, draw):
+    """Two updates of stream-AC(lambda) against the authors' `StreamAC.update_params`
+    restated in PyTorch, with their Gaussian or softmax policy: the critic's and the
+    actor's ObGD (kappa 2 and 3), the entropy term."""
     import torch
-    config = RunConfig(task="pendulum.swingup", learner="stream_ac", agents=1, seed=3,
-                       actions="continuous", net_arch="16,16")
+    config = RunConfig(task="pendulum.swingup", learner=learner, agents=1, seed=3,
+                       actions=actions, net_arch="16,16")
     agents = make_agent(config)
     hyper = hyper_of(agents)
     unbatched = {name: [(w[0], b[0]) for w, b in network]
@@ -186,15 +204,13 @@ def test_stream_ac_s_first_updates_are_the_authors():
     critic_traces = [torch.zeros_like(p) for linear in critic_linears for p in (linear.weight, linear.bias)]
     rng = np.random.default_rng(2)
     for _ in range(2):
-        x, u, reward, next_x = rng.normal(size=2), rng.normal(), rng.normal(), rng.normal(size=2)
+        x, u, reward, next_x = rng.normal(size=2), draw(rng, agents.task), rng.normal(), rng.normal(size=2)
         params, traces = agents.learn(params, traces, transition(agents, x, u, reward, next_x), hyper)
         s, s_next = torch.tensor(x, dtype=torch.float), torch.tensor(next_x, dtype=torch.float)
         v_s = critic(s)
         delta = (torch.tensor(reward) + 0.99 * critic(s_next) - v_s).item()
-        out = actor(s)
-        dist = torch.distributions.Normal(out[0], torch.nn.functional.softplus(out[1]))
-        objective = -dist.log_prob(torch.tensor(u, dtype=torch.float)).sum() \
-            - 0.01 * dist.entropy().sum() * np.sign(delta)
+        dist, action = policy(torch, actor(s), u)
+        objective = -dist.log_prob(action).sum() - 0.01 * dist.entropy().sum() * np.sign(delta)
         for linear in actor_linears + critic_linears:
             linear.zero_grad()
         (-v_s).sum().backward()

@@ -28,8 +28,9 @@ for spec in "mountain_car.cost_to_go 100000" "pendulum.swingup 90000" \
     train "$task-paper" "$task" "$budget"
     train "$task-ars" "$task" "$budget" --learner ars --timesteps "$budget"
     train "$task-stream_q" "$task" "$budget" --learner stream_q --timesteps "$budget"
-    "$LWRL" plot "runs/$task-paper" "runs/$task-ars" "runs/$task-stream_q" --by-steps \
-        --out "$task.png"
+    train "$task-stream_ac" "$task" "$budget" --learner stream_ac_discrete --timesteps "$budget"
+    "$LWRL" plot "runs/$task-paper" "runs/$task-ars" "runs/$task-stream_q" \
+        "runs/$task-stream_ac" --by-steps --out "$task.png"
 done
 task=pendulum.swingup budget=90000
 train "$task-continuous-actor_critic" "$task" "$budget" --learner actor_critic \

@@ -41,7 +41,7 @@ NEW_RIVALS = {"discrete": ("ars", "stream_q", "stream_ac"), "continuous": ("ars"
 """The rows the third benchmark adds (ARS, stream-Q(lambda), stream-AC(lambda)), by kind of
 action."""
 STAND_INS = {"cmac": "sarsa", "ase_ace": "sarsa", "ars": "ppo_jax", "ars_continuous": "ppo_jax",
-             "stream_q": "ppo_jax", "stream_ac": "ppo_jax"}
+             "stream_q": "ppo_jax", "stream_ac": "ppo_jax", "stream_ac_discrete": "ppo_jax"}
 """`{learner: learner whose ledger rate it borrows}` for learners the ledger does not count:
 the linear ones the paper's agent's, the new rivals PPO's (one small network's update and
 forward passes a step, no replay: not more than PPO's minibatch epochs a step)."""

@@ -70,14 +70,16 @@ learners' JAX populations (SB3's `VecNormalize`, off by default,
 NORMALISATION = {"ars": Choice("variant", ("v1", "v2")),
                  "ars_continuous": Choice("variant", ("v1", "v2")),
                  **{learner: OBSERVATION_NORMALISATION for learner in (
-                     "dqn_jax", "ppo_jax", "sac_jax", "td3_jax", "stream_q", "stream_ac")}}
+                     "dqn_jax", "ppo_jax", "sac_jax", "td3_jax", "stream_q", "stream_ac",
+                     "stream_ac_discrete")}}
 """`{learner: the choice of observation normalisation}` of the learners whose settings
 have it: ARS's V1 (the state as it is) and V2 (the state normalised by its running mean and
 standard deviation, Mania et al. 2018), and `normalize_observations` of the deep learners
 and the streaming learners (`OBSERVATION_NORMALISATION`: normalised by the running mean and
 variance)."""
 NEW_RANGES = {learner: (StepSize("learning_rate"),)
-              for learner in ("ars", "ars_continuous", "stream_q", "stream_ac")}
+              for learner in ("ars", "ars_continuous", "stream_q", "stream_ac",
+                              "stream_ac_discrete")}
 """The ranges of the learners the second benchmark did not search: their step size (the
 second benchmark has no ranges of theirs for the rest)."""
 

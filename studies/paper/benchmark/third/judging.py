@@ -158,8 +158,8 @@ class Comparison:
 
 
 def rivals(task: str) -> list:
-    """The labels of `task`'s rivals in the rule: its deep rows and the new rivals the
-    registry runs, in the rule's order."""
+    """The labels of `task`'s rivals in the rule: its deep rows and the new rivals, in the
+    rule's order."""
     base = rule.split(task)[0]
     return [row.label for row in rule.rows(task)
             if row.label in protocol.deep(base) or row.label in rule.RIVALS[
@@ -195,9 +195,8 @@ def compare(task: str, light: tuple, rival: tuple, label: str, random) -> Compar
 
 def family_size() -> int:
     """The comparisons the rule's family holds at a budget point: the light-weight row
-    against every rival the rule names on every task, those no learner of the registry can
-    run among them (`rule.unavailable`)."""
-    return sum(len(rivals(task)) + len(rule.unavailable(task)) for task in rule.TASKS)
+    against every rival the rule names on every task."""
+    return sum(len(rivals(task)) for task in rule.TASKS)
 
 
 def judge_families(comparisons: list) -> int:

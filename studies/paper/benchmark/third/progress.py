@@ -136,9 +136,6 @@ def task_lines(task: str, out_dir: str, plant: str = "analytic") -> list:
         seconds, text = left(state, out_dir, states, planned)
         total += seconds
         lines.append(f"  {label:<20} {'; '.join(state.text)}{text}")
-    for label in rule.unavailable(task):
-        lines.append(f"  {label:<20} not run: the rule names it; no learner of the registry "
-                     "takes this task's kind of action")
     if total:
         lines.append(f"  about {progress.duration(total)} of CPU of trainings left on {task} "
                      "(greedy evaluations apart)")

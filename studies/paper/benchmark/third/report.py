@@ -91,10 +91,6 @@ def task_section(runs: "study.TaskRuns", out_dir: str) -> list:
     lines.append("")
     lines += [f"- not all run yet: {why}" for why in runs.unfinished.values()]
     lines += [""] if runs.unfinished else []
-    missing = rule.unavailable(runs.task)
-    if missing:
-        lines += [f"Not run: {', '.join(missing)} (the rule names it; no learner of the "
-                  "registry takes this task's kind of action).", ""]
     plain = halving.unsearched(runs.task)
     if plain:
         lines += [f"Observation normalisation not searched (no setting of the learner's): "

@@ -17,7 +17,6 @@ import dataclasses
 import json
 import os
 
-from lwrl.agent import learner as registered
 from lwrl.runners.config import RunConfig, tuned_settings
 from lwrl.studies.paper.benchmark import compute_plan, protocol, variants
 
@@ -61,7 +60,7 @@ def stages(tasks) -> list:
             + [(task, False) for task in ordered if task == TASKS[-1]])
 
 
-RIVALS = {"discrete": {"ars": "ars", "stream_q": "stream_q", "stream_ac": "stream_ac"},
+RIVALS = {"discrete": {"ars": "ars", "stream_q": "stream_q", "stream_ac": "stream_ac_discrete"},
           "continuous": {"ars": "ars_continuous", "stream_ac": "stream_ac"}}
 """`{label: learner}` of the rows the third benchmark adds, by the task's kind of action."""
 
@@ -86,27 +85,16 @@ def environment(task: str) -> dict:
     return variants.environment(base, variant) if variant else {}
 
 
-def unavailable(task: str) -> list:
-    """The rivals the rule names on `task` that no learner of the registry can run: a
-    learner that takes the other kind of action (stream-AC(lambda) exists for continuous
-    actions only). The rule's rows without them; the report names them as not run."""
-    actions = protocol.variant(split(task)[0])[1]
-    return [label for label, learner in RIVALS[actions].items()
-            if registered(learner).actions != actions]
-
-
 def rows(task: str) -> list:
     """The rows of `task` (`protocol.Row`), the light-weight one first: the second
-    benchmark's, then the rivals (`RIVALS`) the registry can run, each at its centre (the
-    zoo's set where the learner has one for the task, else its authors' defaults) with its
-    horizon the budget."""
+    benchmark's, then the rivals (`RIVALS`), each at its centre (the zoo's set where the
+    learner has one for the task, else its authors' defaults) with its horizon the budget."""
     base = split(task)[0]
     name, actions = protocol.variant(base)
     kind = {"actions": actions} if actions == "continuous" else {}
-    missing = unavailable(task)
     rivals = [protocol.Row(label, learner, dict(tuned_settings(name, learner),
                                                 timesteps=protocol.BUDGETS[base], **kind))
-              for label, learner in RIVALS[actions].items() if label not in missing]
+              for label, learner in RIVALS[actions].items()]
     return [centre(row) for row in protocol.rows(base)] + rivals
 
 

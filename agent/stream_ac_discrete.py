@@ -1,0 +1,126 @@
+"""Stream AC(lambda) for discrete actions (Elsayed, Vasan & Mahmood 2024, "Streaming deep
+reinforcement learning finally works", arXiv:2410.14606; the authors'
+`stream_ac_discrete.py`): `agent.stream_ac`'s update with a softmax policy, trained as a
+population in one jitted JAX program (`agent.stream_agents`, `runners.population`).
+
+Per step of an agent, at the normalised observation x: the actor, an MLP of `net_arch`
+(layer normalisation without learned parameters and leaky ReLU after each hidden layer,
+sparse initialisation: `agent.streaming`) with one preference h(x, a) per action, samples a
+from pi(.|x) = softmax(h(x, .)) (the authors' `Categorical(probs)`); a greedy action is the
+argmax of h. After the transition (x, a, r scaled, x'), with the critic V, an MLP of the same
+shape, `agent.stream_ac`'s update with log pi(a|x) = log softmax(h(x, .))_a and
+H(pi(.|x)) = -sum_a pi(a|x) log pi(a|x) (`streaming.categorical_log_prob`,
+`streaming.categorical_entropy`). The authors' defaults: alpha 1, gamma 0.99, lambda 0.8,
+kappa 2 (critic) and 3 (actor), c_e 0.01, two hidden layers of 32 (their `StreamAC`'s
+`hidden_size`), sparsity 0.9, 500 000 steps.
+"""
+
+import dataclasses
+
+from lwrl.agent.arithmetic import Count, Counts, mlp_parameters
+from lwrl.agent.jax_population import fits_with_jax
+from lwrl.agent.learner_contract import Learner
+from lwrl.agent.stream_agents import (SOURCE, network_forward, obgd_count, observation_counts,
+                                      stream_memory, trained_pass)
+from lwrl.agent.stream_ac import ActorCriticAgents, ActorCriticSettings
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class StreamAcDiscreteSettings(ActorCriticSettings):
+    """Stream AC(lambda)'s settings for discrete actions (the authors' defaults)."""
+
+    def label(self) -> str:
+        return (f"stream_ac_discrete-{self.net_arch.replace(',', 'x')}-lr{self.learning_rate:g}"
+                f"-l{self.lam:g}-t{self.timesteps}")
+
+
+class StreamAcDiscreteAgents(ActorCriticAgents):
+    """B Stream AC(lambda) agents of discrete actions (see the module)."""
+
+    def actor_outputs(self) -> int:
+        """One preference per action."""
+        return self.task.action.n
+
+    def blank_extras(self) -> dict:
+        jnp = self.jnp
+        return {"action": jnp.zeros((), jnp.int32), "reset": jnp.zeros((), bool)}
+
+    def choose(self, params, x, key, hyper, greedy, clock):
+        """A sample of softmax(h(x, .)) (the argmax of h where greedy)."""
+        jax, jnp = self.jax, self.jnp
+        from lwrl.agent import streaming
+        preferences = streaming.forward(params["actor"], x)
+        action = jnp.where(greedy, jnp.argmax(preferences),
+                           jax.random.categorical(key, preferences)).astype(jnp.int32)
+        return action, {"action": action, "reset": jnp.zeros((), bool)}
+
+    def preferences(self, states, weights=None):
+        """The actor's preferences h(s, .) at task-unit states, `(B, ..., A)` (or `(..., A)`
+        for `weights`): what the greedy controller takes the argmax of (no action values:
+        `action_values` says so)."""
+        from lwrl.agent import streaming
+        return self.over_agents(states, weights, lambda tree, s: streaming.forward(
+            tree["params"]["actor"], self.normalised_states(tree, s)))
+
+    def objective(self, actor, x, action, entropy_coef, sign_delta):
+        from lwrl.agent import streaming
+        preferences = streaming.forward(actor, x)
+        return streaming.actor_objective(streaming.categorical_log_prob(preferences, action),
+                                         streaming.categorical_entropy(preferences),
+                                         entropy_coef, sign_delta)
+
+
+def make(settings, task, seeds) -> StreamAcDiscreteAgents:
+    """B Stream AC(lambda) agents of discrete actions trained as one JAX program, agent b with
+    `settings[b]` and its random stream from `seeds[b]`."""
+    return StreamAcDiscreteAgents(settings, task, seeds)
+
+
+def load(document, arrays) -> StreamAcDiscreteAgents:
+    """The agents `StreamAcDiscreteAgents.saved` wrote (a ValueError if the parts do not
+    fit)."""
+    return StreamAcDiscreteAgents.loaded(document, arrays, StreamAcDiscreteSettings)
+
+
+def sizes(settings, task) -> tuple:
+    """The actor's and the critic's layer widths."""
+    dim, layers = len(task.state_names), settings.layers()
+    return [dim, *layers, task.action.n], [dim, *layers, 1]
+
+
+def memory(settings, task) -> int:
+    """Bytes of one agent: its actor and critic and their traces, statistics and transition."""
+    actor, critic = sizes(settings, task)
+    return stream_memory(mlp_parameters(actor) + mlp_parameters(critic), len(task.state_names))
+
+
+def arithmetic(settings, task, steps=None) -> Counts:
+    """Its counted arithmetic (`Learner.arithmetic`): a greedy decision normalises the
+    observation (where the settings say so) and runs the actor
+    (`stream_agents.network_forward`), its argmax free; an agent-step of learning adds the
+    sample (a softmax and a draw from it: A exponentials, A multiply-adds), the transition
+    (`observation_counts`), V(x'), a forward and backward pass of both networks at x with
+    the log-softmax and the entropy (2 A exponentials and a logarithm, 2 A multiply-adds), and
+    ObGD over every parameter, the same at every step (square roots counted with the
+    exponentials)."""
+    del steps
+    actor, critic = sizes(settings, task)
+    actions = task.action.n
+    normalised, transition = observation_counts(len(task.state_names),
+                                                settings.normalize_observations)
+    decision = normalised + network_forward(actor)
+    update = (transition + network_forward(critic) + trained_pass(critic) + trained_pass(actor)
+              + Count(2 * actions, 2 * actions + 1)
+              + obgd_count(mlp_parameters(actor) + mlp_parameters(critic)))
+    return Counts(decision, decision + Count(actions, actions) + update, update,
+                  f"actor {'-'.join(map(str, actor))}, critic {'-'.join(map(str, critic))}, "
+                  f"layer norm, leaky ReLU ({__name__}.arithmetic)")
+
+
+LEARNER = Learner(
+    name="stream_ac_discrete", title="Stream AC(lambda) for discrete actions: streaming "
+                                     "actor-critic with ObGD, in JAX",
+    source=SOURCE, settings=StreamAcDiscreteSettings, make=make, load=load, memory=memory,
+    fits=fits_with_jax("stream_ac_discrete"), population=True, arithmetic=arithmetic)
+"""The `stream_ac_discrete` learner as the registry holds it (`agent.LEARNERS`)."""
+StreamAcDiscreteAgents.learner = LEARNER
