@@ -57,12 +57,13 @@ class TaskRuns:
     apart from `scores`, so that no outside row takes a row's place or enters a verdict."""
 
 
-def references(task: str, out_dir: str, plant: str = "analytic", agents: int = protocol.AGENTS) -> dict:
+def references(task: str, out_dir: str, plant: str = "analytic") -> dict:
     """The reference rows' per-agent measures on `task`, from `OUT/references/<task>.csv.gz`
-    where an earlier call wrote it, else run (`evaluation.run_references`) and written."""
+    where an earlier call wrote it, else run (`evaluation.run_references`: `protocol.AGENTS`
+    agents, `evaluation.EPISODES` episodes each) and written."""
     path = references_path(task, out_dir, plant)
     if not os.path.exists(path):
-        tables = evaluation.run_references(task, agents, plant)
+        tables = evaluation.run_references(task, protocol.AGENTS, plant, evaluation.EPISODES)
         table = pd.concat([t.assign(row=row) for row, t in tables.items()], ignore_index=True)
         os.makedirs(os.path.dirname(path), exist_ok=True)
         outputs.write_table(table, path)
