@@ -265,9 +265,10 @@ def test_a_time_limit_that_is_no_whole_number_of_steps_is_one_line(capsys, tmp_p
 @pytest.mark.slow
 def test_a_tiny_study_runs_end_to_end_and_resumes(tmp_path, capsys, monkeypatch):
     """1 task, 2 agents, 2 episodes of 30 steps, 100 steps of learning, 4 untrained agents
-    at initialisation: the runs, the costs, the report and its figures; the same command
-    again computes nothing."""
+    at initialisation, costs timed over 64 steps: the runs, the costs, the report and its
+    figures; the same command again computes nothing."""
     monkeypatch.setattr(plan, "INIT_AGENTS", 4)
+    monkeypatch.setattr(costs, "timed_steps", lambda config: 64)
     out = tmp_path / "study"
     argv = ["implementations", "mountain_car.cost_to_go", "--agents", "2", "--episodes", "2",
             "--time-limit", "30", "--timesteps", "100", "--out", str(out)]
@@ -288,9 +289,11 @@ def test_a_tiny_study_runs_end_to_end_and_resumes(tmp_path, capsys, monkeypatch)
 @pytest.mark.slow
 def test_a_tiny_continuous_study_runs_end_to_end(tmp_path, capsys, monkeypatch):
     """`--action-kind continuous`: SAC's and TD3's pairs on the pendulum made with continuous
-    actions, 2 agents, 2 episodes of 30 steps, 100 steps of learning: the runs, the report's
-    table and its sections; the continuous actor's one output ranks no actions."""
+    actions, 2 agents, 2 episodes of 30 steps, 100 steps of learning, costs timed over 64
+    steps: the runs, the report's table and its sections; the continuous actor's one output
+    ranks no actions."""
     monkeypatch.setattr(plan, "INIT_AGENTS", 4)
+    monkeypatch.setattr(costs, "timed_steps", lambda config: 64)
     out = tmp_path / "study"
     argv = ["implementations", "pendulum.swingup", "--action-kind", "continuous", "--agents", "2",
             "--episodes", "2", "--time-limit", "0.6", "--timesteps", "100", "--out", str(out)]
