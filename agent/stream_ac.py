@@ -173,31 +173,51 @@ def load(document, arrays) -> StreamAcAgents:
     return StreamAcAgents.loaded(document, arrays, StreamAcSettings)
 
 
-def memory(settings, task) -> int:
-    """Bytes of one agent: its actor and critic and their traces, statistics and transition."""
+def network_sizes(settings, task, outputs: int) -> tuple:
+    """The layer widths of the actor, of `outputs` outputs, and of the critic."""
     dim, layers = len(task.state_names), settings.layers()
-    return stream_memory(mlp_parameters([dim, *layers, 2]) + mlp_parameters([dim, *layers, 1]),
-                         dim)
+    return [dim, *layers, outputs], [dim, *layers, 1]
+
+
+def actor_critic_memory(settings, task, outputs: int) -> int:
+    """Bytes of one agent whose actor has `outputs` outputs: its actor and critic and their
+    traces, statistics and transition."""
+    actor, critic = network_sizes(settings, task, outputs)
+    return stream_memory(mlp_parameters(actor) + mlp_parameters(critic), len(task.state_names))
+
+
+def actor_critic_counts(settings, task, outputs: int, sample: Count, policy: Count,
+                        source: str) -> Counts:
+    """The counted arithmetic of a stream-AC(lambda) learner whose actor has `outputs`
+    outputs: a greedy decision normalises the observation (where the settings say so) and
+    runs the actor (`stream_agents.network_forward`); an agent-step of learning adds the
+    `sample` of an action, the transition (`observation_counts`), V(x'), a forward and
+    backward pass of both networks at x with the `policy`'s log-probability and entropy,
+    and ObGD over every parameter, the same at every step (square roots counted with the
+    exponentials); `source` names the learner's `arithmetic`."""
+    actor, critic = network_sizes(settings, task, outputs)
+    normalised, transition = observation_counts(len(task.state_names),
+                                                settings.normalize_observations)
+    decision = normalised + network_forward(actor)
+    update = (transition + network_forward(critic) + trained_pass(critic) + trained_pass(actor)
+              + policy + obgd_count(mlp_parameters(actor) + mlp_parameters(critic)))
+    return Counts(decision, decision + sample + update, update,
+                  f"actor {'-'.join(map(str, actor))}, critic {'-'.join(map(str, critic))}, "
+                  f"layer norm, leaky ReLU ({source})")
+
+
+def memory(settings, task) -> int:
+    """Bytes of one agent (`actor_critic_memory`, the actor's two outputs)."""
+    return actor_critic_memory(settings, task, 2)
 
 
 def arithmetic(settings, task, steps=None) -> Counts:
-    """Its counted arithmetic (`Learner.arithmetic`): a greedy decision normalises the
-    observation (where the settings say so) and runs the actor
-    (`stream_agents.network_forward`); an agent-step of learning adds the sample (softplus:
-    an exponential and a logarithm), the transition (`observation_counts`), V(x'), a forward
-    and backward pass of both networks at x with the log-probability and entropy (log
-    sigma), and ObGD over every parameter, the same at every step (square roots counted with
-    the exponentials)."""
+    """Its counted arithmetic (`Learner.arithmetic`, `actor_critic_counts`): the sample's
+    softplus, an exponential and a logarithm; the log-probability and entropy, 6
+    multiply-adds and log sigma."""
     del steps
-    dim, layers = len(task.state_names), settings.layers()
-    actor, critic = [dim, *layers, 2], [dim, *layers, 1]
-    normalised, transition = observation_counts(dim, settings.normalize_observations)
-    decision = normalised + network_forward(actor)
-    update = (transition + network_forward(critic) + trained_pass(critic) + trained_pass(actor)
-              + Count(6, 1) + obgd_count(mlp_parameters(actor) + mlp_parameters(critic)))
-    return Counts(decision, decision + Count(1, 2) + update, update,
-                  f"actor {'-'.join(map(str, actor))}, critic {'-'.join(map(str, critic))}, "
-                  f"layer norm, leaky ReLU ({__name__}.arithmetic)")
+    return actor_critic_counts(settings, task, 2, Count(1, 2), Count(6, 1),
+                               f"{__name__}.arithmetic")
 
 
 LEARNER = Learner(

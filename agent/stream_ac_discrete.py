@@ -17,12 +17,12 @@ kappa 2 (critic) and 3 (actor), c_e 0.01, two hidden layers of 32 (their `Stream
 
 import dataclasses
 
-from lwrl.agent.arithmetic import Count, Counts, mlp_parameters
+from lwrl.agent.arithmetic import Count, Counts
 from lwrl.agent.jax_population import fits_with_jax
 from lwrl.agent.learner_contract import Learner
-from lwrl.agent.stream_agents import (SOURCE, network_forward, obgd_count, observation_counts,
-                                      stream_memory, trained_pass)
-from lwrl.agent.stream_ac import ActorCriticAgents, ActorCriticSettings
+from lwrl.agent.stream_agents import SOURCE
+from lwrl.agent.stream_ac import (ActorCriticAgents, ActorCriticSettings, actor_critic_counts,
+                                  actor_critic_memory)
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -82,39 +82,20 @@ def load(document, arrays) -> StreamAcDiscreteAgents:
     return StreamAcDiscreteAgents.loaded(document, arrays, StreamAcDiscreteSettings)
 
 
-def sizes(settings, task) -> tuple:
-    """The actor's and the critic's layer widths."""
-    dim, layers = len(task.state_names), settings.layers()
-    return [dim, *layers, task.action.n], [dim, *layers, 1]
-
-
 def memory(settings, task) -> int:
-    """Bytes of one agent: its actor and critic and their traces, statistics and transition."""
-    actor, critic = sizes(settings, task)
-    return stream_memory(mlp_parameters(actor) + mlp_parameters(critic), len(task.state_names))
+    """Bytes of one agent (`stream_ac.actor_critic_memory`, the actor's A outputs)."""
+    return actor_critic_memory(settings, task, task.action.n)
 
 
 def arithmetic(settings, task, steps=None) -> Counts:
-    """Its counted arithmetic (`Learner.arithmetic`): a greedy decision normalises the
-    observation (where the settings say so) and runs the actor
-    (`stream_agents.network_forward`), its argmax free; an agent-step of learning adds the
-    sample (a softmax and a draw from it: A exponentials, A multiply-adds), the transition
-    (`observation_counts`), V(x'), a forward and backward pass of both networks at x with
-    the log-softmax and the entropy (2 A exponentials and a logarithm, 2 A multiply-adds), and
-    ObGD over every parameter, the same at every step (square roots counted with the
-    exponentials)."""
+    """Its counted arithmetic (`Learner.arithmetic`, `stream_ac.actor_critic_counts`), its
+    greedy argmax free: the sample, a softmax and a draw from it, A exponentials and A
+    multiply-adds; the log-softmax and the entropy, 2 A exponentials and a logarithm, 2 A
+    multiply-adds."""
     del steps
-    actor, critic = sizes(settings, task)
     actions = task.action.n
-    normalised, transition = observation_counts(len(task.state_names),
-                                                settings.normalize_observations)
-    decision = normalised + network_forward(actor)
-    update = (transition + network_forward(critic) + trained_pass(critic) + trained_pass(actor)
-              + Count(2 * actions, 2 * actions + 1)
-              + obgd_count(mlp_parameters(actor) + mlp_parameters(critic)))
-    return Counts(decision, decision + Count(actions, actions) + update, update,
-                  f"actor {'-'.join(map(str, actor))}, critic {'-'.join(map(str, critic))}, "
-                  f"layer norm, leaky ReLU ({__name__}.arithmetic)")
+    return actor_critic_counts(settings, task, actions, Count(actions, actions),
+                               Count(2 * actions, 2 * actions + 1), f"{__name__}.arithmetic")
 
 
 LEARNER = Learner(
