@@ -279,11 +279,16 @@ ZOO_SETS = {
                        net_arch="256,256"),
 }
 """rl-baselines3-zoo's DQN sets (policy MlpPolicy; `stable_baselines.ZOO`)."""
+CHECKED = dict(net_arch="16,16", batch_size=16, buffer_size=64, learning_starts=20,
+               target_update_interval=50)
+"""What the contract's checks run DQN with (`Learner.checked`): small networks and batches,
+updates from step 20 of their 120, a replay buffer that wraps and a target network copied
+within them."""
 
 LEARNER = Learner(
     name="dqn", title="DQN (Stable-Baselines3): an MLP Q-network, replay and a target network",
     source="Mnih et al. (2015), Nature 518; Raffin et al. (2021), JMLR 22(268): stable_baselines3.DQN",
     settings=DqnSettings, make=make, load=load, memory=memory, fits=fits_when_installed("dqn"),
-    tuned=ZOO_SETS, arithmetic=arithmetic)
+    tuned=ZOO_SETS, checked=CHECKED, arithmetic=arithmetic)
 """The `dqn` learner as the registry holds it (`agent.LEARNERS`)."""
 DqnAgents.learner = LEARNER

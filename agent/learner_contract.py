@@ -127,6 +127,12 @@ class Learner:
     elsewhere (rl-baselines3-zoo's), which a study takes on the domains tuned as that
     environment (`agent.zoo.TUNED_AS`); empty: the task's defaults are its own."""
 
+    checked: Mapping = dataclasses.field(default_factory=dict)
+    """`{setting: value}` the contract's checks (`lwrl.testing.contract_config`) run it with
+    in place of its defaults, where those would spend the checks' seconds on sizes the checks
+    do not look at and leave paths unrun in their 120 steps: small networks and batches, and
+    updates that start within the run. Empty: its defaults."""
+
     actions: str = "discrete"
     """The kind of action its step returns (`tasks.commands`): `discrete`, an index into
     the task's controls; `continuous`, a number in [-1, 1] that the loops scale to the

@@ -280,12 +280,15 @@ ZOO_SETS = {
 }
 """rl-baselines3-zoo's PPO sets (policy MlpPolicy, n_steps = n_envs x n_steps;
 `stable_baselines.ZOO`)."""
+CHECKED = dict(net_arch="16,16", n_steps=32, batch_size=16, n_epochs=2)
+"""What the contract's checks run PPO with (`Learner.checked`): small networks, and rollouts
+of 32 steps, so that updates come within the checks' 120 steps."""
 
 LEARNER = Learner(
     name="ppo", title="PPO (Stable-Baselines3): MLP actor and critic, clipped surrogate, GAE",
     source="Schulman et al. (2017), arXiv:1707.06347; Raffin et al. (2021), JMLR 22(268): "
            "stable_baselines3.PPO",
     settings=PpoSettings, make=make, load=load, memory=memory, fits=fits_when_installed("ppo"),
-    tuned=ZOO_SETS, arithmetic=arithmetic)
+    tuned=ZOO_SETS, checked=CHECKED, arithmetic=arithmetic)
 """The `ppo` learner as the registry holds it (`agent.LEARNERS`)."""
 PpoAgents.learner = LEARNER

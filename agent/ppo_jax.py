@@ -33,7 +33,7 @@ from lwrl.agent.jax_population import (PopulationAgents, Program, adam, adam_ini
                                        mlp_init)
 from lwrl.agent.learner_contract import Learner
 from lwrl.agent.observation_normalisation import ObservationNormalisation, counted
-from lwrl.agent.ppo import ZOO_SETS, PpoSettings, arithmetic
+from lwrl.agent.ppo import CHECKED, ZOO_SETS, PpoSettings, arithmetic
 from lwrl.agent.stable_baselines import network_bytes
 from lwrl.settings import setting
 
@@ -221,6 +221,6 @@ LEARNER = Learner(
     source="Schulman et al. (2017), arXiv:1707.06347; Raffin et al. (2021), JMLR 22(268): "
            "stable_baselines3.PPO, in JAX as PureJaxRL (Lu et al. 2022)",
     settings=PpoJaxSettings, make=make, load=load, memory=memory,
-    fits=fits_with_jax("ppo_jax"), tuned=ZOO_SETS, population=True, arithmetic=counted(arithmetic))
+    fits=fits_with_jax("ppo_jax"), tuned=ZOO_SETS, checked=CHECKED, population=True, arithmetic=counted(arithmetic))
 """The `ppo_jax` learner as the registry holds it (`agent.LEARNERS`)."""
 PpoJaxAgents.learner = LEARNER

@@ -44,10 +44,9 @@ from lwrl.tasks.domain_contract import Domain
 STEPPED_STEPS = 40
 """Steps per episode of a contract run of a learner without a compiled step (stepped in
 Python, as Stable-Baselines3's, whose every step costs what a compiled episode does, or a
-JAX program, whose off-policy learners take a gradient step on a minibatch of 256 at every
-step once they learn), so that each check runs in seconds; three such episodes pass SAC's
-`learning_starts` of 100, so its saved agents carry updated networks, optimisers and replay
-buffers."""
+JAX program), so that each check runs in seconds; a learner whose defaults would not update
+within them says what it runs with instead (`Learner.checked`), so that its saved agents
+carry updated networks, optimisers and replay buffers."""
 COMPILED_STEPS = 300
 """Steps per episode of a contract run of a learner with a compiled step."""
 BATCH_STEPS = 40
@@ -131,13 +130,15 @@ def steps_per_episode(learner: Learner | str, task: str) -> int:
 
 def contract_config(learner: Learner | str, task: str) -> RunConfig:
     """The checks' run: three agents, three episodes of `steps_per_episode` steps, seed 5, on
-    the analytic plant, with the learner's kind of actions."""
+    the analytic plant, with the learner's kind of actions and the settings it is checked
+    with (`Learner.checked`)."""
     name = learner_name(learner)
+    chosen = learners.learner(name)
     definition = suite.definition(*suite.split_name(task))
     limit = steps_per_episode(name, task) * definition.control_timestep
     return RunConfig(task=task, learner=name, plant="analytic", agents=3, episodes=3, seed=5,
-                     task_options={"time_limit": limit},
-                     actions=learners.learner(name).actions)
+                     task_options={"time_limit": limit}, actions=chosen.actions,
+                     **chosen.checked)
 
 
 def _learner_check(function):
@@ -152,7 +153,8 @@ def _learner_check(function):
 
 
 def check_learner_declaration(learner: Learner | str) -> None:
-    """The learner's registry entry: its name, a title, a source, settings as a dataclass."""
+    """The learner's registry entry: its name, a title, a source, settings as a dataclass,
+    and settings to be checked with (`Learner.checked`) that are its own."""
     name = learner_name(learner)
     with _held(f"learner {name!r}", "check_learner_declaration"):
         declared = learners.learner(name)
@@ -160,6 +162,10 @@ def check_learner_declaration(learner: Learner | str) -> None:
                 f"the registry holds it as {name!r}, it is {declared.name!r}")
         _expect(declared.title and declared.source, "its title or its source is empty")
         _expect(dataclasses.is_dataclass(declared.settings), "its settings are not a dataclass")
+        names = {field.name for field in dataclasses.fields(declared.settings)}
+        unknown = sorted(set(declared.checked) - names)
+        _expect(not unknown, f"it is checked with {', '.join(unknown)}, which are not its "
+                             f"settings")
 
 
 @_learner_check
