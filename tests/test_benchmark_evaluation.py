@@ -22,6 +22,8 @@ from lwrl.runners.stepped import run_batched
 from lwrl.studies.paper.benchmark import evaluation as ev
 from lwrl.studies.paper.benchmark.classical import CLASSICAL
 from lwrl.studies.paper.benchmark.references import ClassicalPolicy, RandomPolicy
+from lwrl.agent.learner_contract import CONTINUOUS_ACTIONS
+from lwrl.spaces import Discrete
 from lwrl.tasks.task_definition import random_starts
 
 SMALL = {"mountain_car.cost_to_go": (4, 2), "pendulum.swingup": (2, 1),
@@ -109,7 +111,7 @@ def test_the_random_row_changes_with_the_seeds():
 
     def last_states(seeds):
         env = ev.evaluation_env("mountain_car.cost_to_go", 3, "analytic")
-        run_batched(env, RandomPolicy(3, 2, seeds), 1, learn=False, greedy=True)
+        run_batched(env, RandomPolicy(Discrete(3), 2, seeds), 1, learn=False, greedy=True)
         return env.state
     np.testing.assert_array_equal(last_states([0, 1, 2]), last_states([0, 1, 2]))
     assert not np.any(last_states([0, 1, 2]) == last_states([3, 4, 5]))
@@ -119,7 +121,7 @@ def test_a_random_agent_draws_from_its_own_seed_alone():
     """Agent b's actions are the same alone or in a batch; an inactive agent acts 0 and does
     not draw; the actions are not the starts' stream (`random_starts(seed)`)."""
     observation = np.zeros((2, 2))
-    batch, alone = RandomPolicy(3, 2, [5, 6]), RandomPolicy(3, 2, [6])
+    batch, alone = RandomPolicy(Discrete(3), 2, [5, 6]), RandomPolicy(Discrete(3), 2, [6])
     together = [batch.step([True] * 2, [0.0] * 2, [1.0] * 2, observation)[1] for _ in range(40)]
     assert batch.step([True] * 2, [0.0] * 2, [1.0] * 2, observation, active=[False, False]).tolist() == [0, 0]
     assert together == [alone.step([True], [0.0], [1.0], observation[:1])[0] for _ in range(40)]
@@ -127,8 +129,23 @@ def test_a_random_agent_draws_from_its_own_seed_alone():
     assert together != random_starts(6).integers(3, size=40).tolist()
 
 
+def test_the_rows_take_the_tasks_actions_and_keep_no_action_count_of_their_own():
+    """A reference row's actions are those a learner of its kind takes on the task: the
+    task's `Discrete` controls, or `CONTINUOUS_ACTIONS` on a task made with continuous
+    actions; it keeps no action values, nor a count of actions beside its space."""
+    controls = tasks.spec("pendulum.swingup").action
+    assert controls == Discrete(len(tasks.definition("pendulum", "swingup").controls))
+    for task, expected in (("pendulum.swingup", controls),
+                           ("pendulum.swingup-continuous", CONTINUOUS_ACTIONS)):
+        env = ev.evaluation_env(task, 2, "analytic")
+        for row in (RandomPolicy.on(env), ClassicalPolicy.on(env)):
+            assert row.action_space == expected
+            assert row.continuous == (expected == CONTINUOUS_ACTIONS)
+            assert not hasattr(row, "num_actions") and "q" not in row.arrays._fields
+
+
 def test_the_rows_run_and_record_through_run_batched():
-    """What a recording reads of an `Agents` (`num_actions`, `arrays`), a reference has."""
+    """What a recording reads of an `Agents` (`arrays`), a reference has."""
     env = ev.evaluation_env("mountain_car.cost_to_go", 2, "analytic")
     results = run_batched(env, ClassicalPolicy.on(env), 1, record=[(1, 0)])
     [recording] = results.recordings
@@ -193,7 +210,7 @@ def test_an_agent_that_diverged_has_no_measure_or_with_the_rows_the_worst():
     (lambda: ev.measure(pd.DataFrame(), "cartpole.swing"), ("unknown task 'swing'", "balance")),
     (lambda: ev.episode_options("hopper.hop"), ("unknown domain 'hopper'", "cartpole")),
     (lambda: ev.evaluate_references("cartpole"), ("DOMAIN.TASK", "cartpole.balance")),
-    (lambda: RandomPolicy(3, 2, [-1]), ("seed must be an integer >= 0",)),
+    (lambda: RandomPolicy(Discrete(3), 2, [-1]), ("seed must be an integer >= 0",)),
     (lambda: ClassicalPolicy(tasks.definition("cartpole", "balance"), np.zeros((2, 3))),
      ("physical must have shape (B, 7)",)),
 ])

@@ -27,7 +27,7 @@ import pandas as pd
 from lwrl.agent.learner_contract import Agents
 from lwrl.runners.stepped import kind_of, run_batched
 from lwrl.studies.paper.benchmark import evaluation, outside, protocol
-from lwrl.studies.paper.benchmark.references import ReferencePolicy, discrete_actions
+from lwrl.studies.paper.benchmark.references import ReferencePolicy, reference_actions
 from lwrl.tasks.commands import check_kinds
 from lwrl.tasks.task_definition import check_actions
 
@@ -98,8 +98,8 @@ class PolicyAgents(ReferencePolicy):
 
     def __init__(self, policy, env):
         definition = env.definition
-        super().__init__(env.batch_size, discrete_actions(definition),
-                         len(definition.state_names), definition.continuous)
+        super().__init__(env.batch_size, reference_actions(definition),
+                         len(definition.state_names))
         self.loaded = policy if isinstance(policy, Agents) else None
         if self.loaded is None:
             self.act = Acting(policy)
@@ -137,7 +137,7 @@ class PolicyAgents(ReferencePolicy):
             if not np.isfinite(actions).all():
                 raise ValueError("the policy's continuous actions must be finite numbers in [-1, 1]")
             return actions.astype(np.float64)
-        return check_actions(actions, self.num_actions)
+        return check_actions(actions, self.action_space.n)
 
 
 def evaluate(policy, task: str, seed=None, fraction: float = 1.0,

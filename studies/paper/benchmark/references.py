@@ -30,8 +30,9 @@ import collections
 import numpy as np
 
 from lwrl import tasks
-from lwrl.agent.learner_contract import Agents
+from lwrl.agent.learner_contract import CONTINUOUS_ACTIONS, Agents
 from lwrl.settings import check_count
+from lwrl.spaces import Box, Space
 from lwrl.studies.paper.benchmark.classical import CLASSICAL
 from lwrl.tasks.batched import BatchedEnv
 from lwrl.tasks.task_definition import TaskDefinition
@@ -41,27 +42,31 @@ ReferenceArrays = collections.namedtuple("ReferenceArrays", "delta diverged weig
 `weights` `(B, 0)` (nothing learned)."""
 
 
-def discrete_actions(definition: TaskDefinition) -> int:
-    """The number of discrete actions of `definition`'s task, 0 where it was made with
-    continuous ones."""
-    return 0 if definition.continuous else definition.num_actions
+def reference_actions(definition: TaskDefinition) -> Space:
+    """The actions a reference row takes on `definition`'s task, as a learner of its kind
+    would: `Discrete` of the task's controls, or on a task made with continuous actions
+    `CONTINUOUS_ACTIONS`, a number in [-1, 1] the loops scale to the actuator's range."""
+    return CONTINUOUS_ACTIONS if definition.continuous else tasks.spec_of(definition).action
 
 
 class ReferencePolicy(Agents):
-    """B agents of a reference row on a task of `num_actions` discrete actions (0: with
-    `continuous` actions) and `dim` observed variables; a subclass chooses the actions
-    (`step`)."""
+    """B agents of a reference row taking actions of `action_space` (`reference_actions`)
+    and observing `dim` variables; a subclass chooses the actions (`step`)."""
 
-    def __init__(self, batch: int, num_actions: int, dim: int, continuous: bool = False):
-        self.dim, self.num_actions = dim, num_actions
-        self._continuous = continuous
+    def __init__(self, batch: int, action_space: Space, dim: int):
+        self.dim, self._action_space = dim, action_space
         self.arrays = ReferenceArrays(np.full(batch, np.nan), np.zeros(batch, dtype=bool),
                                       np.zeros((batch, 0)))
 
     @property
+    def action_space(self) -> Space:
+        """The actions it takes (`reference_actions`)."""
+        return self._action_space
+
+    @property
     def continuous(self) -> bool:
         """True where it acts by a number in [-1, 1] (a task made with continuous actions)."""
-        return self._continuous
+        return isinstance(self._action_space, Box)
 
     def no_actions(self) -> np.ndarray:
         """`(B,)` zeros of its kind of action, what the agents that do not act take."""
@@ -73,24 +78,24 @@ class ReferencePolicy(Agents):
 
 
 class RandomPolicy(ReferencePolicy):
-    """Actions drawn uniformly among the task's `num_actions`, agent b from its own NumPy
+    """Actions drawn uniformly from `action_space`, agent b from its own NumPy
     stream seeded from `seeds[b]`: its draws depend on its seed alone, not on the batch it
     runs in, so a row is reproducible. The stream is a child of the seed's `SeedSequence`
     (`spawn`), not `default_rng(seed)` itself, from which an environment of the same seed
     draws its starts (`tasks.task_definition.random_starts`): the actions are independent of
     the starts."""
 
-    def __init__(self, num_actions: int, dim: int, seeds, continuous: bool = False):
+    def __init__(self, action_space: Space, dim: int, seeds):
         seeds = [check_count("seed", seed, 0) for seed in seeds]
-        super().__init__(len(seeds), num_actions, dim, continuous)
+        super().__init__(len(seeds), action_space, dim)
         self.streams = [np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0])
                         for seed in seeds]
 
     @classmethod
     def on(cls, env: BatchedEnv) -> "RandomPolicy":
         """The row on `env`, agent b seeded as environment b is (`BatchedEnv.seeds`)."""
-        return cls(discrete_actions(env.definition), len(env.definition.state_names),
-                   env.seeds, env.definition.continuous)
+        return cls(reference_actions(env.definition), len(env.definition.state_names),
+                   env.seeds)
 
     def step(self, first, reward, discount, observation, active=None, learn=True,
              greedy=False) -> np.ndarray:
@@ -98,9 +103,11 @@ class RandomPolicy(ReferencePolicy):
         (`Agents.step`'s arguments; the others act 0)."""
         self.check_observation(observation)
         actions = self.no_actions()
+        space = self.action_space
         for b in self.acting(active):
-            actions[b] = (self.streams[b].uniform(-1.0, 1.0) if self.continuous
-                          else self.streams[b].integers(self.num_actions))
+            stream = self.streams[b]
+            actions[b] = (stream.uniform(space.low[0], space.high[0]) if self.continuous
+                          else stream.integers(space.n))
         return actions
 
 
@@ -122,8 +129,8 @@ class ClassicalPolicy(ReferencePolicy):
         if np.ndim(physical) != 2 or np.shape(physical)[1] != count:
             raise ValueError(f"physical must have shape (B, {count}), one row of parameter "
                              f"values per agent; got shape {np.shape(physical)}")
-        super().__init__(len(physical), discrete_actions(definition),
-                         len(definition.state_names), definition.continuous)
+        super().__init__(len(physical), reference_actions(definition),
+                         len(definition.state_names))
         self.definition, self.physical, self.control = definition, physical, classical.control
 
     @classmethod
