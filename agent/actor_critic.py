@@ -223,6 +223,10 @@ class ActorCriticAgents(LinearAgents):
         acts on it, clipped to [-1, 1]), as `state_values` gives V."""
         return self._row(states, weights, ACTOR)
 
+    def greedy_actions(self, states, weights=None) -> np.ndarray:
+        """The actor's mean clipped to [-1, 1] (`policy_means`), the greedy action."""
+        return np.clip(self.policy_means(states, weights), -1.0, 1.0)
+
     def state_values_on_grid(self, axes, weights) -> np.ndarray:
         """V over the grid, from the NRBF's factorisation where the features are an NRBF."""
         if isinstance(self.features, NRBF):

@@ -173,16 +173,22 @@ class ArsAgents(PopulationAgents):
                        update_due=lambda hyper, clock: clock >= 0, hyper=hyper)
 
     def action_values(self, states, weights=None):
-        """The linear scores theta x (discrete: `(B, ..., A)`), or the clipped action
-        (continuous: `(B, ..., 1)`); `(..., ·)` for `weights`."""
+        """The linear scores theta x of the discrete actions, `(B, ..., A)` (`(..., A)` for
+        `weights`), which the agents act greedily on; `NoValues` with continuous actions."""
         from lwrl.agent import random_search
+        if self.continuous:
+            return super().action_values(states, weights)
+        return self.over_agents(states, weights, lambda tree, x: random_search.scores(
+            tree["theta"], self.reads(tree, x)))
 
-        def values(tree, x):
-            read = self.reads(tree, x)
-            if self.continuous:
-                return random_search.continuous_action(tree["theta"], read)[..., None]
-            return random_search.scores(tree["theta"], read)
-        return self.over_agents(states, weights, values)
+    def greedy_actions(self, states, weights=None):
+        """The clipped linear action of continuous actions, `(B, ...)` (`(...)` for
+        `weights`); `NoValues` with discrete actions."""
+        from lwrl.agent import random_search
+        if not self.continuous:
+            return super().greedy_actions(states, weights)
+        return self.over_agents(states, weights, lambda tree, x: random_search.continuous_action(
+            tree["theta"], self.reads(tree, x)))
 
 
 def make(settings, task, seeds) -> ArsAgents:

@@ -239,10 +239,19 @@ class Agents:
         return actions
 
     def action_values(self, states, weights=None) -> np.ndarray:
-        """`(B, ..., A)` every agent's action values (or the preferences it acts greedily on)
-        at states `(..., d)` in task units; with `weights` (one agent's `arrays.weights[b]`,
-        e.g. a recording's), `(..., A)` for those. `NoValues` where it has none."""
+        """`(B, ..., A)` every agent's values of the task's A discrete actions (or the
+        preferences it acts greedily on) at states `(..., d)` in task units; with `weights`
+        (one agent's `arrays.weights[b]`, e.g. a recording's), `(..., A)` for those.
+        `NoValues` where it has none: a learner of continuous actions has no values over a
+        set of actions (its greedy action is `greedy_actions`)."""
         raise NoValues(f"{self.learner.name} has no action values")
+
+    def greedy_actions(self, states, weights=None) -> np.ndarray:
+        """`(B, ...)` the action in [-1, 1] each agent of a learner of continuous actions
+        takes greedily at states `(..., d)` in task units (its policy's, as `greedy=True`
+        acts); with `weights` (one agent's), `(...)` for those. `NoValues` for a learner of
+        discrete actions, whose greedy action is the best of its `action_values`."""
+        raise NoValues(f"{self.learner.name} gives no greedy action in [-1, 1] over states")
 
     def state_values(self, states, weights=None) -> np.ndarray:
         """As `action_values`, the value of each state: max over the actions unless the

@@ -218,10 +218,10 @@ class OffPolicyAgents(ModelAgents):
             buffer.dones[last], buffer.timeouts[last] = 1.0, 1.0
         own["stored"] = False
 
-    def action_values(self, states, weights=None) -> np.ndarray:
-        """The actor's greedy action in [-1, 1], `(B, ..., 1)` (or `(..., 1)` for `weights`)."""
+    def greedy_actions(self, states, weights=None) -> np.ndarray:
+        """The actor's greedy action in [-1, 1], `(B, ...)` (or `(...)` for `weights`)."""
         return self._over_agents(states, weights, lambda networks, flat: networks[0]._predict(
-            self._tensor(flat), deterministic=True).numpy().astype(np.float64))
+            self._tensor(flat), deterministic=True).numpy().astype(np.float64))[..., 0]
 
     def state_values(self, states, weights=None) -> np.ndarray:
         """The first critic's Q1(s, greedy action), `(B, ...)` (or `(...)` for `weights`)."""

@@ -111,10 +111,10 @@ class ActorCriticAgents(PopulationAgents):
         """Q_1 alone, the critics' first (SB3's `q1_forward`)."""
         return self.jax.tree.map(lambda leaf: leaf[:1], critics)
 
-    def action_values(self, states, weights=None) -> np.ndarray:
-        """The actor's greedy action in [-1, 1], `(B, ..., 1)` (or `(..., 1)` for `weights`)."""
+    def greedy_actions(self, states, weights=None) -> np.ndarray:
+        """The actor's greedy action in [-1, 1], `(B, ...)` (or `(...)` for `weights`)."""
         return self.over_agents(states, weights, lambda params, x: self.greedy_action(
-            params["actor"], x)[..., None])
+            params["actor"], x))
 
     def state_values(self, states, weights=None) -> np.ndarray:
         """The first critic's Q_1(s, greedy action), `(B, ...)` (or `(...)` for `weights`)."""

@@ -156,10 +156,11 @@ class StreamAcAgents(ActorCriticAgents):
                                          streaming.gaussian_entropy(std), entropy_coef,
                                          sign_delta)
 
-    def action_values(self, states, weights=None):
-        """The actor's greedy action in [-1, 1], `(B, ..., 1)` (or `(..., 1)` for `weights`)."""
+    def greedy_actions(self, states, weights=None):
+        """The actor's greedy action in [-1, 1], its clipped mean, `(B, ...)` (or `(...)`
+        for `weights`)."""
         return self.over_agents(states, weights, lambda tree, s: self.jnp.clip(self.gaussian(
-            tree["params"]["actor"], self.normalised_states(tree, s))[0], -1.0, 1.0)[..., None])
+            tree["params"]["actor"], self.normalised_states(tree, s))[0], -1.0, 1.0))
 
 
 def make(settings, task, seeds) -> StreamAcAgents:

@@ -303,25 +303,50 @@ def check_learner_save_and_load(learner: str, task: str) -> None:
     _same_results(more, more_loaded, "going on with the saved and the loaded agents")
 
 
+def _values(function, *arguments):
+    """`function(*arguments)`, or None where the learner has no such values (`NoValues`)."""
+    try:
+        return function(*arguments)
+    except NoValues:
+        return None
+
+
 @_learner_check
 def check_learner_values_on_a_grid(learner: str, task: str) -> None:
     """`action_values_on_grid` and `state_values_on_grid` (a learner may factorise them)
-    equal the values at the grid's states, or the learner says it has none (`NoValues`)."""
+    equal the values at the grid's states, or the learner says it has none (`NoValues`);
+    action values are of a learner of discrete actions only, and one of continuous actions
+    gives its greedy actions in [-1, 1] (`greedy_actions`), agent b's those of its weights."""
     agent = make_agent(contract_config(learner, task))
     rng = np.random.default_rng(0)
     weights = rng.normal(size=agent.arrays.weights.shape[1:])
     low, high = map(np.asarray, agent.value_box())
     axes = [np.linspace(lo, hi, 4) for lo, hi in zip(low, high)]
     states = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
-    try:
-        grid = agent.action_values_on_grid(axes, weights)
-    except NoValues:
-        return
-    np.testing.assert_allclose(grid, agent.action_values(states, weights), rtol=1e-12,
-                               atol=1e-12, err_msg="action values on the grid and at its states")
-    np.testing.assert_allclose(agent.state_values_on_grid(axes, weights),
-                               agent.state_values(states, weights), rtol=1e-12, atol=1e-12,
-                               err_msg="state values on the grid and at its states")
+    for on_grid, at_states, what in (
+            (agent.action_values_on_grid, agent.action_values, "action values"),
+            (agent.state_values_on_grid, agent.state_values, "state values")):
+        grid = _values(on_grid, axes, weights)
+        _expect((grid is None) == (_values(at_states, states, weights) is None),
+                f"{what} are there on a grid or at states, not both")
+        if grid is not None:
+            np.testing.assert_allclose(grid, at_states(states, weights), rtol=1e-12, atol=1e-12,
+                                       err_msg=f"{what} on the grid and at its states")
+    _expect(not agent.continuous or _values(agent.action_values, states) is None,
+            "a learner of continuous actions gives action values")
+    greedy = _values(agent.greedy_actions, states)
+    _expect((greedy is not None) == agent.continuous,
+            "greedy actions in [-1, 1] are there " + ("not " if agent.continuous else "")
+            + "for a learner of " + ("continuous" if agent.continuous else "discrete")
+            + " actions")
+    if greedy is not None:
+        _expect(greedy.shape == (3, *states.shape[:-1]),
+                f"greedy actions have shape {greedy.shape}, not {(3, *states.shape[:-1])}")
+        _expect(np.all(np.abs(greedy) <= 1.0), "greedy actions outside [-1, 1]")
+        np.testing.assert_allclose(agent.greedy_actions(states, agent.arrays.weights[1]),
+                                   greedy[1], rtol=1e-6, atol=1e-7,
+                                   err_msg="agent 1's greedy actions from its weights and in "
+                                           "the batch")
     points = agent.feature_points()
     _expect(points is None or points.shape[1] == len(low),
             f"feature points have {points.shape[1] if points is not None else 0} coordinates, "

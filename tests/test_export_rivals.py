@@ -85,8 +85,9 @@ def test_the_c_policy_takes_the_python_agents_greedy_decisions(agent_files, tmp_
     continuous = agents.continuous
     states = states_around(agents.task, 3000, np.float32 if dtype == "float" else np.float64)
     c_actions, c_outputs = run_driver(executable, states, continuous=continuous)
-    # scores, Q(s, .), the actor's preferences or the clipped action (M, 1)
-    python = getattr(agents, "preferences", agents.action_values)(states)[b]
+    # scores, Q(s, .), the actor's preferences, or the clipped action (M, 1)
+    python = (agents.greedy_actions(states)[b][:, None] if continuous
+              else getattr(agents, "preferences", agents.action_values)(states)[b])
     rel = ARS_DOUBLE if dtype == "double" and "ars" in name else REL[dtype]
     bound = rel * (1.0 + np.abs(python).max(axis=1))
     if continuous:

@@ -187,8 +187,8 @@ def log_value_function(rec: rr.RecordingStream, task: str, agents, weights, epis
     """Log the state value, the greedy action and the feature points of one agent of
     `agents` (any learner's `Agents`) with `weights` (its `arrays.weights[b]`, e.g. a
     recording's) over the task's grid on the learner's value box, at `episode`; for a
-    learner of continuous actions, in place of the greedy action, its actor's mean
-    (`policy_means`, in [-1, 1]) shaded from the negative action's colour through grey to
+    learner of continuous actions, in place of the greedy action's class, the greedy action
+    itself (`greedy_actions`, in [-1, 1]) shaded from the negative action's colour through grey to
     the positive one's (`signed_colors`). Returns `{"max_q": (h, w) values, "greedy": (h, w)
     classes or means, "centroids": (n, 2) pixels or None}`; a `NoValues` error where the
     learner has no values to show."""
@@ -197,7 +197,7 @@ def log_value_function(rec: rr.RecordingStream, task: str, agents, weights, epis
     times = _times(episode)
     if agents.continuous:
         values = grid.image(agents.state_values_on_grid(grid.axes_values(), weights))
-        classes = np.clip(agents.policy_means(grid.states(), weights), -1.0, 1.0)
+        classes = agents.greedy_actions(grid.states(), weights)
         send(rec, names.GREEDY_ACTION, times, one_row(rr.Image(signed_colors(classes)))
              + one_row(rr.AnyValues(policy_mean_min=float(classes.min()),
                                     policy_mean_max=float(classes.max()))))

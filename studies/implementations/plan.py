@@ -297,8 +297,9 @@ from its sampling error."""
 def initialisation(cell: Cell, agents: int | None = None) -> dict:
     """Per implementation, its `agents` (default `INIT_AGENTS`) untrained agents (seeds 0
     on) summed up: the parameter count, the spread of the initial parameters, and of the
-    network's outputs (`Agents.action_values`: the values of the actions, or a continuous
-    actor's greedy action, whose spread over actions is None) over states across the task's
+    network's outputs (`Agents.action_values`: the values of the actions, or
+    `Agents.greedy_actions`: a continuous actor's greedy action, whose spread over actions
+    is None) over states across the task's
     ranges: the initialisation compared by what it does, whatever order each flattens its
     layers in."""
     from lwrl.runners.run import make_agent
@@ -308,7 +309,8 @@ def initialisation(cell: Cell, agents: int | None = None) -> dict:
     for name in cell.pair.names:
         made = make_agent(cell.config(name, 0, agents=agents))
         weights = np.asarray(made.arrays.weights, dtype=float)
-        outputs = np.asarray(made.action_values(states), dtype=float)  # (B, n, A)
+        outputs = np.asarray(made.greedy_actions(states)[..., None] if made.continuous
+                             else made.action_values(states), dtype=float)  # (B, n, A)
         spread = outputs - outputs.mean(axis=-1, keepdims=True)  # what ranks the actions
         ranked = outputs.shape[-1] > 1  # a continuous actor's one output ranks nothing
         summary[name] = {"agents": agents, "parameters": int(weights.shape[1]),
