@@ -5,6 +5,8 @@ to the level is read from the runs' records at each agent's first evaluation at 
 censored at the budget where never; a budget point's family spans every task; every row's
 prior tuning is named."""
 
+import pathlib
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -13,7 +15,7 @@ from test_benchmark3 import TASK, shrink
 from lwrl import outputs
 from lwrl.analysis import task_verdict
 from lwrl.runners.store import RunStore
-from lwrl.studies.paper.benchmark.third import benchmark, clock, judging, rule, study
+from lwrl.studies.paper.benchmark.third import benchmark, clock, figures, judging, rule, study
 
 RIVAL = "true_online_sarsa"
 """The tiny benchmark's rival: a linear row, cheap, standing in for the rule's rivals."""
@@ -82,6 +84,21 @@ def test_the_report_names_every_task_and_row_a_verdict_per_task_and_the_familys_
 
 def test_the_report_is_written_again_the_same(judged):
     assert report_of(judged) == report_of(judged)
+
+
+def test_the_report_draws_each_tasks_rows_on_the_fine_clock(judged):
+    """A curve per row over the clock's points, the figure linked under the task's table;
+    a curve's points are the row's means at its points, in their order."""
+    lines = report_of(judged)
+    image = f"![{TASK}-clock.png](figures/{TASK}-clock.png)"
+    assert image in lines and lines.index(image) < lines.index("### At 1 times the budget")
+    for suffix in ("png", "svg"):
+        assert (pathlib.Path(judged) / "figures" / f"{TASK}-clock.{suffix}").stat().st_size > 0
+    runs = study.read_task(TASK, judged, partial=True)
+    fractions, estimates = figures.row_curve(runs.rows["paper"])
+    assert list(fractions) == [clock.fraction(point) for point in sorted(runs.rows["paper"].scores)]
+    assert [e.value for e in estimates] == [
+        float(np.mean(runs.rows["paper"].scores[point])) for point in sorted(runs.rows["paper"].scores)]
 
 
 def test_the_cpu_to_the_level_is_read_at_the_first_evaluation_at_it_censored_where_never():

@@ -4,12 +4,12 @@ times the budget and the families of the multiple-test procedure (`verdict_table
 task and row the final normalised score with its 95 % interval (`analysis.statistics.
 mean_interval`), at 1/4 of the budget too, its agents, the configuration its search chose and
 what the ledger counts of its CPU (the row's runs and its search's apart,
-`runners.store.compute_spent`); per task and budget point the light-weight row's comparisons
+`runners.store.compute_spent`) and the rows' curves on the fine clock (`figures`); per task and budget point the light-weight row's comparisons
 with each rival, the rows' times to the level and success shares (`judging`); the rivals the
 rule names that no learner runs and the rows whose observation normalisation is not
 searched, named; a row whose runs are not all written named as such (`study.read_task`'s
 partial reading), and a task whose reference rows are not; then the rows' prior tuning and
-the runs' provenance (`disclosure`) and the aggregates across tasks.
+the runs' provenance (`disclosure`) and the aggregates across tasks with their figures.
 
 `lwrl bench report DIR` writes it from the directory alone, computing nothing.
 """
@@ -18,10 +18,11 @@ import os
 import time
 
 from lwrl import outputs
+from lwrl.analysis.plots import markdown_images
 from lwrl.analysis.statistics import mean_interval
 from lwrl.runners.store import compute_spent
-from lwrl.studies.paper.benchmark.third import (clock, disclosure, halving, judging, rule,
-                                                study, verdict_tables)
+from lwrl.studies.paper.benchmark.third import (clock, disclosure, figures, halving, judging,
+                                                rule, study, verdict_tables)
 
 QUARTER = 12
 """The clock's point at 1/4 of the budget."""
@@ -56,7 +57,7 @@ def write(out_dir: str, command: str, plant: str, started: float, computed=()) -
         text += ["## Not all run yet", ""] + [f"- {line}" for line in unfinished] + [""]
     text += disclosure.prior_tuning_lines([runs.task for runs in held])
     text += disclosure.provenance_lines(out_dir)
-    text += verdict_tables.aggregate_lines(judged) if held else []
+    text += verdict_tables.aggregate_lines(judged, out_dir) if held else []
     path = os.path.join(out_dir, "README.md")
     with outputs.atomic_write(path) as file:
         file.write("\n".join(text))
@@ -74,7 +75,8 @@ def at_four(task: str, row: "study.RowRuns") -> str:
 
 
 def task_section(runs: "study.TaskRuns", out_dir: str) -> list:
-    """The lines of one task: a table of its rows."""
+    """The lines of one task: a table of its rows and their curves on the fine clock
+    (`figures.clock_curves`)."""
     lines = [f"## {runs.task}", "",
              "| row | agents | configuration | search's final score | normalised score at 1/4 "
              "| final normalised score | at 4 times the budget | CPU h (row) | CPU h (search) |",
@@ -88,7 +90,9 @@ def task_section(runs: "study.TaskRuns", out_dir: str) -> list:
                      f"{mean_interval(final).text(2)} | {at_four(runs.task, row)} | "
                      f"{compute_spent(out_dir, set(row.own))['cpu_s'] / 3600:.3f} | "
                      f"{compute_spent(out_dir, set(row.searched))['cpu_s'] / 3600:.3f} |")
-    lines.append("")
+    figure_dir = os.path.join(out_dir, figures.FIGURES)
+    os.makedirs(figure_dir, exist_ok=True)
+    lines += ["", *markdown_images(figures.clock_curves(runs, figure_dir), out_dir), ""]
     lines += [f"- not all run yet: {why}" for why in runs.unfinished.values()]
     lines += [""] if runs.unfinished else []
     plain = halving.unsearched(runs.task)

@@ -6,14 +6,15 @@ aggregates across the four discrete tasks and the three variants by rliable
 """
 
 import math
+import os
 
 import numpy as np
 
-from lwrl.analysis import aggregates, outcomes, verdicts
+from lwrl.analysis import aggregates, outcomes, plots, verdicts
 from lwrl.analysis.graphical import HYPOTHESES
 from lwrl.analysis.statistics import Estimate
 from lwrl.studies.paper.benchmark import protocol
-from lwrl.studies.paper.benchmark.third import judging, rule
+from lwrl.studies.paper.benchmark.third import figures, judging, rule
 
 EXPLAINED = [
     "Per task and point, the light-weight row (the paper's agent; the actor-critic on the "
@@ -126,9 +127,10 @@ def task_lines(task: str, judged: dict, out_dir: str) -> list:
     return lines
 
 
-def aggregate_lines(judged: dict, name: str = "1") -> list:
+def aggregate_lines(judged: dict, out_dir: str, name: str = "1") -> list:
     """The aggregates across `AGGREGATED` of the rows run on every one of them, at the point
-    `name`, by rliable; the one line why not where they cannot be."""
+    `name`, by rliable, with their figures (`figures.aggregate_figures`, in `out_dir`'s
+    `figures.FIGURES`); the one line why not where they cannot be."""
     tasks = {t.task: t for t in judged[name][0]}
     lines = ["## Aggregates across tasks (rliable)", ""]
     missing = [task for task in AGGREGATED if task not in tasks]
@@ -156,6 +158,10 @@ def aggregate_lines(judged: dict, name: str = "1") -> list:
     lines += [f"| {label} | " + " | ".join(
         Estimate(*values).text(2) for values in zip(profile.fraction, profile.low, profile.high))
         + " |" for label, profile in profiles.items()]
+    figure_dir = os.path.join(out_dir, figures.FIGURES)
+    os.makedirs(figure_dir, exist_ok=True)
+    lines += ["", *plots.markdown_images(
+        figures.aggregate_figures(estimates, profiles, figure_dir, name), out_dir)]
     light = protocol.LIGHT["discrete"]
     if light in scores:
         lines += ["", f"P({light} > rival) over the tasks:", ""]
