@@ -355,6 +355,7 @@ def prepare(config: ExternalConfig) -> tuple[ExternalConfig, Agents, SteppedEnvs
     reason = learner.fits(info)
     if reason is not None:
         raise ValueError(reason)
+    learner.check_installed()
     config.agent.check(info)
     agent = learner.make([config.agent] * config.agents, info, config.seeds)
     return config, agent, SteppedEnvs(envs)

@@ -29,7 +29,7 @@ import dataclasses
 import numpy as np
 
 from lwrl.agent.arithmetic import Count, Counts
-from lwrl.agent.jax_population import PopulationAgents, Program, fits_with_jax, masked
+from lwrl.agent.jax_population import PopulationAgents, Program, jax_unavailable, masked
 from lwrl.agent.learner_contract import Learner, LearnerSettings
 from lwrl.settings import check_count, check_non_negative, check_positive, setting
 
@@ -233,7 +233,8 @@ LEARNER = Learner(
     name="ars", title="Augmented Random Search (V1-t, V2-t) over a linear policy, in JAX",
     source="Mania, Guy & Recht (2018), arXiv:1803.07055, Algorithm 1; modestyachts/ARS; "
            "sb3-contrib's ARS",
-    settings=ArsSettings, make=make, load=load, memory=memory, fits=fits_with_jax("ars"),
+    settings=ArsSettings, make=make, load=load, memory=memory,
+    unavailable=jax_unavailable("ars"),
     tuned=ZOO_SETS, population=True, arithmetic=arithmetic)
 """The `ars` learner as the registry holds it (`agent.LEARNERS`)."""
 ArsAgents.learner = LEARNER

@@ -8,7 +8,7 @@ settings, its program, its defaults."""
 from lwrl.agent.ars import ArsAgents, ArsSettings
 from lwrl.agent.ars import LEARNER as DISCRETE
 from lwrl.agent.ars import arithmetic, memory
-from lwrl.agent.jax_population import fits_with_jax
+from lwrl.agent.jax_population import jax_unavailable
 from lwrl.agent.learner_contract import Learner
 from lwrl.agent.off_policy import fits_continuous
 
@@ -31,7 +31,7 @@ def load(document, arrays) -> ArsContinuousAgents:
 LEARNER = Learner(
     name="ars_continuous", title=DISCRETE.title + ", continuous actions", source=DISCRETE.source,
     settings=ArsSettings, make=make, load=load, memory=memory,
-    fits=fits_continuous("ars_continuous", fits_with_jax("ars_continuous")),
+    fits=fits_continuous("ars_continuous"), unavailable=jax_unavailable("ars_continuous"),
     actions="continuous", population=True, arithmetic=arithmetic)
 """The `ars_continuous` learner as the registry holds it (`agent.LEARNERS`)."""
 ArsContinuousAgents.learner = LEARNER

@@ -25,7 +25,7 @@ from lwrl.agent.arithmetic import (BACKWARD_MACS, OPTIMISER_MACS, Count, Counts,
                                    mlp_parameters)
 from lwrl.agent.learner_contract import ControllerForm, Learner
 from lwrl.agent.stable_baselines import (ModelAgents, ModelSettings, buffer_bytes,
-                                         fits_when_installed, load_arrays, network_bytes,
+                                         load_arrays, network_bytes, sb3_unavailable,
                                          policy_features, saved_arrays, sequential_forward,
                                          td_error)
 from lwrl.settings import check_count, check_positive, check_unit_interval, setting
@@ -288,7 +288,8 @@ within them."""
 LEARNER = Learner(
     name="dqn", title="DQN (Stable-Baselines3): an MLP Q-network, replay and a target network",
     source="Mnih et al. (2015), Nature 518; Raffin et al. (2021), JMLR 22(268): stable_baselines3.DQN",
-    settings=DqnSettings, make=make, load=load, memory=memory, fits=fits_when_installed("dqn"),
+    settings=DqnSettings, make=make, load=load, memory=memory,
+    unavailable=sb3_unavailable("dqn"),
     tuned=ZOO_SETS, checked=CHECKED, arithmetic=arithmetic)
 """The `dqn` learner as the registry holds it (`agent.LEARNERS`)."""
 DqnAgents.learner = LEARNER

@@ -28,7 +28,7 @@ import numpy as np
 
 from lwrl.agent.dqn import CHECKED, ZOO_SETS, DqnSettings, arithmetic
 from lwrl.agent.jax_population import (PopulationAgents, Program, adam, adam_init,
-                                       clip_by_norm, fits_with_jax, mlp, mlp_init, polyak,
+                                       clip_by_norm, jax_unavailable, mlp, mlp_init, polyak,
                                        replay_add, replay_buffer, replay_bytes, replay_capacity,
                                        replay_due, replay_gradient_steps, replay_hyper,
                                        replay_sample, replay_update)
@@ -173,6 +173,7 @@ LEARNER = Learner(
     source="Mnih et al. (2015), Nature 518; Raffin et al. (2021), JMLR 22(268): "
            "stable_baselines3.DQN, in JAX as PureJaxRL (Lu et al. 2022)",
     settings=DqnJaxSettings, make=make, load=load, memory=memory,
-    fits=fits_with_jax("dqn_jax"), tuned=ZOO_SETS, checked=CHECKED, population=True, arithmetic=counted(arithmetic))
+    unavailable=jax_unavailable("dqn_jax"), tuned=ZOO_SETS, checked=CHECKED, population=True,
+    arithmetic=counted(arithmetic))
 """The `dqn_jax` learner as the registry holds it (`agent.LEARNERS`)."""
 DqnJaxAgents.learner = LEARNER

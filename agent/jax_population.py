@@ -55,18 +55,16 @@ and there are no action values at the observations (no `q`: `Agents.latest_value
 
 
 def missing_jax() -> bool:
-    """True where JAX is not installed (the population learners then fit no task)."""
+    """True where JAX is not installed (the population learners then cannot run)."""
     return importlib.util.find_spec("jax") is None
 
 
-def fits_with_jax(name: str):
-    """A population learner's `fits`: every task, once JAX is installed; else one line
+def jax_unavailable(name: str):
+    """A population learner's `unavailable`: None once JAX is installed; else one line
     naming the extra."""
-    def fits(task):
-        if missing_jax():
-            return f"{name} on {task.name} needs JAX (not installed): {EXTRA}"
-        return None
-    return fits
+    def unavailable():
+        return f"{name} needs JAX (not installed): {EXTRA}" if missing_jax() else None
+    return unavailable
 
 
 def jax_modules():

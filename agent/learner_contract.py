@@ -121,7 +121,13 @@ class Learner:
     step: Callable | None = None
     """The numba-jitable per-agent step of the compiled loop; None: stepped loop only."""
     fits: Callable = lambda task: None
-    """`fits(task)`: None, or one line saying why the learner does not fit the task."""
+    """`fits(task)`: None, or one line saying why the learner does not fit the task (its
+    kind of action, its sizes): what the learner is, whatever is installed."""
+    unavailable: Callable = lambda: None
+    """`unavailable()`: None where the libraries it needs are installed; else one line
+    naming those missing and the extra that installs them. Apart from `fits`: a run of it is
+    named, planned and reported without them (`lwrl bench report`); agents are made with
+    them only (`check_installed`)."""
     tuned: Mapping = dataclasses.field(default_factory=dict)
     """`{Gymnasium environment id: {setting: value}}`: settings tuned for the learner
     elsewhere (rl-baselines3-zoo's), which a study takes on the domains tuned as that
@@ -158,6 +164,13 @@ class Learner:
     def compiles(self) -> bool:
         """True where the compiled loop can run this learner."""
         return self.step is not None
+
+    def check_installed(self) -> None:
+        """A one-line ValueError where the libraries it needs are not installed
+        (`unavailable`)."""
+        reason = self.unavailable()
+        if reason is not None:
+            raise ValueError(reason)
 
 
 class Agents:

@@ -30,8 +30,7 @@ import numpy as np
 
 from lwrl.agent.arithmetic import OPTIMISER_MACS, Count, Counts, mlp_forward, mlp_parameters
 from lwrl.agent.stable_baselines import (ModelAgents, NetworkSettings, buffer_bytes,
-                                         fits_when_installed, load_arrays, network_bytes,
-                                         saved_arrays, td_error)
+                                         load_arrays, network_bytes, saved_arrays, td_error)
 from lwrl.settings import check_count, check_positive, check_unit_interval, setting
 
 BUFFER = ("observations", "next_observations", "actions", "rewards", "dones", "timeouts")
@@ -122,17 +121,14 @@ class OffPolicySettings(NetworkSettings):
         return gradient_steps, calls / steps
 
 
-def fits_continuous(name: str, installed=None):
-    """A learner's `fits`: every task made with continuous actions, once its libraries are
-    installed (`installed(task)` is None: PyTorch and Stable-Baselines3 unless given); else
-    one line naming `--action-kind continuous` or the missing libraries."""
-    installed = fits_when_installed(name) if installed is None else installed
-
+def fits_continuous(name: str):
+    """A learner's `fits`: every task made with continuous actions; else one line naming
+    `--action-kind continuous`."""
     def fits(task):
         if task.actions != "continuous":
             return (f"{name} takes continuous actions; {task.name} was made with "
                     f"{task.actions} ones: run it with actions='continuous' (--action-kind continuous)")
-        return installed(task)
+        return None
     return fits
 
 

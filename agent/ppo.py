@@ -28,7 +28,7 @@ from lwrl.agent.arithmetic import (BACKWARD_MACS, OPTIMISER_MACS, Count, Counts,
 from lwrl.agent.dqn import mlp_form
 from lwrl.agent.learner_contract import ControllerForm, Learner
 from lwrl.agent.stable_baselines import (ModelAgents, ModelSettings, buffer_bytes,
-                                         fits_when_installed, load_arrays, network_bytes,
+                                         load_arrays, network_bytes, sb3_unavailable,
                                          policy_features, saved_arrays, sequential_forward,
                                          td_error)
 from lwrl.settings import check_count, check_positive, check_unit_interval, setting
@@ -288,7 +288,8 @@ LEARNER = Learner(
     name="ppo", title="PPO (Stable-Baselines3): MLP actor and critic, clipped surrogate, GAE",
     source="Schulman et al. (2017), arXiv:1707.06347; Raffin et al. (2021), JMLR 22(268): "
            "stable_baselines3.PPO",
-    settings=PpoSettings, make=make, load=load, memory=memory, fits=fits_when_installed("ppo"),
+    settings=PpoSettings, make=make, load=load, memory=memory,
+    unavailable=sb3_unavailable("ppo"),
     tuned=ZOO_SETS, checked=CHECKED, arithmetic=arithmetic)
 """The `ppo` learner as the registry holds it (`agent.LEARNERS`)."""
 PpoAgents.learner = LEARNER

@@ -29,7 +29,7 @@ import dataclasses
 import numpy as np
 
 from lwrl.agent.jax_population import (PopulationAgents, Program, adam, adam_init,
-                                       clip_by_norm, fits_with_jax, hyper_arrays, masked, mlp,
+                                       clip_by_norm, jax_unavailable, hyper_arrays, masked, mlp,
                                        mlp_init)
 from lwrl.agent.learner_contract import Learner
 from lwrl.agent.observation_normalisation import ObservationNormalisation, counted
@@ -221,6 +221,7 @@ LEARNER = Learner(
     source="Schulman et al. (2017), arXiv:1707.06347; Raffin et al. (2021), JMLR 22(268): "
            "stable_baselines3.PPO, in JAX as PureJaxRL (Lu et al. 2022)",
     settings=PpoJaxSettings, make=make, load=load, memory=memory,
-    fits=fits_with_jax("ppo_jax"), tuned=ZOO_SETS, checked=CHECKED, population=True, arithmetic=counted(arithmetic))
+    unavailable=jax_unavailable("ppo_jax"), tuned=ZOO_SETS, checked=CHECKED, population=True,
+    arithmetic=counted(arithmetic))
 """The `ppo_jax` learner as the registry holds it (`agent.LEARNERS`)."""
 PpoJaxAgents.learner = LEARNER

@@ -28,6 +28,7 @@ from lwrl.agent.learner_contract import ControllerForm, Learner
 from lwrl.agent.off_policy import (ADAM_MACS, CHECKED, OffPolicyAgents, OffPolicySettings, counted,
                                    fits_continuous, network_counts)
 from lwrl.agent.off_policy import memory as off_policy_memory
+from lwrl.agent.stable_baselines import sb3_unavailable
 from lwrl.settings import check_count, check_non_negative, check_positive, setting
 
 
@@ -137,6 +138,7 @@ LEARNER = Learner(
     source="Haarnoja et al. (2018), ICML, PMLR 80:1861-1870; Raffin et al. (2021), JMLR 22(268): "
            "stable_baselines3.SAC",
     settings=SacSettings, make=make, load=load, memory=memory, fits=fits_continuous("sac"),
+    unavailable=sb3_unavailable("sac"),
     checked=CHECKED,
     actions="continuous", arithmetic=arithmetic)
 """The `sac` learner as the registry holds it (`agent.LEARNERS`)."""

@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 
-from lwrl.agent.jax_population import adam, adam_init, fits_with_jax, masked, polyak
+from lwrl.agent.jax_population import adam, adam_init, jax_unavailable, masked, polyak
 from lwrl.agent.learner_contract import Learner
 from lwrl.agent.off_policy import CHECKED, fits_continuous
 from lwrl.agent.off_policy_jax import ActorCriticAgents
@@ -153,7 +153,8 @@ LEARNER = Learner(
     source="Haarnoja et al. (2018), ICML, PMLR 80:1861-1870; Raffin et al. (2021), JMLR 22(268): "
            "stable_baselines3.SAC, in JAX as PureJaxRL (Lu et al. 2022)",
     settings=SacJaxSettings, make=make, load=load, memory=memory,
-    fits=fits_continuous("sac_jax", fits_with_jax("sac_jax")), checked=CHECKED,
+    fits=fits_continuous("sac_jax"), unavailable=jax_unavailable("sac_jax"),
+    checked=CHECKED,
     actions="continuous",
     population=True, arithmetic=counted(arithmetic))
 """The `sac_jax` learner as the registry holds it (`agent.LEARNERS`)."""

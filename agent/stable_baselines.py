@@ -65,16 +65,16 @@ def missing_libraries() -> list:
     return [name for name in LIBRARIES if importlib.util.find_spec(name) is None]
 
 
-def fits_when_installed(name: str):
-    """A learner's `fits`: every task, once PyTorch and Stable-Baselines3 are installed; else
-    one line naming the extra."""
-    def fits(task):
+def sb3_unavailable(name: str):
+    """A learner's `unavailable`: None once PyTorch and Stable-Baselines3 are installed;
+    else one line naming the extra."""
+    def unavailable():
         missing = missing_libraries()
         if missing:
-            return (f"{name} on {task.name} needs PyTorch and Stable-Baselines3 ({', '.join(missing)} "
-                    f"not installed): {EXTRA}")
+            return (f"{name} needs PyTorch and Stable-Baselines3 ({', '.join(missing)} not "
+                    f"installed): {EXTRA}")
         return None
-    return fits
+    return unavailable
 
 
 def check_layers(text) -> tuple:

@@ -25,7 +25,7 @@ lambda 0.8, kappa 2 (critic) and 3 (actor), c_e 0.01, two hidden layers of 128, 
 import dataclasses
 
 from lwrl.agent.arithmetic import Count, Counts, mlp_parameters
-from lwrl.agent.jax_population import fits_with_jax
+from lwrl.agent.jax_population import jax_unavailable
 from lwrl.agent.learner_contract import Learner
 from lwrl.agent.off_policy import fits_continuous
 from lwrl.agent.stream_agents import (HYPER, SOURCE, StreamAgents, StreamSettings, network_forward,
@@ -225,7 +225,8 @@ LEARNER = Learner(
     name="stream_ac", title="Stream AC(lambda) for continuous actions: streaming actor-critic "
                             "with ObGD, in JAX",
     source=SOURCE, settings=StreamAcSettings, make=make, load=load, memory=memory,
-    fits=fits_continuous("stream_ac", fits_with_jax("stream_ac")), actions="continuous",
+    fits=fits_continuous("stream_ac"), unavailable=jax_unavailable("stream_ac"),
+    actions="continuous",
     population=True, arithmetic=arithmetic)
 """The `stream_ac` learner as the registry holds it (`agent.LEARNERS`)."""
 StreamAcAgents.learner = LEARNER

@@ -18,7 +18,7 @@ kappa 2 (critic) and 3 (actor), c_e 0.01, two hidden layers of 32 (their `Stream
 import dataclasses
 
 from lwrl.agent.arithmetic import Count, Counts
-from lwrl.agent.jax_population import fits_with_jax
+from lwrl.agent.jax_population import jax_unavailable
 from lwrl.agent.learner_contract import Learner
 from lwrl.agent.stream_agents import SOURCE
 from lwrl.agent.stream_ac import (ActorCriticAgents, ActorCriticSettings, actor_critic_counts,
@@ -102,6 +102,7 @@ LEARNER = Learner(
     name="stream_ac_discrete", title="Stream AC(lambda) for discrete actions: streaming "
                                      "actor-critic with ObGD, in JAX",
     source=SOURCE, settings=StreamAcDiscreteSettings, make=make, load=load, memory=memory,
-    fits=fits_with_jax("stream_ac_discrete"), population=True, arithmetic=arithmetic)
+    unavailable=jax_unavailable("stream_ac_discrete"), population=True,
+    arithmetic=arithmetic)
 """The `stream_ac_discrete` learner as the registry holds it (`agent.LEARNERS`)."""
 StreamAcDiscreteAgents.learner = LEARNER

@@ -22,7 +22,7 @@ sparsity 0.9, epsilon 1 to 0.01 over 0.05 of 500 000 steps.
 import dataclasses
 
 from lwrl.agent.arithmetic import Counts, mlp_parameters
-from lwrl.agent.jax_population import fits_with_jax
+from lwrl.agent.jax_population import jax_unavailable
 from lwrl.agent.learner_contract import Learner
 from lwrl.agent.stream_agents import (HYPER, SOURCE, StreamAgents, StreamSettings, network_forward,
                                       obgd_count, observation_counts, stream_memory, trained_pass)
@@ -149,6 +149,7 @@ def arithmetic(settings, task, steps=None) -> Counts:
 LEARNER = Learner(
     name="stream_q", title="Stream Q(lambda): streaming deep Q-learning with ObGD, in JAX",
     source=SOURCE, settings=StreamQSettings, make=make, load=load, memory=memory,
-    fits=fits_with_jax("stream_q"), population=True, arithmetic=arithmetic)
+    unavailable=jax_unavailable("stream_q"), population=True,
+    arithmetic=arithmetic)
 """The `stream_q` learner as the registry holds it (`agent.LEARNERS`)."""
 StreamQAgents.learner = LEARNER

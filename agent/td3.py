@@ -28,6 +28,7 @@ from lwrl.agent.learner_contract import ControllerForm, Learner
 from lwrl.agent.off_policy import (ADAM_MACS, CHECKED, OffPolicyAgents, OffPolicySettings, counted,
                                    fits_continuous, network_counts)
 from lwrl.agent.off_policy import memory as off_policy_memory
+from lwrl.agent.stable_baselines import sb3_unavailable
 from lwrl.settings import check_count, check_non_negative, setting
 
 
@@ -133,6 +134,7 @@ LEARNER = Learner(
     source="Fujimoto et al. (2018), ICML, PMLR 80:1587-1596; Raffin et al. (2021), JMLR 22(268): "
            "stable_baselines3.TD3",
     settings=Td3Settings, make=make, load=load, memory=memory, fits=fits_continuous("td3"),
+    unavailable=sb3_unavailable("td3"),
     checked=CHECKED,
     actions="continuous", arithmetic=arithmetic)
 """The `td3` learner as the registry holds it (`agent.LEARNERS`)."""

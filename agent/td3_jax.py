@@ -24,7 +24,7 @@ A greedy action is mu(s).
 
 import dataclasses
 
-from lwrl.agent.jax_population import fits_with_jax, masked, polyak
+from lwrl.agent.jax_population import jax_unavailable, masked, polyak
 from lwrl.agent.learner_contract import Learner
 from lwrl.agent.off_policy import CHECKED, fits_continuous
 from lwrl.agent.off_policy_jax import ActorCriticAgents
@@ -106,7 +106,8 @@ LEARNER = Learner(
     source="Fujimoto et al. (2018), ICML, PMLR 80:1587-1596; Raffin et al. (2021), JMLR 22(268): "
            "stable_baselines3.TD3, in JAX as PureJaxRL (Lu et al. 2022)",
     settings=Td3JaxSettings, make=make, load=load, memory=memory,
-    fits=fits_continuous("td3_jax", fits_with_jax("td3_jax")), checked=CHECKED,
+    fits=fits_continuous("td3_jax"), unavailable=jax_unavailable("td3_jax"),
+    checked=CHECKED,
     actions="continuous",
     population=True, arithmetic=counted(arithmetic))
 """The `td3_jax` learner as the registry holds it (`agent.LEARNERS`)."""

@@ -204,10 +204,10 @@ def episode_steps(workload: Workload) -> int:
 
 def skip_reason(name: str) -> str | None:
     """Why learner `name` is not measured here (a missing extra, no task it fits), or None."""
+    learner = learners.learner(name)
     if home_task(name) is None:
-        learner = learners.learner(name)
         return learner.fits(task_spec(TASK, actions=learner.actions))
-    return None
+    return learner.unavailable()
 
 
 # --- Measuring -------------------------------------------------------------------------------

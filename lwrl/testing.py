@@ -115,7 +115,8 @@ def learner_name(learner: Learner | str) -> str:
 
 
 def fits(learner: Learner | str, task: str) -> bool:
-    """Whether `learner` fits `task` (DOMAIN.TASK) with its kind of actions (`Learner.fits`)."""
+    """Whether `learner` fits `task` (DOMAIN.TASK) with its kind of actions (`Learner.fits`),
+    whatever is installed (`Learner.unavailable`)."""
     chosen = learners.learner(learner_name(learner))
     return chosen.fits(task_spec(task, actions=chosen.actions)) is None
 
@@ -404,9 +405,13 @@ def check_learner(learner: Learner | str, tasks: list | tuple | None = None) -> 
     """Hold `learner` (a `Learner` of the registry, or its name) to the learner contract:
     its declaration, then on each task (DOMAIN.TASK; every task of the suite when None) that
     it fits every check of `LEARNER_CHECKS`, and on each it does not fit
-    `check_learner_refuses_misfit`. Raises `ContractError` at the first failure."""
+    `check_learner_refuses_misfit`. Raises `ContractError` at the first failure, the first
+    where the libraries it needs are not installed (`Learner.unavailable`)."""
     check_learner_declaration(learner)
     name = learner_name(learner)
+    with _held(f"learner {name!r}", "check_learner"):
+        reason = learners.learner(name).unavailable()
+        _expect(reason is None, str(reason))
     for task in suite.TASK_NAMES if tasks is None else tasks:
         if fits(name, task):
             for check in LEARNER_CHECKS:

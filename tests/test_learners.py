@@ -21,6 +21,11 @@ PAIRS = [(learner, task) for learner, task in itertools.product(learners.LEARNER
 actions (`Learner.actions`)."""
 MISFITS = [(learner, task) for learner, task in itertools.product(learners.LEARNER_NAMES, tasks.TASK_NAMES)
            if (learner, task) not in PAIRS]
+CASES = [pytest.param(learner, task, marks=pytest.mark.skipif(
+    learners.learner(learner).unavailable() is not None,
+    reason=str(learners.learner(learner).unavailable()))) for learner, task in PAIRS]
+"""`PAIRS` as test cases, skipped (saying why) where the learner's libraries are not
+installed."""
 
 
 def test_the_registry_names_each_learner_once():
@@ -41,32 +46,32 @@ def test_settings_shared_by_name_mean_one_kind_of_value():
             assert seen.setdefault(field.name, kind) == kind, (learner.name, field.name)
 
 
-@pytest.mark.parametrize("learner, task", PAIRS)
+@pytest.mark.parametrize("learner, task", CASES)
 def test_every_run_path_gives_the_same_numbers(learner, task):
     testing.check_learner_run_paths(learner, task)
 
 
-@pytest.mark.parametrize("learner, task", PAIRS)
+@pytest.mark.parametrize("learner, task", CASES)
 def test_an_agent_is_the_same_alone_and_in_a_batch(learner, task):
     testing.check_learner_alone_as_in_a_batch(learner, task)
 
 
-@pytest.mark.parametrize("learner, task", PAIRS)
+@pytest.mark.parametrize("learner, task", CASES)
 def test_the_arrays_the_loops_read(learner, task):
     testing.check_learner_arrays(learner, task)
 
 
-@pytest.mark.parametrize("learner, task", PAIRS)
+@pytest.mark.parametrize("learner, task", CASES)
 def test_acting_greedily_touches_nothing(learner, task):
     testing.check_learner_greedy_touches_nothing(learner, task)
 
 
-@pytest.mark.parametrize("learner, task", PAIRS)
+@pytest.mark.parametrize("learner, task", CASES)
 def test_saved_agents_load_and_go_on_identically(learner, task):
     testing.check_learner_save_and_load(learner, task)
 
 
-@pytest.mark.parametrize("learner, task", PAIRS)
+@pytest.mark.parametrize("learner, task", CASES)
 def test_values_over_a_grid_are_the_values_at_its_states(learner, task):
     testing.check_learner_values_on_a_grid(learner, task)
 
@@ -76,7 +81,7 @@ def test_a_learner_says_in_one_line_where_it_does_not_fit(learner, task):
     testing.check_learner_refuses_misfit(learner, task)
 
 
-@pytest.mark.parametrize("learner, task", PAIRS)
+@pytest.mark.parametrize("learner, task", CASES)
 def test_a_learner_learns_in_c_or_says_in_one_line_why_not(learner, task):
     testing.check_learner_in_c(learner, task)
 
@@ -114,6 +119,22 @@ def test_a_broken_contract_is_one_line_naming_the_learner_the_task_and_the_check
     with pytest.raises(testing.ContractError, match="not in lwrl's registry; declare its LEARNER "
                                                     "under the entry-point group 'lwrl.learners'"):
         testing.check_learner(stranger)
+
+
+def test_a_learner_whose_libraries_are_missing_is_configured_but_not_made(monkeypatch):
+    """Whether a learner fits a task does not depend on what is installed: a run of a
+    learner whose libraries are missing is a configuration like any (a report names it),
+    and making its agents, or checking it, is refused in one line naming the extra."""
+    from lwrl.agent import jax_population
+    monkeypatch.setattr(jax_population, "missing_jax", lambda: True)
+    config = RunConfig(task="cartpole.balance", learner="stream_q", agents=2)
+    assert testing.fits("stream_q", "cartpole.balance")
+    with pytest.raises(ValueError, match=r"^stream_q needs JAX \(not installed\): pip install "
+                                         r"'lwrl\[jax\]'$"):
+        make_agent(config)
+    with pytest.raises(testing.ContractError, match=r"^learner 'stream_q': check_learner: "
+                                                    r"stream_q needs JAX"):
+        testing.check_learner("stream_q", ["cartpole.balance"])
 
 
 def test_check_learner_runs_every_check_on_the_tasks_it_fits_and_the_misfit_check_elsewhere(

@@ -264,7 +264,8 @@ def test_the_plan_covers_every_learner_and_cell():
     task = "cartpole.balance"
     trainings = plan.trainings(task, "analytic")
     fitting = {name: learner for name, learner in learners.LEARNERS.items()
-               if learner.fits(task_spec(task, actions=learner.actions)) is None}
+               if learner.fits(task_spec(task, actions=learner.actions)) is None
+               and learner.unavailable() is None}
     assert {learner for learner, _ in trainings} == set(fitting)
     assert {config.actions for config in trainings.values()} == {"discrete", "continuous"}
     for (name, _), config in trainings.items():
@@ -413,7 +414,8 @@ def test_lwrl_robustness_gives_the_stepped_learners_the_benchmarks_episodes(tmp_
 
 
 @pytest.mark.parametrize("name", [name for name, learner in learners.LEARNERS.items()
-                                  if learner.fits(RunConfig(task="mountain_car.cost_to_go").task_spec) is None])
+                                  if learner.fits(RunConfig(task="mountain_car.cost_to_go").task_spec) is None
+                                  and learner.unavailable() is None])
 def test_every_learner_goes_on_with_its_kept_agents_in_several_cells_at_once(name, tmp_path):
     """An evaluation batch over two cells takes over the kept agents twice
     (`Agents.take_over`): each cell's greedy episodes equal those of the kept agents, loaded

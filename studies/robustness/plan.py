@@ -108,12 +108,14 @@ def values(task: str, cell: Cell) -> dict:
 
 
 def learners_for(task: str, plant: str = "analytic") -> list:
-    """The learners of the registry that fit `task` on `plant`, each the task made with its
+    """The learners of the registry installed here that fit `task` on `plant`, each the task
+    made with its
     kind of action (`Learner.actions`), in the registry's order: a population learner
     (`Learner.population`) runs on the analytic plant only here (its other JAX plant, MJX,
     takes one set of parameter values per run, not the randomised training's draws)."""
     return [name for name, learner in LEARNERS.items()
             if learner.fits(task_spec(task, actions=learner.actions)) is None
+            and learner.unavailable() is None
             and (plant == "analytic" or not learner.population)]
 
 
