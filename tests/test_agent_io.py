@@ -5,6 +5,7 @@ import json
 import numpy as np
 import pytest
 
+from lwrl import agent as learners
 from lwrl.agent import io as agent_io
 from lwrl.agent.cmac import CMAC
 from lwrl.agent.sarsa import BatchedSarsa
@@ -108,10 +109,13 @@ def old_layout(document: dict, arrays: dict, agents) -> tuple[dict, dict]:
 
 
 @pytest.mark.parametrize("learner, task, actions", [
-    ("sarsa", "mountain_car.cost_to_go", "discrete"),
-    ("actor_critic", "pendulum.swingup", "continuous"),
-    ("ars", "mountain_car.cost_to_go", "discrete"),
-    ("sac", "pendulum.swingup", "continuous")])
+    pytest.param(learner, task, actions, marks=pytest.mark.skipif(
+        learners.learner(learner).unavailable() is not None,
+        reason=str(learners.learner(learner).unavailable())))
+    for learner, task, actions in (("sarsa", "mountain_car.cost_to_go", "discrete"),
+                                   ("actor_critic", "pendulum.swingup", "continuous"),
+                                   ("ars", "mountain_car.cost_to_go", "discrete"),
+                                   ("sac", "pendulum.swingup", "continuous"))])
 def test_a_file_from_before_learners_said_what_they_have_loads(tmp_path, learner, task, actions):
     """A file of the earlier layout (made here from today's) loads as the agents it holds:
     the same weights, the same greedy actions, the same spec where the learner keeps one

@@ -24,6 +24,7 @@ import pytest
 from test_export_c import COMPILER, compile_driver, run_driver
 
 from lwrl.agent import io as agent_io
+from lwrl.agent import jax_population
 from lwrl.cli.main import main
 from lwrl.export import device
 from lwrl.export.c import export_c
@@ -31,7 +32,9 @@ from lwrl.runners.config import RunConfig
 from lwrl.runners.run import run
 
 pytestmark = [pytest.mark.slow,  # trains JAX populations (JIT compiling)
-              pytest.mark.skipif(COMPILER is None, reason="no C compiler (cc, gcc or clang)")]
+              pytest.mark.skipif(COMPILER is None, reason="no C compiler (cc, gcc or clang)"),
+              pytest.mark.skipif(jax_population.missing_jax(),
+                                 reason=f"the rivals are JAX populations: {jax_population.EXTRA}")]
 
 AGENTS = {
     "ars_v2": dict(task="pendulum.swingup", learner="ars", budget=12000, timesteps=12000,
