@@ -182,3 +182,28 @@ def test_every_rows_centre_names_its_prior_tuning():
     lines = disclosure.prior_tuning_lines([TASK, "acrobot.swingup+physics"])
     assert sum(line.startswith(f"| {TASK} |") for line in lines) == len(rule.rows(TASK))
     assert not any("+physics" in line for line in lines)  # a variant runs its task's
+
+
+@pytest.mark.skipif(int(pd.__version__.split(".")[0]) >= 3,
+                    reason="rliable's library imports with pandas < 3, the project's pin")
+def test_the_aggregates_come_with_their_figures(tmp_path, monkeypatch):
+    """Across the aggregated tasks, the aggregates' and the profiles' figures are written
+    beside their tables and linked, relative to the benchmark's directory (50 bootstrap
+    resamples here: the figures, not the intervals, are tested)."""
+    import functools
+    from types import SimpleNamespace
+
+    from lwrl.analysis import aggregates
+    from lwrl.studies.paper.benchmark.third import verdict_tables
+    for name in ("aggregate_estimates", "performance_profiles", "improvement"):
+        monkeypatch.setattr(aggregates, name,
+                            functools.partial(getattr(aggregates, name), resamples=50))
+    rng = np.random.default_rng(0)
+    tasks = [SimpleNamespace(task=task, curves={label: SimpleNamespace(
+        scores=rng.uniform(0, 1, size=(5, 3))) for label in ("paper", RIVAL)})
+        for task in verdict_tables.AGGREGATED]
+    lines = verdict_tables.aggregate_lines({"1": (tasks, None)}, str(tmp_path))
+    for name in ("aggregates-1", "profiles-1"):
+        assert f"![{name}.png](figures/{name}.png)" in lines
+        assert (tmp_path / "figures" / f"{name}.svg").stat().st_size > 0
+    assert any(line.startswith("| paper | ") for line in lines)
