@@ -118,19 +118,37 @@ def performance_profiles(scores: Mapping[str, np.ndarray], thresholds,
     return profiles
 
 
+def probability_of_improvement(scores_x, scores_y) -> float:
+    """rliable's `metrics.probability_of_improvement` (rliable 1.2.0), P(X_m > Y_m) averaged
+    over the tasks m, with each task's Mann-Whitney U counted over the pairs of runs,
+    U = #{x > y} + #{x = y} / 2, where rliable asks `scipy.stats.mannwhitneyu` for it: the
+    same numbers (U is a count of halves, exact in floating point either way; tested), a
+    hundred times faster than scipy's per task and per resample."""
+    probabilities = []
+    runs = scores_x.shape[0] * scores_y.shape[0]
+    for task in range(scores_x.shape[1]):
+        x, y = scores_x[:, task], scores_y[:, task]
+        if np.array_equal(x, y):
+            probabilities.append(0.5)
+            continue
+        above, tied = np.sum(x[:, None] > y[None, :]), np.sum(x[:, None] == y[None, :])
+        probabilities.append((above + 0.5 * tied) / runs)
+    return np.mean(probabilities)
+
+
 def improvement(x, y, seed: int = statistics.SEED,
                 resamples: int = statistics.RESAMPLES) -> Estimate:
     """P(X > Y) averaged over tasks of the runs x tasks matrices `x` and `y` (the same tasks)
-    by rliable (`metrics.probability_of_improvement`), with its interval
+    by rliable (`probability_of_improvement`, its metric counted faster), with its interval
     (`library.get_interval_estimates` of the pair: each learner's runs resampled within each
     task)."""
-    library, metrics = _rliable()
+    library, _ = _rliable()
     x, y = _checked(x, "x"), _checked(y, "y")
     if x.shape[1] != y.shape[1]:
         raise ValueError(f"improvement needs the same tasks of x and y (x has {x.shape[1]}, "
                          f"y {y.shape[1]})")
     with _seeded(seed):
         values, intervals = library.get_interval_estimates(
-            {"x,y": [x, y]}, metrics.probability_of_improvement, reps=resamples,
+            {"x,y": [x, y]}, probability_of_improvement, reps=resamples,
             confidence_interval_size=statistics.CONFIDENCE)
     return _estimates(values["x,y"], intervals["x,y"])[0]

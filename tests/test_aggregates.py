@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from lwrl.analysis import aggregates, verdicts
+from lwrl.analysis import aggregates, statistics, verdicts
 
 PANDAS_3 = int(pd.__version__.split(".")[0]) >= 3
 needs_rliable = pytest.mark.skipif(PANDAS_3, reason=(
@@ -61,10 +61,32 @@ def test_profiles_and_improvement_are_rliable_s_and_lwrl_s():
         width = np.maximum(theirs[learner].high - theirs[learner].low, 1e-9)
         assert np.all(np.abs(theirs[learner].low - ours[learner].low) <= 0.25 * width + 0.01)
         assert np.all(np.abs(theirs[learner].high - ours[learner].high) <= 0.25 * width + 0.01)
-    # rliable's probability of improvement takes about 0.05 s a resample: 300 of them
     rliable_s = aggregates.improvement(scores["a"], scores["b"], resamples=300)
     mine = verdicts.improvement_across_tasks(scores["a"], scores["b"], resamples=300)
     assert rliable_s.value == pytest.approx(mine.value, rel=1e-12) and close(mine, rliable_s)
+
+
+@needs_rliable
+def test_the_probability_of_improvement_counted_over_pairs_is_rliable_s_to_the_bit():
+    """`aggregates.probability_of_improvement` gives rliable's `metrics.
+    probability_of_improvement` to the bit, ties and equal tasks included, and so does the
+    interval through rliable's bootstrap."""
+    metrics = pytest.importorskip("rliable.metrics")
+    library = pytest.importorskip("rliable.library")
+    rng = np.random.default_rng(3)
+    x, y = rng.integers(0, 5, (9, 7)) / 4.0, rng.integers(0, 5, (9, 7)) / 4.0  # many ties
+    x[:, 0] = y[:, 0] = rng.normal(size=9)  # a task where both are equal: rliable's 0.5
+    for a, b in ((x, y), (y, x), (x[:, :1], y[:, :1]), (rng.normal(size=(20, 3)),
+                                                        rng.normal(size=(15, 3)))):
+        assert aggregates.probability_of_improvement(a, b) == metrics.probability_of_improvement(
+            a, b)
+    ours = aggregates.improvement(x, y, resamples=40)
+    with aggregates._seeded(statistics.SEED):
+        values, intervals = library.get_interval_estimates(
+            {"x,y": [x, y]}, metrics.probability_of_improvement, reps=40,
+            confidence_interval_size=statistics.CONFIDENCE)
+    assert (ours.value, ours.low, ours.high) == (*np.ravel(values["x,y"]),
+                                                 *np.ravel(intervals["x,y"]))
 
 
 @needs_rliable
