@@ -327,19 +327,18 @@ def check_learner_values_on_a_grid(learner: str, task: str) -> None:
     for on_grid, at_states, what in (
             (agent.action_values_on_grid, agent.action_values, "action values"),
             (agent.state_values_on_grid, agent.state_values, "state values")):
-        grid = _values(on_grid, axes, weights)
-        _expect((grid is None) == (_values(at_states, states, weights) is None),
-                f"{what} are there on a grid or at states, not both")
+        grid, at = _values(on_grid, axes, weights), _values(at_states, states, weights)
+        _expect((grid is None) == (at is None), f"{what} are there on a grid or at states, "
+                                                f"not both")
         if grid is not None:
-            np.testing.assert_allclose(grid, at_states(states, weights), rtol=1e-12, atol=1e-12,
+            np.testing.assert_allclose(grid, at, rtol=1e-12, atol=1e-12,
                                        err_msg=f"{what} on the grid and at its states")
     _expect(not agent.continuous or _values(agent.action_values, states) is None,
             "a learner of continuous actions gives action values")
     greedy = _values(agent.greedy_actions, states)
     _expect((greedy is not None) == agent.continuous,
-            "greedy actions in [-1, 1] are there " + ("not " if agent.continuous else "")
-            + "for a learner of " + ("continuous" if agent.continuous else "discrete")
-            + " actions")
+            "a learner of continuous actions gives no greedy actions" if agent.continuous
+            else "a learner of discrete actions gives greedy actions in [-1, 1]")
     if greedy is not None:
         _expect(greedy.shape == (3, *states.shape[:-1]),
                 f"greedy actions have shape {greedy.shape}, not {(3, *states.shape[:-1])}")

@@ -51,8 +51,9 @@ def memory_needed(config, recorded_episodes: int = 0) -> int:
 
 def make_agent(*configs) -> Agents:
     """The agents of one or more `RunConfig`s of one learner, each configuration's `agents`
-    in order, untrained (a one-line ValueError where its libraries are not installed). Configurations after the first differ from it at most in the
-    learner's per-agent settings and the seeds (`sweep.batches` groups them so)."""
+    in order, untrained (a one-line ValueError where its libraries are not installed).
+    Configurations after the first differ from it at most in the learner's per-agent
+    settings and the seeds (`sweep.batches` groups them so)."""
     base = configs[0]
     learner = learners.learner(base.learner)
     learner.check_installed()
