@@ -1,8 +1,10 @@
-"""Figures that several studies draw: learning curves with error bands, claims against
+"""Figures that several studies draw: learning curves with error bands, estimates with their
+intervals, claims against
 interval estimates, and saving a figure as PNG and SVG. Needs the 'paper' extra (matplotlib,
 pandas, scipy)."""
 
 import dataclasses
+import math
 import os
 
 import matplotlib
@@ -15,6 +17,15 @@ import pandas as pd  # noqa: E402
 
 from lwrl import outputs  # noqa: E402
 from lwrl.analysis import statistics  # noqa: E402
+
+
+def plot_estimates(axes, x, estimates, label: str, marker: str = "o"):
+    """`estimates` (`statistics.Estimate`s) at `x` on `axes`: their values as a line labelled
+    `label`, and where every one has an interval, the intervals as a band of its colour."""
+    line, = axes.plot(x, [e.value for e in estimates], marker=marker, label=label)
+    if not any(math.isnan(e.low) for e in estimates):
+        axes.fill_between(x, [e.low for e in estimates], [e.high for e in estimates],
+                          alpha=0.15, color=line.get_color())
 
 
 def save_figure(figure, figure_dir: str, name: str) -> list:

@@ -7,7 +7,6 @@ beside the chosen one."""
 
 import dataclasses
 import glob
-import math
 import os
 import time
 
@@ -17,7 +16,7 @@ import numpy as np
 from lwrl import agent
 from lwrl.agent.arithmetic import NotCounted
 from lwrl.analysis import statistics, verdicts
-from lwrl.analysis.plots import markdown_images, save_figure
+from lwrl.analysis.plots import markdown_images, plot_estimates, save_figure
 from lwrl.runners.store import compute_spent
 from lwrl.studies.paper.benchmark import evaluation, judging, protocol, search, sensitivity, study, torques, twin_cost
 
@@ -285,10 +284,7 @@ def curves(j: Judged, figure_dir: str) -> list:
         if label in j.cpu_s_per_step:
             xs.append((by_cpu, steps * j.cpu_s_per_step[label]))
         for axes, x in xs:
-            line, = axes.plot(x, [e.value for e in estimates], marker="o", label=label)
-            if not any(math.isnan(e.low) for e in estimates):
-                axes.fill_between(x, [e.low for e in estimates], [e.high for e in estimates],
-                                  alpha=0.15, color=line.get_color())
+            plot_estimates(axes, x, estimates, label)
     for axes in (by_steps, by_cpu):
         axes.axhline(protocol.LEVEL, color="grey", linewidth=0.8, linestyle="--")
     by_steps.set_xlabel("environment steps of training")

@@ -9,7 +9,7 @@ whose score was carried from 1 ends there. Dashed, the level the times to the le
 dotted, the points the verdicts read (1/4, 1 and 4 times the budget).
 """
 
-import math
+import os
 
 import numpy as np
 
@@ -20,6 +20,13 @@ from lwrl.studies.paper.benchmark.third import clock
 
 FIGURES = "figures"
 """The folder of the benchmark's directory its figures are written to."""
+
+
+def directory(out_dir: str) -> str:
+    """The benchmark's folder of figures (`FIGURES` in `out_dir`), made where it is not."""
+    path = os.path.join(out_dir, FIGURES)
+    os.makedirs(path, exist_ok=True)
+    return path
 
 
 def row_curve(row) -> tuple:
@@ -37,11 +44,7 @@ def clock_curves(runs, figure_dir: str) -> list:
     import matplotlib.pyplot as plt
     figure, axes = plt.subplots(figsize=(8, 4.5))
     for label, row in runs.rows.items():
-        fractions, estimates = row_curve(row)
-        line, = axes.plot(fractions, [e.value for e in estimates], marker=".", label=label)
-        lows, highs = [e.low for e in estimates], [e.high for e in estimates]
-        if not any(math.isnan(value) for value in lows):
-            axes.fill_between(fractions, lows, highs, alpha=0.15, color=line.get_color())
+        plots.plot_estimates(axes, *row_curve(row), label, marker=".")
     axes.axhline(protocol.LEVEL, color="grey", linewidth=0.8, linestyle="--")
     for point in clock.VERDICTS:
         axes.axvline(clock.fraction(point), color="grey", linewidth=0.6, linestyle=":")

@@ -90,9 +90,8 @@ def task_section(runs: "study.TaskRuns", out_dir: str) -> list:
                      f"{mean_interval(final).text(2)} | {at_four(runs.task, row)} | "
                      f"{compute_spent(out_dir, set(row.own))['cpu_s'] / 3600:.3f} | "
                      f"{compute_spent(out_dir, set(row.searched))['cpu_s'] / 3600:.3f} |")
-    figure_dir = os.path.join(out_dir, figures.FIGURES)
-    os.makedirs(figure_dir, exist_ok=True)
-    lines += ["", *markdown_images(figures.clock_curves(runs, figure_dir), out_dir), ""]
+    lines += ["", *markdown_images(figures.clock_curves(runs, figures.directory(out_dir)),
+                                   out_dir), ""]
     lines += [f"- not all run yet: {why}" for why in runs.unfinished.values()]
     lines += [""] if runs.unfinished else []
     plain = halving.unsearched(runs.task)

@@ -6,7 +6,6 @@ aggregates across the four discrete tasks and the three variants by rliable
 """
 
 import math
-import os
 
 import numpy as np
 
@@ -158,10 +157,8 @@ def aggregate_lines(judged: dict, out_dir: str, name: str = "1") -> list:
     lines += [f"| {label} | " + " | ".join(
         Estimate(*values).text(2) for values in zip(profile.fraction, profile.low, profile.high))
         + " |" for label, profile in profiles.items()]
-    figure_dir = os.path.join(out_dir, figures.FIGURES)
-    os.makedirs(figure_dir, exist_ok=True)
-    lines += ["", *plots.markdown_images(
-        figures.aggregate_figures(estimates, profiles, figure_dir, name), out_dir)]
+    lines += ["", *plots.markdown_images(figures.aggregate_figures(
+        estimates, profiles, figures.directory(out_dir), name), out_dir)]
     light = protocol.LIGHT["discrete"]
     if light in scores:
         lines += ["", f"P({light} > rival) over the tasks:", ""]
