@@ -120,6 +120,15 @@ def installed_toys(tmp_path_factory) -> dict:
     return installed
 
 
+def learner_case(learner: str, *values):
+    """`pytest.param(learner, *values)`, skipped saying why where the learner's libraries
+    are not installed (`Learner.unavailable`)."""
+    from lwrl import agent as learners
+    reason = learners.learner(learner).unavailable()
+    return pytest.param(learner, *values, marks=pytest.mark.skipif(reason is not None,
+                                                                    reason=str(reason)))
+
+
 def one_line_error(call, *fragments):
     """`call()` raises a one-line ValueError holding each of `fragments`."""
     with pytest.raises(ValueError) as error:

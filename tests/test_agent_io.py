@@ -4,8 +4,8 @@ import json
 
 import numpy as np
 import pytest
+from conftest import learner_case
 
-from lwrl import agent as learners
 from lwrl.agent import io as agent_io
 from lwrl.agent.cmac import CMAC
 from lwrl.agent.sarsa import BatchedSarsa
@@ -109,10 +109,7 @@ def old_layout(document: dict, arrays: dict, agents) -> tuple[dict, dict]:
 
 
 @pytest.mark.parametrize("learner, task, actions", [
-    pytest.param(learner, task, actions, marks=pytest.mark.skipif(
-        learners.learner(learner).unavailable() is not None,
-        reason=str(learners.learner(learner).unavailable())))
-    for learner, task, actions in (("sarsa", "mountain_car.cost_to_go", "discrete"),
+    learner_case(learner, task, actions) for learner, task, actions in (("sarsa", "mountain_car.cost_to_go", "discrete"),
                                    ("actor_critic", "pendulum.swingup", "continuous"),
                                    ("ars", "mountain_car.cost_to_go", "discrete"),
                                    ("sac", "pendulum.swingup", "continuous"))])

@@ -10,6 +10,7 @@ import pathlib
 import numpy as np
 import pandas as pd
 import pytest
+from test_aggregates import needs_rliable
 from test_benchmark3 import TASK, shrink
 
 from lwrl import outputs
@@ -184,8 +185,7 @@ def test_every_rows_centre_names_its_prior_tuning():
     assert not any("+physics" in line for line in lines)  # a variant runs its task's
 
 
-@pytest.mark.skipif(int(pd.__version__.split(".")[0]) >= 3,
-                    reason="rliable's library imports with pandas < 3, the project's pin")
+@needs_rliable
 def test_the_aggregates_come_with_their_figures(tmp_path, monkeypatch):
     """Across the aggregated tasks, the aggregates' and the profiles' figures are written
     beside their tables and linked, relative to the benchmark's directory (50 bootstrap

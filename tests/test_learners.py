@@ -7,6 +7,7 @@ import dataclasses
 import itertools
 
 import pytest
+from conftest import learner_case
 
 from lwrl import agent as learners
 from lwrl import tasks, testing
@@ -21,9 +22,7 @@ PAIRS = [(learner, task) for learner, task in itertools.product(learners.LEARNER
 actions (`Learner.actions`)."""
 MISFITS = [(learner, task) for learner, task in itertools.product(learners.LEARNER_NAMES, tasks.TASK_NAMES)
            if (learner, task) not in PAIRS]
-CASES = [pytest.param(learner, task, marks=pytest.mark.skipif(
-    learners.learner(learner).unavailable() is not None,
-    reason=str(learners.learner(learner).unavailable()))) for learner, task in PAIRS]
+CASES = [learner_case(learner, task) for learner, task in PAIRS]
 """`PAIRS` as test cases, skipped (saying why) where the learner's libraries are not
 installed."""
 
