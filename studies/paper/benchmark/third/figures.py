@@ -44,7 +44,8 @@ def clock_curves(runs, figure_dir: str) -> list:
     import matplotlib.pyplot as plt
     figure, axes = plt.subplots(figsize=(8, 4.5))
     for label, row in runs.rows.items():
-        plots.plot_estimates(axes, *row_curve(row), label, marker=".")
+        fractions, estimates = row_curve(row)
+        plots.plot_estimates(axes, fractions, estimates, label, marker=".")
     axes.axhline(protocol.LEVEL, color="grey", linewidth=0.8, linestyle="--")
     for point in clock.VERDICTS:
         axes.axvline(clock.fraction(point), color="grey", linewidth=0.6, linestyle=":")
