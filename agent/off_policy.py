@@ -39,10 +39,11 @@ ZOO = ("DLR-RM/rl-baselines3-zoo, hyperparams/sac.yml and hyperparams/td3.yml (P
        "commit 22e3ff2450fd92033f7f032915e1f64894a09584")
 """Where the learners' defaults come from (as `stable_baselines.ZOO`): the zoo's Pendulum-v1
 sets, SB3's own defaults for what a set leaves out."""
-CHECKED = dict(net_arch="16,16", batch_size=16, buffer_size=64, learning_starts=20)
+CHECKED = dict(net_arch="16,16", batch_size=16, buffer_size=64, learning_starts=20,
+               train_freq=4)
 """What the contract's checks run SAC and TD3 with (`Learner.checked`): small networks and
-batches, updates from step 20 of their 120 (TD3's default starts at 10 000), a replay buffer
-that wraps within them."""
+batches, updates from step 20 of their 120 (TD3's default starts at 10 000), every fourth
+step (a gradient step of SB3's costs milliseconds), a replay buffer that wraps within them."""
 ADAM_MACS = OPTIMISER_MACS - 2
 """An optimiser step's arithmetic per parameter without the clipping's global norm and
 scale (`arithmetic.OPTIMISER_MACS`): SAC and TD3 clip no gradients."""
