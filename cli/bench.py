@@ -96,6 +96,9 @@ def add_run(actions) -> None:
         TASKS, "output directory", run_second)
     run.add_argument("--rule", choices=("2", "3"),
                      help="the benchmark's rule (default: the one --out records, else 2)")
+    run.add_argument("--no-report", dest="report", action="store_false",
+                     help="compute and keep the runs only (`lwrl bench report DIR` writes the "
+                          "report from them)")
     reproduce.add_sweep_flags(run)
 
 
@@ -226,8 +229,9 @@ def run_second(args) -> int:
     outputs.check_directory(args.out, "--out")  # a benchmark resumes in its directory
     path = module.benchmark(tasks, args.out, shlex.join(["lwrl", *args.argv]), plant=args.plant,
                             sweep={"backend": args.backend, "workers": args.workers,
-                                   "address": args.address})
-    output.done(started, [path, *figures(args.out)])
+                                   "address": args.address}, with_report=args.report)
+    output.done(started, [path, *figures(args.out)] if args.report else
+                [f"the runs in {args.out} (`lwrl bench report {args.out}` writes the report)"])
     return 0
 
 

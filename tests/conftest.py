@@ -254,7 +254,7 @@ SLOW = {
     r"test_benchmark_report\.py::test_the_report_keeps_every_row": "writes the committed "
         "benchmark's report twice (its figures, its bootstrap intervals)",
     r"test_benchmark_killed\.py::": "lwrl bench run three times in child processes (killed, "
-        "resumed, uninterrupted), each with the benchmark's report",
+        "resumed, uninterrupted)",
     r"test_benchmark_study\.py::test_a_tiny_continuous_benchmark": "a tiny benchmark of "
         "the continuous pendulum: trains the actor-critic and SAC, compiling its programs",
     r"test_benchmark_study\.py::test_the_pendulum_with_three_torques": "two tiny "

@@ -1,4 +1,4 @@
-"""`lwrl bench run` killed (SIGKILL: no handler runs) once some of its tables are written,
+"""`lwrl bench run --no-report` killed (SIGKILL: no handler runs) once some of its tables are written,
 while it writes another, then the same command again: every table the same, byte for byte,
 as an uninterrupted run's, and nothing of the killed process left behind in the benchmark's
 directory."""
@@ -43,7 +43,10 @@ def copy(destination: pathlib.Path, runs) -> pathlib.Path:
 
 
 def command(out: pathlib.Path) -> list:
-    return [sys.executable, "-m", "lwrl.cli", "bench", "run", TASK, "--out", str(out)]
+    """The tables' command: `--no-report`, the report's figures and intervals being what
+    takes its time and no table's content."""
+    return [sys.executable, "-m", "lwrl.cli", "bench", "run", TASK, "--out", str(out),
+            "--no-report"]
 
 
 def files(out: pathlib.Path) -> list:

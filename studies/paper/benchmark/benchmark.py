@@ -55,14 +55,16 @@ CONFIGS = "configs.jsonl"
 COSTS = "costs.json"
 
 
-def benchmark(tasks, out_dir: str, command: str, plant: str = "analytic", sweep=None) -> str:
-    """Run (or resume) the benchmark on `tasks`, measure their rows' costs, then write the
-    report of every task `out_dir` holds (`write_report`); its path."""
+def benchmark(tasks, out_dir: str, command: str, plant: str = "analytic", sweep=None,
+              with_report: bool = True) -> str | None:
+    """Run (or resume) the benchmark on `tasks`, measure their rows' costs, then, where
+    `with_report`, write the report of every task `out_dir` holds (`write_report`); its
+    path, or None where no report was asked for (`rebuild` writes it later)."""
     started = time.perf_counter()
     tasks = [protocol.check_task(task, plant) for task in tasks]
     computed = [study.study_task(task, out_dir, plant, sweep) for task in tasks]
     timed_costs.measure_all(cost_cells(computed), out_dir)
-    return write_report(out_dir, command, plant, started, computed)
+    return write_report(out_dir, command, plant, started, computed) if with_report else None
 
 
 def rebuild(out_dir: str, command: str, plant: str = "analytic") -> str:

@@ -29,9 +29,11 @@ def check(tasks, plant: str) -> list:
     return list(rule.TASKS) if list(tasks) == ["all"] else [rule.check_task(t) for t in tasks]
 
 
-def benchmark(tasks, out_dir: str, command: str, plant: str = "analytic", sweep=None) -> str:
+def benchmark(tasks, out_dir: str, command: str, plant: str = "analytic", sweep=None,
+              with_report: bool = True) -> str | None:
     """Run (or resume) the third benchmark on `tasks` into `out_dir` (its edition recorded),
-    then write the report of every task it holds; its path."""
+    then, where `with_report`, write the report of every task it holds; its path, or None
+    where no report was asked for (`rebuild` writes it later)."""
     started = time.perf_counter()
     tasks = check(tasks, plant)
     rule.write_edition(out_dir)
@@ -39,6 +41,8 @@ def benchmark(tasks, out_dir: str, command: str, plant: str = "analytic", sweep=
     for task, continued in rule.stages(tasks):
         computed[task] = (study.continue_task if continued else study.study_task)(
             task, out_dir, plant, sweep)
+    if not with_report:
+        return None
     return report.write(out_dir, command, plant, started, computed.values())
 
 
