@@ -347,7 +347,7 @@ CACHE_PROBE = """
 import jax
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import run
-run(RunConfig(task="mountain_car.cost_to_go", learner="ppo_jax", agents=1, episodes=1,
+run(RunConfig(task="mountain_car.cost_to_go", learner="ars", agents=1, episodes=1,
               plant="analytic", task_options={"time_limit": 20.0}))
 print(jax.config.jax_compilation_cache_dir)
 """
