@@ -265,23 +265,25 @@ def _use_disk_cache() -> None:
 
 
 def _first_carry(env, agent, starts, sensors, episodes: int) -> dict:
-    """Every agent at its first episode's start, nothing recorded."""
+    """Every agent at its first episode's start, nothing recorded. What needs no JAX
+    operation is made by NumPy and put on the device: an operation of JAX's outside a
+    program compiles one of its own for each shape."""
     import jax
-    import jax.numpy as jnp
     batch = agent.batch_size
-    clocks = jnp.asarray(agent.clocks, jnp.int32)
+    clocks = jax.device_put(np.asarray(agent.clocks, np.int32))
+    seeds = jax.device_put(np.asarray(agent.seeds, np.uint32) + np.uint32(STREAM))
     keys = jax.vmap(jax.random.fold_in)(  # each agent's stream, where its last run left it
-        jax.vmap(jax.random.PRNGKey)(jnp.asarray(agent.seeds, jnp.uint32) + jnp.uint32(STREAM)),
-        clocks)
+        jax.vmap(jax.random.PRNGKey)(seeds), clocks)
     observation, state = jax.vmap(env.start)(keys, starts[:, 0], sensors)
-    nan = jnp.full((batch, episodes), jnp.nan)
-    return {"learner": agent.state, "env": state, "observation": observation,
-            "start": jnp.ones(batch, bool), "total": jnp.zeros(batch), "key": keys,
-            "clock": clocks, "spent": jnp.zeros(batch, jnp.int32),
-            "done": jnp.zeros(batch, jnp.int32), "active": ~jnp.asarray(agent.arrays.diverged),
-            "steps": nan, "returns": nan, "uptime": nan,
-            "truncated": jnp.zeros((batch, episodes), bool),
-            "diverged_episode": jnp.full(batch, -1, jnp.int32)}
+    nan = np.full((batch, episodes), np.nan)
+    records = jax.device_put({
+        "start": np.ones(batch, bool), "total": np.zeros(batch),
+        "spent": np.zeros(batch, np.int32), "done": np.zeros(batch, np.int32),
+        "active": ~np.asarray(agent.arrays.diverged, bool), "steps": nan, "returns": nan,
+        "uptime": nan, "truncated": np.zeros((batch, episodes), bool),
+        "diverged_episode": np.full(batch, -1, np.int32)})
+    return {"learner": agent.state, "env": state, "observation": observation, "key": keys,
+            "clock": clocks, **records}
 
 
 def _compiled_chunk(env, program, episodes: int, weight_tree, continuous: bool):
