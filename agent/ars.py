@@ -172,6 +172,11 @@ class ArsAgents(PopulationAgents):
         return Program(act=act, record=record, update=update,
                        update_due=lambda hyper, clock: clock >= 0, hyper=hyper)
 
+    def learner_form(self, b: int):
+        """Agent b as C that goes on learning on a device (`agent.ars_c`)."""
+        from lwrl.agent import ars_c
+        return ars_c.learner_form(self, b)
+
     def action_values(self, states, weights=None):
         """The linear scores theta x of the discrete actions, `(B, ..., A)` (`(..., A)` for
         `weights`), which the agents act greedily on; `NoValues` with continuous actions."""

@@ -34,6 +34,7 @@ from dm_env import specs
 from lwrl import agent as learners
 from lwrl import tasks as suite
 from lwrl.agent import io as agent_io
+from lwrl.agent.jax_population import PopulationAgents
 from lwrl.agent.learner_contract import CONTINUOUS_ACTIONS, Learner, LearnerForm, NoValues
 from lwrl.runners.config import RunConfig, task_spec
 from lwrl.runners.run import make_agent, memory_needed, run, run_batched, run_compiled, run_dm_env
@@ -368,7 +369,8 @@ def check_learner_refuses_misfit(learner: str, task: str) -> None:
 
 @_learner_check
 def check_learner_in_c(learner: str, task: str) -> None:
-    """`Agents.learner_form`: a form whose values start from the agent's weights and stream,
+    """`Agents.learner_form`: a form whose values start from the agent's weights and stream
+    (its stream's state, `arrays.streams`, or a JAX population's seed),
     whose RAM parts are counts, and whose check passes in double; or one line saying why the
     learner does not learn in C."""
     agent = make_agent(contract_config(learner, task))
@@ -380,10 +382,11 @@ def check_learner_in_c(learner: str, task: str) -> None:
         return
     _expect(isinstance(form, LearnerForm), f"learner_form gives a {type(form).__name__}")
     values = form.values(np.float64)
-    np.testing.assert_array_equal(values["weights"], agent.arrays.weights[1],
+    np.testing.assert_array_equal(np.ravel(values["weights"]), np.ravel(agent.arrays.weights[1]),
                                   err_msg="the form's weights are not the agent's")
-    _expect(values["seed"] == int(agent.arrays.streams[1]),
-            "the form's seed is not the agent's stream")
+    stream = (agent.seeds[1] if isinstance(agent, PopulationAgents)  # JAX's keys: the seed's
+              else agent.arrays.streams[1])
+    _expect(values["seed"] == int(stream), "the form's seed is not the agent's stream")
     _expect(all(isinstance(reals, int) and isinstance(other, int)
                 for reals, other in form.ram.values()), "the form's RAM parts are not counts")
     _expect(len(form.ranges[0]) == len(form.ranges[1]) == agent.dim,
