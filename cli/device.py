@@ -1,6 +1,6 @@
 """`lwrl device`: the C learner learning on an emulated Cortex-M4 (QEMU), and its cost.
 
-    lwrl device run DOMAIN.TASK [--episodes K] [--seed S] [--real R]
+    lwrl device run DOMAIN.TASK [--episodes K] [--seed S] [--real R] [--learner L]
     lwrl device costs DOMAIN.TASK... [--learner L] [--action-kind K] [--real R] [--mhz F]
     lwrl device hil DOMAIN.TASK [--plant P] [--episodes K] [--seed S] [--env-seed E]
                     [--emulated | --port PORT [--baud B]] [--realtime] [--real R]
@@ -23,8 +23,8 @@ weights (fetched by frames; they load in `lwrl eval`), `--rrd` a recording.
 `run` builds the task's learner with its plant in C for the host and for a bare-metal
 Cortex-M4, runs both (the M4 under qemu-system-arm, mps2-an386) and prints the steps per
 episode of each side by side; `costs` measures bytes and instructions per learning step and
-per decision (export/device.py), or for a learner without a C learner (`--learner`: ARS, the
-streaming learners) its greedy controller's bytes and instructions per decision, beside its
+per decision (export/device.py), or for a learner without a C learner (`--learner`: the
+streaming learners, ARS with continuous actions) its greedy controller's bytes and instructions per decision, beside its
 counted arithmetic and the memory its learning needs. Needs gcc-arm-none-eabi, libnewlib-arm-none-eabi,
 qemu-system-arm and, for `costs`, valgrind.
 """
@@ -55,6 +55,9 @@ def add_parser(commands) -> None:
     run.add_argument("--episodes", type=fields.positive_int, default=40)
     run.add_argument("--seed", type=fields.non_negative_int, default=0, help="the agent's seed")
     run.add_argument("--real", choices=("float", "double"), default="float")
+    run.add_argument("--learner", choices=learners.LEARNER_NAMES, default=None,
+                     help="a new agent of this learner with its defaults (default: the task's); "
+                          "it must have a C learner (Sarsa(lambda) over NRBF features, ARS)")
     run.set_defaults(run=run_device)
     costs = actions.add_parser("costs", help="bytes and instructions of the tasks' learners, or "
                                              "of a learner's greedy controller")
@@ -119,7 +122,8 @@ def add_parser(commands) -> None:
 
 def run_device(args) -> int:
     started = time.perf_counter()
-    result = device.run_device(args.task, args.episodes, args.seed, args.real)
+    settings = {"learner": args.learner} if args.learner else {}
+    result = device.run_device(args.task, args.episodes, args.seed, args.real, **settings)
     print(f"{args.task}: {result['summary']}, {args.real}, seed {args.seed}; host build and "
           f"emulated Cortex-M4 ({device.BOARD})")
     print("episode   host  device")
