@@ -1,10 +1,10 @@
 """The JAX tasks' `step` (`lwrl.jax`) over arbitrary states, actions and physical parameters
 within their spaces (Hypothesis): on every task, with either kind of action, a state within
-the task's observation bounds (`env.observation_space(params)`; any finite speed where it
-bounds none, the pendulum's and the cart-pole's), an action of `env.action_space(params)`
+the task's observation bounds (`env.observation_space(params)`; any speed up to
+`UNBOUNDED` where it bounds none, the pendulum's and the cart-pole's), an action of `env.action_space(params)`
 and parameter values within their declared ranges (`tasks.domain(d).parameters`) give a
 finite observation and reward, a finite up-time on the tasks that keep one, and boolean
-flags. The one refusal: a state the equations overflow from (the cart-pole's speeds beyond
+flags (speeds up to `UNBOUNDED`). The one refusal: a state the equations overflow from (the cart-pole's speeds beyond
 about 1e154) ends the episode as a failure, its last observation NaN."""
 
 import functools
@@ -21,6 +21,13 @@ import jax.numpy as jnp  # noqa: E402
 import lwrl.jax  # noqa: E402
 from lwrl import tasks  # noqa: E402
 from lwrl.spaces import Discrete  # noqa: E402
+
+
+UNBOUNDED = 1e300
+"""The largest speed drawn where the observation space bounds none. Past about 1e305 the
+pendulum's friction term (mu omega / (m l^2), l down to 0.1) leaves float's range and its
+next state is not finite: such speeds are not reachable from any start under the torques
+allowed, and the task states no bound of its own."""
 
 
 @functools.cache
@@ -43,7 +50,7 @@ def within(draw, name: str, actions: str):
     parameters = tasks.domain(env.definition.domain).parameters.items
     params = np.array([draw(st.floats(p.low, p.high)) for p in parameters])
     space = env.observation_space(params)
-    physics = np.array([draw(st.floats(low, high, allow_infinity=False))
+    physics = np.array([draw(st.floats(max(low, -UNBOUNDED), min(high, UNBOUNDED)))
                         for low, high in zip(space.low, space.high)])
     action_space = env.action_space(params)
     if isinstance(action_space, Discrete):
