@@ -1,7 +1,9 @@
 """The learner contract (`agent.learner_contract`), checked for every learner of the registry on every
-task of the suite it fits, through the checks lwrl ships (`lwrl.testing`): a new learner is one
-module and a registry line, and these tests hold it to the contract without an edit here;
-what is about lwrl's own registry and learners stays here."""
+task of the suite it fits (a JAX population learner on the tasks of `POPULATION_TASKS`, its
+check alone and in a batch on those of `ALONE_TASKS`: each case compiles its programs),
+through the checks lwrl ships (`lwrl.testing`): a new learner is one module and a registry
+line, and these tests hold it to the contract without an edit here; what is about lwrl's own
+registry and learners stays here."""
 
 import dataclasses
 import itertools
@@ -16,15 +18,30 @@ from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent
 from lwrl.settings import base_type
 
-PAIRS = [(learner, task) for learner, task in itertools.product(learners.LEARNER_NAMES, tasks.TASK_NAMES)
-         if testing.fits(learner, task)]
+FITS = [(learner, task) for learner, task in itertools.product(learners.LEARNER_NAMES, tasks.TASK_NAMES)
+        if testing.fits(learner, task)]
 """(learner, task) of every learner on every task it fits, made with the learner's kind of
 actions (`Learner.actions`)."""
 MISFITS = [(learner, task) for learner, task in itertools.product(learners.LEARNER_NAMES, tasks.TASK_NAMES)
-           if (learner, task) not in PAIRS]
+           if (learner, task) not in FITS]
+POPULATION_TASKS = ("mountain_car.cost_to_go", "cartpole.balance", "acrobot.swingup")
+"""The tasks a population learner (JAX, `Learner.population`) is checked on: each of its
+cases compiles JAX programs (seconds each), and these tasks give it every observation size
+(2, 4) and number of actions (3, 2, 3) of the suite, the pendulum's (2 variables, 2 actions)
+repeating Mountain-Car's size and the cart-pole's actions. Every other learner is checked on
+every task it fits."""
+PAIRS = [(learner, task) for learner, task in FITS
+         if not learners.learner(learner).population or task in POPULATION_TASKS]
+"""The (learner, task) pairs the contract's checks run on."""
 CASES = [learner_case(learner, task) for learner, task in PAIRS]
 """`PAIRS` as test cases, skipped (saying why) where the learner's libraries are not
 installed."""
+ALONE_TASKS = ("mountain_car.cost_to_go", "cartpole.balance")
+"""Where a population learner is checked alone and in a batch: a run of one agent compiles a
+JAX program of its own, and the property is the learner's whatever the task; these two
+tasks differ in the observation's size (2, 4) and the number of actions (3, 2)."""
+ALONE_CASES = [learner_case(learner, task) for learner, task in PAIRS
+               if not learners.learner(learner).population or task in ALONE_TASKS]
 
 
 def test_the_registry_names_each_learner_once():
@@ -50,7 +67,7 @@ def test_every_run_path_gives_the_same_numbers(learner, task):
     testing.check_learner_run_paths(learner, task)
 
 
-@pytest.mark.parametrize("learner, task", CASES)
+@pytest.mark.parametrize("learner, task", ALONE_CASES)
 def test_an_agent_is_the_same_alone_and_in_a_batch(learner, task):
     testing.check_learner_alone_as_in_a_batch(learner, task)
 
@@ -149,6 +166,6 @@ def test_check_learner_runs_every_check_on_the_tasks_it_fits_and_the_misfit_chec
     testing.check_learner(learners.learner(learner))
     assert called == [(check, learner, task) for task in tasks.TASK_NAMES
                       for check in ([check.__name__ for check in checks]
-                                    if (learner, task) in PAIRS else
+                                    if (learner, task) in FITS else
                                     ["check_learner_refuses_misfit"])]
     assert len(checks) == 7
