@@ -244,12 +244,15 @@ def test_randomised_physics_runs_each_episode_at_the_compiled_loops_draws():
     assert not np.any(np.isclose(nominal.returns, results.returns, rtol=1e-6))
 
 
-def test_each_agent_of_a_batch_senses_and_acts_with_its_own_options():
+def test_each_agent_of_a_batch_senses_and_acts_with_its_own_options(monkeypatch):
     """Two runs that differ in their sensors and actuator, joined into one batch as the sweep
     joins them (a robustness evaluation's cells): each agent's episodes are, bit for bit,
     those it has alone with its own options; one compiled program serves every noise level
     and delay (up to the longest, which shapes it); and the noise and the delay change the
-    episodes."""
+    episodes. The process is held uncrowded (`runners.mappings`): a worker that had compiled
+    many programs let them all go in the middle of the test, and compiled one again."""
+    from lwrl.runners import mappings
+    monkeypatch.setattr(mappings, "crowded", lambda: False)
     noisy = dataclasses.replace(EVALUATED, observation_noise={"angle": 0.05,
                                                               "angular_velocity": 0.2},
                                 action_noise=0.5)
