@@ -29,15 +29,10 @@ way and the divergence flag (ints)."""
 
 def learner_form(agents, b: int) -> LearnerForm:
     """Agent b of `agents` (an `agent.ars.ArsAgents`) as the C learner's template takes it;
-    a one-line ValueError for continuous actions and for agents that normalise their
-    observations (the `observation_norm` setting) besides V2."""
-    name = agents.learner.name
+    a one-line ValueError for continuous actions."""
     if agents.continuous:
-        raise ValueError(f"{name} agents cannot learn in C: the device's programs exchange an "
-                         "action index, and these act continuously")
-    if agents.normalises_observations():
-        raise ValueError(f"{name} agents that normalise their observations cannot learn in "
-                         "C: the C learner reads states as ARS V1 or V2 does, no other way")
+        raise ValueError(f"{agents.learner.name} agents cannot learn in C: the device's "
+                         "programs exchange an action index, and these act continuously")
     settings = agents.settings[b]
     tree = agents.unflatten(agents.arrays.weights[b])
     weights = np.concatenate([np.ravel(tree[part]) for part in ("mean", "std", "theta")])
