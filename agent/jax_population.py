@@ -342,9 +342,9 @@ def initial_states(agents, keys):
     `(B, 2)`, one agent after another. Not vmapped: the orthogonal initialisation's batched
     QR hangs XLA's CPU runtime in some processes (jaxlib 0.10.2: 5 of 6 fresh processes
     making 100 ppo_jax agents never returned); agent by agent gives the same bits. The leaves
-are stacked by NumPy and put on the device as they are: `jnp.stack` (and `jnp.asarray`)
-compiled a program for each leaf's shape and batch size, about 30 of them for a SAC batch
-(0.8 s)."""
+    are stacked by NumPy and put on the device as they are: `jnp.stack` (and `jnp.asarray`)
+    compiled a program for each leaf's shape and batch size, about 30 of them for a SAC
+    batch (0.8 s)."""
     one, jax = initialiser(agents), agents.jax
     return jax.tree.map(lambda *leaves: jax.device_put(np.stack([np.asarray(leaf)
                                                                  for leaf in leaves])),

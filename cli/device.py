@@ -24,8 +24,8 @@ weights (fetched by frames; they load in `lwrl eval`), `--rrd` a recording.
 Cortex-M4, runs both (the M4 under qemu-system-arm, mps2-an386) and prints the steps per
 episode of each side by side; `costs` measures bytes and instructions per learning step and
 per decision (export/device.py), or for a learner without a C learner (`--learner`: the
-streaming learners, ARS with continuous actions) its greedy controller's bytes and instructions per decision, beside its
-counted arithmetic and the memory its learning needs. Needs gcc-arm-none-eabi, libnewlib-arm-none-eabi,
+streaming learners, ARS with continuous actions) its greedy controller's bytes and
+instructions per decision, beside its counted arithmetic and the memory its learning needs. Needs gcc-arm-none-eabi, libnewlib-arm-none-eabi,
 qemu-system-arm and, for `costs`, valgrind.
 """
 

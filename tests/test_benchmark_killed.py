@@ -1,7 +1,7 @@
-"""`lwrl bench run --no-report` killed (SIGKILL: no handler runs) once some of its tables are written,
-while it writes another, then the same command again: every table the same, byte for byte,
-as an uninterrupted run's, and nothing of the killed process left behind in the benchmark's
-directory."""
+"""`lwrl bench run --no-report` killed (SIGKILL: no handler runs) once some of its tables
+are written, while it writes another, then the same command again: every table the same,
+byte for byte, as an uninterrupted run's, and nothing of the killed process left behind in
+the benchmark's directory."""
 
 import os
 import pathlib

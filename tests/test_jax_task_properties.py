@@ -1,11 +1,12 @@
 """The JAX tasks' `step` (`lwrl.jax`) over arbitrary states, actions and physical parameters
 within their spaces (Hypothesis): on every task, with either kind of action, a state within
 the task's observation bounds (`env.observation_space(params)`; any speed up to
-`UNBOUNDED` where it bounds none, the pendulum's and the cart-pole's), an action of `env.action_space(params)`
-and parameter values within their declared ranges (`tasks.domain(d).parameters`) give a
-finite observation and reward, a finite up-time on the tasks that keep one, and boolean
-flags (speeds up to `UNBOUNDED`). The one refusal: a state the equations overflow from (the cart-pole's speeds beyond
-about 1e154) ends the episode as a failure, its last observation NaN."""
+`UNBOUNDED` where it bounds none, the pendulum's and the cart-pole's), an action of
+`env.action_space(params)` and parameter values within their declared ranges
+(`tasks.domain(d).parameters`) give a finite observation and reward, a finite up-time on
+the tasks that keep one, and boolean flags. The one refusal: a state the equations overflow
+from (the cart-pole's speeds beyond about 1e154) ends the episode as a failure, its last
+observation NaN."""
 
 import functools
 
