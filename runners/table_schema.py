@@ -3,19 +3,22 @@
 per kind of table beside the code that writes it (`runners/schemas/`: a run's table, its
 records, configs.jsonl, compute.jsonl; `studies/paper/benchmark/schemas/`: the reference rows).
 
-`violations` checks a table against a schema with pandas, a column at a time, because the
-committed tables hold millions of rows, which frictionless's own validator reads one at a
-time (minutes); it checks the part of the specification those schemas use, and says so of
-any other: the fields' names against `fieldsMatch`; each field's `type` (string, integer,
-number, boolean, object, array, datetime with a strptime `format`); the constraints
+`violations` checks a table against a schema with pandas, a column at a time (each distinct
+cell typed once), because the committed tables hold millions of rows, which frictionless's own
+validator reads one at a time (minutes); `table_violations` parses many small files of one
+header at once (`read_csvs`). It checks the part of the specification those schemas use, and
+says so of any other: the fields' names against `fieldsMatch`; each field's `type` (string,
+integer, number, boolean, object, array, datetime with a strptime `format`); the constraints
 `required`, `unique`, `minimum`, `maximum` and `enum`; `primaryKey` (unique, none missing);
-`missingValues` and the booleans' default true and false values. A CSV table is read as
-text (`read_csv`), so that a cell is judged as written; a JSON lines file as its values
+`missingValues` and the booleans' default true and false values. A CSV table is read as text
+(`read_csv`), so that a cell is judged as written; a JSON lines file as its values
 (`read_jsonl`). tests/test_table_schemas.py holds the committed tables to the schemas, and
-checks with frictionless itself, where it is installed, that they are Table Schemas and
-that it agrees on a sample of tables.
+checks with frictionless itself, where it is installed, that they are Table Schemas and that
+it agrees on a sample of tables.
 """
 
+import gzip
+import io
 import json
 import pathlib
 import re
@@ -117,17 +120,23 @@ def table_violations(paths, schema: dict) -> list:
 
 
 def chunk_violations(paths: list, schema: dict) -> list:
-    """`table_violations` of a few files, read together."""
-    tables, problems = [], []
+    """`table_violations` of a few files, those of one header parsed at once (`read_csvs`)."""
+    fields = [field["name"] for field in schema["fields"]]
+    match = schema.get("fieldsMatch", "exact")
+    groups: dict = {}
     for path in paths:
-        table = read_csv(path, schema)
-        problems += [f"{path}: {line}" for line in
-                     field_match(list(table.columns), [field["name"] for field in schema["fields"]],
-                                 schema.get("fieldsMatch", "exact"))]
+        text = file_bytes(path)
+        groups.setdefault(text.partition(b"\n")[0], []).append((path, text))
+    tables, order, problems = [], [], []
+    for group in groups.values():
+        table = read_csvs([text for _, text in group], schema)
+        problems += [f"{path}: {line}" for path, _ in group
+                     for line in field_match(list(table.columns), fields, match)]
         tables.append(table)
+        order += [path for path, _ in group]
     whole = pd.concat(tables, ignore_index=True)
     whole.attrs["csv"] = True
-    lengths = [len(table) for table in tables]
+    lengths = [length for table in tables for length in table.attrs["lengths"]]
     ends = np.cumsum(lengths)
     row = re.compile(r"at row (\d+)")
 
@@ -138,10 +147,37 @@ def chunk_violations(paths: list, schema: dict) -> list:
         number = int(found.group(1))
         index = int(np.searchsorted(ends, number))
         within = number - (int(ends[index - 1]) if index else 0)
-        return f"{paths[index]}: {line[:found.start()]}at row {within}{line[found.end():]}"
+        return f"{order[index]}: {line[:found.start()]}at row {within}{line[found.end():]}"
     return problems + [located(line.removeprefix("table: ")) for line in
                        violations(whole, dict(schema, fieldsMatch="partial"),
-                                  within=np.repeat(np.arange(len(tables)), lengths))]
+                                  within=np.repeat(np.arange(len(lengths)), lengths))]
+
+
+def file_bytes(path) -> bytes:
+    """The bytes of the file at `path`, gunzipped for `.gz`."""
+    data = pathlib.Path(path).read_bytes()
+    return gzip.decompress(data) if str(path).endswith(".gz") else data
+
+
+def read_csvs(texts: list, schema: dict) -> pd.DataFrame:
+    """CSV files' `texts` (bytes) of one header line as one `read_csv` table, the rows each
+    gave in `attrs["lengths"]`: their lines after the header are parsed at once, under the
+    first header (a hundred small files in the time of a few). Without carriage returns a
+    row ends at a line break, so as many rows as lines means that each line was a row, each
+    file's its own; fewer (a quoted cell holding a line break, a blank line, which
+    `read_csv` skips), and each file is read on its own."""
+    lines = [text.rstrip(b"\n").split(b"\n")[1:] for text in texts]
+    lengths = [len(part) for part in lines]
+    table = None
+    if not any(b"\r" in text for text in texts):
+        table = read_csv(io.BytesIO(b"\n".join([texts[0].partition(b"\n")[0],
+                                                *(line for part in lines for line in part)])),
+                         schema)
+    if table is None or len(table) != sum(lengths):
+        tables = [read_csv(io.BytesIO(text), schema) for text in texts]
+        table, lengths = pd.concat(tables, ignore_index=True), [len(part) for part in tables]
+    table.attrs["lengths"] = lengths
+    return table
 
 
 def field_match(columns: list, fields: list, match: str) -> list:
@@ -200,10 +236,13 @@ def field_violations(column: pd.Series, field: dict, text: bool) -> list:
 
 def typed(values: pd.Series, field: dict, text: bool) -> tuple:
     """`(the values as their type's numbers or objects, a mask of those that are not of
-    it)`: `text`, CSV cells as Table Schema reads them (`typed_text`), else values as JSON
-    typed them."""
+    it)`: `text`, CSV cells as Table Schema reads them (`typed_text`, of each distinct cell
+    once: a run's table repeats its settings on every row), else values as JSON typed
+    them."""
     if text:
-        return typed_text(values.astype(str), field)
+        codes, cells = pd.factorize(values.astype(str))
+        read, wrong = typed_text(pd.Series(cells), field)
+        return read[codes], wrong[codes]
     kind = field.get("type", "any")
     python = {"string": str, "integer": int, "number": (int, float), "boolean": bool,
               "object": dict, "array": list, "datetime": str}[kind]

@@ -121,6 +121,43 @@ def test_the_checker_finds_what_breaks_a_schema(tmp_path):
         assert len(found) == 1 and fault in found[0] and str(path) in found[0], (fault, found)
 
 
+def test_tables_read_together_are_the_tables_read_one_by_one():
+    """`read_csvs` parses files of one header at once: where a quoted cell holds a line
+    break, a line is blank or lines end in carriage returns, it gives each file's rows as
+    reading them one by one does; a quote a file leaves open is an error, not a cell that
+    takes in the next file's lines."""
+    import io
+    schema = table_schema.load(REFERENCES)
+    header = b"a,b\n"
+    cases = {"plain": [header + b"1,x\n2,y\n", header + b"3,z", header],
+             "quoted comma": [header + b'1,"x,y"\n', header + b'2,"say ""hi"""\n'],
+             "quoted line break": [header + b'1,"x\ny"\n2,z\n', header + b"3,w\n"],
+             "blank line": [header + b"1,x\n\n2,y\n", header + b"3,z\n\n"],
+             "carriage returns": [header + b"1,x\r\n2,y\r\n", header + b"3,z\r4,w\n"]}
+    for case, texts in cases.items():
+        together = table_schema.read_csvs(texts, schema)
+        alone = [table_schema.read_csv(io.BytesIO(text), schema) for text in texts]
+        pd.testing.assert_frame_equal(together, pd.concat(alone, ignore_index=True), obj=case)
+        assert together.attrs["lengths"] == [len(table) for table in alone], case
+    with pytest.raises(pd.errors.ParserError, match="EOF inside string"):
+        table_schema.read_csvs([header + b'1,"x\n', header + b'2,y"\n3,z\n'], schema)
+
+
+def test_a_fault_is_named_by_its_file_and_row_where_other_headers_come_between(tmp_path):
+    schema = table_schema.load(REFERENCES)
+    good = pd.DataFrame({"agent": [0, 0], "seed": [10000, 10000], "episode": [1, 2],
+                         "steps": [5.0, 7.0], "return": [-5.0, -7.0], "uptime_s": [None, None],
+                         "truncated": [False, True], "diverged": [False, False],
+                         "row": ["random", "random"]})
+    paths = [tmp_path / name for name in ("a.csv.gz", "b.csv.gz", "c.csv.gz")]
+    good.to_csv(paths[0], index=False)
+    good[list(reversed(good.columns))].to_csv(paths[1], index=False)
+    good.assign(episode=["1", "2.5"]).to_csv(paths[2], index=False)
+    found = table_schema.table_violations([str(path) for path in paths], schema)
+    assert len(found) == 2 and str(paths[1]) in found[0] and "are not the schema's fields" in found[0]
+    assert found[1].startswith(f"{paths[2]}: field 'episode': '2.5' at row 2 is no integer"), found
+
+
 def test_a_json_lines_value_of_another_type_is_found(tmp_path):
     path = tmp_path / "compute.jsonl"
     path.write_text('{"runs": ["a"], "wall_s": 1.0, "cpu_s": 2, "host": "h", '
