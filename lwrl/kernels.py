@@ -246,23 +246,22 @@ class _HealingCache(numba.core.caching.FunctionCache):
                          f"{' '.join(str(error).split())}); it runs compiled in memory")
 
 
-def _load(name: str, template, bindings: dict, helpers: dict, runtime: bool, modules: set):
+def _load(kernel: "Kernel"):
     """The kernel's numba dispatcher: from its module in the cache, or compiled in memory."""
-    path = cache_root() / sources_digest(modules) / f"{name}.py"
-    text = kernel_source(template, bindings, helpers, runtime)
-    report = _Report(name)
+    path, text, template, bindings = kernel.path, kernel.source, kernel.template, kernel.bindings
+    report = _Report(kernel.name)
     try:
         if _write(path, text):
             report(f"module {path} could not be read; written again")
     except OSError:  # no writable cache here: compile in memory
         namespace = {**vars(sys.modules[template.__module__]),
                      **{name: inline_copy(function) for name, function in bindings.items()}}
-        for helper_name, helper in helpers.items():
+        for helper_name, helper in kernel.helpers.items():
             namespace[helper_name] = numba.extending.register_jitable(forceinline=True)(
                 type(helper)(helper.__code__, namespace, helper.__name__))
         function = type(template)(template.__code__, namespace, template.__name__)
-        return numba.njit(nogil=True, _nrt=runtime)(function)
-    module = types.ModuleType(f"lwrl_kernels_{name}")
+        return numba.njit(nogil=True, _nrt=kernel.runtime)(function)
+    module = types.ModuleType(f"lwrl_kernels_{kernel.name}")
     module.__file__ = str(path)
     sys.modules[module.__name__] = module  # numba's cache finds a kernel's module by its name
     exec(compile(text, str(path), "exec"), module.__dict__)
@@ -296,13 +295,24 @@ class Kernel:
         return {self.template.__module__} | {function.__module__ for function in self.bindings.values()}
 
     @property
+    def path(self) -> pathlib.Path:
+        """Where the kernel's module is written, `<cache>/<sources>/<name>.py`: the code
+        numba compiles, the template with its bindings in place, for a reader to step
+        through."""
+        return cache_root() / sources_digest(self.modules) / f"{self.name}.py"
+
+    @property
+    def source(self) -> str:
+        """The text of the kernel's module (`kernel_source`)."""
+        return kernel_source(self.template, self.bindings, self.helpers, self.runtime)
+
+    @property
     def dispatcher(self):
         """The numba dispatcher (its `stats` count cache hits and misses)."""
         if self._dispatcher is None:
             with _LOCK:
                 if self._dispatcher is None:
-                    self._dispatcher = _load(self.name, self.template, self.bindings,
-                                             self.helpers, self.runtime, self.modules)
+                    self._dispatcher = _load(self)
         return self._dispatcher
 
     def __call__(self, *args):

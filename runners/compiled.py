@@ -11,6 +11,12 @@ the agent's own stream), as in `tasks.batched.BatchedEnv`.
 Its bookkeeping is the stepped loop's (`tasks.task_definition.advance_episode`,
 `runners.episodes.finish_episode`, `runners.recording`), and its numbers too (tested).
 
+The names `_loop` calls that a task or a learner gives (`transition`, `arrive`,
+`limit_state`, `agent_step`, `command`) are placeholders here: each kernel's module binds
+its task's and learner's functions in their place (`lwrl.kernels`). That module, the loop
+as numba compiles it, is written to the kernel cache, at `compiled_loop(definition,
+learner, plant).path` (its text `.source`), for a reader to step through.
+
 On the analytic plant the loop is compiled without numba's runtime (`lwrl.kernels`,
 `runtime=False`): a step allocates nothing and counts no references, and `run_compiled`
 passes in the memory it works in (`Scratch`). MuJoCo's needs the runtime to view the

@@ -198,6 +198,24 @@ def test_a_kernel_without_the_runtime_counts_no_references_and_allocates_nothing
     assert "NRT_incref" in llvm[counted] and "NRT_incref" not in llvm[uncounted]
     with pytest.raises(numba.core.errors.TypingError):
         kernels.kernel("fresh_rows", _fresh_rows, runtime=False)(0, 2, values, out)
+    assert all(kernel.path.parent.parent == tmp_path and kernel.path.read_text() == kernel.source
+               for kernel in (counted, uncounted))
+
+
+def test_the_compiled_loops_module_binds_its_task_and_learner_where_a_reader_finds_it():
+    """The loop's module, as numba compiles it, names the task's and the learner's
+    functions bound in place of the loop's placeholders, and lies in the kernel cache."""
+    from lwrl.agent.sarsa import LEARNER
+    from lwrl.runners.compiled import compiled_loop
+    from lwrl.tasks import mountain_car
+
+    loop = compiled_loop(mountain_car.cost_to_go(), LEARNER)
+    assert loop.path.parent.parent == kernels.cache_root() and loop.path.stem == loop.name
+    for binding in ("transition = inline_copy(importlib.import_module('lwrl.tasks.mountain_car')"
+                    ".transition)",
+                    "agent_step = inline_copy(importlib.import_module('lwrl.agent.sarsa').agent_step)",
+                    "def _loop("):
+        assert binding in loop.source, binding
 
 
 def test_the_analytic_loop_runs_without_the_runtime():
