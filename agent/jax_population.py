@@ -560,6 +560,18 @@ class PopulationAgents(Agents):
             arrays["clocks"])
         return agents
 
+    def take_weights(self, weights) -> None:
+        """The state's leaves that `learned_tree` reads, the same arrays, replaced by
+        `weights` `(B, W)` (`unflatten` of each row), the rest of the state (random streams,
+        clocks, a rollout under way) kept."""
+        jax, jnp = self.jax, self.jnp
+        leaves, structure = jax.tree.flatten(self.state)
+        position = {id(leaf): i for i, leaf in enumerate(leaves)}
+        rows = [jax.tree.leaves(self.unflatten(row)) for row in np.asarray(weights)]
+        for i, leaf in enumerate(jax.tree.leaves(self.learned_tree(self.state))):
+            leaves[position[id(leaf)]] = jnp.stack([row[i] for row in rows])
+        self.finished(jax.tree.unflatten(structure, leaves), self.clocks)
+
     def take_over(self, kept: "PopulationAgents") -> None:
         copies = self.copies_of(kept)
         self.finished(self.jax.tree.map(lambda x: self.jnp.concatenate([x] * copies), kept.state),

@@ -315,6 +315,13 @@ class Agents:
                              "ones: they must be a whole multiple of them")
         return copies
 
+    def take_weights(self, weights) -> None:
+        """Become agents that learned `weights` `(B, ...)`, in `arrays.weights`' layout (a
+        device's C learner sends its weights so, `lwrl_weights`). The default writes them
+        into `arrays.weights`, where a learner that learns in C reads its own; a learner
+        that keeps them elsewhere (a JAX population's state) overrides it."""
+        self.arrays.weights[:] = weights
+
     def take_over(self, kept: "Agents") -> None:
         """Become the agents `kept` (of this learner) as they ended, in turn: agent b is kept
         agent b mod K (K kept agents, B a multiple of K), with everything `agent.io` saves

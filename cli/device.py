@@ -3,22 +3,23 @@
     lwrl device run DOMAIN.TASK [--episodes K] [--seed S] [--real R] [--learner L]
     lwrl device costs DOMAIN.TASK... [--learner L] [--action-kind K] [--real R] [--mhz F]
     lwrl device hil DOMAIN.TASK [--plant P] [--episodes K] [--seed S] [--env-seed E]
-                    [--emulated | --port PORT [--baud B]] [--realtime] [--real R]
+                    [--learner L] [--emulated | --port PORT [--baud B]] [--realtime] [--real R]
                     [--time-limit SECONDS] [--timeout T] [--link-timeout W]
                     [--link-misses M] [--out DIR] [--save PATH]
                     [--rrd PATH [--log-episodes WHICH]] [--force]
 
-`hil` puts the learner in the loop over the device link (docs/guide/device-link.md): the
-host steps the task's plant (MuJoCo's where the task has it), the C learner acts, built for
-this machine, (`--emulated`) on the emulated Cortex-M4 with its UART as the link, or
-(`--port`) on a board behind a serial port that runs the device program; `--realtime`
-paces the plant at its control period. A session opens with a handshake that refuses
-another program in one line, and ends, with the episodes that finished written and exit
-status 1, when the device has sent no valid frame for `--link-timeout` seconds and
-`--link-misses` deadlines in a row have passed. It prints each episode and what the link
-carried, and writes what `lwrl train` writes: `--out` config.json and episodes.csv (and
-session.json: whether the session ran whole, and what the link did), `--save` the device's
-weights (fetched by frames; they load in `lwrl eval`), `--rrd` a recording.
+`hil` puts the learner in the loop over the device link (docs/guide/device-link.md): the host
+steps the task's plant (MuJoCo's where the task has it), the C learner (the task's, or
+`--learner`'s: one with a C learner) acts, built for this machine, (`--emulated`) on the
+emulated Cortex-M4 with its UART as the link, or (`--port`) on a board behind a serial port
+that runs the device program; `--realtime` paces the plant at its control period. A session
+opens with a handshake that refuses another program in one line, and ends, with the episodes
+that finished written and exit status 1, when the device has sent no valid frame for
+`--link-timeout` seconds and `--link-misses` deadlines in a row have passed. It prints each
+episode and what the link carried, and writes what `lwrl train` writes: `--out` config.json
+and episodes.csv (and session.json: whether the session ran whole, and what the link did),
+`--save` the device's weights (fetched by frames; they load in `lwrl eval`), `--rrd` a
+recording.
 
 `run` builds the task's learner with its plant in C for the host and for a bare-metal
 Cortex-M4, runs both (the M4 under qemu-system-arm, mps2-an386) and prints the steps per
@@ -85,6 +86,9 @@ def add_parser(commands) -> None:
     hil.add_argument("--seed", type=fields.non_negative_int, default=0, help="the agent's seed")
     hil.add_argument("--env-seed", type=fields.non_negative_int, default=0,
                      help="the plant's seed (its episodes' starts)")
+    hil.add_argument("--learner", choices=learners.LEARNER_NAMES, default=None,
+                     help="a new agent of this learner with its defaults (default: the task's); "
+                          "it must have a C learner, as for run")
     hil.add_argument("--emulated", action="store_true",
                      help="the learner on the emulated Cortex-M4 (QEMU's mps2-an386, its UART "
                           "the link) rather than built for this machine")
@@ -268,14 +272,16 @@ def run_hil(args) -> int:
     name = (f"the board at {args.port} ({args.baud} baud)" if args.port
             else "the emulated board" if args.emulated else "the device program")
     with tempfile.TemporaryDirectory() as build:
+        chosen = hil.learner_setting(args.learner)
         if args.port:
-            expected = hil.identity(args.task, args.seed, args.real)
+            expected = hil.identity(args.task, args.seed, args.real, **chosen)
             port, device_process = open_port(args, definition, expected), None
         else:
             command = (hil.build_emulated_program(args.task, build, seed=args.seed,
-                                                  dtype=args.real, count=True)
+                                                  dtype=args.real, count=True, **chosen)
                        if args.emulated else
-                       hil.build_host_program(args.task, build, seed=args.seed, dtype=args.real))
+                       hil.build_host_program(args.task, build, seed=args.seed, dtype=args.real,
+                                              **chosen))
             device_process = subprocess.Popen(command, stdin=subprocess.PIPE,
                                               stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
             port = PipePort(device_process)
@@ -284,7 +290,7 @@ def run_hil(args) -> int:
             results, device_agent, twin = hil.run_session(
                 link, args.task, args.episodes, seed=args.seed, plant=plant,
                 env_seed=args.env_seed, realtime=args.realtime, record=record,
-                dtype=args.real, **options)
+                dtype=args.real, learner=args.learner, **options)
             instructions = (hil.counted_instructions(device_process, build) if args.emulated
                             else None)
         finally:
@@ -293,7 +299,7 @@ def run_hil(args) -> int:
             else:
                 device_process.kill()
                 device_process.wait()
-    config = hil.twin_of(args.task, args.seed, plant, **options)[0]
+    config = hil.twin_of(args.task, args.seed, plant, args.learner, **options)[0]
     where = (f"on the emulated Cortex-M4 ({device.BOARD}, its UART the link)" if args.emulated
              else f"on the board at {args.port} ({args.baud} baud)" if args.port
              else "built for this machine")

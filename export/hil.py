@@ -261,30 +261,39 @@ class DeviceAgent:
         self.frame_step -= 1
 
 
-def twin_of(task: str, seed: int, plant, **task_options):
+def twin_of(task: str, seed: int, plant, learner: str | None = None, **task_options):
     """The one-agent `RunConfig` and `Agents` of the learner the device program of `task`
-    runs (`write_program` with `seed`), lwrl's loops' defaults."""
+    runs (`write_program` with `seed` and `learner`, the task's default where None), lwrl's
+    loops' defaults."""
     config = RunConfig(task=task, agents=1, seed=seed, plant=plant,
-                       task_options=dict(task_options))
+                       task_options=dict(task_options), **learner_setting(learner))
     return config, make_agent(config)
 
 
+def learner_setting(learner: str | None) -> dict:
+    """`{"learner": learner}`, the `RunConfig` setting of a learner named on the command
+    line, or nothing for the task's default."""
+    return {"learner": learner} if learner else {}
+
+
 def run_session(link, task: str, episodes: int, seed: int = 0, plant=None, env_seed: int = 0,
-                realtime: bool = False, record=(), dtype: str = "double", **task_options):
+                realtime: bool = False, record=(), dtype: str = "double",
+                learner: str | None = None, **task_options):
     """`episodes` episodes of `task` on `plant` (the domain's first by default; the plant
     seeded with `env_seed` as lwrl's loops seed an environment; `task_options` the task's,
-    e.g. `time_limit`) with the device behind `link` acting, a `DeviceAgent` of the learner
-    seeded with `seed` in `dtype`, after a handshake that refuses any other program;
+    e.g. `time_limit`) with the device behind `link` acting, a `DeviceAgent` of `learner`
+    (the task's default where None) seeded with `seed` in `dtype`, after a handshake that
+    refuses any other program;
     real time at the task's control period with `realtime`; `record`: the `(0, episode)`
     pairs recorded, as `run_batched` records them. Returns the episodes (`EpisodeResults`,
     marked interrupted where the link's watchdog cut the session short: `link.lost` says
     why), the `DeviceAgent` (its counts) and the twin `Agents` holding the device's last
     weights, those of the last episode that finished (saved, it loads in `lwrl eval`)."""
     domain, name = tasks.split_name(task)
-    link.handshake(identity(task, seed, dtype))
-    config, twin = twin_of(task, seed, plant, **task_options)
+    link.handshake(identity(task, seed, dtype, **learner_setting(learner)))
+    config, twin = twin_of(task, seed, plant, learner, **task_options)
     env = BatchedEnv(domain, name, config.plant_name, [env_seed], **task_options)
     device = DeviceAgent(link, twin, env, env.definition.control_timestep if realtime else None)
     results = run_batched(env, device, episodes, record=record)
-    twin.arrays.weights[:] = device.arrays.weights
+    twin.take_weights(device.arrays.weights)
     return results, device, twin

@@ -371,8 +371,9 @@ def check_learner_refuses_misfit(learner: str, task: str) -> None:
 def check_learner_in_c(learner: str, task: str) -> None:
     """`Agents.learner_form`: a form whose values start from the agent's weights and stream
     (its stream's state, `arrays.streams`, or a JAX population's seed),
-    whose RAM parts are counts, and whose check passes in double; or one line saying why the
-    learner does not learn in C."""
+    whose RAM parts are counts, and whose check passes in double, and agents that take the
+    weights a device sends back (`take_weights`); or one line saying why the learner does
+    not learn in C."""
     agent = make_agent(contract_config(learner, task))
     try:
         form = agent.learner_form(1)
@@ -395,6 +396,11 @@ def check_learner_in_c(learner: str, task: str) -> None:
     _expect(checked is None, f"the form's check in double fails: {checked}")
     _expect(form.summary and form.name and form.smaller,
             "the form's summary, name or smaller is empty")
+    learned = agent.arrays.weights + np.arange(agent.arrays.weights.size).reshape(
+        agent.arrays.weights.shape) % 7 / 8.0
+    agent.take_weights(learned)  # what a device sends back
+    np.testing.assert_allclose(agent.arrays.weights, learned, rtol=1e-6,
+                               err_msg="take_weights does not make the agents' weights these")
 
 
 LEARNER_CHECKS = (check_learner_run_paths, check_learner_alone_as_in_a_batch, check_learner_arrays,
