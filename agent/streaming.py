@@ -10,7 +10,10 @@ Each follows the paper and the authors' PyTorch code, `mohmdelsayed/streaming-dr
 Time-indexed names as in rlax: `z_tm1` the trace before the step, `z_t` after it.
 
 The networks are float32 (the authors' `torch.float`); the running statistics, the TD error
-and the step size float64 (their NumPy statistics and Python floats). This module imports JAX:
+and the step size float64 (their NumPy statistics and Python floats). What meets the
+parameters is rounded to their own type, so that float64 parameters are computed in float64
+throughout (the C learner's double build against these equations, `tests/test_stream_q_c.py`).
+This module imports JAX:
 only the learners' agents import it, once JAX is there (`agent.jax_population.jax_modules`).
 """
 
@@ -77,9 +80,9 @@ def forward(layers, x):
 
 def accumulate_trace(z_tm1, grad, gamma, lam):
     """The eligibility trace over the parameters, z_t = gamma lambda z_tm1 + grad (the
-    paper's ObGD, `ObGD.step`)."""
-    decay = (gamma * lam).astype(jnp.float32)
-    return jax.tree.map(lambda z, g: decay * z + g, z_tm1, grad)
+    paper's ObGD, `ObGD.step`), gamma lambda rounded to the parameters' type (float32)."""
+    decay = gamma * lam
+    return jax.tree.map(lambda z, g: decay.astype(z.dtype) * z + g, z_tm1, grad)
 
 
 def obgd_step_size(z_t, delta_t, learning_rate, kappa):
@@ -93,9 +96,10 @@ def obgd_step_size(z_t, delta_t, learning_rate, kappa):
 
 def obgd_apply(params, z_t, delta_t, step_size):
     """The parameters moved along the trace, w_t = w_tm1 + step delta z_t (ObGD; the
-    authors' `p -= step delta e` of the trace of the negated gradient)."""
-    scale = (step_size * delta_t).astype(jnp.float32)
-    return jax.tree.map(lambda w, z: w + scale * z, params, z_t)
+    authors' `p -= step delta e` of the trace of the negated gradient), step delta rounded
+    to the parameters' type (float32)."""
+    scale = step_size * delta_t
+    return jax.tree.map(lambda w, z: w + scale.astype(w.dtype) * z, params, z_t)
 
 
 def obgd(params, z_tm1, grad, delta_t, learning_rate, gamma, lam, kappa):
