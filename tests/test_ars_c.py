@@ -16,11 +16,11 @@ import subprocess
 
 import numpy as np
 import pytest
-from test_learner_c import COMPILER, STRICT, CLearner, needs_compiler
+from test_learner_c import (COMPILER, STRICT, CLearner, episode_lengths,
+                            learns_on_the_emulated_m4, needs_compiler, needs_emulated_m4)
 
 from lwrl.agent import jax_population, random_search, running_stats, streams
-from lwrl.cli.main import main
-from lwrl.export import device, learner
+from lwrl.export import learner
 from lwrl.export.c import section_sizes
 from lwrl.tasks.batched import BatchedEnv
 
@@ -140,16 +140,7 @@ def test_the_float_learner_learns_to_balance_longer(tmp_path):
     seeds, episodes = [0, 1, 2, 3], 24 * 8
     learners = [c_learner(tmp_path / str(seed), "cartpole.balance", seed, "float",
                           directions=4)[1] for seed in seeds]
-    env = BatchedEnv("cartpole", "balance", "analytic", seeds=seeds, time_limit=5.0)
-    lengths = [[] for _ in seeds]
-    ts = env.reset()
-    while min(len(episode) for episode in lengths) < episodes:
-        actions = np.array([c.step(ts.first()[b], ts.reward[b], ts.discount[b], ts.observation[b])
-                            for b, c in enumerate(learners)])
-        for b in np.flatnonzero(ts.last()):
-            lengths[b].append(env.steps[b])
-        ts = env.step(actions)
-    lengths = np.array([episode[:episodes] for episode in lengths], dtype=float)
+    lengths = episode_lengths(learners, "cartpole.balance", seeds, episodes, 5.0)
     first, last = lengths[:, :16].mean(), lengths[:, -16:].mean()
     print(f"\nmean episode length: first 16 {first:.1f}, last 16 {last:.1f}")
     assert last >= 2 * first
@@ -169,15 +160,11 @@ def test_the_ram_it_declares_is_its_objects_static_data(tmp_path):
         assert written["ram"]["total"] <= static <= written["ram"]["total"] + 64, (dtype, static)
 
 
-@pytest.mark.skipif(bool(device.missing_tools()), reason="needs the Cortex-M4 cross compiler "
-                    "and QEMU (gcc-arm-none-eabi, libnewlib-arm-none-eabi, qemu-system-arm)")
+@needs_emulated_m4
 def test_it_learns_on_the_emulated_cortex_m4_as_on_the_host(capsys):
     """`lwrl device run TASK --learner ars`: every episode's steps equal on both builds."""
-    assert main(["device", "run", "mountain_car.cost_to_go", "--learner", "ars",
-                 "--episodes", "8"]) == 0
-    out = capsys.readouterr().out
+    out = learns_on_the_emulated_m4(capsys, "mountain_car.cost_to_go", "ars", 8)
     assert "ARS V2-t, linear policy 3 x 2, 8 directions" in out
-    assert "steps per episode equal on both" in out
 
 
 @needs_compiler

@@ -28,7 +28,7 @@ from scipy import stats
 
 from lwrl.agent import io as agent_io
 from lwrl.agent.sarsa import BatchedSarsa
-from lwrl.export import learner
+from lwrl.export import device, learner
 from lwrl.export.c import section_sizes
 from lwrl.runners.config import RunConfig
 from lwrl.runners.run import make_agent
@@ -39,6 +39,19 @@ needs_compiler = pytest.mark.skipif(COMPILER is None,
                                     reason="no C compiler (cc, gcc or clang) on the PATH")
 STRICT = ["-std=c99", "-pedantic", "-Wall", "-Wextra", "-Wconversion", "-Wdouble-promotion",
           "-Werror", "-ffp-contract=off"]
+needs_emulated_m4 = pytest.mark.skipif(
+    bool(device.missing_tools()), reason="needs the Cortex-M4 cross compiler and QEMU "
+    "(gcc-arm-none-eabi, libnewlib-arm-none-eabi, qemu-system-arm)")
+
+
+def learns_on_the_emulated_m4(capsys, task: str, learner_name: str, episodes: int) -> str:
+    """`lwrl device run TASK --learner L --episodes K` (a new agent of the learner learning
+    on the emulated Cortex-M4 and in the host build) succeeds, every episode's steps equal
+    on both; its output."""
+    status, out, _ = run_cli(["device", "run", task, "--learner", learner_name, "--episodes",
+                              str(episodes)], capsys)
+    assert status == 0 and "steps per episode equal on both" in out, out
+    return out
 
 
 class CLearner:
@@ -84,6 +97,22 @@ class CLearner:
     @property
     def diverged(self) -> bool:
         return bool(self.lib.lwrl_diverged())
+
+
+def episode_lengths(learners, task: str, seeds, episodes: int, time_limit: float) -> np.ndarray:
+    """`(agents, episodes)` the steps of each of `learners`' (`CLearner`s) first `episodes`
+    episodes, each on its own analytic plant of `task` (the seeds' `BatchedEnv`) cut at
+    `time_limit` seconds."""
+    env = BatchedEnv(*task.split("."), "analytic", seeds=seeds, time_limit=time_limit)
+    lengths = [[] for _ in seeds]
+    ts = env.reset()
+    while min(len(episode) for episode in lengths) < episodes:
+        actions = np.array([c.step(ts.first()[b], ts.reward[b], ts.discount[b], ts.observation[b])
+                            for b, c in enumerate(learners)])
+        for b in np.flatnonzero(ts.last()):
+            lengths[b].append(env.steps[b])
+        ts = env.step(actions)
+    return np.array([episode[:episodes] for episode in lengths], dtype=float)
 
 
 def python_agents(task, seeds, **settings):
