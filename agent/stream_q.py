@@ -100,6 +100,11 @@ class StreamQAgents(StreamAgents):
         return streaming.obgd(params, traces, grad, delta, hyper["learning_rate"],
                               hyper["gamma"], hyper["lam"], hyper["kappa"])
 
+    def learner_form(self, b: int):
+        """Agent b as C that goes on learning on a device (`agent.stream_q_c`)."""
+        from lwrl.agent import stream_q_c
+        return stream_q_c.learner_form(self, b)
+
     def q_values(self, tree, states):
         """Q(s, .) `(..., A)` of one agent's networks `tree` at states in task units, their
         observation normalised as in learning."""

@@ -236,6 +236,8 @@ SLOW = {
     r"test_robustness\.py::test_the_c_controller_acts": "compiles a C controller",
     r"test_ars_c\.py::(?!test_continuous_actions)": "compiles ARS's C learner and trains it "
         "(on the emulated Cortex-M4 too)",
+    r"test_stream_q_c\.py::": "compiles stream-Q's C learner and trains it (on the emulated "
+        "Cortex-M4 too)",
     r"test_device\.py::test_host_build_in_double_is_the_python_learner_on_the_python_plant"
     r"\[(?!paper)": "compiles and runs the device program on the host",
     # The network learners (their modules stay in the quick loop through the settings
