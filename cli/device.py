@@ -24,8 +24,8 @@ recording.
 `run` builds the task's learner with its plant in C for the host and for a bare-metal
 Cortex-M4, runs both (the M4 under qemu-system-arm, mps2-an386) and prints the steps per
 episode of each side by side; `costs` measures bytes and instructions per learning step and
-per decision (export/device.py), or for a learner without a C learner (`--learner`: the
-streaming learners, ARS with continuous actions) its greedy controller's bytes and
+per decision (export/device.py), or for a learner without a C learner (`--learner`:
+Stream AC(lambda), ARS with continuous actions) its greedy controller's bytes and
 instructions per decision, beside its counted arithmetic and the memory its learning needs. Needs gcc-arm-none-eabi, libnewlib-arm-none-eabi,
 qemu-system-arm and, for `costs`, valgrind.
 """
@@ -58,7 +58,8 @@ def add_parser(commands) -> None:
     run.add_argument("--real", choices=("float", "double"), default="float")
     run.add_argument("--learner", choices=learners.LEARNER_NAMES, default=None,
                      help="a new agent of this learner with its defaults (default: the task's); "
-                          "it must have a C learner (Sarsa(lambda) over NRBF features, ARS)")
+                          "it must have a C learner (Sarsa(lambda) over NRBF features, ARS, "
+                          "Stream Q(lambda))")
     run.set_defaults(run=run_device)
     costs = actions.add_parser("costs", help="bytes and instructions of the tasks' learners, or "
                                              "of a learner's greedy controller")

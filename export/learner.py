@@ -4,8 +4,8 @@ Främling (2008) argues that the methods "remain computationally feasible to imp
 as embedded software" and could let "embedded systems ... adapt to their environment":
 adapting means learning on the device. `write_learner` writes one agent whose learner has
 a C form (`Agents.learner_form`: the template it fills, its values and the parts of its
-RAM; NRBF Sarsa(lambda) with replacing or accumulating traces, `agent.sarsa_c`, and ARS
-with discrete actions, `agent.ars_c`) as two files in
+RAM; NRBF Sarsa(lambda) with replacing or accumulating traces, `agent.sarsa_c`, ARS with
+discrete actions, `agent.ars_c`, and Stream Q(lambda), `agent.stream_q_c`) as two files in
 `out_dir`:
 
 - `lwrl_learner.h`: the interface, six functions: `lwrl_reset(seed)` once, then per
