@@ -167,38 +167,6 @@ def test_it_learns_on_the_emulated_cortex_m4_as_on_the_host(capsys):
     assert "ARS V2-t, linear policy 3 x 2, 8 directions" in out
 
 
-@needs_compiler
-def test_it_learns_over_the_device_link_as_it_learns_alone(tmp_path, capsys):
-    """`lwrl device hil TASK --learner ars`: the device program (built for this machine, in
-    double) over the link takes the steps the same C learner takes driven directly on the
-    same episodes, and its weights, fetched by frames and saved, are that learner's to the
-    bit and load as an agent that `lwrl eval` runs."""
-    import csv
-
-    from lwrl.agent import io as agent_io
-
-    episodes, out, saved = 20, tmp_path / "run", tmp_path / "agent.npz"
-    assert main(["device", "hil", "mountain_car.cost_to_go", "--learner", "ars", "--episodes",
-                 str(episodes), "--seed", "3", "--env-seed", "11", "--time-limit", "50",
-                 "--out", str(out), "--save", str(saved)]) == 0
-    assert "0 missed deadlines" in capsys.readouterr().out
-    with open(out / "episodes.csv") as file:
-        steps = [int(row["steps"]) for row in csv.DictReader(file)]
-    _, alone = c_learner(tmp_path / "alone", "mountain_car.cost_to_go", 3)
-    env = BatchedEnv("mountain_car", "cost_to_go", "analytic", seeds=[11], time_limit=50)
-    ts, own = env.reset(), []
-    while len(own) < episodes:
-        action = alone.step(ts.first()[0], ts.reward[0], ts.discount[0], ts.observation[0])
-        if ts.last()[0]:
-            own.append(int(env.steps[0]))
-        ts = env.step(np.array([action]))
-    assert steps == own and len(set(own)) > 1
-    loaded, metadata = agent_io.load(saved)
-    assert metadata["config"]["learner"] == "ars"
-    np.testing.assert_array_equal(loaded.arrays.weights[0], alone.weights.ravel())
-    assert main(["eval", str(saved), "--episodes", "1"]) == 0
-
-
 def test_continuous_actions_have_no_c_learner():
     source = learner.from_task("pendulum.swingup", seed=0, learner="ars_continuous",
                                actions="continuous")

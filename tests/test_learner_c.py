@@ -311,3 +311,36 @@ def test_the_cli_takes_lwrl_trains_flags_for_a_task_and_none_for_a_saved_agent(t
     status, _, err = run_cli(["learner", "cartpole.balance", "--learner", "ase_ace", "--c",
                               str(tmp_path / "other")], capsys)
     assert status == 2 and err == ["lwrl learner: error: ase_ace agents cannot learn in C"]
+
+
+@needs_compiler
+@pytest.mark.parametrize("name, rtol", [("ars", 0.0), ("stream_q", 1e-6)])
+def test_a_learner_learns_over_the_device_link_as_it_learns_alone(tmp_path, capsys, name, rtol):
+    """`lwrl device hil TASK --learner L` for the learners whose C learner draws its own
+    numbers (not the JAX agent's): the device program (built for this machine, in double)
+    over the link takes the steps the same C learner takes driven directly on the same
+    episodes, and its weights, fetched by frames and saved, are that learner's (to the bit,
+    or within float32's rounding where the agent keeps float32 networks) and load as an
+    agent that `lwrl eval` runs."""
+    import csv
+
+    episodes, out, saved = 20, tmp_path / "run", tmp_path / "agent.npz"
+    assert run_cli(["device", "hil", "mountain_car.cost_to_go", "--learner", name, "--episodes",
+                    str(episodes), "--seed", "3", "--env-seed", "11", "--time-limit", "50",
+                    "--out", str(out), "--save", str(saved)], capsys)[0] == 0
+    with open(out / "episodes.csv") as file:
+        steps = [int(row["steps"]) for row in csv.DictReader(file)]
+    alone = CLearner(learner.from_task("mountain_car.cost_to_go", seed=3, learner=name),
+                     "double", tmp_path)
+    env = BatchedEnv("mountain_car", "cost_to_go", "analytic", seeds=[11], time_limit=50)
+    ts, own = env.reset(), []
+    while len(own) < episodes:
+        action = alone.step(ts.first()[0], ts.reward[0], ts.discount[0], ts.observation[0])
+        if ts.last()[0]:
+            own.append(int(env.steps[0]))
+        ts = env.step(np.array([action]))
+    assert steps == own and len(set(own)) > 1
+    loaded, metadata = agent_io.load(saved)
+    assert metadata["config"]["learner"] == name
+    np.testing.assert_allclose(loaded.arrays.weights[0], alone.weights.ravel(), rtol=rtol, atol=0)
+    assert run_cli(["eval", str(saved), "--episodes", "1"], capsys)[0] == 0
