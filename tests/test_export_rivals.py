@@ -142,12 +142,12 @@ def test_the_controllers_are_measured_on_the_emulated_m4(agent_files):
 @pytest.mark.skipif(bool(device.missing_tools()), reason="missing the cross tools or QEMU")
 @pytest.mark.skipif(shutil.which("valgrind") is None, reason="missing valgrind")
 def test_device_costs_measures_a_learner_without_a_c_learner(capsys):
-    """`lwrl device costs TASK --learner stream_q`: Stream Q(lambda) has no learner in C, so
-    its row is its greedy controller's, after `--train` steps, with its counted arithmetic and
-    memory against the board's RAM."""
-    assert main(["device", "costs", "pendulum.swingup", "--learner", "stream_q",
+    """`lwrl device costs TASK --learner stream_ac_discrete`: Stream AC(lambda) has no
+    learner in C, so its row is its greedy controller's, after `--train` steps, with its
+    counted arithmetic and memory against the board's RAM."""
+    assert main(["device", "costs", "pendulum.swingup", "--learner", "stream_ac_discrete",
                  "--train", "3000"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert "after 3000 steps of learning" in lines[0]
     row = next(line for line in lines if line.startswith("pendulum.swingup"))
-    assert "(fits)" in row and "stream_q: Q 2-32-32-2, layer norm" in row
+    assert "(fits)" in row and "stream_ac_discrete: actor 2-32-32-2, critic 2-32-32-1" in row
