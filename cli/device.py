@@ -1,7 +1,8 @@
 """`lwrl device`: the C learner learning on an emulated Cortex-M4 (QEMU), and its cost.
 
     lwrl device run DOMAIN.TASK [--episodes K] [--seed S] [--real R] [--learner L]
-    lwrl device costs DOMAIN.TASK... [--learner L] [--action-kind K] [--real R] [--mhz F]
+    lwrl device costs DOMAIN.TASK... [--learner L] [--controller] [--action-kind K] [--real R]
+                      [--mhz F]
     lwrl device hil DOMAIN.TASK [--plant P] [--episodes K] [--seed S] [--env-seed E]
                     [--learner L] [--emulated | --port PORT [--baud B]] [--realtime] [--real R]
                     [--time-limit SECONDS] [--timeout T] [--link-timeout W]
@@ -25,9 +26,10 @@ recording.
 Cortex-M4, runs both (the M4 under qemu-system-arm, mps2-an386) and prints the steps per
 episode of each side by side; `costs` measures bytes and instructions per learning step and
 per decision (export/device.py), or for a learner without a C learner (`--learner`:
-Stream AC(lambda), ARS with continuous actions) its greedy controller's bytes and
-instructions per decision, beside its counted arithmetic and the memory its learning needs. Needs gcc-arm-none-eabi, libnewlib-arm-none-eabi,
-qemu-system-arm and, for `costs`, valgrind.
+Stream AC(lambda), ARS with continuous actions), or with `--controller`, its greedy
+controller's bytes and instructions per decision, beside its counted arithmetic and the
+memory its learning needs. Needs gcc-arm-none-eabi, libnewlib-arm-none-eabi, qemu-system-arm
+and, for `costs`, valgrind.
 """
 
 import sys
@@ -74,6 +76,9 @@ def add_parser(commands) -> None:
                        help="environment steps a controller's agent learns before it is "
                             "measured, so that its normalisation is not the identity the "
                             "compiler folds away (default 200000)")
+    costs.add_argument("--controller", action="store_true",
+                       help="measure the greedy controller (lwrl export) of a learner that "
+                            "has a C learner too, rather than the C learner")
     costs.add_argument("--real", choices=("float", "double"), default="float")
     costs.add_argument("--mhz", type=fields.finite_number, default=168.0,
                        help="clock of the time estimate (default 168, the STM32F405's)")
@@ -149,7 +154,8 @@ def measure_costs(args) -> int:
     started = time.perf_counter()
     settings = {name: value for name, value in (("learner", args.learner),
                                                 ("actions", args.action_kind)) if value}
-    in_c = [task for task in args.tasks if device.learns_in_c(task, **settings)]
+    in_c = [task for task in args.tasks
+            if not args.controller and device.learns_in_c(task, **settings)]
     if in_c:
         learning_costs(in_c, args, settings)
     controllers = [task for task in args.tasks if task not in in_c]

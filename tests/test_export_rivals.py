@@ -139,6 +139,18 @@ def test_the_controllers_are_measured_on_the_emulated_m4(agent_files):
         assert stream_q[machine] > 20 * ars[machine]
 
 
+def test_device_costs_measures_a_c_learners_controller_where_asked(monkeypatch, capsys):
+    """`--controller`: a learner with a C learner (Stream Q(lambda)) measured as its greedy
+    controller, as a learner without one is; without it, as its C learner."""
+    from lwrl.cli import device as device_command
+    for table in ("learning_costs", "controller_costs"):
+        monkeypatch.setattr(device_command, table,
+                            lambda names, args, settings, table=table: print(table, names))
+    for flags, table in (([], "learning_costs"), (["--controller"], "controller_costs")):
+        assert main(["device", "costs", "cartpole.balance", "--learner", "stream_q", *flags]) == 0
+        assert f"{table} ['cartpole.balance']" in capsys.readouterr().out, flags
+
+
 @pytest.mark.skipif(bool(device.missing_tools()), reason="missing the cross tools or QEMU")
 @pytest.mark.skipif(shutil.which("valgrind") is None, reason="missing valgrind")
 def test_device_costs_measures_a_learner_without_a_c_learner(capsys):
