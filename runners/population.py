@@ -305,7 +305,8 @@ def _compiled_chunk(env, program, episodes: int, weight_tree, continuous: bool):
 
     def finish(row, ended, steps, total, uptime, truncated):
         """`finish_episode` of one agent where `ended`: its episode's record at `done`
-        (one element written, whatever the episodes)."""
+        (one element written, whatever the episodes); the two forms held to each other by
+        tests/test_population.py."""
         k = jnp.minimum(row["done"], episodes - 1)
         put = lambda values, value: values.at[k].set(jnp.where(ended, value, values[k]))
         return {**row, "steps": put(row["steps"], steps.astype(row["steps"].dtype)),

@@ -244,6 +244,28 @@ def test_randomised_physics_runs_each_episode_at_the_compiled_loops_draws():
     assert not np.any(np.isclose(nominal.returns, results.returns, rtol=1e-6))
 
 
+@pytest.mark.parametrize("task, budget", [("pendulum.swingup", None), ("cartpole.balance", 12)])
+def test_an_episode_is_kept_as_the_numba_loops_keep_it(task, budget):
+    """One definition of an episode in its two forms, the population program's `finish` and
+    the numba loops' `runners.episodes.finish_episode`: the same greedy agents on the same
+    episodes, through the population program and through the stepped loop on the analytic
+    plant (`Agents.step`), give the same steps, up-times and truncations and the same
+    returns to rounding; time limits (the pendulum), terminal states (the cart-pole) and a
+    budget that cuts an episode and leaves the last unrun."""
+    from lwrl.runners.stepped import run_batched
+    from lwrl.tasks.batched import BatchedEnv
+
+    config = dataclasses.replace(EVALUATED, task=task, budget=budget)
+    agent, program = evaluated(config)
+    domain, name = tasks.split_name(task)
+    env = BatchedEnv(domain, name, "analytic", seeds=config.seeds, time_limit=2.0)
+    stepped = run_batched(env, agent, config.episodes, learn=False, greedy=True, budget=budget)
+    for field in ("steps", "uptime", "truncated", "diverged_episode"):
+        np.testing.assert_array_equal(getattr(program, field), getattr(stepped, field), err_msg=field)
+    np.testing.assert_allclose(program.returns, stepped.returns, rtol=1e-12)
+    assert np.isnan(program.steps).any() == (budget is not None)
+
+
 def test_each_agent_of_a_batch_senses_and_acts_with_its_own_options(monkeypatch):
     """Two runs that differ in their sensors and actuator, joined into one batch as the sweep
     joins them (a robustness evaluation's cells): each agent's episodes are, bit for bit,
