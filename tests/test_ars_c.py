@@ -16,16 +16,16 @@ import subprocess
 
 import numpy as np
 import pytest
-from test_learner_c import (COMPILER, STRICT, CLearner, episode_lengths,
+
+pytest.importorskip("jax", reason="ARS is a JAX population: pip install 'lwrl[jax]'")
+
+from test_learner_c import (COMPILER, STRICT, CLearner, episode_lengths,  # noqa: E402
                             learns_on_the_emulated_m4, needs_compiler, needs_emulated_m4)
 
-from lwrl.agent import jax_population, random_search, running_stats, streams
-from lwrl.export import learner
-from lwrl.export.c import section_sizes
-from lwrl.tasks.batched import BatchedEnv
-
-pytestmark = pytest.mark.skipif(jax_population.missing_jax(),
-                                reason=f"ARS is a JAX population: {jax_population.EXTRA}")
+from lwrl.agent import random_search, running_stats, streams  # noqa: E402
+from lwrl.export import learner  # noqa: E402
+from lwrl.export.c import section_sizes  # noqa: E402
+from lwrl.tasks.batched import BatchedEnv  # noqa: E402
 
 
 class Equations:

@@ -27,6 +27,7 @@ from conftest import one_line_error, run_cli
 from scipy import stats
 
 from lwrl.agent import io as agent_io
+from lwrl.agent.jax_population import EXTRA, missing_jax
 from lwrl.agent.sarsa import BatchedSarsa
 from lwrl.export import device, learner
 from lwrl.export.c import section_sizes
@@ -314,6 +315,7 @@ def test_the_cli_takes_lwrl_trains_flags_for_a_task_and_none_for_a_saved_agent(t
 
 
 @needs_compiler
+@pytest.mark.skipif(missing_jax(), reason=f"ARS and stream-Q are JAX populations: {EXTRA}")
 @pytest.mark.parametrize("name, rtol", [("ars", 0.0), ("stream_q", 1e-6)])
 def test_a_learner_learns_over_the_device_link_as_it_learns_alone(tmp_path, capsys, name, rtol):
     """`lwrl device hil TASK --learner L` for the learners whose C learner draws its own

@@ -21,18 +21,17 @@ import subprocess
 import numpy as np
 import pytest
 
-from conftest import one_line_error
-from test_learner_c import (COMPILER, STRICT, CLearner, episode_lengths,
+pytest.importorskip("jax", reason="stream-Q is a JAX population: pip install 'lwrl[jax]'")
+
+from conftest import one_line_error  # noqa: E402
+from test_learner_c import (COMPILER, STRICT, CLearner, episode_lengths,  # noqa: E402
                             learns_on_the_emulated_m4, needs_compiler, needs_emulated_m4)
 
-from lwrl.agent import jax_population, running_stats, streaming, streams
-from lwrl.cli.device import BOARD_RAM
-from lwrl.export import device, learner
-from lwrl.export.c import section_sizes
-from lwrl.tasks.batched import BatchedEnv
-
-pytestmark = pytest.mark.skipif(jax_population.missing_jax(),
-                                reason=f"stream-Q is a JAX population: {jax_population.EXTRA}")
+from lwrl.agent import jax_population, running_stats, streaming, streams  # noqa: E402
+from lwrl.cli.device import BOARD_RAM  # noqa: E402
+from lwrl.export import device, learner  # noqa: E402
+from lwrl.export.c import section_sizes  # noqa: E402
+from lwrl.tasks.batched import BatchedEnv  # noqa: E402
 
 
 class Equations:
