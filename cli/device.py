@@ -306,7 +306,7 @@ def run_hil(args) -> int:
             else:
                 device_process.kill()
                 device_process.wait()
-    config = hil.twin_of(args.task, args.seed, plant, args.learner, **options)[0]
+    config = hil.session_config(args.task, args.seed, plant, args.learner, **options)
     where = (f"on the emulated Cortex-M4 ({device.BOARD}, its UART the link)" if args.emulated
              else f"on the board at {args.port} ({args.baud} baud)" if args.port
              else "built for this machine")

@@ -261,12 +261,18 @@ class DeviceAgent:
         self.frame_step -= 1
 
 
-def twin_of(task: str, seed: int, plant, learner: str | None = None, **task_options):
-    """The one-agent `RunConfig` and `Agents` of the learner the device program of `task`
-    runs (`write_program` with `seed` and `learner`, the task's default where None), lwrl's
+def session_config(task: str, seed: int, plant, learner: str | None = None,
+                   **task_options) -> RunConfig:
+    """The one-agent `RunConfig` of the learner the device program of `task` runs
+    (`write_program` with `seed` and `learner`, the task's default where None), lwrl's
     loops' defaults."""
-    config = RunConfig(task=task, agents=1, seed=seed, plant=plant,
-                       task_options=dict(task_options), **learner_setting(learner))
+    return RunConfig(task=task, agents=1, seed=seed, plant=plant,
+                     task_options=dict(task_options), **learner_setting(learner))
+
+
+def twin_of(task: str, seed: int, plant, learner: str | None = None, **task_options):
+    """`session_config` and a new `Agents` of it: the device's twin."""
+    config = session_config(task, seed, plant, learner, **task_options)
     return config, make_agent(config)
 
 
