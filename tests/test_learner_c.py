@@ -334,14 +334,8 @@ def test_a_learner_learns_over_the_device_link_as_it_learns_alone(tmp_path, caps
         steps = [int(row["steps"]) for row in csv.DictReader(file)]
     alone = CLearner(learner.from_task("mountain_car.cost_to_go", seed=3, learner=name),
                      "double", tmp_path)
-    env = BatchedEnv("mountain_car", "cost_to_go", "analytic", seeds=[11], time_limit=50)
-    ts, own = env.reset(), []
-    while len(own) < episodes:
-        action = alone.step(ts.first()[0], ts.reward[0], ts.discount[0], ts.observation[0])
-        if ts.last()[0]:
-            own.append(int(env.steps[0]))
-        ts = env.step(np.array([action]))
-    assert steps == own and len(set(own)) > 1
+    own = episode_lengths([alone], "mountain_car.cost_to_go", [11], episodes, 50.0)[0]
+    assert steps == own.tolist() and len(set(steps)) > 1
     loaded, metadata = agent_io.load(saved)
     assert metadata["config"]["learner"] == name
     np.testing.assert_allclose(loaded.arrays.weights[0], alone.weights.ravel(), rtol=rtol, atol=0)
