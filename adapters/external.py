@@ -291,12 +291,12 @@ class ExternalConfig(LearnerChoice, ProtocolSettings, ExternalEnvironment):
             preset.pop("high", None)
         compose(self, values, preset)
         check_choices(self)
-        names = {field.name for field in dataclasses.fields(self.agent)}
+        names = {field.name for field in dataclasses.fields(self.settings)}
         if not {"low", "high"} <= names:
             raise ValueError(f"{self.learner} takes no observation box (low, high): other "
                              "suites' environments run learners that do")
         if self.low is not None or self.high is not None:
-            fill(self, agent=dataclasses.replace(self.agent, **dict(zip(
+            fill(self, settings=dataclasses.replace(self.settings, **dict(zip(
                 ("low", "high"), check_box(self.low, self.high)))))
         if self.actions is not None:
             fill(self, actions=tuple(float(value) for value in self.actions))
@@ -305,12 +305,12 @@ class ExternalConfig(LearnerChoice, ProtocolSettings, ExternalEnvironment):
     @property
     def low(self):
         """The observation box's lower ends (the learner's `low`), or None."""
-        return self.agent.low
+        return self.settings.low
 
     @property
     def high(self):
         """The observation box's upper ends (the learner's `high`), or None."""
-        return self.agent.high
+        return self.settings.high
 
     def task_spec(self, env) -> TaskSpec:
         """What the learner may know of the environment `env` (an `ExternalEnv`): its
@@ -322,7 +322,7 @@ class ExternalConfig(LearnerChoice, ProtocolSettings, ExternalEnvironment):
                         math.inf, {}, ranges)
 
     def describe(self) -> str:
-        return self.agent.describe(len(self.low))
+        return self.settings.describe(len(self.low))
 
     def to_json(self) -> str:
         return json.dumps(dataclasses.asdict(self), indent=2)
@@ -349,15 +349,15 @@ def prepare(config: ExternalConfig) -> tuple[ExternalConfig, Agents, SteppedEnvs
     checked against them, and its untrained agents."""
     envs = [load(config.env, seed, config.actions) for seed in config.seeds]
     low, high = observation_box(config, envs[0])
-    config = dataclasses.replace(config, agent=dataclasses.replace(config.agent, low=low, high=high))
+    config = dataclasses.replace(config, settings=dataclasses.replace(config.settings, low=low, high=high))
     info = config.task_spec(envs[0])
     learner = learners.learner(config.learner)
     reason = learner.fits(info)
     if reason is not None:
         raise ValueError(reason)
     learner.check_installed()
-    config.agent.check(info)
-    agent = learner.make([config.agent] * config.agents, info, config.seeds)
+    config.settings.check(info)
+    agent = learner.make([config.settings] * config.agents, info, config.seeds)
     return config, agent, SteppedEnvs(envs)
 
 

@@ -45,7 +45,7 @@ from benchmarks import arithmetic_bound
 from lwrl import tasks
 from lwrl.agent.threads import workers
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent, run_compiled
+from lwrl.runners.run import make_agents, run_compiled
 from lwrl.tasks import cartpole, mountain_car
 
 BATCH = 300
@@ -86,7 +86,7 @@ class PlainSarsa:
         ranges = config.task_spec.ranges
         self.low = np.array(ranges.low)
         self.span = np.array(ranges.high) - self.low
-        settings = config.agent
+        settings = config.settings
         grid = (np.arange(settings.n) + 0.5) / settings.n
         axes = np.meshgrid(*[grid] * len(self.low), indexing="ij")
         self.centroids = np.stack(axes, axis=-1).reshape(-1, len(self.low))
@@ -178,7 +178,7 @@ def measure_plain(task: str, seconds: float, seed: int = 0) -> Measurement:
 def run_lwrl(task: str, agents: int, episodes: int) -> Measurement:
     """One timed `run_compiled` of `agents` seeds of the task's paper agent."""
     config = RunConfig(task=task, agents=agents, episodes=episodes, plant="analytic")
-    agent = make_agent(config)
+    agent = make_agents(config)
     start = time.perf_counter()
     results = run_compiled(config.domain, config.task_name, agent, episodes, config.seeds,
                            integrator=config.integrator)

@@ -83,7 +83,7 @@ def step_counts(dim: int, n: int, actions: int) -> StepCounts:
 def task_counts(task: str) -> StepCounts:
     """The counts of `task`'s paper agent (`RunConfig` defaults), from its feature sizes."""
     config = RunConfig(task=task)
-    features = config.agent.feature_map(config.task_spec.ranges.low, config.task_spec.ranges.high)
+    features = config.settings.feature_map(config.task_spec.ranges.low, config.task_spec.ranges.high)
     if not hasattr(features, "r2"):
         raise ValueError(f"the model covers NRBF features; {task}'s paper agent has "
                          f"{type(features).__name__}")

@@ -191,7 +191,7 @@ def config_of(name: str, agents: int, workload: Workload) -> RunConfig:
     episodes = workload.episodes if task == TASK else workload.other_episodes
     settings = {}
     if name in FAMILY:
-        settings["agent"] = learners.learner(name).settings(**workload.settings[FAMILY[name]])
+        settings["settings"] = learners.learner(name).settings(**workload.settings[FAMILY[name]])
     return RunConfig(task=task, learner=name, agents=agents, episodes=episodes, seed=0,
                      plant="analytic", task_options=options,
                      actions=learners.learner(name).actions, **settings)
@@ -646,7 +646,7 @@ def main(argv=None) -> None:
         task = home_task(name) or TASK
         config = None if name in skipped else config_of(name, reference, workload)
         steps_per_agent = episode_steps(workload) * workload.episodes if task == TASK else None
-        counts = (counted(learners.learner(name), config.agent, config.task_spec,
+        counts = (counted(learners.learner(name), config.settings, config.task_spec,
                           steps_per_agent) if config else f"not counted ({skipped[name]})")
         learning, greedy = get(name, reference, "one", False), get(name, reference, "one", True)
         if isinstance(counts, str):

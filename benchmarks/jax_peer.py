@@ -157,7 +157,7 @@ from lwrl.agent.traces import FLUSH_THRESHOLD
 from lwrl import agent as learners
 from lwrl.runners.compiled import compiled_loop
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent, run, run_compiled
+from lwrl.runners.run import make_agents, run, run_compiled
 from lwrl.tasks import cartpole, mountain_car
 
 jax.config.update("jax_enable_x64", True)
@@ -550,7 +550,7 @@ def peer_agents(task_name: str, agents: int, seed: int = 0):
     """The task's paper agent (`RunConfig` defaults) for the peer: `(Agent, hyper, keys)`,
     agent b keyed with `seed + b` (`PRNG` keys)."""
     config = RunConfig(task=task_name, agents=agents, seed=seed)
-    settings, ranges = config.agent, config.task_spec.ranges
+    settings, ranges = config.settings, config.task_spec.ranges
     features_map = settings.feature_map(ranges.low, ranges.high)
     agent = Agent(tuple(features_map.low), tuple(features_map.high), features_map.n,
                   features_map.r2, settings.trace == "accumulating", len(TASKS[task_name].controls))
@@ -650,7 +650,7 @@ def run_lwrl(task_name: str, agents: int, episodes: int) -> Measurement:
     """One timed `run_compiled` of `agents` seeds of the task's paper agent (as
     `benchmarks.agent_speed.run_lwrl`, with CPU time)."""
     config = RunConfig(task=task_name, agents=agents, episodes=episodes, plant="analytic")
-    agent = make_agent(config)
+    agent = make_agents(config)
     start, cpu_start = time.perf_counter(), time.process_time()
     results = run_compiled(config.domain, config.task_name, agent, episodes, config.seeds,
                            integrator=config.integrator)

@@ -38,7 +38,7 @@ import numpy as np
 from benchmarks.agent_speed import machine
 from benchmarks.mujoco_plant import (Clock, config, engine_open_loop, parse_batch_args,
                                      per_step, timed, timed_run)
-from lwrl.runners.run import make_agent, run_batched
+from lwrl.runners.run import make_agents, run_batched
 from lwrl.tasks.batched import BatchedEnv
 
 
@@ -72,7 +72,7 @@ def stepped_run(args, plant: str) -> tuple[Clock, Clock, int]:
                      time_limit=args.time_limit)
     whole, plant_clock = Clock(), Clock()
     timed(plant_clock, env.plant, "step")
-    results = whole.time(run_batched, env, make_agent(run_config), args.episodes)
+    results = whole.time(run_batched, env, make_agents(run_config), args.episodes)
     return whole, plant_clock, int(np.nansum(results.steps))
 
 

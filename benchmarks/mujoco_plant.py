@@ -45,7 +45,7 @@ import numpy as np
 from benchmarks.agent_speed import machine
 from lwrl.agent.threads import workers
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent, run, run_batched
+from lwrl.runners.run import make_agents, run, run_batched
 from lwrl.tasks.batched import BatchedEnv
 
 TASK = "pendulum.swingup"
@@ -121,7 +121,7 @@ def timed_stepped(args):
     own time (the parts it calls taken out)."""
     env = BatchedEnv("pendulum", "swingup", "mujoco", seeds=config(args).seeds,
                      time_limit=args.time_limit)
-    agent = make_agent(config(args))
+    agent = make_agents(config(args))
     clocks = {name: Clock() for name in ("agents", "env", "plant", "rollout", "whole")}
     timed(clocks["agents"], agent, "step")
     timed(clocks["env"], env, "step")
@@ -137,7 +137,7 @@ def timed_stepped(args):
 def timed_run(run_config, learn: bool = True, agent=None):
     """`runners.run.run` timed: (agent, results, clock)."""
     wall, cpu = time.perf_counter(), time.process_time()
-    agent, results = run(run_config, agent=agent, learn=learn)
+    agent, results = run(run_config, agents=agent, learn=learn)
     return agent, results, Clock(time.perf_counter() - wall, time.process_time() - cpu, 1)
 
 

@@ -27,7 +27,7 @@ from lwrl import tasks
 from lwrl.runners.config import RunConfig
 from lwrl.cli.rerun_options import DEFAULT_EPISODES, episodes_to_log, send_run
 from lwrl.runners.recording import EpisodeRecording
-from lwrl.runners.run import make_agent, run
+from lwrl.runners.run import make_agents, run
 from lwrl.viz import names
 from lwrl.viz import rerun as viz
 from lwrl.viz import scene
@@ -42,7 +42,7 @@ def synthetic_recording(task: str, steps: int, seed: int = 0, plant: str | None 
     rng = np.random.default_rng(seed)
     dim, actions = len(definition.state_names), definition.num_actions
     states = rng.normal(scale=0.1, size=(steps + 1, dim)).cumsum(axis=0)
-    features = make_agent(RunConfig(task=key, agents=1)).features
+    features = make_agents(RunConfig(task=key, agents=1)).features
     return EpisodeRecording(
         task=key, plant=plant or tasks.PLANTS[domain][0], agent=0, seed=seed, episode=episode,
         timestep=float(definition.control_timestep), state_names=definition.state_names,
@@ -62,7 +62,7 @@ def time_columns(recording: EpisodeRecording, directory) -> tuple[float, float, 
     viz.log_task_scene(rec, recording.task)
     rec.flush()
     model = viz.load_model(recording.task) if scene.has_model(recording.task) else None
-    box = make_agent(RunConfig(task=recording.task, agents=1)).value_box()
+    box = make_agents(RunConfig(task=recording.task, agents=1)).value_box()
     start, cpu = time.perf_counter(), time.process_time()
     viz.log_episode(rec, recording, model=model, value_ranges=box)
     call = time.perf_counter() - start

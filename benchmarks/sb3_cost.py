@@ -57,7 +57,7 @@ import lwrl
 from lwrl import outputs
 from lwrl.cli.output import Parser
 from lwrl.runners.config import learner_settings
-from lwrl.runners.run import make_agent, run
+from lwrl.runners.run import make_agents, run
 from lwrl.studies.implementations.plan import pairs, reference_settings
 from lwrl.studies.paper.benchmark import twin_cost
 from lwrl.tasks.task_definition import ACTIONS
@@ -78,8 +78,8 @@ def twin_config(config, twin: str, plant: str):
     """One agent of `twin` with the settings of the run `config`'s learner on the
     benchmark's `plant` (on MuJoCo's model the C engine, which SB3 steps, where the JAX
     learner stepped MJX), the rest of the run as it is."""
-    settings = learner_settings(twin, reference_settings(twin, config.agent))
-    return dataclasses.replace(config, learner=twin, agent=settings, agents=1, plant=plant)
+    settings = learner_settings(twin, reference_settings(twin, config.settings))
+    return dataclasses.replace(config, learner=twin, settings=settings, agents=1, plant=plant)
 
 
 def learning_steps(settings, least: int) -> int:
@@ -93,7 +93,7 @@ def phase(config, agent, steps: int, learn: bool) -> tuple:
     """`(agent-steps, CPU seconds per agent-step)` of `agent` continued for `steps` steps,
     learning, or else greedy without learning."""
     start = time.process_time()
-    _, results = run(dataclasses.replace(config, budget=steps), agent=agent, learn=learn,
+    _, results = run(dataclasses.replace(config, budget=steps), agents=agent, learn=learn,
                      greedy=not learn)
     seconds = time.process_time() - start
     taken = int(np.nansum(results.steps))
@@ -104,9 +104,9 @@ def measure(config, least: int) -> dict:
     """The steps and CPU seconds per step of the twin's run `config` (one agent) in each
     phase (see the module), and its `warm_up_steps`."""
     run(dataclasses.replace(config, seed=config.seed + 1, budget=WARM_UP))
-    agent = make_agent(config)
-    warm_up = getattr(config.agent, "learning_starts", 0)
-    phases = {"warm_up": (warm_up, True), "learning": (learning_steps(config.agent, least), True),
+    agent = make_agents(config)
+    warm_up = getattr(config.settings, "learning_starts", 0)
+    phases = {"warm_up": (warm_up, True), "learning": (learning_steps(config.settings, least), True),
               "greedy": (least, False)}
     measured = {name: phase(config, agent, steps, learn) if steps else (0, 0.0)
                 for name, (steps, learn) in phases.items()}
@@ -163,7 +163,7 @@ def main(argv=None) -> None:
             parser.error(str(error))
         measured[c.key] = {"task": c.task, "plant": config.plant, "row": c.label,
                            "configuration": c.index, "learner": trained.learner,
-                           "twin": config.learner, "settings": dataclasses.asdict(config.agent),
+                           "twin": config.learner, "settings": dataclasses.asdict(config.settings),
                            **measure(config, args.steps), "host": platform.node(),
                            "lwrl": lwrl.__version__, "command": command,
                            "measured": time.strftime("%Y-%m-%dT%H:%M:%S%z")}

@@ -7,7 +7,7 @@ import numpy as np
 from lwrl import tasks
 from lwrl.agent import io as agent_io
 from lwrl.cli import fields, output
-from lwrl.runners.config import RunConfig
+from lwrl.runners.config import RunConfig, as_written_now
 from lwrl.runners.run import run
 from lwrl.runners.summary import plural
 
@@ -29,7 +29,7 @@ def evaluate_agents(args) -> int:
     started = time.perf_counter()
     agent, metadata = agent_io.load(args.path)
     try:
-        settings = dict(metadata["config"])
+        settings = dict(as_written_now(metadata["config"]))
         settings.update(episodes=args.episodes, agents=agent.batch_size, seed=args.seed)
         if args.plant:
             settings["plant"] = args.plant
@@ -44,7 +44,7 @@ def evaluate_agents(args) -> int:
     frozen = np.flatnonzero(agent.diverged)
     bar, update = output.progress_bar(config.agents * config.episodes, "evaluating")
     with bar:
-        _, results = run(config, agent=agent, learn=False, greedy=True, progress=update)
+        _, results = run(config, agents=agent, learn=False, greedy=True, progress=update)
     output.print_results(results, config.seeds,
                          f"{config.task} on the {config.plant_name} plant: "
                          f"{plural(config.agents, 'saved agent')}, greedy, "

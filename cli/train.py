@@ -16,7 +16,7 @@ from lwrl.adapters import external
 from lwrl.cli import fields, output
 from lwrl.cli import rerun_options as logging_rerun
 from lwrl.runners.config import EnvironmentSettings, LearnerChoice, ProtocolSettings, RunConfig
-from lwrl.runners.run import make_agent, memory_needed, run, run_batched
+from lwrl.runners.run import make_agents, memory_needed, run, run_batched
 from lwrl.runners.summary import plural
 
 
@@ -98,12 +98,12 @@ def train_agents(args) -> int:
         record = [] if best else [(b, episode) for b in logged_agents for episode in logged]
     outputs.check_memory(memory_needed(config, len(record) if not best else len(logged_agents)),
                          f"{plural(config.agents, 'agent')} of {config.task}")
-    agent = make_agent(config)  # checks the hyper-parameters before anything runs
+    agent = make_agents(config)  # checks the hyper-parameters before anything runs
     print(f"{config.task} on the {config.plant_name} plant: {plural(config.agents, 'agent')}, "
           f"{config.describe()}, {plural(config.episodes, 'episode')}")
     bar, update = output.progress_bar(config.agents * config.episodes, "training")
     with bar:
-        agent, results = run(config, agent=agent, progress=update, record=record)
+        agent, results = run(config, agents=agent, progress=update, record=record)
     if best and not results.interrupted:  # deterministic: run again to record the best episodes
         _, results = run(config, record=logging_rerun.best_episodes(results, logged_agents))
     output.print_results(results, config.seeds, "",

@@ -67,6 +67,7 @@ import numpy as np
 from lwrl import outputs, tasks
 from lwrl.agent import controller_forms
 from lwrl.agent import io as agent_io
+from lwrl.runners.config import as_written_now
 from lwrl.runners.stepped import kind_of
 from lwrl.tasks.task_definition import ACTIONS
 
@@ -154,7 +155,7 @@ def _task_description(metadata: dict, agent, source: str):
     metadata, the definition made with the agents' kind of action; a one-line error if
     the agents do not fit the task it names."""
     config = metadata.get("config") if isinstance(metadata, dict) else None
-    config = config if isinstance(config, dict) else {}
+    config = as_written_now(config) if isinstance(config, dict) else {}
     task = config.get("task")
     names, definition = [f"state[{j}]" for j in range(agent.dim)], None
     if isinstance(task, str) and task.count(".") == 1:
@@ -272,9 +273,9 @@ def export_c(agent_path, out_dir, agent_index: int = 0, dtype: str = "float") ->
                          if name != "weights") * size
     run = ""
     if config:
-        agent_config = config.get("agent") if isinstance(config.get("agent"), dict) else config
-        keys = [("plant", "plant {}", config), ("trace", "{} traces", agent_config),
-                ("alpha", "alpha {:g}", agent_config), ("lam", "lambda {:g}", agent_config),
+        settings = config.get("settings") if isinstance(config.get("settings"), dict) else config
+        keys = [("plant", "plant {}", config), ("trace", "{} traces", settings),
+                ("alpha", "alpha {:g}", settings), ("lam", "lambda {:g}", settings),
                 ("episodes", "{} episodes", config)]
         parts = [fmt.format(source[key]) for key, fmt, source in keys
                  if source.get(key) is not None]

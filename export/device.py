@@ -348,8 +348,8 @@ def learner_counts(task: str, **settings) -> dict:
     `memory` (the bytes one agent needs, `Learner.memory`)."""
     config = RunConfig(task=task, agents=1, seed=0, **settings)
     spec = learners.learner(config.learner)
-    return {"learner": spec, "counts": spec.arithmetic(config.agent, config.task_spec),
-            "memory": spec.memory(config.agent, config.task_spec)}
+    return {"learner": spec, "counts": spec.arithmetic(config.settings, config.task_spec),
+            "memory": spec.memory(config.settings, config.task_spec)}
 
 
 def policy_costs(agent_path, agent_index: int = 0, dtype: str = "float") -> dict:

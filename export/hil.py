@@ -46,7 +46,7 @@ from lwrl.export.device import (BOARD, COMMON_FLAGS, M4_FLAGS, M4_LINK, build_pl
                                 check_tools, read_instructions, write_fixed_files)
 from lwrl.export.frames import CONTINUOUS, DISCRETE, Identity, Observation
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent
+from lwrl.runners.run import make_agents
 from lwrl.runners.stepped import run_batched
 from lwrl.tasks.batched import BatchedEnv
 
@@ -273,7 +273,7 @@ def session_config(task: str, seed: int, plant, learner: str | None = None,
 def twin_of(task: str, seed: int, plant, learner: str | None = None, **task_options):
     """`session_config` and a new `Agents` of it: the device's twin."""
     config = session_config(task, seed, plant, learner, **task_options)
-    return config, make_agent(config)
+    return config, make_agents(config)
 
 
 def learner_setting(learner: str | None) -> dict:

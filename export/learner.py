@@ -41,7 +41,7 @@ from lwrl.agent.learner_contract import Agents, LearnerForm
 from lwrl.export.c import (DTYPES, _check_dtype, _check_index, _comment, _literal, _rendered,
                            _task_description, _weights_block, template, write_files)
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent
+from lwrl.runners.run import make_agents
 
 SOURCE = "lwrl_learner.c"
 """The written file names (fixed, as the controller's are)."""
@@ -78,7 +78,7 @@ def from_task(task: str, seed: int = 0, **settings) -> LearnerSource:
     `RunConfig` (`learner` and the learner's settings), the task's defaults for the rest."""
     config = RunConfig(task=task, agents=1, seed=seed, **settings)
     definition = tasks.definition(config.domain, config.task_name, **config.task_options)
-    return LearnerSource(make_agent(config), 0, task, tuple(definition.state_names),
+    return LearnerSource(make_agents(config), 0, task, tuple(definition.state_names),
                          definition.controls, origin=f"new {config.learner} agent, untrained",
                          stream=f"lwrl's seed {seed}")
 

@@ -4,7 +4,7 @@ Främling (2008)'s gradient-descent Sarsa(lambda) with a normalised radial basis
 network, on the paper's control tasks in MuJoCo and as the paper's equations.
 
     import lwrl
-    agent, results = lwrl.run(lwrl.RunConfig(task="pendulum.swingup", agents=10, episodes=30))
+    agents, results = lwrl.run(lwrl.RunConfig(task="pendulum.swingup", agents=10, episodes=30))
     env = lwrl.load("cartpole", "balance", plant="mujoco", seed=0)   # a dm_env
     import lwrl.gym                   # registers the Gymnasium ids lwrl/{domain}-{task}-{plant}-v0
 
@@ -13,7 +13,7 @@ The public surface, importable from `lwrl` itself (each is also where it lives):
 - `RunConfig` (`lwrl.runners.config`): one run's environment, learner (and its settings)
   and protocol; fields left unset take the task's defaults.
 - `run(config)` (`lwrl.runners.run`): train (or, with `learn=False`, run) a batch of agents;
-  returns `(agent, EpisodeResults)`. `make_agent(config)`: the agents alone.
+  returns `(agents, EpisodeResults)`. `make_agents(config)`: the agents alone.
 - `EpisodeResults` (`lwrl.runners.episodes`): steps, returns, up-time, truncations and
   divergences per agent and episode.
 - `load(domain, task, plant=None, seed=None, **options)` (`lwrl.tasks`): a task as a dm_env
@@ -45,7 +45,7 @@ SUBPACKAGES = ("models", "tasks", "agent", "analysis", "viz", "runners", "adapte
 """The subpackages `lwrl.NAME` imports on first use (the module's docstring says what each is)."""
 
 PUBLIC = {"RunConfig": "lwrl.runners.config", "run": "lwrl.runners.run",
-          "make_agent": "lwrl.runners.run", "EpisodeResults": "lwrl.runners.episodes",
+          "make_agents": "lwrl.runners.run", "EpisodeResults": "lwrl.runners.episodes",
           "load": "lwrl.tasks", "definition": "lwrl.tasks", "BatchedEnv": "lwrl.tasks.batched",
           "TASK_NAMES": "lwrl.tasks", "ALL_TASKS": "lwrl.tasks", "DOMAINS": "lwrl.tasks",
           "PLANTS": "lwrl.tasks", "LEARNERS": "lwrl.agent", "LEARNER_NAMES": "lwrl.agent"}
@@ -57,7 +57,7 @@ if TYPE_CHECKING:  # what static tools see; at run time, __getattr__ imports on 
     from lwrl.agent import LEARNER_NAMES, LEARNERS
     from lwrl.runners.config import RunConfig
     from lwrl.runners.episodes import EpisodeResults
-    from lwrl.runners.run import make_agent, run
+    from lwrl.runners.run import make_agents, run
     from lwrl.tasks import ALL_TASKS, DOMAINS, PLANTS, TASK_NAMES, definition, load
     from lwrl.tasks.batched import BatchedEnv
 else:

@@ -86,10 +86,10 @@ def fields_with(cls, name: str) -> tuple:
     return tuple(field.name for field in dataclasses.fields(cls) if field.metadata.get(name))
 
 
-def fill(settings, **values) -> None:
+def fill(instance, /, **values) -> None:
     """Set fields of a frozen dataclass while it is being made (`__post_init__` only)."""
     for name, value in values.items():
-        object.__setattr__(settings, name, value)
+        object.__setattr__(instance, name, value)
 
 
 def check_choices(settings) -> None:

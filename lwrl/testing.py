@@ -37,7 +37,7 @@ from lwrl.agent import io as agent_io
 from lwrl.agent.jax_population import PopulationAgents
 from lwrl.agent.learner_contract import CONTINUOUS_ACTIONS, Learner, LearnerForm, NoValues
 from lwrl.runners.config import RunConfig, task_spec
-from lwrl.runners.run import make_agent, memory_needed, run, run_batched, run_compiled, run_dm_env
+from lwrl.runners.run import make_agents, memory_needed, run, run_batched, run_compiled, run_dm_env
 from lwrl.spaces import Box
 from lwrl.tasks.batched import LAST, BatchedEnv
 from lwrl.tasks.domain_contract import Domain
@@ -179,7 +179,7 @@ def check_learner_run_paths(learner: str, task: str) -> None:
     config = contract_config(learner, task)
     domain, name = suite.split_name(task)
     options = {**config.task_options, "actions": config.actions}
-    batched_agent = make_agent(config)
+    batched_agent = make_agents(config)
     if learners.learner(learner).population:
         try:
             run_batched(BatchedEnv(domain, name, "analytic", config.seeds, **options),
@@ -198,7 +198,7 @@ def check_learner_run_paths(learner: str, task: str) -> None:
     batched = run_batched(BatchedEnv(domain, name, "analytic", config.seeds, **options),
                           batched_agent, config.episodes)
     if learners.learner(learner).compiles:
-        compiled_agent = make_agent(config)
+        compiled_agent = make_agents(config)
         compiled = run_compiled(domain, name, compiled_agent, config.episodes, config.seeds,
                                 **options)
         _same_results(compiled, batched, "the compiled loop and the batched stepper")
@@ -206,7 +206,7 @@ def check_learner_run_paths(learner: str, task: str) -> None:
             compiled_agent.arrays.weights, batched_agent.arrays.weights,
             err_msg="the compiled loop and the batched stepper: weights differ")
     single_config = dataclasses.replace(config, agents=1, seed=config.seed + 1)
-    single_agent = make_agent(single_config)
+    single_agent = make_agents(single_config)
     single = run_dm_env(suite.load(domain, name, plant="analytic", seed=single_config.seed,
                                    **options), single_agent, config.episodes)
     np.testing.assert_array_equal(single.steps[0], batched.steps[1],
@@ -276,8 +276,8 @@ def check_learner_greedy_touches_nothing(learner: str, task: str) -> None:
     agent, _ = run(config)
     weights = agent.arrays.weights.copy()
     settings = agent.settings
-    _, first = run(config, agent=agent, learn=False, greedy=True)
-    _, second = run(config, agent=agent, learn=False, greedy=True)
+    _, first = run(config, agents=agent, learn=False, greedy=True)
+    _, second = run(config, agents=agent, learn=False, greedy=True)
     np.testing.assert_array_equal(agent.arrays.weights, weights,
                                   err_msg="acting greedily changed the weights")
     _expect(agent.settings == settings, "acting greedily changed the settings")
@@ -300,8 +300,8 @@ def check_learner_save_and_load(learner: str, task: str) -> None:
     _expect(RunConfig(**metadata["config"]) == config, "the loaded run configuration differs")
     np.testing.assert_array_equal(loaded.arrays.weights, agent.arrays.weights,
                                   err_msg="the loaded weights differ")
-    _, more = run(config, agent=agent)
-    _, more_loaded = run(config, agent=loaded)
+    _, more = run(config, agents=agent)
+    _, more_loaded = run(config, agents=loaded)
     _same_results(more, more_loaded, "going on with the saved and the loaded agents")
 
 
@@ -319,7 +319,7 @@ def check_learner_values_on_a_grid(learner: str, task: str) -> None:
     equal the values at the grid's states, or the learner says it has none (`NoValues`);
     action values are of a learner of discrete actions only, and one of continuous actions
     gives its greedy actions in [-1, 1] (`greedy_actions`), agent b's those of its weights."""
-    agent = make_agent(contract_config(learner, task))
+    agent = make_agents(contract_config(learner, task))
     rng = np.random.default_rng(0)
     weights = rng.normal(size=agent.arrays.weights.shape[1:])
     low, high = map(np.asarray, agent.value_box())
@@ -374,7 +374,7 @@ def check_learner_in_c(learner: str, task: str) -> None:
     whose RAM parts are counts, and whose check passes in double, and agents that take the
     weights a device sends back (`take_weights`); or one line saying why the learner does
     not learn in C."""
-    agent = make_agent(contract_config(learner, task))
+    agent = make_agents(contract_config(learner, task))
     try:
         form = agent.learner_form(1)
     except ValueError as error:

@@ -204,20 +204,30 @@ class LearnerChoice:
     learner: str = setting(agent.DEFAULT_LEARNER, choices=agent.LEARNER_NAMES, key=WHEN_SET)
     """The learner, one of `agent.LEARNERS` (default: the paper's gradient-descent
     Sarsa(lambda) over NRBF or CMAC features); its settings follow."""
-    agent: LearnerSettings | None = setting(cli=False)
+    settings: LearnerSettings | None = setting(cli=False)
     """The learner's settings (its settings dataclass; None fields: the task's defaults)."""
 
-    def agent_fields(self, late: bool) -> list:
+    def settings_fields(self, late: bool) -> list:
         """The learner's settings fields, in order: those named in the key before the
         protocol's fields, or (`late`) after them."""
-        return [field for field in dataclasses.fields(self.agent)
+        return [field for field in dataclasses.fields(self.settings)
                 if (field.metadata.get("key") == LATE) == late]
+
+
+def as_written_now(values: dict) -> dict:
+    """A run's configuration as a file keeps it (a run's config.json, an agent file's
+    `config` metadata), with the names a `RunConfig` takes today: files written before
+    2026-12-07 keep the learner's settings under `agent`, their name then, which this
+    gives as `settings` (every other name, and anything not a dict, unchanged)."""
+    if not isinstance(values, dict) or "agent" not in values or "settings" in values:
+        return values
+    return {("settings" if name == "agent" else name): value for name, value in values.items()}
 
 
 def compose(config, values: dict, defaults: dict | None = None) -> None:
     """Fill a configuration `config` of a dataclass with a `LearnerChoice` (made with
     `init=False`) from flat `values`: its own fields by name, the learner's settings from
-    `agent` (whole) and from the names that are not its own fields; then `defaults`
+    `settings` (whole) and from the names that are not its own fields; then `defaults`
     (`{name: value}` of either kind) for what is still unset (None). A name neither has is
     a one-line error naming the learner's settings."""
     cls = type(config)
@@ -226,7 +236,7 @@ def compose(config, values: dict, defaults: dict | None = None) -> None:
     names = {field.name for field in dataclasses.fields(cls)}
     own = {name: value for name, value in values.items() if name in names}
     flat = {name: value for name, value in values.items() if name not in names}
-    settings = learner_settings(learner, own.pop("agent", None))
+    settings = learner_settings(learner, own.pop("settings", None))
     if flat:
         learner_settings(learner, flat)  # names each unknown setting in one line
         settings = dataclasses.replace(settings, **flat)
@@ -236,7 +246,7 @@ def compose(config, values: dict, defaults: dict | None = None) -> None:
     fill(config, **{name: value for name, value in defaults.items()
                     if name in names and getattr(config, name) is None})
     setting_names = {field.name for field in dataclasses.fields(settings)}
-    fill(config, agent=dataclasses.replace(settings, **{
+    fill(config, settings=dataclasses.replace(settings, **{
         name: value for name, value in defaults.items()
         if name in setting_names and getattr(settings, name) is None}))
 
@@ -248,7 +258,7 @@ class RunConfig(LearnerChoice, ProtocolSettings, EnvironmentSettings):
 
     `RunConfig(task=..., learner=..., **settings)`: `settings` are fields of the
     environment, the protocol or the learner's settings, by name (the learner's may also
-    come whole, as `agent`); fields left None take the task's defaults (`task_defaults`),
+    come whole, as `settings`); fields left None take the task's defaults (`task_defaults`),
     except a linear learner's `low` and `high`, which stay None for the task's ranges.
     `dataclasses.replace` takes the learner's fields by name in the same way.
     """
@@ -288,12 +298,12 @@ class RunConfig(LearnerChoice, ProtocolSettings, EnvironmentSettings):
         learner = agent.learner(self.learner)
         check_kinds(learner.name, learner.actions, tasks.definition(self.domain, self.task_name, **self.task_options,
                                               actions=self.actions), "the run")
-        fill(self, agent=with_defaults(self.agent, defaults))
+        fill(self, settings=with_defaults(self.settings, defaults))
         info = self.task_spec
         reason = learner.fits(info)
         if reason is not None:
             raise ValueError(reason)
-        self.agent.check(info)
+        self.settings.check(info)
         self.check_protocol()
 
     def check_environment(self) -> None:
@@ -346,11 +356,11 @@ class RunConfig(LearnerChoice, ProtocolSettings, EnvironmentSettings):
     @property
     def name(self) -> str:
         """Task, plant, the learner's label and the seed, for file and directory names."""
-        return f"{self.task}-{self.plant or 'default'}-{self.agent.label()}-s{self.seed}"
+        return f"{self.task}-{self.plant or 'default'}-{self.settings.label()}-s{self.seed}"
 
     def describe(self) -> str:
         """The learner's settings in one line, for a run's header."""
-        return self.agent.describe(len(self.task_spec.state_names))
+        return self.settings.describe(len(self.task_spec.state_names))
 
     def to_json(self) -> str:
         """Every field as indented JSON."""
@@ -365,11 +375,11 @@ class RunConfig(LearnerChoice, ProtocolSettings, EnvironmentSettings):
         parts = {field.name for cls in (EnvironmentSettings, ProtocolSettings)
                  for field in dataclasses.fields(cls)}
         own = [field for field in dataclasses.fields(RunConfig)
-               if field.name not in parts and field.name != "agent"]
+               if field.name not in parts and field.name != "settings"]
         return (of(self, dataclasses.fields(EnvironmentSettings))
-                + of(self.agent, self.agent_fields(late=False))
+                + of(self.settings, self.settings_fields(late=False))
                 + of(self, dataclasses.fields(ProtocolSettings))
-                + of(self.agent, self.agent_fields(late=True)) + of(self, own))
+                + of(self.settings, self.settings_fields(late=True)) + of(self, own))
 
     def flat(self) -> dict:
         """`{name: value}` of `flat_fields`."""

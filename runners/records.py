@@ -150,7 +150,7 @@ def counted(config, steps) -> tuple:
     try:
         if arithmetic is None:
             raise NotCounted(f"{config.learner} has no count")
-        counts = [arithmetic(config.agent, config.task_spec, int(taken)) for taken in steps]
+        counts = [arithmetic(config.settings, config.task_spec, int(taken)) for taken in steps]
     except NotCounted:
         return np.full(len(steps), np.nan), np.full(len(steps), np.nan)
     each = [count.step if config.learn else count.decision for count in counts]

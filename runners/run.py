@@ -31,7 +31,7 @@ from lwrl.runners.stepped import run_batched, run_dm_env
 from lwrl.tasks.batched import BatchedEnv
 from lwrl.tasks.randomisation import check_ranges, draws
 
-__all__ = ["EpisodeResults", "make_agent", "memory_needed", "run", "run_batched", "run_compiled",
+__all__ = ["EpisodeResults", "make_agents", "memory_needed", "run", "run_batched", "run_compiled",
            "run_dm_env"]
 
 
@@ -41,7 +41,7 @@ def memory_needed(config, recorded_episodes: int = 0) -> int:
     the tape of `recorded_episodes` episodes."""
     definition = tasks.definition(config.domain, config.task_name, **config.task_options)
     spec = config.task_spec
-    per_agent = learners.learner(config.learner).memory(config.agent, spec)
+    per_agent = learners.learner(config.learner).memory(config.settings, spec)
     actions, dim = 1 if spec.continuous else spec.action.n, len(definition.state_names)
     per_episode = 8 * (6 + dim)
     steps = definition.step_limit if recorded_episodes and math.isfinite(definition.step_limit) else 0
@@ -49,7 +49,7 @@ def memory_needed(config, recorded_episodes: int = 0) -> int:
     return config.agents * (per_agent + per_episode * config.episodes) + tape
 
 
-def make_agent(*configs) -> Agents:
+def make_agents(*configs) -> Agents:
     """The agents of one or more `RunConfig`s of one learner, each configuration's `agents`
     in order, untrained (a one-line ValueError where its libraries are not installed).
     Configurations after the first differ from it at most in the learner's per-agent
@@ -57,7 +57,7 @@ def make_agent(*configs) -> Agents:
     base = configs[0]
     learner = learners.learner(base.learner)
     learner.check_installed()
-    settings = [config.agent for config in configs for _ in range(config.agents)]
+    settings = [config.settings for config in configs for _ in range(config.agents)]
     return learner.make(settings, base.task_spec,
                         [seed for config in configs for seed in config.seeds])
 
@@ -100,14 +100,14 @@ def drawn_values(config, options: dict, seeds, results: EpisodeResults) -> dict:
             for name in ranges}
 
 
-def run(config, agent: Agents | None = None, learn: bool = True, greedy: bool = False,
+def run(config, agents: Agents | None = None, learn: bool = True, greedy: bool = False,
         progress=None, record=(), seeds=None, batch=None, checkpoints=None,
         resume=None) -> tuple[Agents, EpisodeResults]:
     """Run a `RunConfig`: the compiled loop where it runs the plant and the learner, else
     the batched stepper. Returns the agents (new ones unless given) and their results, with
     recordings of the `(agent, episode)` pairs in `record`. `learn=False` runs without
     updates, `greedy=True` with greedy actions (evaluation: both). `seeds` (one per agent of
-    a given `agent`) replaces the configuration's, and `batch` (the configurations the
+    given `agents`) replaces the configuration's, and `batch` (the configurations the
     agents come from, `config` first) gives each agent its configuration's physics and
     sensors (`environment_options`), for batches that join several configurations. The
     values drawn per episode (`randomise`) are in `results.physical`. `checkpoints`
@@ -115,14 +115,14 @@ def run(config, agent: Agents | None = None, learn: bool = True, greedy: bool = 
     the runs of `config` with smaller budgets (`runners.population.run_population`), and
     `resume` (a path, population learners only) keeps the run's state there as it goes, for
     a later call to go on from (`runners.resume`)."""
-    agent = make_agent(config) if agent is None else agent
+    agents = make_agents(config) if agents is None else agents
     seeds = config.seeds if seeds is None else list(seeds)
     domain, task = config.domain, config.task_name
     options = environment_options(batch or [config])
     if config.actions != "discrete":
         options["actions"] = config.actions
     for name, given in (("checkpoints", checkpoints), ("resume", resume)):
-        if given and not agent.learner.population:
+        if given and not agents.learner.population:
             raise ValueError(f"{name} is for population learners only; {config.learner} "
                              "is not one")
 
@@ -130,8 +130,8 @@ def run(config, agent: Agents | None = None, learn: bool = True, greedy: bool = 
         results.physical = drawn_values(config, options, seeds, results)
         return results
 
-    if agent.learner.population:
-        results = run_population(domain, task, agent, config.episodes, seeds, learn=learn,
+    if agents.learner.population:
+        results = run_population(domain, task, agents, config.episodes, seeds, learn=learn,
                                  greedy=greedy, progress=progress, record=record,
                                  budget=config.budget,
                                  checkpoints={smaller: _after(call, drawn) for smaller, call
@@ -139,8 +139,8 @@ def run(config, agent: Agents | None = None, learn: bool = True, greedy: bool = 
                                  resume=None if resume is None else (resume, config.key),
                                  plant=config.plant_name, **config.plant_options,
                                  **config.task_options, **options)
-    elif agent.learner.compiles and compiles(domain, config.plant_name):
-        results = run_compiled(domain, task, agent, config.episodes, seeds, learn=learn,
+    elif agents.learner.compiles and compiles(domain, config.plant_name):
+        results = run_compiled(domain, task, agents, config.episodes, seeds, learn=learn,
                                greedy=greedy, progress=progress, record=record,
                                budget=config.budget,
                                plant=config.plant_name, **config.plant_options,
@@ -148,10 +148,10 @@ def run(config, agent: Agents | None = None, learn: bool = True, greedy: bool = 
     else:
         env = BatchedEnv(domain, task, config.plant_name, seeds, **config.plant_options,
                          **config.task_options, **options)
-        results = run_batched(env, agent, config.episodes, learn=learn, greedy=greedy,
+        results = run_batched(env, agents, config.episodes, learn=learn, greedy=greedy,
                               budget=config.budget,
                               progress=progress, record=record)
-    return agent, drawn(results)
+    return agents, drawn(results)
 
 
 def _after(call, first):

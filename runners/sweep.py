@@ -37,7 +37,7 @@ from lwrl.agent import io as agent_io
 from lwrl.agent import threads
 from lwrl.runners import records
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent, run
+from lwrl.runners.run import make_agents, run
 from lwrl.runners.store import RunStore
 
 BACKENDS = ("local", "ray")
@@ -116,7 +116,7 @@ def trained_agents(configs, directory):
     agents are that run's, as it ended (`Agents.take_over`), with the configuration's
     settings."""
     kept, _ = agent_io.load(RunStore.agents_file(directory, configs[0].trained))
-    agent = make_agent(*configs)
+    agent = make_agents(*configs)
     agent.take_over(kept)
     return agent
 
@@ -133,7 +133,7 @@ def run_batch(configs, progress=None, directory=None, keep_agents: bool = False)
     family = len({config.budget for config in configs}) > 1
     base = longest(configs) if family else configs[0]
     joined = [base] if family else configs
-    agent = trained_agents(joined, directory) if base.trained else make_agent(*joined)
+    agent = trained_agents(joined, directory) if base.trained else make_agents(*joined)
     population = directory is not None and agent.learner.population
     finished, clock = {}, records.TrainingClock()
     shared_by = sum(config.agents for config in joined)
@@ -146,7 +146,7 @@ def run_batch(configs, progress=None, directory=None, keep_agents: bool = False)
 
     checkpoints = {config.budget: checkpoint(config)
                    for config in configs if config is not base} if family else None
-    _, results = run(base, agent=agent, seeds=[seed for config in joined for seed in config.seeds],
+    _, results = run(base, agents=agent, seeds=[seed for config in joined for seed in config.seeds],
                      progress=progress, learn=base.learn, greedy=base.greedy, batch=joined,
                      checkpoints=checkpoints,
                      resume=RunStore.resume_file(directory, base.key) if population else None)

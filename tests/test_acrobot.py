@@ -357,6 +357,6 @@ def test_train_command_smoke(tmp_path, capsys):
                      "--out", str(out)]) == 0
     assert "acrobot.swingup on the mujoco plant" in capsys.readouterr().out
     config = json.loads((out / "config.json").read_text())
-    assert config["task"] == "acrobot.swingup" and config["agent"]["n"] == 6
+    assert config["task"] == "acrobot.swingup" and config["settings"]["n"] == 6
     rows = (out / "episodes.csv").read_text().strip().splitlines()
     assert len(rows) == 1 + 6

@@ -7,7 +7,7 @@ import pytest
 from lwrl.agent.actor_critic import ACTOR, CRITIC
 from lwrl.tasks.commands import commands, continuous_command
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent, run
+from lwrl.runners.run import make_agents, run
 
 TASK = "pendulum.swingup"
 
@@ -41,7 +41,7 @@ def test_one_step_is_cacla_with_a_td_lambda_critic():
     accumulating trace and update."""
     config = RunConfig(task=TASK, learner="actor_critic", actions="continuous", agents=1,
                        alpha=0.5, beta=0.25, lam=0.5, gamma=0.9, sigma=0.0)
-    agents = make_agent(config)
+    agents = make_agents(config)
     arrays = agents.arrays
     first, second = np.array([0.3, -0.2]), np.array([0.5, 0.4])
     arrays.weights[0, ACTOR] = 0.1
@@ -73,12 +73,12 @@ def test_it_learns_the_swing_up_with_continuous_torque():
     up more than 40 s of the 60 (measured: 40.1 s, and six)."""
     config = RunConfig(task=TASK, learner="actor_critic", actions="continuous",
                        plant="analytic", agents=10, episodes=40, seed=100)
-    untrained = make_agent(config)
+    untrained = make_agents(config)
     evaluation = RunConfig(task=TASK, learner="actor_critic", actions="continuous",
                            plant="analytic", agents=10, episodes=3, seed=100)
-    _, before = run(evaluation, agent=untrained, learn=False, greedy=True)
+    _, before = run(evaluation, agents=untrained, learn=False, greedy=True)
     agents, training = run(config)
-    _, after = run(evaluation, agent=agents, learn=False, greedy=True)
+    _, after = run(evaluation, agents=agents, learn=False, greedy=True)
     assert not agents.diverged.any() and np.all(np.isfinite(training.uptime))
     per_agent = after.uptime.mean(axis=1)
     assert per_agent.mean() >= max(20.0, 2 * before.uptime.mean())
@@ -143,7 +143,7 @@ def test_saved_agents_are_evaluated_on_their_kind_of_action(tmp_path, capsys):
     assert main(["train", TASK, "--action-kind", "continuous", "--learner", "actor_critic",
                  "--agents", "2", "--episodes", "1", "--save", str(saved)]) == 0
     assert main(["eval", str(saved), "--episodes", "1"]) == 0
-    agents = make_agent(RunConfig(task=TASK, learner="actor_critic", actions="continuous"))
+    agents = make_agents(RunConfig(task=TASK, learner="actor_critic", actions="continuous"))
     with pytest.raises(ValueError) as error:
         tasks.definition("pendulum", "swingup").check_fits(2, agents.action_space, "agents.npz")
     assert "\n" not in str(error.value) and "actions='continuous'" in str(error.value)

@@ -11,7 +11,7 @@ from lwrl.agent.cmac import CMAC
 from lwrl.agent.sarsa import BatchedSarsa
 from lwrl.agent.stable_baselines import ModelAgents
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent, run_compiled
+from lwrl.runners.run import make_agents, run_compiled
 
 
 @pytest.fixture
@@ -19,7 +19,7 @@ def trained(tmp_path):
     """Three Mountain-Car agents after 5 episodes, saved with their configuration."""
     config = RunConfig(task="mountain_car.cost_to_go", plant="analytic", agents=3, episodes=5,
                        trace="accumulating", alpha=1.0, lam=0.8)
-    agent = make_agent(config)
+    agent = make_agents(config)
     run_compiled("mountain_car", "cost_to_go", agent, 5, config.seeds)
     path = tmp_path / "agent.npz"
     agent_io.save(path, agent, {"config": {"task": config.task}})
@@ -119,7 +119,7 @@ def test_a_file_from_before_learners_said_what_they_have_loads(tmp_path, learner
     (but for what the old file did not say)."""
     config = RunConfig(task=task, learner=learner, actions=actions, plant="analytic", agents=2,
                        episodes=1)
-    agents = make_agent(config)
+    agents = make_agents(config)
     if agents.learner.compiles:  # its arrays are all it has: weights that act
         agents.arrays.weights[:] = np.random.default_rng(0).normal(size=agents.arrays.weights.shape)
     path = tmp_path / "old.npz"

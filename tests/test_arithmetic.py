@@ -29,7 +29,7 @@ def counts_of(name: str, task: str, steps=None, settings: dict | None = None):
     if settings is not None:
         return learner.arithmetic(learner.settings(**settings), task_spec(task), steps)
     config = RunConfig(task=task, learner=name, actions=learner.actions)
-    return learner.arithmetic(config.agent, config.task_spec, steps)
+    return learner.arithmetic(config.settings, config.task_spec, steps)
 
 
 def test_every_learner_of_lwrls_own_counts_its_arithmetic():
@@ -80,7 +80,7 @@ def test_sarsas_learning_step_on_mountain_car():
 def test_the_linear_learners_do_not_count_cmac_features():
     for name in ("sarsa", "true_online_sarsa"):
         config = RunConfig(task="mountain_car.cost_to_go", learner=name)
-        cmac = dataclasses.replace(config.agent, features="cmac")
+        cmac = dataclasses.replace(config.settings, features="cmac")
         with pytest.raises(NotCounted, match="cmac features"):
             learners.learner(name).arithmetic(cmac, config.task_spec)
 

@@ -110,7 +110,7 @@ def test_ars_counts_its_arithmetic_by_hand():
     """Mountain-Car (3 actions x 2 variables), V2, N = b = 8: a decision is 3·2 scores and 2
     for the normalisation; a step adds 3·2 for the perturbed policy and 2·2 for the
     statistics, and 1/16 of the iteration's 8·6 + 4·8 + 2·2 and 2 square roots."""
-    counts = learners.learner("ars").arithmetic(config(directions=8).agent, config().task_spec)
+    counts = learners.learner("ars").arithmetic(config(directions=8).settings, config().task_spec)
     assert counts.decision == Count(8)
     assert counts.update == Count(6 + 4 + 84 / 16, 2 / 16)
     assert counts.step == counts.decision + counts.update

@@ -9,7 +9,7 @@ import pytest
 
 from lwrl.agent.ase_ace import BOXES, AseAceAgents, AseAceSettings, box_of
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent, run
+from lwrl.runners.run import make_agents, run
 
 
 def test_the_constants_are_the_papers():
@@ -71,7 +71,7 @@ def test_it_fits_the_cartpole_only():
     for task in ("mountain_car.cost_to_go", "pendulum.swingup", "acrobot.swingup"):
         with pytest.raises(ValueError, match=f"^ase_ace fits the cart-pole .*; {task} has"):
             RunConfig(task=task, learner="ase_ace")
-    assert make_agent(RunConfig(task="cartpole.balance", learner="ase_ace")).batch_size == 10
+    assert make_agents(RunConfig(task="cartpole.balance", learner="ase_ace")).batch_size == 10
 
 
 def test_it_learns_to_balance():
@@ -85,7 +85,7 @@ def test_it_learns_to_balance():
 
 
 def test_values_are_the_actors_preferences_and_the_critics_prediction():
-    agent = make_agent(RunConfig(task="cartpole.balance", learner="ase_ace", agents=2))
+    agent = make_agents(RunConfig(task="cartpole.balance", learner="ase_ace", agents=2))
     rng = np.random.default_rng(1)
     agent.arrays.weights[:] = rng.normal(size=agent.arrays.weights.shape)
     states = rng.uniform(-1, 1, size=(5, 4)) * [2.4, 1.5, 0.2, 2.0]
@@ -104,4 +104,4 @@ def test_its_settings_are_its_own():
         RunConfig(task="cartpole.balance", learner="ase_ace", n=6)
     with pytest.raises(ValueError, match="^beta is not a setting of sarsa"):
         RunConfig(task="cartpole.balance", beta=0.5)
-    assert RunConfig(task="cartpole.balance", learner="ase_ace", beta=0.25).agent.beta == 0.25
+    assert RunConfig(task="cartpole.balance", learner="ase_ace", beta=0.25).settings.beta == 0.25

@@ -11,7 +11,7 @@ from conftest import one_line_error, run_cli
 from lwrl import bench, tasks
 from lwrl.agent import io as agent_io
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent
+from lwrl.runners.run import make_agents
 from lwrl.runners.stepped import run_batched
 from lwrl.tasks.batched import flatten_observation
 from lwrl.studies.paper.benchmark import evaluation, harness, outside, protocol
@@ -144,7 +144,7 @@ def saved(tmp_path, monkeypatch):
     monkeypatch.setattr(protocol, "AGENTS", 2)
     monkeypatch.setattr(evaluation, "STEP_CAP", 100)
     config = RunConfig(task=TASK, plant="analytic", agents=2, episodes=1)
-    agent = make_agent(config)
+    agent = make_agents(config)
     agent.weights[:] = np.random.default_rng(0).normal(size=agent.weights.shape)
     agent.arrays.diverged[1] = True
     path = tmp_path / "agents.npz"

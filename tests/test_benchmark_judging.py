@@ -93,7 +93,7 @@ def test_the_multiply_adds_of_a_row_are_its_learners_counts():
 
     config = RunConfig(task="mountain_car.cost_to_go")
     per_step = report.macs_per_step(config)
-    counts = agent.learner("sarsa").arithmetic(config.agent, config.task_spec, 500)
+    counts = agent.learner("sarsa").arithmetic(config.settings, config.task_spec, 500)
     assert per_step(500) == counts.step.macs > 0
     assert report.macs_per_step(RunConfig(task="mountain_car.cost_to_go", features="cmac")) is None
     assert report.macs_per_step(None) is None

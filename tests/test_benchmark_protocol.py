@@ -33,7 +33,7 @@ def test_every_row_runs_under_the_tasks_budget_and_the_deep_rows_schedules_span_
         assert config.task == name and config.actions == actions
         if row.label in deep:
             assert config.learner == deep[row.label]
-            assert config.agent.timesteps == protocol.BUDGETS[task]
+            assert config.settings.timesteps == protocol.BUDGETS[task]
 
 
 @pytest.mark.parametrize("task", list(protocol.BUDGETS))

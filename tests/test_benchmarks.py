@@ -120,9 +120,9 @@ def test_deep_speed_counts_what_each_learner_declares():
 
     config = RunConfig(task="mountain_car.cost_to_go")
     sarsa = learners.learner(config.learner)
-    assert deep_speed.counted(sarsa, config.agent, config.task_spec) == sarsa.arithmetic(
-        config.agent, config.task_spec)
-    assert deep_speed.counted(dataclasses.replace(sarsa, arithmetic=None), config.agent,
+    assert deep_speed.counted(sarsa, config.settings, config.task_spec) == sarsa.arithmetic(
+        config.settings, config.task_spec)
+    assert deep_speed.counted(dataclasses.replace(sarsa, arithmetic=None), config.settings,
                               config.task_spec) == f"not counted ({sarsa.name} declares no counts)"
-    cmac = dataclasses.replace(config.agent, features="cmac")
+    cmac = dataclasses.replace(config.settings, features="cmac")
     assert deep_speed.counted(sarsa, cmac, config.task_spec) == "not counted (cmac features)"

@@ -10,7 +10,7 @@ from conftest import one_line_error
 
 from lwrl.agent import jax_population
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent, run
+from lwrl.runners.run import make_agents, run
 from lwrl.runners.stepped import run_batched
 from lwrl.tasks.batched import BatchedEnv
 
@@ -36,7 +36,7 @@ def test_the_stepped_loop_spends_a_budget_as_the_compiled_loop_does():
     config = RunConfig(task="mountain_car.cost_to_go", agents=3, episodes=8, seed=4, budget=700)
     _, compiled = run(config)
     env = BatchedEnv(config.domain, config.task_name, config.plant_name, config.seeds)
-    stepped = run_batched(env, make_agent(config), config.episodes, budget=config.budget)
+    stepped = run_batched(env, make_agents(config), config.episodes, budget=config.budget)
     for field in ("steps", "returns", "truncated"):
         np.testing.assert_array_equal(getattr(stepped, field), getattr(compiled, field))
 

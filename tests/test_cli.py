@@ -113,7 +113,7 @@ def test_train_writes_config_and_episodes_and_eval_reads_the_agents(tmp_path, ca
     printed = capsys.readouterr().out
     assert "± " in printed and "seeds 5..7" in printed and "no agent diverged" in printed
     config = json.loads((out / "config.json").read_text())
-    assert config["task"] == "mountain_car.cost_to_go" and config["agent"]["alpha"] == 3.9
+    assert config["task"] == "mountain_car.cost_to_go" and config["settings"]["alpha"] == 3.9
     with open(out / "episodes.csv") as file:
         rows = list(csv.DictReader(file))
     assert len(rows) == 12
@@ -124,6 +124,29 @@ def test_train_writes_config_and_episodes_and_eval_reads_the_agents(tmp_path, ca
     assert cli.main(["export", str(saved), "--c", str(tmp_path / "c"), "--agent", "2"]) == 0
     assert "768 bytes of weights" in capsys.readouterr().out  # 8 x 8 neurons x 3 actions x 4 B
     assert (tmp_path / "c" / "lwrl_policy.c").exists() and (tmp_path / "c" / "lwrl_policy.h").exists()
+
+
+def test_files_written_before_the_settings_were_named_settings_still_read(tmp_path, capsys):
+    """An agent file and a run directory that keep the learner's settings under `agent`
+    (their name before 2026-12-07): `lwrl eval` runs them with their settings, as it runs
+    today's file, and `lwrl export` names their alpha."""
+    from lwrl.agent import io as agent_io
+
+    saved, old = tmp_path / "agents.npz", tmp_path / "old.npz"
+    assert cli.main(["train", "mountain_car.cost_to_go", "--episodes", "3", "--agents", "2",
+                     "--alpha", "2.5", "--epsilon", "0.3", "--save", str(saved)]) == 0
+    agents, metadata = agent_io.load(saved)
+    config = metadata["config"]
+    config["agent"] = config.pop("settings")
+    agent_io.save(old, agents, metadata)
+    capsys.readouterr()
+    printed = []
+    for path in (saved, old):
+        assert cli.main(["eval", str(path), "--episodes", "2"]) == 0
+        printed.append(capsys.readouterr().out.splitlines()[-3:])
+    assert printed[0] == printed[1]
+    assert cli.main(["export", str(old), "--c", str(tmp_path / "c")]) == 0
+    assert "alpha 2.5" in (tmp_path / "c" / "lwrl_policy.c").read_text()
 
 
 def test_train_reports_diverged_agents(capsys):

@@ -14,7 +14,7 @@ from lwrl.agent.paper_settings import PAPER_SETTINGS, paper_settings
 from lwrl.runners.config import ProtocolSettings, RunConfig, task_defaults, unset_per_task
 from lwrl.studies.paper.items import ITEMS
 from lwrl.studies.paper.reproduce import with_alphas, with_readings
-from lwrl.runners.run import make_agent, run
+from lwrl.runners.run import make_agents, run
 
 
 def test_edge_centroids_are_the_grid_from_end_to_end():
@@ -26,17 +26,17 @@ def test_edge_centroids_are_the_grid_from_end_to_end():
     states = np.random.default_rng(1).uniform(-1.3, 1.3, (50, 4)) * high
     distances = ((((states - low) / (high - low))[:, None, :] - centres[None]) ** 2).sum(axis=2)
     phi = np.exp(-distances / 0.02)
-    edges = make_agent(config).features
+    edges = make_agents(config).features
     np.testing.assert_allclose(edges.features(states), phi / phi.sum(axis=1, keepdims=True),
                                atol=1e-12)
-    midpoints = make_agent(RunConfig(task="cartpole.balance", r2=0.02)).features.features(states)
+    midpoints = make_agents(RunConfig(task="cartpole.balance", r2=0.02)).features.features(states)
     assert np.abs(midpoints - edges.features(states)).max() > 0.1
 
 
 def test_ranges_default_to_the_paper_and_can_be_set():
     config = RunConfig(task="pendulum.swingup", low=(-3, -3), high=(3, 3))
-    assert make_agent(config).value_box() == ((-3.0, -3.0), (3.0, 3.0))
-    assert make_agent(RunConfig(task="pendulum.swingup")).value_box()[1][1] == 1.5
+    assert make_agents(config).value_box() == ((-3.0, -3.0), (3.0, 3.0))
+    assert make_agents(RunConfig(task="pendulum.swingup")).value_box()[1][1] == 1.5
     with pytest.raises(ValueError, match="low must have one value per state variable of "
                                          "pendulum.swingup \\(2\\)"):
         RunConfig(task="pendulum.swingup", low=(-1, -1, -1))
@@ -49,8 +49,8 @@ def test_a_run_takes_the_paper_agents_settings_on_its_task_and_what_it_is_given(
     the task (`agent.paper_settings`), field by field."""
     paper = paper_settings("mountain_car.cost_to_go")
     config = RunConfig(task="mountain_car.cost_to_go", alpha=0.25)
-    assert (config.agent.alpha, config.agent.n, config.agent.trace, config.agent.lam,
-            config.agent.epsilon, config.agent.gamma, config.episodes, config.agents) == (
+    assert (config.settings.alpha, config.settings.n, config.settings.trace, config.settings.lam,
+            config.settings.epsilon, config.settings.gamma, config.episodes, config.agents) == (
         0.25, paper.n, paper.trace, paper.lam, paper.epsilon, paper.gamma, paper.episodes,
         paper.agents)
     assert task_defaults("mountain_car.cost_to_go") == dataclasses.asdict(paper)
@@ -107,8 +107,8 @@ def test_readings_apply_to_the_runs_that_have_them():
         ITEMS["fig8"].configs("analytic", True, "semi_implicit")
     changed = with_readings(configs, {"r2": 0.05, "epsilon": 0.0, "track_limit": None})
     for before, after in zip(configs, changed):
-        assert after.agent.r2 == (0.05 if before.agent.features == "nrbf" else before.agent.r2)
-        assert after.agent.epsilon == 0.0
+        assert after.settings.r2 == (0.05 if before.settings.features == "nrbf" else before.settings.r2)
+        assert after.settings.epsilon == 0.0
         assert after.task_options == ({"track_limit": None} if before.domain == "cartpole" else {})
     with pytest.raises(ValueError, match="no run of these items has the reading 'track_limit'"):
         with_readings(ITEMS["fig2"].configs("analytic", True, "semi_implicit"), {"track_limit": 3})
@@ -143,12 +143,12 @@ def test_the_author_codes_equations_apply_to_analytic_pendulum_and_cartpole_runs
 def test_an_alpha_grid_replaces_the_nrbf_runs_alphas_only():
     configs = ITEMS["fig2"].configs("analytic", True, "semi_implicit")
     changed = with_alphas(configs, (0.05, 0.1))
-    nrbf = [c for c in configs if c.agent.features == "nrbf"]
-    cmac = [c for c in configs if c.agent.features == "cmac"]
-    distinct = {(c.agent.trace, c.agent.lam) for c in nrbf}
-    assert [c for c in changed if c.agent.features == "cmac"] == cmac
-    assert sorted((c.agent.trace, c.agent.lam, c.agent.alpha) for c in changed
-                  if c.agent.features == "nrbf") == \
+    nrbf = [c for c in configs if c.settings.features == "nrbf"]
+    cmac = [c for c in configs if c.settings.features == "cmac"]
+    distinct = {(c.settings.trace, c.settings.lam) for c in nrbf}
+    assert [c for c in changed if c.settings.features == "cmac"] == cmac
+    assert sorted((c.settings.trace, c.settings.lam, c.settings.alpha) for c in changed
+                  if c.settings.features == "nrbf") == \
         sorted((trace, lam, alpha) for trace, lam in distinct for alpha in (0.05, 0.1))
     with pytest.raises(ValueError, match="alphas must name at least one learning rate"):
         with_alphas(configs, ())
@@ -218,6 +218,6 @@ def test_a_new_setting_changes_no_key_where_it_is_not_set():
         momentum: float = 0.0
 
     plain = RunConfig(task="mountain_car.cost_to_go")
-    assert RunConfig(task="mountain_car.cost_to_go", agent=Quiet()).key == plain.key
-    assert RunConfig(task="mountain_car.cost_to_go", agent=Quiet(momentum=0.5)).key != plain.key
-    assert RunConfig(task="mountain_car.cost_to_go", agent=Loud()).key != plain.key
+    assert RunConfig(task="mountain_car.cost_to_go", settings=Quiet()).key == plain.key
+    assert RunConfig(task="mountain_car.cost_to_go", settings=Quiet(momentum=0.5)).key != plain.key
+    assert RunConfig(task="mountain_car.cost_to_go", settings=Loud()).key != plain.key

@@ -373,7 +373,7 @@ def test_a_learner_of_discrete_actions_is_refused_in_one_line():
     the check of saved agents, the run's configuration, the compiled loop), one line says
     what it can run."""
     from lwrl.runners.config import RunConfig
-    from lwrl.runners.run import make_agent, run_compiled
+    from lwrl.runners.run import make_agents, run_compiled
     from lwrl.runners.stepped import run_batched, run_dm_env
 
     refusal = ("cartpole.balance was made with actions='continuous' (the force itself, in "
@@ -387,12 +387,12 @@ def test_a_learner_of_discrete_actions_is_refused_in_one_line():
                                    task_options=CONTINUOUS)):
         one_line_error(call, *refusal)
     one_line_error(lambda: definition.check_fits(4, Discrete(2), "agents.json"), "agents.json: ", *refusal)
-    agent = make_agent(RunConfig(task="cartpole.balance", plant="analytic", agents=2, episodes=1))
+    agent = make_agents(RunConfig(task="cartpole.balance", plant="analytic", agents=2, episodes=1))
     one_line_error(lambda: run_compiled("cartpole", "balance", agent, 1, [0, 1], plant="analytic",
                                         **CONTINUOUS), *refusal)
     env = BatchedEnv("cartpole", "balance", "analytic", seeds=[0, 1], **CONTINUOUS)
     one_line_error(lambda: run_batched(env, agent, 1), "run_batched: ", *refusal)
-    single = make_agent(RunConfig(task="cartpole.balance", plant="analytic", agents=1, episodes=1))
+    single = make_agents(RunConfig(task="cartpole.balance", plant="analytic", agents=1, episodes=1))
     one_line_error(lambda: run_dm_env(tasks.load("cartpole", "balance", "analytic", seed=0,
                                                  **CONTINUOUS), single, 1),
                    "run_dm_env: ", *refusal)

@@ -30,7 +30,7 @@ from lwrl.agent.streams import uniform
 from lwrl.export import device, learner
 from lwrl.cli.main import main
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent
+from lwrl.runners.run import make_agents
 
 MOUNTAIN_CAR = "mountain_car.cost_to_go"
 needs_host_compiler = pytest.mark.skipif(
@@ -48,7 +48,7 @@ def python_run(task, seed, episodes, **options):
     definition = tasks.definition(*tasks.split_name(task), **options)
     low = np.array([mountain_car.MIN_POSITION, -mountain_car.MAX_SPEED])  # SPEC.md Task 1's starts
     high = np.array([mountain_car.GOAL_POSITION, mountain_car.MAX_SPEED])
-    agent = make_agent(RunConfig(task=task, agents=1, seed=seed))
+    agent = make_agents(RunConfig(task=task, agents=1, seed=seed))
     starts = np.array([seed + 2 ** 63], dtype=np.uint64)
     controls = np.asarray(definition.controls, dtype=np.float64)
     arguments = definition.loop_arguments()

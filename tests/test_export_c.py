@@ -31,7 +31,7 @@ from lwrl.agent.nrbf import NRBF
 from lwrl.agent.sarsa import BatchedSarsa
 from lwrl.runners.config import RunConfig
 from lwrl.export.c import export_c, measure
-from lwrl.runners.run import make_agent, run
+from lwrl.runners.run import make_agents, run
 
 COMPILER = next((shutil.which(c) for c in ("cc", "gcc", "clang") if shutil.which(c)), None)
 needs_compiler = pytest.mark.skipif(COMPILER is None,
@@ -99,7 +99,7 @@ def agent_files(tmp_path_factory):
     rng = np.random.default_rng(5)
     for task, scale in (("cartpole.balance", 1.0), ("pendulum.swingup", 30.0)):
         config = RunConfig(task=task, plant="analytic", agents=2, episodes=3)
-        agent = make_agent(config)
+        agent = make_agents(config)
         agent.weights[:] = scale * rng.normal(size=agent.weights.shape)
         files[task.split(".")[0]] = save(directory / f"{task}.npz", agent, config)
     one_dimensional = BatchedSarsa(NRBF((-3.0,), (2.0,), 7), 3, alpha=0.1, lam=0.0, epsilon=0.0,
@@ -110,7 +110,7 @@ def agent_files(tmp_path_factory):
     for task, scale in (("pendulum.swingup", 1.0), ("cartpole.balance", 1.0)):
         config = RunConfig(task=task, learner="actor_critic", actions="continuous",
                            plant="analytic", agents=2, episodes=3)
-        agent = make_agent(config)
+        agent = make_agents(config)
         agent.arrays.weights[:] = scale * rng.normal(size=agent.arrays.weights.shape)
         files[f"{task.split('.')[0]}_actor"] = save(directory / f"{task}-actor.npz", agent, config)
     return files
@@ -335,7 +335,7 @@ def test_bad_inputs_are_refused_in_one_line(agent_files, tmp_path):
     # header's actuator range), refused; its diverged agent too.
     config = RunConfig(task="pendulum.swingup", learner="actor_critic", actions="continuous",
                        features="cmac", agents=1)
-    agent_io.save(tmp_path / "actor_cmac.npz", make_agent(config),
+    agent_io.save(tmp_path / "actor_cmac.npz", make_agents(config),
                   {"config": dataclasses.asdict(config)})
     one_line_error(lambda: export_c(tmp_path / "actor_cmac.npz", tmp_path / "out"), "only NRBF")
     agent, metadata = agent_io.load(agent_files["pendulum_actor"])

@@ -179,7 +179,7 @@ def test_cli_trains_on_gymnasium_and_writes_the_run(tmp_path, capsys):
     assert "gym:CartPole-v1: 1 agent, accumulating traces" in printed and "nan" not in printed
     assert "nrbf 6^4, actions 2 discrete, 2 episodes" in printed
     config = json.loads((out / "config.json").read_text())
-    assert config["env"] == "gym:CartPole-v1" and len(config["agent"]["low"]) == 4
+    assert config["env"] == "gym:CartPole-v1" and len(config["settings"]["low"]) == 4
     assert len((out / "episodes.csv").read_text().splitlines()) == 3
 
 

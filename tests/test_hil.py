@@ -14,7 +14,7 @@ from lwrl import tasks
 from lwrl.export.hil import build_host_program, run_session
 from lwrl.export.link import HostLink, PipePort
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent, run_dm_env
+from lwrl.runners.run import make_agents, run_dm_env
 
 
 @contextlib.contextmanager
@@ -32,7 +32,7 @@ def device_link(command, wrap=lambda port: port, timeout=5.0):
 def own_run(task, episodes, plant=None, **options):
     """lwrl's learner (agent seed 3) on the episodes of environment seed 11."""
     domain, name = tasks.split_name(task)
-    agent = make_agent(RunConfig(task=task, agents=1, seed=3, task_options=options))
+    agent = make_agents(RunConfig(task=task, agents=1, seed=3, task_options=options))
     results = run_dm_env(tasks.load(domain, name, plant=plant, seed=11, task_kwargs=options),
                          agent, episodes)
     return agent, results

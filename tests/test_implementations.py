@@ -73,7 +73,7 @@ def test_both_implementations_take_the_same_zoo_settings():
     for cell in cells:
         rows = plan.translation(cell)
         assert rows and all(row.same for row in rows), cell.key
-        reference, twin = (cell.config(name, 0).agent for name in cell.pair.names)
+        reference, twin = (cell.config(name, 0).settings for name in cell.pair.names)
         ours = {f.name for f in dataclasses.fields(reference)}
         assert {row.name for row in rows} == ours | {f.name for f in dataclasses.fields(twin)}
         assert [(row.name, row.reference, row.twin) for row in rows if row.name not in ours] == [
@@ -153,7 +153,7 @@ def test_the_timed_run_reaches_past_the_warm_up():
     for cell in plan.cells(["pendulum.swingup"], 2, actions="continuous"):
         for name in cell.pair.names:
             config = costs.cost_config(cell, name)
-            starts = getattr(config.agent, "learning_starts", 0)
+            starts = getattr(config.settings, "learning_starts", 0)
             definition = tasks.definition(*tasks.split_name(config.task), **config.task_options)
             steps = config.episodes * definition.step_limit
             assert steps >= starts + costs.COST_STEPS, (name, starts, steps)

@@ -16,7 +16,7 @@ import jax.numpy as jnp  # noqa: E402
 from benchmarks import agent_speed, jax_peer  # noqa: E402
 from lwrl import tasks  # noqa: E402
 from lwrl.runners.config import RunConfig  # noqa: E402
-from lwrl.runners.run import make_agent  # noqa: E402
+from lwrl.runners.run import make_agents  # noqa: E402
 from lwrl.tasks import cartpole, mountain_car  # noqa: E402
 
 
@@ -26,7 +26,7 @@ def test_the_peer_computes_lwrls_features(task):
     underflow guard and the clamp)."""
     agent, _, _ = jax_peer.peer_agents(task, 1)
     config = RunConfig(task=task)
-    features = config.agent.feature_map(config.task_spec.ranges.low, config.task_spec.ranges.high)
+    features = config.settings.feature_map(config.task_spec.ranges.low, config.task_spec.ranges.high)
     rng = np.random.default_rng(0)
     low, high = np.array(features.low), np.array(features.high)
     states = low + (high - low) * rng.uniform(-0.5, 1.5, size=(200, len(low)))
@@ -93,7 +93,7 @@ def lwrl_trajectory(task):
     features, Q, TD error and weights after the transition."""
     config = RunConfig(task=task, agents=1, plant="analytic")
     definition = tasks.definition(config.domain, config.task_name)
-    agent = make_agent(config)
+    agent = make_agents(config)
     plant = agent_speed.PLANTS[task]
     rng = np.random.default_rng(0)
     starts = definition.initial_states(rng, TRAJECTORY_STEPS)

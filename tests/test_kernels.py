@@ -19,7 +19,7 @@ from lwrl.agent.learner_contract import batch_step
 from lwrl.agent.sarsa import LEARNER
 from lwrl.runners.compiled import compiled_loop
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent, run, run_batched
+from lwrl.runners.run import make_agents, run, run_batched
 from lwrl.tasks.batched import BatchedEnv
 from lwrl.tasks import mountain_car, pendulum
 config = RunConfig(task="mountain_car.cost_to_go", agents=2, episodes=3)
@@ -28,7 +28,7 @@ engine = RunConfig(task="pendulum.swingup", plant="mujoco", agents=2, episodes=1
 _, engine_results = run(engine)
 stepped = RunConfig(task="acrobot.swingup", plant="mujoco", agents=2, episodes=1)
 stepped_results = run_batched(BatchedEnv("acrobot", "swingup", "mujoco", stepped.seeds,
-                                         time_limit=10.0), make_agent(stepped), 1)
+                                         time_limit=10.0), make_agents(stepped), 1)
 stats = {name: kernel.dispatcher.stats for name, kernel in
          (("loop", compiled_loop(mountain_car.cost_to_go(), LEARNER)),
           ("mujoco_loop", compiled_loop(pendulum.swingup(), LEARNER, "mujoco")),

@@ -32,7 +32,7 @@ from lwrl.agent.sarsa import BatchedSarsa
 from lwrl.export import device, learner
 from lwrl.export.c import section_sizes
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent
+from lwrl.runners.run import make_agents
 from lwrl.tasks.batched import BatchedEnv
 
 COMPILER = next((shutil.which(c) for c in ("cc", "gcc", "clang") if shutil.which(c)), None)
@@ -119,7 +119,7 @@ def episode_lengths(learners, task: str, seeds, episodes: int, time_limit: float
 def python_agents(task, seeds, **settings):
     """lwrl's learner for `task` with `settings`, one agent per seed (consecutive), as
     `from_task` makes the C learner's."""
-    agents = make_agent(RunConfig(task=task, agents=len(seeds), seed=seeds[0], **settings))
+    agents = make_agents(RunConfig(task=task, agents=len(seeds), seed=seeds[0], **settings))
     assert isinstance(agents, BatchedSarsa)
     return agents
 

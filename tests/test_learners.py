@@ -15,7 +15,7 @@ from lwrl import agent as learners
 from lwrl import tasks, testing
 from lwrl.agent.learner_contract import LearnerForm
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent
+from lwrl.runners.run import make_agents
 from lwrl.settings import base_type
 
 FITS = [(learner, task) for learner, task in itertools.product(learners.LEARNER_NAMES, tasks.TASK_NAMES)
@@ -103,7 +103,7 @@ def test_a_learner_learns_in_c_or_says_in_one_line_why_not(learner, task):
 
 
 def test_some_learner_learns_in_c():
-    assert any(isinstance(make_agent(RunConfig(task=task, learner=learner, agents=1)).learner_form(0),
+    assert any(isinstance(make_agents(RunConfig(task=task, learner=learner, agents=1)).learner_form(0),
                           LearnerForm)
                for learner, task in PAIRS if learner == learners.DEFAULT_LEARNER)
 
@@ -147,7 +147,7 @@ def test_a_learner_whose_libraries_are_missing_is_configured_but_not_made(monkey
     assert testing.fits("stream_q", "cartpole.balance")
     with pytest.raises(ValueError, match=r"^stream_q needs JAX \(not installed\): pip install "
                                          r"'lwrl\[jax\]'$"):
-        make_agent(config)
+        make_agents(config)
     with pytest.raises(testing.ContractError, match=r"^learner 'stream_q': check_learner: "
                                                     r"stream_q needs JAX"):
         testing.check_learner("stream_q", ["cartpole.balance"])

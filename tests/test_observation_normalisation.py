@@ -13,7 +13,7 @@ pytest.importorskip("jax", reason="the population learners need the jax extra: p
 from lwrl.agent import io  # noqa: E402
 from lwrl.agent.controller_forms import controller  # noqa: E402
 from lwrl.runners.config import RunConfig  # noqa: E402
-from lwrl.runners.run import make_agent, run  # noqa: E402
+from lwrl.runners.run import make_agents, run  # noqa: E402
 from conftest import one_line_error  # noqa: E402
 
 DQN = RunConfig(task="cartpole.balance", learner="dqn_jax", agents=2, episodes=2, seed=3,
@@ -33,7 +33,7 @@ def test_the_first_observations_are_read_normalised_as_computed_by_hand():
     itself alone (variance 1 before two samples: 0), the second and its next observation by
     the mean and sample variance of the two, clipped to +-10 (`VecNormalize`'s `clip_obs`)."""
     import jax.numpy as jnp
-    agents = make_agent(DQN)
+    agents = make_agents(DQN)
     program = agents.trained_program()
     state = one_agent(agents.state)
     hyper = one_agent(program.hyper)
@@ -61,7 +61,7 @@ def test_the_first_observations_are_read_normalised_as_computed_by_hand():
 
 def test_a_greedy_act_leaves_the_statistics_as_learning_left_them():
     import jax.numpy as jnp
-    agents = make_agent(DQN)
+    agents = make_agents(DQN)
     program = agents.trained_program()
     state, hyper = one_agent(agents.state), one_agent(program.hyper)
     _, extras = program.act(state, jnp.ones(4), jnp.zeros(2, jnp.uint32), hyper, True, 0)
@@ -120,7 +120,7 @@ def test_a_streaming_learner_without_normalisation_reads_task_units_and_exports_
         streaming.forward(tree["params"], np.asarray(states, np.float32)), np.float64))
     form = controller(agents, 0)
     assert form.values["normalise"] == "0" and "input_mean" not in form.values
-    assert controller(make_agent(dataclasses.replace(config, normalize_observations=True)),
+    assert controller(make_agents(dataclasses.replace(config, normalize_observations=True)),
                       0).values["normalise"] == "1"
 
 

@@ -162,7 +162,7 @@ def test_lwrl_train_and_eval_run_the_installed_learner(installed_site, tmp_path)
     assert "toy tabular Sarsa(0) over 5^2 cells" in trained.stdout
     config = json.loads((out / "config.json").read_text())
     assert config["learner"] == "toy"
-    assert config["agent"] == {"alpha": 0.5, "epsilon": 0.05, "gamma": 1.0, "cells": 5}
+    assert config["settings"] == {"alpha": 0.5, "epsilon": 0.05, "gamma": 1.0, "cells": 5}
     with open(out / "episodes.csv") as file:
         rows = list(csv.DictReader(file))
     assert len(rows) == 4 and {"agent", "episode", "steps", "return"} <= set(rows[0])

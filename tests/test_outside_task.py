@@ -182,7 +182,7 @@ def test_lwrl_train_and_eval_run_the_installed_task(installed_site, tmp_path):
     own = {field.name: field.metadata["per_task"]  # no paper agent's settings: the learner's
            for field in dataclasses.fields(agent.learner("sarsa").settings)
            if "per_task" in field.metadata}
-    assert own and {name: config["agent"][name] for name in own} == own
+    assert own and {name: config["settings"][name] for name in own} == own
     with open(out / "episodes.csv") as file:
         rows = list(csv.DictReader(file))
     assert len(rows) == 6 and all(1 <= float(row["steps"]) <= 200 for row in rows)

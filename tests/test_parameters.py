@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 
 from lwrl import models, tasks
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent, run_batched, run_compiled, run_dm_env
+from lwrl.runners.run import make_agents, run_batched, run_compiled, run_dm_env
 from lwrl.studies.compare.open_loop import random_trials
 from lwrl.tasks.batched import BatchedEnv
 from lwrl.tasks.engine import engine_plant
@@ -263,7 +263,7 @@ def test_the_run_paths_give_one_set_of_numbers_at_other_values(plant):
     and a dm_env environment give the same episodes and weights, and not the paper's."""
     params = {"pole_mass": 0.3, "force": 7.0}
     config = RunConfig(task="cartpole.balance", plant=plant, agents=2, episodes=4, seed=8)
-    compiled_agent, batched_agent, nominal_agent = (make_agent(config) for _ in range(3))
+    compiled_agent, batched_agent, nominal_agent = (make_agents(config) for _ in range(3))
     compiled = run_compiled("cartpole", "balance", compiled_agent, 4, config.seeds, plant=plant,
                             params=params)
     batched = run_batched(BatchedEnv("cartpole", "balance", plant, config.seeds, params=params),
@@ -271,7 +271,7 @@ def test_the_run_paths_give_one_set_of_numbers_at_other_values(plant):
     for field in ("steps", "returns", "uptime"):
         np.testing.assert_array_equal(getattr(compiled, field), getattr(batched, field))
     np.testing.assert_array_equal(compiled_agent.weights, batched_agent.weights)
-    single_agent = make_agent(RunConfig(task="cartpole.balance", agents=1, episodes=4, seed=9))
+    single_agent = make_agents(RunConfig(task="cartpole.balance", agents=1, episodes=4, seed=9))
     single = run_dm_env(tasks.load("cartpole", "balance", plant=plant, seed=9, params=params),
                         single_agent, 4)
     np.testing.assert_array_equal(single.steps[0], compiled.steps[1])

@@ -15,7 +15,7 @@ from lwrl import agent as learners, tasks  # noqa: E402
 from lwrl.agent.stable_baselines import missing_libraries, spaces_env  # noqa: E402
 from lwrl.runners import episodes as episode_records, population, sweep  # noqa: E402
 from lwrl.runners.config import RunConfig, task_spec  # noqa: E402
-from lwrl.runners.run import make_agent, run  # noqa: E402
+from lwrl.runners.run import make_agents, run  # noqa: E402
 from lwrl.tasks.randomisation import check_ranges, draws  # noqa: E402
 from conftest import one_line_error  # noqa: E402
 
@@ -89,7 +89,7 @@ def test_one_ppo_update_is_sb3s_train():
     settings = learners.learner("ppo_jax").settings(
         net_arch="8,8", n_steps=8, batch_size=8, n_epochs=1, timesteps=1000, ent_coef=0.01,
         learning_rate=0.01)
-    agents = make_agent(RunConfig(task="cartpole.balance", learner="ppo_jax", agents=1,
+    agents = make_agents(RunConfig(task="cartpole.balance", learner="ppo_jax", agents=1,
                                   **{f.name: getattr(settings, f.name)
                                      for f in dataclasses.fields(settings)}))
     rng = np.random.default_rng(0)
@@ -139,7 +139,7 @@ def test_one_dqn_update_is_sb3s_train():
     settings = learners.learner("dqn_jax").settings(
         net_arch="8,8", buffer_size=16, batch_size=4, gradient_steps=1, train_freq=1,
         timesteps=1000, learning_rate=0.01, learning_starts=0, max_grad_norm=0.5)
-    agents = make_agent(RunConfig(task="cartpole.balance", learner="dqn_jax", agents=1,
+    agents = make_agents(RunConfig(task="cartpole.balance", learner="dqn_jax", agents=1,
                                   **{f.name: getattr(settings, f.name)
                                      for f in dataclasses.fields(settings)}))
     rng = np.random.default_rng(1)
@@ -185,7 +185,7 @@ def test_episodes_start_where_every_learners_start(name, monkeypatch):
         timesteps=100, **({"n_steps": 64, "batch_size": 64} if name == "ppo_jax" else
                           {"buffer_size": 100}))
     config = RunConfig(task="mountain_car.cost_to_go", learner=name, agents=3, episodes=3,
-                       seed=4, plant="analytic", agent=settings, task_options={"time_limit": 50})
+                       seed=4, plant="analytic", settings=settings, task_options={"time_limit": 50})
     _, results = run(config)
     assert drawn == [([4, 5, 6], 3)]
     np.testing.assert_array_equal(results.steps[:, 1], 1.0)
@@ -202,7 +202,7 @@ def test_how_the_program_is_cut_into_chunks_changes_no_number(name, monkeypatch)
         timesteps=2000, **({"n_steps": 64, "batch_size": 32} if name == "ppo_jax" else
                            {"buffer_size": 500, "learning_starts": 50}))
     config = RunConfig(task="pendulum.swingup", learner=name, agents=2, episodes=3, seed=3,
-                       plant="analytic", agent=settings, task_options={"time_limit": 2.0})
+                       plant="analytic", settings=settings, task_options={"time_limit": 2.0})
     whole_agent, whole = run(config)
     monkeypatch.setattr(population, "CHUNK", 7)
     chunked_agent, chunked = run(config)
@@ -281,7 +281,7 @@ def test_each_agent_of_a_batch_senses_and_acts_with_its_own_options(monkeypatch)
     late = dataclasses.replace(EVALUATED, seed=6, action_delay=2)
     batch = [noisy, late]
     assert len(sweep.batches(batch)) == 1
-    _, together = evaluated(noisy, agent=make_agent(*batch), seeds=[5, 6], batch=batch)
+    _, together = evaluated(noisy, agents=make_agents(*batch), seeds=[5, 6], batch=batch)
     alone = [evaluated(config)[1] for config in batch]
     for b, results in enumerate(alone):
         for field in FIELDS:
@@ -307,7 +307,7 @@ def test_what_the_population_path_does_not_run_is_refused_in_one_line(change, me
 
 
 def test_a_batchs_bad_sensor_options_are_refused_in_one_line():
-    agent = make_agent(dataclasses.replace(EVALUATED, agents=2))
+    agent = make_agents(dataclasses.replace(EVALUATED, agents=2))
     for options, message in (({"action_delay": [1, 2, 3]}, "action_delay must be one whole "
                               "number or 2, one per environment"),
                              ({"observation_noise": {"angle": [0.1, -1.0]}},
@@ -333,11 +333,11 @@ def test_a_batch_of_a_kind_already_made_compiles_no_initialiser():
     import jax
     from lwrl.agent import jax_population
     config = RunConfig(task="cartpole.balance", learner="dqn_jax", agents=2, net_arch="8")
-    first, again = make_agent(config), make_agent(dataclasses.replace(config, seed=5))
-    other = make_agent(dataclasses.replace(config, learning_rate=0.01))
+    first, again = make_agents(config), make_agents(dataclasses.replace(config, seed=5))
+    other = make_agents(dataclasses.replace(config, learning_rate=0.01))
     assert jax_population.initialiser(first) is jax_population.initialiser(again)
     assert jax_population.initialiser(other) is not jax_population.initialiser(first)
-    alone = make_agent(dataclasses.replace(config, agents=1, seed=6))
+    alone = make_agents(dataclasses.replace(config, agents=1, seed=6))
     assert jax_population.initialiser(alone)._cache_size() == 1
     for batched, single in zip(*(jax.tree_util.tree_leaves(a.state) for a in (again, alone))):
         np.testing.assert_array_equal(np.asarray(batched)[1], np.asarray(single)[0])
@@ -354,7 +354,7 @@ def test_a_replay_buffer_holds_what_its_agents_can_store_and_changes_no_number(n
     assert jax_population.replay_capacity([settings]) == 304
     assert jax_population.replay_capacity([dataclasses.replace(settings, buffer_size=100)]) == 100
     config = RunConfig(task="pendulum.swingup", learner=name, agents=2, episodes=3, seed=3,
-                       plant="analytic", agent=settings, task_options={"time_limit": 2.0},
+                       plant="analytic", settings=settings, task_options={"time_limit": 2.0},
                        actions="continuous" if name == "sac_jax" else "discrete")
     capped_agent, capped = run(config)
     assert capped_agent.state["buffer"]["rewards"].shape == (2, 304)

@@ -147,7 +147,7 @@ def assert_counted(directory, configs):
         steps = tables[tables["run"] == config.key].groupby("agent")["steps"].sum()
         for agent, taken in steps.items():
             row = read.loc[(config.key, agent)]
-            step = arithmetic(config.agent, config.task_spec, int(taken)).step
+            step = arithmetic(config.settings, config.task_spec, int(taken)).step
             assert row["steps"] == taken
             assert row["multiply_adds"] == pytest.approx(step.macs * taken, rel=1e-12)
             assert row["transcendentals"] == pytest.approx(step.exps * taken, rel=1e-12)

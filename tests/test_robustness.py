@@ -21,7 +21,7 @@ from lwrl.agent import io as agent_io
 from lwrl.agent.jax_population import missing_jax
 from lwrl.runners import sweep
 from lwrl.runners.config import RunConfig, task_spec
-from lwrl.runners.run import environment_options, make_agent, run, run_batched, run_compiled, run_dm_env
+from lwrl.runners.run import environment_options, make_agents, run, run_batched, run_compiled, run_dm_env
 from lwrl.studies.robustness import controller, plan, study
 from lwrl.studies.robustness.domains import ROBUSTNESS
 from lwrl.tasks.batched import BatchedEnv
@@ -57,7 +57,7 @@ def test_the_compiled_loop_gives_each_agent_its_physics_and_its_sensors(plant):
     params = {name: rows[:, j] for j, name in enumerate(tasks.domain("cartpole").parameters.names)}
     options = {"params": params, **SENSING}
     config = RunConfig(task="cartpole.balance", plant=plant, agents=3, episodes=4, seed=3)
-    compiled_agent, batched_agent, nominal_agent = (make_agent(config) for _ in range(3))
+    compiled_agent, batched_agent, nominal_agent = (make_agents(config) for _ in range(3))
     compiled = run_compiled("cartpole", "balance", compiled_agent, 4, config.seeds, plant=plant,
                             **options)
     batched = run_batched(BatchedEnv("cartpole", "balance", plant, config.seeds, **options),
@@ -65,7 +65,7 @@ def test_the_compiled_loop_gives_each_agent_its_physics_and_its_sensors(plant):
     assert_same(compiled, batched)
     np.testing.assert_array_equal(compiled_agent.weights, batched_agent.weights)
     for b, seed in enumerate(config.seeds):
-        single_agent = make_agent(dataclasses.replace(config, agents=1, seed=seed))
+        single_agent = make_agents(dataclasses.replace(config, agents=1, seed=seed))
         single = run_dm_env(tasks.load("cartpole", "balance", plant=plant, seed=seed,
                                        **agent_options(options, b)), single_agent, 4)
         np.testing.assert_array_equal(single.steps[0], compiled.steps[b])
@@ -82,12 +82,12 @@ def test_randomised_physics_is_the_same_on_every_path(plant):
     config = RunConfig(task="cartpole.balance", plant=plant, agents=2, episodes=5, seed=8,
                        randomise=ranges, action_delay=1)
     compiled_agent, compiled = run(config)
-    batched_agent = make_agent(config)
+    batched_agent = make_agents(config)
     batched = run_batched(BatchedEnv("cartpole", "balance", plant, config.seeds,
                                      **config.environment_options()), batched_agent, 5)
     assert_same(compiled, batched)
     np.testing.assert_array_equal(compiled_agent.weights, batched_agent.weights)
-    single_agent = make_agent(dataclasses.replace(config, agents=1, seed=9))
+    single_agent = make_agents(dataclasses.replace(config, agents=1, seed=9))
     single = run_dm_env(tasks.load("cartpole", "balance", plant=plant, seed=9,
                                    **config.environment_options()), single_agent, 5)
     np.testing.assert_array_equal(single.steps[0], compiled.steps[1])
@@ -208,10 +208,10 @@ def test_kept_agents_are_evaluated_through_the_sweep_as_alone(tmp_path):
     assert computed == 3
     agent, _ = run(trained)
     for config in evaluations:
-        kept = make_agent(config)
+        kept = make_agents(config)
         kept.weights[:] = agent.weights
         kept.arrays.streams[:] = agent.arrays.streams
-        _, alone = run(config, agent=kept, learn=False, greedy=True)
+        _, alone = run(config, agents=kept, learn=False, greedy=True)
         rows = results[results["run"] == config.key]
         np.testing.assert_array_equal(rows["steps"], alone.steps.ravel())
     assert sweep.run_sweep(evaluations, tmp_path)[1] == 0
@@ -239,7 +239,7 @@ def test_the_c_controller_acts_as_the_python_agent(tmp_path):
     ours = controller.run_controller(library, cells, [config.seed] * len(cells))
     for b, cell in enumerate(cells):
         loaded, _ = agent_io.load(path)
-        _, python = run(cell, agent=loaded, learn=False, greedy=True)
+        _, python = run(cell, agents=loaded, learn=False, greedy=True)
         np.testing.assert_array_equal(ours.steps[b], python.steps[0])
         np.testing.assert_array_equal(ours.returns[b], python.returns[0])
 
@@ -385,7 +385,7 @@ def test_a_learner_of_the_stepped_loop_trains_the_benchmarks_agents_with_its_tun
                 stepped[task])
             assert tuned_settings(task, name) or not learner.tuned  # SAC, TD3: their defaults
             for setting, value in tuned_settings(task, name).items():
-                assert getattr(config.agent, setting) == value
+                assert getattr(config.settings, setting) == value
         evaluation = plan.evaluation(task, config, plan.cells(task)[0], 3)
         assert evaluation.task_options == {} and evaluation.episodes == 3
     assert plan.agents_for(task, "dqn", 2) == 2
@@ -433,21 +433,21 @@ def test_every_learner_goes_on_with_its_kept_agents_in_several_cells_at_once(nam
     results, _ = sweep.run_sweep(cells, tmp_path)
     for config in cells:
         kept, _ = agent_io.load(sweep.RunStore.agents_file(tmp_path, trained.key))
-        _, alone = run(config, agent=kept, learn=False, greedy=True)
+        _, alone = run(config, agents=kept, learn=False, greedy=True)
         rows = results[results["run"] == config.key]
         np.testing.assert_array_equal(rows["steps"], alone.steps.ravel())
         np.testing.assert_array_equal(rows["return"], alone.returns.ravel())
     with pytest.raises(ValueError, match="whole multiple"):
-        make_agent(dataclasses.replace(trained, agents=3)).take_over(kept)
+        make_agents(dataclasses.replace(trained, agents=3)).take_over(kept)
 
 
 def test_diverged_kept_agents_are_taken_over_as_they_ended():
     """A kept agent whose weights diverged to NaN is taken over with its NaN (an evaluation
     of a search's diverged configuration), not refused as a learner's foreign arrays."""
     config = RunConfig(task="mountain_car.cost_to_go", agents=2, seed=3)
-    kept = make_agent(config)
+    kept = make_agents(config)
     kept.saved()[1]["weights"][0] = np.nan
-    agents = make_agent(dataclasses.replace(config, agents=4))
+    agents = make_agents(dataclasses.replace(config, agents=4))
     agents.take_over(kept)
     weights = agents.saved()[1]["weights"]
     assert np.isnan(weights[[0, 2]]).all() and not np.isnan(weights[[1, 3]]).any()

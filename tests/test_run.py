@@ -5,7 +5,7 @@ import pytest
 
 from lwrl import tasks
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent, run, run_batched, run_compiled, run_dm_env
+from lwrl.runners.run import make_agents, run, run_batched, run_compiled, run_dm_env
 from lwrl.tasks.batched import BatchedEnv
 
 SHORT_STEPS = 100
@@ -36,7 +36,7 @@ def test_the_compiled_loop_steps_mujoco_as_the_batched_stepper_does(task):
     domain, name = config.domain, config.task_name
     options = short(task)
     record = [(0, 0), (2, 2)]
-    compiled_agent, batched_agent = make_agent(config), make_agent(config)
+    compiled_agent, batched_agent = make_agents(config), make_agents(config)
     for learn in (True, False):
         compiled = run_compiled(domain, name, compiled_agent, 3, config.seeds, learn=learn,
                                 record=record, plant="mujoco", **options)
@@ -56,7 +56,7 @@ def test_mujoco_dm_env_and_compiled_paths_agree():
     MuJoCo itself) give the same episodes and weights."""
     config = RunConfig(task="cartpole.balance", plant="mujoco", agents=2, episodes=5, seed=3)
     batched_agent, batched = run(config)
-    single_agent = make_agent(RunConfig(task="cartpole.balance", agents=1, episodes=5, seed=4))
+    single_agent = make_agents(RunConfig(task="cartpole.balance", agents=1, episodes=5, seed=4))
     single = run_dm_env(tasks.load("cartpole", "balance", plant="mujoco", seed=4), single_agent, 5)
     np.testing.assert_array_equal(single.steps[0], batched.steps[1])
     np.testing.assert_array_equal(single_agent.weights[0], batched_agent.weights[1])
@@ -66,7 +66,7 @@ def test_an_agent_is_the_same_alone_and_in_any_batch():
     """Agent results depend on its own seed and hyper-parameters only: here an agent with
     seed 7 runs alone, then in the middle of a batch of agents with other alphas, lambdas
     and traces, in the compiled loop (with two threads splitting the batch)."""
-    features = make_agent(RunConfig(task="mountain_car.cost_to_go")).features
+    features = make_agents(RunConfig(task="mountain_car.cost_to_go")).features
     from lwrl.agent.sarsa import BatchedSarsa
 
     alone = BatchedSarsa(features, 3, alpha=3.9, lam=0.9, epsilon=0.0, trace="replacing", seeds=[7])
@@ -85,7 +85,7 @@ def test_divergence_freezes_one_agent_and_the_rest_continue():
     """Accumulating traces with alpha = 40 and lambda = 0.99 diverge on Mountain-Car: that
     agent is marked diverged in some episode, its later episodes are not run (NaN) and its
     weights are frozen; the other agent's results equal those it has alone."""
-    features = make_agent(RunConfig(task="mountain_car.cost_to_go")).features
+    features = make_agents(RunConfig(task="mountain_car.cost_to_go")).features
     from lwrl.agent.sarsa import BatchedSarsa
 
     batch = BatchedSarsa(features, 3, alpha=[40.0, 3.9], lam=[0.99, 0.9], epsilon=0.0,
@@ -134,11 +134,11 @@ def test_an_interrupted_run_keeps_what_it_finished(path):
 
     full = run(config)[1]
     if path == "compiled":
-        cut = run_compiled("mountain_car", "cost_to_go", make_agent(config), 40, config.seeds,
+        cut = run_compiled("mountain_car", "cost_to_go", make_agents(config), 40, config.seeds,
                            progress=interrupt)
     else:
         cut = run_batched(BatchedEnv("mountain_car", "cost_to_go", "analytic", config.seeds),
-                          make_agent(config), 40, progress=interrupt)
+                          make_agents(config), 40, progress=interrupt)
     assert cut.interrupted and not full.interrupted
     finished = np.isfinite(cut.steps)
     assert 0 < finished.sum() < finished.size
@@ -155,10 +155,10 @@ def test_recordings_are_the_same_on_the_compiled_and_batched_paths(task):
     domain, name = config.domain, config.task_name
     record = [(0, 0), (1, 2)]
     options = short(task)
-    compiled = run_compiled(domain, name, make_agent(config), 3, config.seeds, record=record,
+    compiled = run_compiled(domain, name, make_agents(config), 3, config.seeds, record=record,
                             **options)
     batched = run_batched(BatchedEnv(domain, name, "analytic", config.seeds, **options),
-                          make_agent(config), 3, record=record)
+                          make_agents(config), 3, record=record)
     assert [(r.agent, r.episode) for r in compiled.recordings] == record
     for ours, theirs in zip(compiled.recordings, batched.recordings):
         for field in ("states", "observations", "actions", "rewards", "td_errors", "q_values",

@@ -15,7 +15,7 @@ pytest.importorskip("jax", reason="the population learners need the jax extra: p
 from lwrl import agent as learners  # noqa: E402
 from lwrl.agent import sac, td3  # noqa: E402
 from lwrl.runners.config import RunConfig, task_spec  # noqa: E402
-from lwrl.runners.run import make_agent, run  # noqa: E402
+from lwrl.runners.run import make_agents, run  # noqa: E402
 
 TINY = dict(task="cartpole.balance", actions="continuous", plant="analytic", agents=2,
             episodes=3, seed=11, task_options={"time_limit": 0.4})
@@ -205,8 +205,8 @@ def tiny_run(name, per_agent):
     configs = [RunConfig(**{**TINY, "agents": 1, "seed": TINY["seed"] + b}, learner=name,
                          **COMMON, **settings) for b, settings in enumerate(per_agent)]
     seeds = [config.seed for config in configs]
-    fresh = make_agent(*configs)
-    trained, results = run(configs[0], agent=make_agent(*configs), seeds=seeds, batch=configs)
+    fresh = make_agents(*configs)
+    trained, results = run(configs[0], agents=make_agents(*configs), seeds=seeds, batch=configs)
     return fresh, trained, results
 
 

@@ -55,7 +55,7 @@ def test_every_configuration_is_measured_once_and_a_rerun_measures_what_is_missi
         entry = measured[training.key]
         assert (entry["task"], entry["row"], entry["configuration"]) == (TASK, label, 0)
         assert (entry["learner"], entry["twin"]) == (training.learner, label)
-        settings = training.agent
+        settings = training.settings
         assert entry["settings"]["net_arch"] == settings.net_arch
         warm_up = getattr(settings, "learning_starts", 0)
         period = getattr(settings, "n_steps", None) or settings.train_freq

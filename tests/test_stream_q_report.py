@@ -33,7 +33,7 @@ def fake_runs(directory, budget=60, lwrl_lengths=None, authors_lengths=None, **c
     configuration = {"task": "cartpole.balance", "plant": "analytic", "budget": budget,
                      "learner": "the learner",
                      "seed": 0, "agents": len(lwrl_lengths),
-                     "agent": {**stream_q_torch.SETTINGS, "timesteps": budget}}
+                     "settings": {**stream_q_torch.SETTINGS, "timesteps": budget}}
     configuration.update(changes)
     with open(os.path.join(directory, "lwrl.json"), "w") as file:
         json.dump(configuration, file)
@@ -75,8 +75,8 @@ def test_the_report_states_the_numbers_it_computed(tmp_path):
 
 
 @pytest.mark.parametrize("changes, words", [
-    ({"agent": {**stream_q_torch.SETTINGS, "timesteps": 50}}, "the runs differ"),
-    ({"agent": {**stream_q_torch.SETTINGS, "timesteps": 60, "lam": 0.9}}, "lam"),
+    ({"settings": {**stream_q_torch.SETTINGS, "timesteps": 50}}, "the runs differ"),
+    ({"settings": {**stream_q_torch.SETTINGS, "timesteps": 60, "lam": 0.9}}, "lam"),
     ({"seed": 1}, "seeds differ"),
 ])
 def test_runs_that_differ_are_refused(tmp_path, changes, words):

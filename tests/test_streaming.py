@@ -13,7 +13,7 @@ from lwrl import agent as learners  # noqa: E402
 from lwrl.agent import running_stats, streaming  # noqa: E402
 from lwrl.agent.stable_baselines import missing_libraries  # noqa: E402
 from lwrl.runners.config import RunConfig, task_spec  # noqa: E402
-from lwrl.runners.run import make_agent, run  # noqa: E402
+from lwrl.runners.run import make_agents, run  # noqa: E402
 from lwrl.agent.jax_population import jax_modules  # noqa: E402
 from conftest import one_line_error  # noqa: E402
 
@@ -146,7 +146,7 @@ def test_stream_q_s_first_updates_are_the_authors():
     `StreamQ.update_params` restated in PyTorch on the same weights and inputs."""
     import torch
     config = RunConfig(task="cartpole.balance", learner="stream_q", agents=1, seed=3)
-    agents = make_agent(config)
+    agents = make_agents(config)
     hyper, params = hyper_of(agents), agents.state["params"]
     params = [(w[0], b[0]) for w, b in params]
     traces = [(jnp.zeros_like(w), jnp.zeros_like(b)) for w, b in params]
@@ -192,7 +192,7 @@ def test_stream_ac_s_first_updates_are_the_authors(learner, actions, policy, dra
     import torch
     config = RunConfig(task="pendulum.swingup", learner=learner, agents=1, seed=3,
                        actions=actions, net_arch="16,16")
-    agents = make_agent(config)
+    agents = make_agents(config)
     hyper = hyper_of(agents)
     unbatched = {name: [(w[0], b[0]) for w, b in network]
                  for name, network in agents.state["params"].items()}

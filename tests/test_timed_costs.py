@@ -13,7 +13,7 @@ import pytest
 from lwrl.agent import jax_population
 from lwrl.export.c import export_c
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent
+from lwrl.runners.run import make_agents
 from lwrl.studies.paper.benchmark import timed_costs
 from tests.conftest import one_line_error
 
@@ -24,7 +24,7 @@ JAX = pytest.mark.skipif(jax_population.missing_jax(),
 @pytest.mark.skipif(shutil.which("valgrind") is None, reason="valgrind is not installed")
 def test_callgrind_counts_the_same_instructions_every_time(tmp_path):
     config = RunConfig(task="pendulum.swingup", plant="analytic", agents=1, episodes=1)
-    agent = make_agent(config)
+    agent = make_agents(config)
     agent.weights[:] = np.random.default_rng(0).normal(size=agent.weights.shape)
     from lwrl.agent import io as agent_io
     agent_io.save(tmp_path / "agent.npz", agent, {"config": {"task": config.task}})
@@ -40,7 +40,7 @@ def test_population_agents_act_greedily_step_by_step_and_learn_only_as_a_program
     action is the argmax of its own action values; learning step by step is one line."""
     config = RunConfig(task="mountain_car.cost_to_go", learner="dqn_jax", agents=3, seed=0,
                        timesteps=400, buffer_size=1000)
-    agent = make_agent(config)
+    agent = make_agents(config)
     states = np.array([[-0.5, 0.0], [0.3, 0.01], [-1.0, -0.02]])
     actions = agent.step(np.ones(3, bool), np.zeros(3), np.ones(3), states, learn=False,
                          greedy=True)

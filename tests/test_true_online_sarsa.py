@@ -7,7 +7,7 @@ import pytest
 from lwrl.agent.nrbf import NRBF
 from lwrl.agent.true_online_sarsa import TrueOnlineAgents
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent, run, run_compiled
+from lwrl.runners.run import make_agents, run, run_compiled
 
 LINE = NRBF(low=(0.0,), high=(1.0,), n=2)
 """Two neurons on [0, 1], centroids 0.25 and 0.75: at s = 0.5 both features are 0.5."""
@@ -49,9 +49,9 @@ def test_at_lambda_zero_it_is_one_step_sarsa(trace):
     Sarsa, which either trace of `agent.sarsa` is at lambda = 0. Five Mountain-Car episodes:
     the same steps, and the weights equal to round-off."""
     config = RunConfig(task="mountain_car.cost_to_go", agents=3, episodes=5, lam=0.0, alpha=2.0)
-    sarsa = make_agent(RunConfig(task="mountain_car.cost_to_go", agents=3, episodes=5, lam=0.0,
+    sarsa = make_agents(RunConfig(task="mountain_car.cost_to_go", agents=3, episodes=5, lam=0.0,
                                  alpha=2.0, trace=trace))
-    dutch = make_agent(RunConfig(task="mountain_car.cost_to_go", agents=3, episodes=5,
+    dutch = make_agents(RunConfig(task="mountain_car.cost_to_go", agents=3, episodes=5,
                                  lam=0.0, alpha=2.0, learner="true_online_sarsa"))
     one = run_compiled("mountain_car", "cost_to_go", sarsa, 5, config.seeds)
     other = run_compiled("mountain_car", "cost_to_go", dutch, 5, config.seeds)

@@ -17,7 +17,7 @@ import lwrl
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 PUBLIC = {"RunConfig": "lwrl.runners.config", "run": "lwrl.runners.run",
-          "make_agent": "lwrl.runners.run", "EpisodeResults": "lwrl.runners.episodes",
+          "make_agents": "lwrl.runners.run", "EpisodeResults": "lwrl.runners.episodes",
           "load": "lwrl.tasks", "definition": "lwrl.tasks", "BatchedEnv": "lwrl.tasks.batched",
           "TASK_NAMES": "lwrl.tasks", "ALL_TASKS": "lwrl.tasks", "DOMAINS": "lwrl.tasks",
           "PLANTS": "lwrl.tasks", "LEARNERS": "lwrl.agent", "LEARNER_NAMES": "lwrl.agent"}
@@ -105,7 +105,7 @@ def test_mypy_passes_on_the_package():
 USES = """
 import lwrl
 config = lwrl.RunConfig(task="mountain_car.cost_to_go", agents=2, episodes=2)
-agent, results = lwrl.run(config)
+agents, results = lwrl.run(config)
 env = lwrl.load("cartpole", "balance", plant="mujoco", seed=0)
 batch = lwrl.BatchedEnv("pendulum", "swingup", "analytic", seeds=[0, 1])
 tasks = lwrl.TASK_NAMES, lwrl.ALL_TASKS, lwrl.DOMAINS, lwrl.PLANTS, lwrl.definition

@@ -130,7 +130,7 @@ def test_confirmation_runs_are_fresh_agents_at_the_chosen_cells():
     cells = pd.DataFrame([{"features": "nrbf", "trace": "accumulating", "lam": 0.7, "alpha": 0.5},
                           {"features": "nrbf", "trace": "replacing", "lam": 0.4, "alpha": 0.1}])
     chosen = judging.at_cells(configs, cells, 50)
-    assert [(c.agent.trace, c.agent.lam, c.agent.alpha, c.agents, c.seeds[0]) for c in chosen] == [
+    assert [(c.settings.trace, c.settings.lam, c.settings.alpha, c.agents, c.seeds[0]) for c in chosen] == [
         ("replacing", 0.4, 0.1, 50, 10), ("accumulating", 0.7, 0.5, 50, 10)]
 
 

@@ -24,7 +24,7 @@ from lwrl.cli import main as cli
 from lwrl.runners.config import RunConfig
 from lwrl.viz.scenes import mountain_car
 from lwrl.runners.recording import EpisodeRecording
-from lwrl.runners.run import EpisodeResults, make_agent
+from lwrl.runners.run import EpisodeResults, make_agents
 from lwrl.viz import names, scene, value
 from lwrl.viz import rerun as viz
 
@@ -64,7 +64,7 @@ def rollout(domain, task, plant, seed=0, agent=0, episode=0, steps=None) -> Epis
 
 def agents_of(task: str, **settings):
     """One untrained agent of the task's default learner (its values, value box, points)."""
-    return make_agent(RunConfig(task=task, agents=1, **settings))
+    return make_agents(RunConfig(task=task, agents=1, **settings))
 
 
 def read_chunks(path) -> dict:
@@ -262,7 +262,7 @@ def test_value_images_and_learning_curves(saved):
     greedy = np.array(column(temporal(chunks, names.GREEDY_ACTION), "SegmentationImage:buffer")[0][0])
     np.testing.assert_array_equal(greedy, saved["images"]["greedy"].ravel())
     centroids = np.array(column(static(chunks, names.CENTROIDS), "Points2D:positions")[0])
-    assert len(centroids) == RunConfig(task=saved["name"]).agent.n ** 2
+    assert len(centroids) == RunConfig(task=saved["name"]).settings.n ** 2
     assert np.all((centroids > 0) & (centroids < value.GRID))
     state = temporal(chunks, names.VALUE_STATE, episode=7)
     assert column(state, names.STEP) == list(range(saved["episodes"][1].steps + 1))

@@ -87,7 +87,7 @@ def closed_loop(task: str, agents: int, episodes: int | None = None, seed: int =
             config = plant_config(task, evaluated_on, agents=agents, episodes=eval_episodes,
                                   seed=EVAL_SEED, **chosen)
             record = [(0, 0)] if trained_on == evaluated_on == "mujoco" else ()
-            _, results = run(config, agent=agent, learn=False, greedy=True, progress=progress,
+            _, results = run(config, agents=agent, learn=False, greedy=True, progress=progress,
                              record=record)
             if record:
                 replay = results.recordings[0]

@@ -41,7 +41,7 @@ WARM_UP_STEPS = 16
 def timed_steps(config) -> int:
     """Steps timed of `config`: its learner's warm-up (`learning_starts`, 0 where it has none)
     then `COST_STEPS`."""
-    return getattr(config.agent, "learning_starts", 0) + COST_STEPS
+    return getattr(config.settings, "learning_starts", 0) + COST_STEPS
 
 
 def cost_config(cell, name: str):

@@ -202,7 +202,7 @@ def translation(cell: Cell) -> list:
     """The settings of both implementations, field by field in the reference's order, then
     any field the twin has beyond them (the twin's own setting, e.g. the JAX learners'
     `normalize_observations`, with its default)."""
-    reference, twin = (cell.config(name, 0).agent for name in cell.pair.names)
+    reference, twin = (cell.config(name, 0).settings for name in cell.pair.names)
     ours = {field.name: field for field in dataclasses.fields(reference)}
     theirs = {field.name: field for field in dataclasses.fields(twin)}
     rows = []
@@ -302,12 +302,12 @@ def initialisation(cell: Cell, agents: int | None = None) -> dict:
     is None) over states across the task's
     ranges: the initialisation compared by what it does, whatever order each flattens its
     layers in."""
-    from lwrl.runners.run import make_agent
+    from lwrl.runners.run import make_agents
     agents = agents or INIT_AGENTS
     states = starts_box(cell)
     summary = {}
     for name in cell.pair.names:
-        made = make_agent(cell.config(name, 0, agents=agents))
+        made = make_agents(cell.config(name, 0, agents=agents))
         weights = np.asarray(made.arrays.weights, dtype=float)
         outputs = np.asarray(made.greedy_actions(states)[..., None] if made.continuous
                              else made.action_values(states), dtype=float)  # (B, n, A)

@@ -113,12 +113,12 @@ def check_same_settings(configuration: dict, episodes: pd.DataFrame, document: d
     """The budget both ran, or a one-line ValueError where their budgets, horizons,
     settings or seeds differ, or where an agent of lwrl's stopped short of the budget."""
     budget = configuration["budget"]
-    horizons = (budget, configuration["agent"]["timesteps"], document["timesteps"])
+    horizons = (budget, configuration["settings"]["timesteps"], document["timesteps"])
     if len(set(horizons)) > 1:
         raise ValueError(f"the runs differ: lwrl's budget {horizons[0]} and timesteps "
                          f"{horizons[1]}, the authors' total_steps {horizons[2]}")
     differing = [name for name, value in stream_q_torch.SETTINGS.items()
-                 if configuration["agent"][name] != value]
+                 if configuration["settings"][name] != value]
     if differing:
         raise ValueError(f"lwrl's run has other settings than the authors' defaults: "
                          f"{', '.join(differing)}")

@@ -145,8 +145,8 @@ def at_cells(configs, cells: pd.DataFrame, agents: int) -> list:
     """The runs of `configs` in the chosen `cells`, each with `agents` fresh agents
     (`fresh_agents`)."""
     chosen = [row for _, row in cells.iterrows()]
-    settings = [(getattr(c.agent, "features", None), getattr(c.agent, "trace", None),
-                 getattr(c.agent, "lam", None), getattr(c.agent, "alpha", None)) for c in configs]
+    settings = [(getattr(c.settings, "features", None), getattr(c.settings, "trace", None),
+                 getattr(c.settings, "lam", None), getattr(c.settings, "alpha", None)) for c in configs]
     return [fresh_agents(config, agents) for config, (features, trace, lam, alpha)
             in zip(configs, settings)
             if features is not None and any(

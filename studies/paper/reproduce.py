@@ -64,7 +64,7 @@ def selected(items) -> list:
 def reading_fields(configs) -> dict:
     """`{name: field}` of the settings a reading may set (metadata `reading`): the
     environment's and those of the runs' learners."""
-    classes = [EnvironmentSettings] + [type(config.agent) for config in configs]
+    classes = [EnvironmentSettings] + [type(config.settings) for config in configs]
     return {field.name: field for cls in classes for field in dataclasses.fields(cls)
             if field.metadata.get("reading")}
 
@@ -81,13 +81,13 @@ def with_readings(configs, readings: dict) -> list:
     readable = reading_fields(configs)
     for index, config in enumerate(configs):
         options = tasks.task_options(config.domain, config.task_name)
-        agent_fields = {field.name: field for field in dataclasses.fields(config.agent)}
+        settings_fields = {field.name: field for field in dataclasses.fields(config.settings)}
         fields, task_options = {}, dict(config.task_options)
         for name, value in readings.items():
             if name in readable and name in PLANT_OPTIONS:
                 applies = name in config.plant_options
             elif name in readable:
-                applies = name in agent_fields and applies_to(agent_fields[name], config.agent)
+                applies = name in settings_fields and applies_to(settings_fields[name], config.settings)
             else:
                 applies = False
             if applies:
@@ -117,7 +117,7 @@ def with_alphas(configs, alphas) -> list:
     result, seen = [], set()
     for config in configs:
         variants = ([dataclasses.replace(config, alpha=float(alpha)) for alpha in alphas]
-                    if getattr(config.agent, "features", None) == "nrbf" else [config])
+                    if getattr(config.settings, "features", None) == "nrbf" else [config])
         for variant in variants:
             if variant.key_json() not in seen:
                 seen.add(variant.key_json())

@@ -30,7 +30,7 @@ import numpy as np
 
 from lwrl import tasks
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agent, run
+from lwrl.runners.run import make_agents, run
 from lwrl.runners.stepped import run_batched
 from lwrl.tasks.batched import BatchedEnv
 from lwrl.tasks.engine import close_workspace, engine_plant, open_workspace, step_state
@@ -133,7 +133,7 @@ def _learning(config) -> dict:
 def _stepped(config) -> dict:
     env = BatchedEnv(config.domain, config.task_name, config.plant_name, config.seeds,
                      **config.plant_options, **config.task_options)
-    results = run_batched(env, make_agent(config), config.episodes)
+    results = run_batched(env, make_agents(config), config.episodes)
     return {"steps": results.steps, "returns": results.returns, "uptime": results.uptime}
 
 

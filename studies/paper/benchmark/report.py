@@ -70,10 +70,10 @@ def macs_per_step(config):
     if learner.arithmetic is None:
         return None
     try:
-        learner.arithmetic(config.agent, config.task_spec)
+        learner.arithmetic(config.settings, config.task_spec)
     except NotCounted:
         return None
-    return lambda steps: learner.arithmetic(config.agent, config.task_spec, steps).step.macs
+    return lambda steps: learner.arithmetic(config.settings, config.task_spec, steps).step.macs
 
 
 def _random_scores(runs) -> np.ndarray:

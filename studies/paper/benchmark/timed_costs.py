@@ -72,7 +72,7 @@ int main(void)
 
 def step_budget(config) -> int:
     """Learning steps to time: past the start of learning (see the module)."""
-    settings = config.agent
+    settings = config.settings
     if not hasattr(settings, "timesteps"):
         return 20_000
     return max(3000, getattr(settings, "learning_starts", 0) + 2000, 2 * getattr(settings, "n_steps", 0))
@@ -87,7 +87,7 @@ def _learn(config, agent, steps: int) -> int:
     from lwrl import tasks
     from lwrl.runners.run import run
     if agent.learner.population:
-        _, results = run(dataclasses.replace(config, episodes=EPISODES_PER_CALL), agent=agent)
+        _, results = run(dataclasses.replace(config, episodes=EPISODES_PER_CALL), agents=agent)
         return int(np.nansum(results.steps))
     definition = tasks.definition(*tasks.split_name(config.task))
     taken = 0
@@ -96,7 +96,7 @@ def _learn(config, agent, steps: int) -> int:
         left = (steps - taken) * definition.control_timestep
         episode = dataclasses.replace(config, episodes=EPISODES_PER_CALL, task_options={
             **config.task_options, "time_limit": min(limit, max(left, definition.control_timestep))})
-        _, results = run(episode, agent=agent)
+        _, results = run(episode, agents=agent)
         taken += int(np.nansum(results.steps))
     return taken
 
@@ -155,7 +155,7 @@ def _controller(agent, config, c_dir: str) -> dict:
 def measure_cell(config, label: str, c_dir: str | None) -> dict:
     """The costs of one (task, learner) (see the module); runs in a process of its own."""
     from lwrl.agent import threads
-    from lwrl.runners.run import make_agent
+    from lwrl.runners.run import make_agents
     threads.set_workers(1)
     try:
         import torch
@@ -163,8 +163,8 @@ def measure_cell(config, label: str, c_dir: str | None) -> dict:
     except ImportError:
         pass
     one = dataclasses.replace(config, agents=1, seed=1000)
-    _learn(dataclasses.replace(one, seed=2000), make_agent(dataclasses.replace(one, seed=2000)), 50)  # warm-up
-    agent = make_agent(one)
+    _learn(dataclasses.replace(one, seed=2000), make_agents(dataclasses.replace(one, seed=2000)), 50)  # warm-up
+    agent = make_agents(one)
     steps = step_budget(config)
     start = time.process_time()
     taken = _learn(one, agent, steps)
@@ -172,7 +172,7 @@ def measure_cell(config, label: str, c_dir: str | None) -> dict:
     costs = {"learning_steps_timed": taken, "cpu_s_per_learning_step": seconds / taken,
              "cpu_s_per_greedy_decision": _greedy_decisions(agent, one),
              "parameter_bytes": int(agent.arrays.weights[0].nbytes),
-             "memory_bytes": int(agent.learner.memory(one.agent, one.task_spec))}
+             "memory_bytes": int(agent.learner.memory(one.settings, one.task_spec))}
     if c_dir is not None:
         try:
             agent.controller(0)
