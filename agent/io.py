@@ -30,10 +30,10 @@ FORMATS = (FORMAT, "lwrl-agent/1")
 """The formats `load` reads: this one, and the first (Sarsa(lambda) agents only)."""
 
 
-def save(path, agent, metadata: dict | None = None) -> None:
-    """Write `agent` (any learner's `Agents`) and JSON-serialisable `metadata` to `path`."""
-    own, arrays = agent.saved()
-    document = {"format": FORMAT, "learner": agent.learner.name, "dim": agent.dim, **own,
+def save(path, agents, metadata: dict | None = None) -> None:
+    """Write `agents` (any learner's `Agents`) and JSON-serialisable `metadata` to `path`."""
+    own, arrays = agents.saved()
+    document = {"format": FORMAT, "learner": agents.learner.name, "dim": agents.dim, **own,
                 "metadata": metadata or {}}
     with atomic_write(path, "wb") as file:  # whole or not at all
         np.savez_compressed(file, **arrays, document=np.array(json.dumps(document)))

@@ -210,7 +210,7 @@ def read_run(path: str) -> tuple:
     return configuration, episodes
 
 
-def write_out_and_save(written, args, config, results, agent, what: str, extra=None) -> None:
+def write_out_and_save(written, args, config, results, agents, what: str, extra=None) -> None:
     """`--out DIR` (`write_run`) and `--save PATH` (the agents, `what` in the report) of a
     run, each through `written` (an `Outputs`), so that one failing loses neither other;
     `extra`: further records of the run (`{NAME: a JSON value}`), NAME.json in DIR and in
@@ -219,7 +219,7 @@ def write_out_and_save(written, args, config, results, agent, what: str, extra=N
         written.write(f"--out {args.out}", lambda: write_run(args.out, config, results, extra))
     if args.save:
         def save():
-            agent_io.save(args.save, agent, {"config": dataclasses.asdict(config), **(extra or {})})
+            agent_io.save(args.save, agents, {"config": dataclasses.asdict(config), **(extra or {})})
             return [f"{what} to {args.save}"]
         written.write(f"--save {args.save}", save)
 

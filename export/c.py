@@ -150,35 +150,35 @@ def _check_index(agent_index, batch: int) -> int:
     return int(agent_index)
 
 
-def _task_description(metadata: dict, agent, source: str):
+def _task_description(metadata: dict, agents, source: str):
     """(task name, state names, task definition or None, config dict) from the file's
     metadata, the definition made with the agents' kind of action; a one-line error if
     the agents do not fit the task it names."""
     config = metadata.get("config") if isinstance(metadata, dict) else None
     config = as_written_now(config) if isinstance(config, dict) else {}
     task = config.get("task")
-    names, definition = [f"state[{j}]" for j in range(agent.dim)], None
+    names, definition = [f"state[{j}]" for j in range(agents.dim)], None
     if isinstance(task, str) and task.count(".") == 1:
         try:
-            definition = tasks.definition(*task.split("."), actions=kind_of(agent)[1])
+            definition = tasks.definition(*task.split("."), actions=kind_of(agents)[1])
         except ValueError:
             definition = None
         if definition is not None:
-            definition.check_fits(agent.dim, agent.action_space, source)
+            definition.check_fits(agents.dim, agents.action_space, source)
             names = list(definition.state_names)
     return (task if isinstance(task, str) else "unknown (no run configuration in the file)",
             names, definition, config)
 
 
-def _action_fields(agent, definition, dtype: str) -> dict:
+def _action_fields(agents, definition, dtype: str) -> dict:
     """The header's `action_lines` (what an action is) and `action_macros` (the count of
     discrete actions, or the actuator's range) for `agent`'s controller on the task
     `definition` (None: unknown, which only a controller of discrete actions may be)."""
-    if not agent.continuous:
+    if not agents.continuous:
         controls = None if definition is None else definition.controls
         line = ("" if controls is None else " (action i applies control " + ", ".join(
             f"{i}: {c:g}" for i, c in enumerate(controls)) + ")")
-        actions = agent.action_space.n
+        actions = agents.action_space.n
         return {"action_lines": f" * Actions: {actions}{line}",
                 "action_macros": f"#define LWRL_NUM_ACTIONS {actions}"}
     low, high = definition.control_range

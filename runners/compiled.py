@@ -239,7 +239,7 @@ def model_addresses(domain: str, plant: str, physical: np.ndarray) -> np.ndarray
     return addresses[inverse.ravel()].reshape(physical.shape[:2])
 
 
-def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
+def run_compiled(domain: str, task: str, agents: Agents, episodes: int, seeds,
                  learn: bool = True, integrator: str = "semi_implicit", equations: str = "paper",
                  progress=None, record=(), plant: str = "analytic", greedy: bool = False,
                  params=None, randomise=None, budget=None, **options) -> EpisodeResults:
@@ -255,9 +255,9 @@ def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
     None: no budget)."""
     episodes = check_count("episodes", episodes, 1)
     seeds = list(seeds)
-    if len(seeds) != agent.batch_size:
-        raise ValueError(f"{len(seeds)} seeds for a batch of {agent.batch_size} agents")
-    batch = agent.batch_size
+    if len(seeds) != agents.batch_size:
+        raise ValueError(f"{len(seeds)} seeds for a batch of {agents.batch_size} agents")
+    batch = agents.batch_size
     parameters = tasks.domain(domain).parameters
     rows = parameters.values(params, batch)
     ranges = check_ranges(parameters, randomise)
@@ -267,7 +267,7 @@ def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
                      if name in tasks.plant_option_names(domain, plant)}
     definition, _, _, sensing = tasks.resolve_environment(domain, task, plant, **options,
                                                           **plant_options)
-    check_kinds(agent.learner.name, agent.learner.actions, definition, "run_compiled")
+    check_kinds(agents.learner.name, agents.learner.actions, definition, "run_compiled")
     stepped = plant_of(domain, plant, integrator, equations, definition.physical)
     physical = draws(parameters, ranges, rows, seeds, episodes)
     controls = np.ascontiguousarray(episode_controls(definition, physical))
@@ -277,10 +277,10 @@ def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
     steps = np.zeros((batch, episodes), dtype=np.int64)
     starts = episode_starts(definition, seeds, episodes)
     step_limit = definition.step_limit if np.isfinite(definition.step_limit) else np.iinfo(np.int64).max
-    loop = compiled_loop(definition, agent.learner, plant)
-    values = recorded_values(agent)
+    loop = compiled_loop(definition, agents.learner, plant)
+    values = recorded_values(agents)
     tape = make_tape(record, batch, episodes, definition.step_limit, starts.shape[2],
-                     values.shape[1], agent.arrays.weights.shape[1:], agent.continuous)
+                     values.shape[1], agents.arrays.weights.shape[1:], agents.continuous)
     done = np.zeros(batch, dtype=np.int64)  # episodes each agent has finished
     spent = np.zeros(batch, dtype=np.int64)  # steps each agent has taken
     cancel = np.zeros(1, dtype=bool)  # set on Ctrl-C: the loops stop after their episode
@@ -295,7 +295,7 @@ def run_compiled(domain: str, task: str, agent: Agents, episodes: int, seeds,
                 definition.control_timestep, stepped, models,
                 definition.loop_arguments()[0], physical, sensors.sigma_observation,
                 sensors.delay, sensors.sigma_action, sensors.keys, int(step_limit),
-                step_budget(budget), spent, bool(learn), bool(greedy), agent.arrays, values, steps, results.returns,
+                step_budget(budget), spent, bool(learn), bool(greedy), agents.arrays, values, steps, results.returns,
                 results.uptime, results.truncated, results.diverged_episode, done, tape,
                 cancel, scratch, min_chunk=1, chunks_per_worker=8, cancel=cancel)
             if progress is not None:

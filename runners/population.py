@@ -77,12 +77,12 @@ STREAM = 0x9E37
 from the key its learner's state starts from."""
 
 
-def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: bool = True,
+def run_population(domain: str, task: str, agents, episodes: int, seeds, learn: bool = True,
                    greedy: bool = False, progress=None, record=(), plant: str = "analytic",
                    integrator: str = "semi_implicit", equations: str = "paper", params=None,
                    observation_noise=None, action_delay=0, action_noise=0.0, randomise=None,
                    budget=None, checkpoints=None, resume=None, **task_options) -> EpisodeResults:
-    """Run `agent` (a population learner's agents, `agent.jax_population.PopulationAgents`)
+    """Run `agents` (a population learner's agents, `agent.jax_population.PopulationAgents`)
     for `episodes` episodes each on `domain.task`'s JAX plant, agent b from `seeds[b]`'s
     starts with the physical parameter values of row b of `params` (`{name: value or B
     values}`), those `randomise` names drawn anew for each episode, and the sensor and
@@ -103,13 +103,13 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
     import lwrl.jax as jax_tasks
 
     episodes = check_count("episodes", episodes, 1)
-    name = agent.learner.name
+    name = agents.learner.name
     if plant not in jax_tasks.PLANTS:
         raise ValueError(f"{name} runs on the plants of lwrl.jax: {', '.join(jax_tasks.PLANTS)}; "
                          f"got plant {plant!r}")
     if len(record):
         raise ValueError(f"{name} keeps no recordings: it trains as one JAX program")
-    batch = agent.batch_size
+    batch = agents.batch_size
     parameters = tasks.domain(domain).parameters
     physical = draws(parameters, check_ranges(parameters, randomise),
                      parameters.values(params, batch), seeds, episodes)
@@ -118,21 +118,21 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
         env_options["params"] = dict(zip(parameters.names, physical[0, 0].tolist()))
     env, _ = jax_tasks.make(f"{domain}.{task}", **env_options)
     physical = env.check_params(physical)
-    check_kinds(name, agent.learner.actions, env.definition, "run_population")
+    check_kinds(name, agents.learner.actions, env.definition, "run_population")
     sensors = env.sensors(batch, observation_noise=observation_noise, action_delay=action_delay,
                           action_noise=action_noise)
     starts = jnp.asarray(episode_starts(env.definition, seeds, episodes))
-    program = agent.trained_program()
-    shape = (env.name, repr(sorted(env_options.items())), sensors.max_delay, type(agent),
-             agent.dim, agent.action_space, repr(_shared_settings(agent.settings[0])),
-             agent.shared(), batch, episodes, CHUNK)
+    program = agents.trained_program()
+    shape = (env.name, repr(sorted(env_options.items())), sensors.max_delay, type(agents),
+             agents.dim, agents.action_space, repr(_shared_settings(agents.settings[0])),
+             agents.shared(), batch, episodes, CHUNK)
     if shape not in _CHUNKS:
         release_when_crowded()
         _use_disk_cache()
-        _CHUNKS[shape] = _compiled_chunk(env, program, episodes, agent.learned_tree,
-                                         agent.continuous)
+        _CHUNKS[shape] = _compiled_chunk(env, program, episodes, agents.learned_tree,
+                                         agents.continuous)
     step = _CHUNKS[shape]
-    carry = _first_carry(env, agent, starts, sensors, episodes)
+    carry = _first_carry(env, agents, starts, sensors, episodes)
     limit = lambda steps: jnp.asarray(min(steps, np.iinfo(np.int32).max), jnp.int32)
     modes = (jnp.asarray(bool(learn)), jnp.asarray(bool(greedy)))
     chunk = lambda carry, steps: step(carry, program.hyper, physical, starts, sensors, limit(steps),
@@ -154,7 +154,7 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
         while pending or _any(carry["active"]):
             if pending and _reaches(carry, pending[0]):
                 smaller = pending.pop(0)
-                checkpoints[smaller](*_ended(agent.snapshot(), _run_out(chunk, carry, smaller),
+                checkpoints[smaller](*_ended(agents.snapshot(), _run_out(chunk, carry, smaller),
                                              episodes, kept))
                 continue
             before = int(np.asarray(carry["done"]).sum())
@@ -165,7 +165,7 @@ def run_population(domain: str, task: str, agent, episodes: int, seeds, learn: b
                 kept.keep(carry)
     except KeyboardInterrupt:
         interrupted = True
-    _, results = _ended(agent, carry, episodes, kept)
+    _, results = _ended(agents, carry, episodes, kept)
     results.interrupted = interrupted
     if kept is not None:
         kept.keep(carry) if interrupted else kept.remove()
@@ -199,22 +199,22 @@ def _run_out(chunk, carry, budget: int) -> dict:
     return carry
 
 
-def _ended(agent, carry, episodes: int, kept=None) -> tuple:
-    """`(agent, results)`: `agent` given the learners' states and clocks of `carry`, and the
+def _ended(agents, carry, episodes: int, kept=None) -> tuple:
+    """`(agents, results)`: `agents` given the learners' states and clocks of `carry`, and the
     episodes `carry` finished, with what the processes before this one spent on the run
     where it went on from the state they `kept` (`Resume.earlier`)."""
-    agent.finished(carry["learner"], np.asarray(carry["clock"]))
-    results = EpisodeResults.empty(agent.batch_size, episodes)
+    agents.finished(carry["learner"], np.asarray(carry["clock"]))
+    results = EpisodeResults.empty(agents.batch_size, episodes)
     ran = np.arange(episodes)[None, :] < np.asarray(carry["done"])[:, None]
     for field, values in (("steps", results.steps), ("returns", results.returns),
                           ("uptime", results.uptime)):
         values[ran] = np.asarray(carry[field], dtype=np.float64)[ran]
     results.truncated[ran] = np.asarray(carry["truncated"])[ran]
     results.diverged_episode[:] = np.asarray(carry["diverged_episode"])
-    agent.arrays.diverged[:] |= results.diverged_episode >= 0
+    agents.arrays.diverged[:] |= results.diverged_episode >= 0
     if kept is not None:
         results.earlier_compute = kept.earlier
-    return agent, results
+    return agents, results
 
 
 _CHUNKS: dict = {}
@@ -264,14 +264,14 @@ def _use_disk_cache() -> None:
         jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 
 
-def _first_carry(env, agent, starts, sensors, episodes: int) -> dict:
+def _first_carry(env, agents, starts, sensors, episodes: int) -> dict:
     """Every agent at its first episode's start, nothing recorded. What needs no JAX
     operation is made by NumPy and put on the device: an operation of JAX's outside a
     program compiles one of its own for each shape."""
     import jax
-    batch = agent.batch_size
-    clocks = jax.device_put(np.asarray(agent.clocks, np.int32))
-    seeds = jax.device_put(np.asarray(agent.seeds, np.uint32) + np.uint32(STREAM))
+    batch = agents.batch_size
+    clocks = jax.device_put(np.asarray(agents.clocks, np.int32))
+    seeds = jax.device_put(np.asarray(agents.seeds, np.uint32) + np.uint32(STREAM))
     keys = jax.vmap(jax.random.fold_in)(  # each agent's stream, where its last run left it
         jax.vmap(jax.random.PRNGKey)(seeds), clocks)
     observation, state = jax.vmap(env.start)(keys, starts[:, 0], sensors)
@@ -279,10 +279,10 @@ def _first_carry(env, agent, starts, sensors, episodes: int) -> dict:
     records = jax.device_put({
         "start": np.ones(batch, bool), "total": np.zeros(batch),
         "spent": np.zeros(batch, np.int32), "done": np.zeros(batch, np.int32),
-        "active": ~np.asarray(agent.arrays.diverged, bool), "steps": nan, "returns": nan,
+        "active": ~np.asarray(agents.arrays.diverged, bool), "steps": nan, "returns": nan,
         "uptime": nan, "truncated": np.zeros((batch, episodes), bool),
         "diverged_episode": np.full(batch, -1, np.int32)})
-    return {"learner": agent.state, "env": state, "observation": observation, "key": keys,
+    return {"learner": agents.state, "env": state, "observation": observation, "key": keys,
             "clock": clocks, **records}
 
 

@@ -14,23 +14,23 @@ from lwrl.tasks.commands import check_kinds, commands
 from lwrl.tasks.batched import BatchedEnv, SteppedEnvs
 
 
-def kind_of(agent) -> tuple[str, str]:
+def kind_of(agents) -> tuple[str, str]:
     """`(name, actions)` of an `Agents`, or of another object with its stepped interface
     (`step`, `diverged`, `batch_size`, `continuous`: `studies.robustness.controller`)."""
-    learner = getattr(agent, "learner", None)
-    name = type(agent).__name__ if learner is None else learner.name
-    return name, "continuous" if agent.continuous else "discrete"
+    learner = getattr(agents, "learner", None)
+    name = type(agents).__name__ if learner is None else learner.name
+    return name, "continuous" if agents.continuous else "discrete"
 
 
-def run_dm_env(env, agent: Agents, episodes: int, learn: bool = True,
+def run_dm_env(env, agents: Agents, episodes: int, learn: bool = True,
                greedy: bool = False) -> EpisodeResults:
-    """One agent (`agent.batch_size == 1`) on one dm_env environment of the suite (`tasks.load`),
+    """One agent (`agents.batch_size == 1`) on one dm_env environment of the suite (`tasks.load`),
     step by step: `run_batched` on the environment alone."""
-    if agent.batch_size != 1:
-        raise ValueError(f"run_dm_env runs one agent; got a batch of {agent.batch_size}")
+    if agents.batch_size != 1:
+        raise ValueError(f"run_dm_env runs one agent; got a batch of {agents.batch_size}")
     if hasattr(env.task, "definition"):  # the suite's
-        check_kinds(*kind_of(agent), env.task.definition, "run_dm_env")
-    return run_batched(SteppedEnvs([env], uptime=lambda single: single.task.uptime), agent,
+        check_kinds(*kind_of(agents), env.task.definition, "run_dm_env")
+    return run_batched(SteppedEnvs([env], uptime=lambda single: single.task.uptime), agents,
                        episodes, learn=learn, greedy=greedy)
 
 
@@ -40,7 +40,7 @@ class CutShort(Exception):
     finished episodes kept, the one under way left out, the results marked interrupted."""
 
 
-def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = True,
+def run_batched(env: BatchedEnv, agents: Agents, episodes: int, learn: bool = True,
                 progress=None, record=(), greedy: bool = False, budget=None) -> EpisodeResults:
     """B agents of any learner on a batched environment of B copies (a `BatchedEnv`, or
     `SteppedEnvs` of B dm_env environments); `learn` and `greedy` as for `Agents.step`;
@@ -53,10 +53,10 @@ def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = Tru
     results marked `interrupted`."""
     episodes = check_count("episodes", episodes, 1)
     if isinstance(env, BatchedEnv):
-        check_kinds(*kind_of(agent), env.definition, "run_batched")
-    if env.batch_size != agent.batch_size:
+        check_kinds(*kind_of(agents), env.definition, "run_batched")
+    if env.batch_size != agents.batch_size:
         raise ValueError(f"environment batch {env.batch_size} and agent batch "
-                         f"{agent.batch_size} differ")
+                         f"{agents.batch_size} differ")
     batch = env.batch_size
     results = EpisodeResults.empty(batch, episodes)
     done = np.zeros(batch, dtype=np.int64)  # finished episodes per agent
@@ -67,16 +67,16 @@ def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = Tru
     recording = bool(len(record))  # else the step loop skips the tape entirely
     if recording:
         definition = env.definition
-        values = recorded_values(agent)
+        values = recorded_values(agents)
         tape = make_tape(record, batch, episodes, definition.step_limit,
                          len(definition.state_names), values.shape[1],
-                         agent.arrays.weights.shape[1:], agent.continuous)
-    actions = np.zeros(batch, dtype=np.float64 if agent.continuous else np.int64)
+                         agents.arrays.weights.shape[1:], agents.continuous)
+    actions = np.zeros(batch, dtype=np.float64 if agents.continuous else np.int64)
     ts = env.reset()
     try:
         while True:
             previous = actions
-            actions = agent.step(ts.first(), ts.reward, ts.discount, ts.observation,
+            actions = agents.step(ts.first(), ts.reward, ts.discount, ts.observation,
                                  active=running, learn=learn, greedy=greedy)
             rows = np.full(batch, -1)
             if recording:
@@ -86,8 +86,8 @@ def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = Tru
                     record_state(tape, rows[b], n, env.state[b], ts.observation[b], values[b])
                     if n > 0:
                         record_transition(tape, rows[b], n, previous[b], ts.reward[b],
-                                          agent.arrays.delta[b])
-            newly_diverged = running & agent.diverged
+                                          agents.arrays.delta[b])
+            newly_diverged = running & agents.diverged
             cut = running & (spent >= budget) & ~ts.first()
             ended = running & (ts.last() | newly_diverged | cut)
             for b in np.flatnonzero(ended):
@@ -97,13 +97,13 @@ def run_batched(env: BatchedEnv, agent: Agents, episodes: int, learn: bool = Tru
                                results.steps, results.returns, results.uptime, results.truncated,
                                results.diverged_episode, done)
                 if rows[b] >= 0:
-                    record_end(tape, rows[b], env.steps[b], agent.arrays.weights[b])
-            running &= (done < episodes) & ~agent.diverged & (spent < budget)
+                    record_end(tape, rows[b], env.steps[b], agents.arrays.weights[b])
+            running &= (done < episodes) & ~agents.diverged & (spent < budget)
             if progress is not None and ended.any():
                 progress(int(ended.sum()))
             if not running.any():
                 break
-            ts = env.step(commands(env.control_range, actions) if agent.continuous else actions)
+            ts = env.step(commands(env.control_range, actions) if agents.continuous else actions)
             spent += running & ~ts.first()
             returns = np.where(ts.first(), 0.0, returns + ts.reward)
     except (KeyboardInterrupt, CutShort):

@@ -101,16 +101,16 @@ def _learn(config, agent, steps: int) -> int:
     return taken
 
 
-def _greedy_decisions(agent, config) -> float:
+def _greedy_decisions(agents, config) -> float:
     """CPU seconds per greedy decision (`Agents.step`, learn=False, greedy=True)."""
     low, high = np.asarray(config.task_spec.ranges.low), np.asarray(config.task_spec.ranges.high)
     states = low + (high - low) * np.random.default_rng(1).uniform(size=(DECISIONS, len(low)))
     zero, one = np.zeros(1), np.ones(1)
-    agent.step(np.ones(1, dtype=bool), zero, one, states[:1], learn=False, greedy=True)
+    agents.step(np.ones(1, dtype=bool), zero, one, states[:1], learn=False, greedy=True)
     not_first = np.zeros(1, dtype=bool)
     start = time.process_time()
     for state in states:
-        agent.step(not_first, zero, one, state[None], learn=False, greedy=True)
+        agents.step(not_first, zero, one, state[None], learn=False, greedy=True)
     return (time.process_time() - start) / DECISIONS
 
 
@@ -136,7 +136,7 @@ def callgrind_instructions(c_dir: str, count: int = CALLGRIND_DECISIONS) -> floa
     return int(totals.group(1)) / count
 
 
-def _controller(agent, config, c_dir: str) -> dict:
+def _controller(agents, config, c_dir: str) -> dict:
     """Export agent 0's greedy controller as C, from the agent saved beside it
     (`c_dir/agent.npz`, which the C file's header names); its sizes and instructions per
     decision."""
@@ -144,7 +144,7 @@ def _controller(agent, config, c_dir: str) -> dict:
     from lwrl.export.c import export_c, measure
     path = os.path.join(c_dir, "agent.npz")
     os.makedirs(c_dir, exist_ok=True)
-    agent_io.save(path, agent, {"config": {"task": config.task}})
+    agent_io.save(path, agents, {"config": {"task": config.task}})
     written = export_c(path, c_dir)
     sizes = measure(c_dir)
     return {"c_weight_bytes": written["weight_bytes"], "c_code_bytes": sizes["code_bytes"],
