@@ -65,7 +65,7 @@ def test_the_report_names_every_task_and_row_a_verdict_per_task_and_the_familys_
         assert any(line.startswith(f"| {label} | 3 |") for line in lines), label
     runs = study.read_longer(study.read_task(TASK, judged, partial=True), judged)
     found = judging.judge([runs], judged)
-    allowed = (*task_verdict.VERDICTS, "not run")
+    allowed = (*task_verdict.VERDICTS, "not run", judging.NOT_ALL_RUN)
     summary = next(line for line in lines if line.startswith(f"| {TASK} |"))
     words = [cell.strip().strip("*") for cell in summary.split("|")[2:-1]]
     assert words == [found[name][0][0].verdict[0] for name in judging.POINTS]
@@ -167,6 +167,26 @@ def test_a_points_family_is_the_rules_whatever_is_run():
         assert (together[0].final.adjusted[hypothesis]
                 <= alone[0].final.adjusted[hypothesis])
     assert judging.verdict(together[-1:]) == ("not run", "no rival's row is run this far")
+
+
+def test_a_task_whose_rivals_are_not_all_run_waits_for_them_unless_it_is_shown_worse():
+    """A task with one rival run and one not: not the verdict of the one (it is against
+    every rival), but "not all run", naming the missing rival and what the run one gives;
+    "no" stands, since no rival still to run can undo it."""
+    from lwrl.analysis import outcomes
+
+    def against(outcome):
+        gate = type("Gate", (), {"judged": True})()
+        final = type("Final", (), {"outcome": outcome})()
+        return judging.Comparison("t", "dqn", True, gate=gate, final=final,
+                                  cpu_ratio=judging.NO_ESTIMATE)
+
+    waiting = judging.Comparison("t", "ppo", False)
+    assert judging.verdict([against(outcomes.NOT_WORSE)])[0] == task_verdict.PARTLY
+    word, why = judging.verdict([against(outcomes.NOT_WORSE), waiting])
+    assert word == judging.NOT_ALL_RUN and "ppo not run this far" in why and "partly" in why
+    word, why = judging.verdict([against(outcomes.WORSE), waiting])
+    assert word == task_verdict.NO and "shown worse than dqn" in why and "ppo" in why
 
 
 def test_every_rows_centre_names_its_prior_tuning():

@@ -19,7 +19,8 @@ time", "The rule"), from the runs a directory holds, at each budget point the ve
   restricted means with their bootstrap intervals (`analysis.curves`), "faster/slower"
   (`curves.pace`);
 - the **task verdict** (`analysis.task_verdict.verdict`) from the final score's outcomes
-  and the CPU ratios.
+  and the CPU ratios, once every rival's row is run at the point (`NOT_ALL_RUN` until
+  then, but for "no", which the rows still to run cannot undo).
 
 The family at a point is the rule's: every comparison its rows make over every task
 (`family_size`, 39: five rivals on each discrete task and variant, four on the continuous
@@ -213,14 +214,29 @@ def judge_families(comparisons: list) -> int:
     return len(run)
 
 
+NOT_ALL_RUN = "not all run"
+"""The verdict of a task at a point where some of its rivals' rows are run that far and
+others not yet: what the rows run would give is not the rule's verdict, which is against
+every rival, so it waits; only "no" (shown worse than one rival, or dearer to the level)
+stands whatever the others give."""
+
+
 def verdict(comparisons: list) -> tuple:
     """`(verdict, why)` of a task from its comparisons at a point (`task_verdict.verdict`);
-    "not run" where none of them is."""
+    "not run" where none of them is, `NOT_ALL_RUN` where some are not (but "no", which the
+    rows not run cannot undo), the rivals not run and what the others give named."""
     against = [task_verdict.Against(c.rival, c.gate.judged, c.final.outcome, c.cpu_ratio)
                for c in comparisons if c.run]
     if not against:
         return "not run", "no rival's row is run this far"
-    return task_verdict.verdict(against)
+    given, why = task_verdict.verdict(against)
+    missing = [c.rival for c in comparisons if not c.run]
+    if not missing:
+        return given, why
+    waiting = f"{', '.join(missing)} not run this far"
+    if given == task_verdict.NO:
+        return given, f"{why}; {waiting}"
+    return NOT_ALL_RUN, f"{waiting}; against the others so far: {given} ({why})"
 
 
 @dataclasses.dataclass
