@@ -227,3 +227,25 @@ def test_the_aggregates_come_with_their_figures(tmp_path, monkeypatch):
         assert f"![{name}.png](figures/{name}.png)" in lines
         assert (tmp_path / "figures" / f"{name}.svg").stat().st_size > 0
     assert any(line.startswith("| paper | ") for line in lines)
+
+
+def test_the_provenance_counts_the_tables_here_and_the_recorded_runs_that_keep_none(tmp_path):
+    """Two runs' tables, one with records, and records of a training whose table is not
+    kept: the provenance says so, and gives each run's commit and host."""
+    from lwrl.studies.paper.benchmark.third import disclosure
+
+    runs = tmp_path / "runs"
+    (runs / "records").mkdir(parents=True)
+    for key in ("a", "b"):
+        pd.DataFrame({"run": [key], "steps": [1]}).to_csv(runs / f"{key}.csv.gz", index=False)
+    for key in ("a", "c"):
+        pd.DataFrame({"run": [key, key], "agent": [0, 1], "lwrl_version": "0.2.0",
+                      "lwrl_commit": "abc", "host_cpu": "cpu", "python": "3.11.7",
+                      "libraries": "numpy 2"}).to_csv(RunStore.records_file(tmp_path, key),
+                                                       index=False)
+    lines = disclosure.provenance_lines(str(tmp_path))
+    assert lines[2] == ("2 runs have records (`runs/records/`): 1 of the 2 runs whose tables are "
+                        "here, and 1 training whose tables are not kept here (their greedy "
+                        "evaluations and records are what the rule reads); per commit, host and "
+                        "libraries:")
+    assert "| 2 | 0.2.0 | abc | cpu | 3.11.7 | numpy 2 |" in lines

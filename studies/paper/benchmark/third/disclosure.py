@@ -12,6 +12,7 @@ import pandas as pd
 from lwrl import outputs
 from lwrl.runners.config import tuned_settings
 from lwrl.runners.store import RunStore
+from lwrl.runners.summary import plural
 from lwrl.studies.paper.benchmark import protocol
 from lwrl.studies.paper.benchmark.third import rule
 
@@ -80,13 +81,21 @@ def provenance(out_dir: str) -> pd.DataFrame:
 
 def provenance_lines(out_dir: str) -> list:
     """Where the runs were computed: per (commit, host, Python, libraries) the runs, from
-    their records; the runs without records counted."""
+    their records; how many of the runs whose tables are here have records, and how many
+    recorded runs keep no table here (the rows' trainings, whose greedy evaluations and
+    records are what the rule reads)."""
     table = provenance(out_dir)
-    runs = len(glob.glob(os.path.join(out_dir, "runs", "*.csv.gz")))
-    recorded = table.run.nunique()
+    tables = {os.path.basename(path)[:-len(".csv.gz")]
+              for path in glob.glob(os.path.join(out_dir, "runs", "*.csv.gz"))}
+    runs = set(table.run)
+    recorded = len(runs)
+    untabled = len(runs - tables)
     lines = ["## Provenance", "",
-             f"{recorded} of the {runs} runs' tables have records (`runs/records/`); per "
-             "commit, host and libraries:", "",
+             f"{recorded} runs have records (`runs/records/`): {len(runs & tables)} of the "
+             f"{len(tables)} runs whose tables are here"
+             + (f", and {plural(untabled, 'training')} whose tables are not kept here (their greedy "
+                "evaluations and records are what the rule reads)" if untabled else "")
+             + "; per commit, host and libraries:", "",
              "| runs | lwrl | commit | host CPU | Python | libraries |",
              "|---|---|---|---|---|---|"]
     keys = ["lwrl_version", "lwrl_commit", "host_cpu", "python", "libraries"]
