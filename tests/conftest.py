@@ -159,8 +159,9 @@ def one_line_error(call, *fragments):
 # ("test_file.py::test_name[parameters]"); its value says why those tests are slow. A test
 # may also carry `@pytest.mark.slow` itself.
 
-DEEP = r"((dqn|ppo|sac|td3)(_jax)?)"
-"""The learners of neural networks (PyTorch, JAX): seconds a run where the others take
+DEEP = r"((dqn|ppo|sac|td3)(_jax)?|ars(_continuous)?|stream_(q|ac_discrete|ac))"
+"""The learners of neural networks (PyTorch, JAX) and the other JAX populations (ARS, the
+streaming learners): seconds a run, compiling their programs, where the others take
 milliseconds."""
 
 OTHER_TASKS = r"(pendulum|acrobot)"
@@ -247,6 +248,21 @@ SLOW = {
         "trains networks",
     r"test_stable_baselines\.py::(?!test_bad_settings)":
         "builds and trains SB3's networks (PyTorch); exports a network and compiles it",
+    r"test_streaming\.py::(test_stream_q_learns|test_stream_(q|ac)_s_first_updates|test_every_"
+    r"observation_enters|test_sparse_initialisation)"
+    r"|test_ars\.py::(test_the_policy_moves|test_ars_learns|test_every_rollout_s_steps)"
+    r"|test_observation_normalisation\.py::(test_the_first_observations|test_a_saved_and_loaded"
+    r"|test_a_streaming_learner_without|test_a_stopped_normalising_run)"
+    r"|test_budget\.py::test_a_family_of_budgets|test_records\.py::test_(the_cpu_grows|the_"
+    r"arithmetic_is_the)|test_timed_costs\.py::test_a_row_whose_agents_have_no_c"
+    r"|test_jax_tasks\.py::test_(makes_example_runs|continuous_actions_jit_and_vmap)"
+    r"|test_observation_normalisation\.py::test_(the_action_values_read|a_greedy_act_leaves)"
+    r"|test_resume\.py::":
+        "trains JAX populations (ARS, the streaming learners), compiling their programs (their "
+        "equations by hand and their settings' checks stay)",
+    r"test_hil\.py::(test_the_device_learns_over_the_link_what_lwrl_learns\[(?!mountain_car)"
+    r"|test_the_emulated_board)": "trains over the link on MuJoCo's pendulum, or on the "
+        "emulated board (the mountain car's case stays)",
     # Learning runs, whole commands and long rollouts.
     r"test_learners\.py::test_every_run_path_gives_the_same_numbers\[(?!ase_ace)[^-]+-(?!"
     r"mountain_car)": "every run path over whole episodes; the mountain car stays",
@@ -278,8 +294,44 @@ SLOW = {
     r"test_timed_costs\.py::test_population_agents_act": "compiles a JAX network",
     r"test_benchmark3_report\.py::test_(the_report|a_row_not_rising)": "runs a tiny third "
         "benchmark (the CPU to the level's reading on arrays stays)",
-    r"test_table_schemas\.py::test_(every_run_table|a_run_table_of_every_tenth)_keeps": "reads "
-        "the committed benchmark's run tables (all of them, or every tenth) against their schema",
+    r"test_table_schemas\.py::test_(every_run_table|a_run_table_of_every_tenth|the_third_"
+    r"benchmarks_runs)": "reads the committed benchmarks' run tables (all of them, or every "
+        "tenth) against their schema",
+    r"test_benchmark3\.py::test_(a_tiny_third_benchmark|the_status_of_a_directory_not_begun)":
+        "a tiny third benchmark; the status of every row's trainings planned",
+    r"test_benchmark_planning\.py::test_(saturation_facts|pendulum_detectable)": "reads the "
+        "second benchmark's committed tables (the flags' checks stay)",
+    r"test_benchmark_evaluation\.py::test_the_random_row_is_far_from_the_classical_row\[(?!"
+    r"mountain_car)|test_benchmark_judging\.py::test_the_(report_judges_every_task|verdicts_yes"
+    r"_no_and_partly)|test_benchmark_variants\.py::test_classical_controller_meets":
+        "the reference rows' episodes, or the judging of a whole benchmark (Mountain-Car's "
+        "case and the judging's parts stay)",
+    r"test_benchmark_outside_properties\.py::test_(a_table_that_breaks|every_table_on_the)":
+        "Hypothesis: a table scored for each of many generated inputs",
+    r"test_link\.py::test_(faults_cost_their_step|a_device_that_comes_back)"
+    r"|test_hil\.py::(test_a_device_that_(stalls|restarts)|test_in_real_time|test_late_answers"
+    r"|test_duplicated_observations|test_against_a_silent_noisy_or_wrong_device\[(?!silent))":
+        "sessions over the link of many steps, each waiting its deadlines (one of each kind of "
+        "fault stays)",
+    r"test_benchmark_harness\.py::(test_a_continuous_policy|test_an_episode_that_does_not_reach"
+    r"|test_lwrl_bench_evaluate|test_saved_agents_act|test_a_policy_of_a_batch_of_one)"
+    r"|test_sb3_cost\.py::test_(on_mujocos_model|a_run_resumed_across)"
+    r"|test_agent_io\.py::test_a_file_from_before_learners_said_what_they_have_loads\[(?!ars)":
+        "the protocol's episodes evaluated, a model built or a network saved (the harness's "
+        "checks of its inputs stay)",
+    r"test_jax_task_properties\.py::test_a_step_within_the_spaces_is_finite\[(?!mountain_car)"
+    r"|test_jax_tasks\.py::test_continuous_episodes_are_the_numpy_environments\[(?!mountain_car)"
+    r"|test_continuous_actions\.py::test_the_plants_agree_under_continuous_actions\[(?!pendulum)"
+    r"|test_graphical\.py::test_the_family_wise_error_rate|test_verdicts\.py::test_(the_"
+    r"intervals_are_rliable_s|holm_on_the_textbook_case|table1_needs)"
+    r"|test_benchmark_outside_properties\.py::test_(a_damaged_gzip|lwrl_bench_score_refuses)"
+    r"|test_budget\.py::test_a_checkpoint_is_a_smaller_budget":
+        "the same check on the other tasks, or a simulation, a bootstrap or generated inputs "
+        "(Mountain-Car's case, or a hand-worked one, stays)",
+    r"test_benchmark_evaluation\.py::test_the_classical_cartpole_balances_every_240_s"
+    r"|test_sb3_cost\.py::test_the_report_multiplies|test_benchmark_compute_plan\.py::test_one_"
+    r"row_recomputed": "the classical controller's 240-s episodes; a report or a plan read "
+        "from the committed ledgers",
     r"test_benchmark_dataset\.py::test_the_committed_dataset": "reads the committed Parquet "
         "dataset and a run table of every fifty",
     r"test_reproduce\.py::(test_a_killed_sweep_resumes|test_quick_reproduction_writes|test_fig3_"
