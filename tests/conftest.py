@@ -159,7 +159,8 @@ def one_line_error(call, *fragments):
 # ("test_file.py::test_name[parameters]"); its value says why those tests are slow. A test
 # may also carry `@pytest.mark.slow` itself.
 
-DEEP = r"((dqn|ppo|sac|td3)(_jax)?|ars(_continuous)?|stream_(q|ac_discrete|ac))"
+NETWORKS_AND_POPULATIONS = (r"((dqn|ppo|sac|td3)(_jax)?|ars(_continuous)?"
+                            r"|stream_(q|ac_discrete|ac))")
 """The learners of neural networks (PyTorch, JAX) and the other JAX populations (ARS, the
 streaming learners): seconds a run, compiling their programs, where the others take
 milliseconds."""
@@ -241,22 +242,23 @@ SLOW = {
         "Cortex-M4 too)",
     r"test_device\.py::test_host_build_in_double_is_the_python_learner_on_the_python_plant"
     r"\[(?!paper)": "compiles and runs the device program on the host",
-    # The network learners (their modules stay in the quick loop through the settings
-    # checks of test_stable_baselines.py and test_population.py).
-    rf"{CONTRACT}\[{DEEP}-": "trains networks",
-    rf"test_robustness\.py::test_every_learner_goes_on_with_its_kept_agents[^\[]*\[{DEEP}\]":
-        "trains networks",
+    # The network learners and the JAX populations (their modules stay in the quick loop
+    # through the settings checks of test_stable_baselines.py, test_population.py,
+    # test_ars.py and test_streaming.py).
+    rf"{CONTRACT}\[{NETWORKS_AND_POPULATIONS}-": "trains networks or JAX populations",
+    rf"test_robustness\.py::test_every_learner_goes_on_with_its_kept_agents[^\[]*"
+    rf"\[{NETWORKS_AND_POPULATIONS}\]": "trains networks or JAX populations",
     r"test_stable_baselines\.py::(?!test_bad_settings)":
         "builds and trains SB3's networks (PyTorch); exports a network and compiles it",
     r"test_streaming\.py::(test_stream_q_learns|test_stream_(q|ac)_s_first_updates|test_every_"
     r"observation_enters|test_sparse_initialisation)"
     r"|test_ars\.py::(test_the_policy_moves|test_ars_learns|test_every_rollout_s_steps)"
     r"|test_observation_normalisation\.py::(test_the_first_observations|test_a_saved_and_loaded"
-    r"|test_a_streaming_learner_without|test_a_stopped_normalising_run)"
+    r"|test_a_streaming_learner_without|test_a_stopped_normalising_run|test_the_action_values_"
+    r"read|test_a_greedy_act_leaves)"
     r"|test_budget\.py::test_a_family_of_budgets|test_records\.py::test_(the_cpu_grows|the_"
     r"arithmetic_is_the)|test_timed_costs\.py::test_a_row_whose_agents_have_no_c"
     r"|test_jax_tasks\.py::test_(makes_example_runs|continuous_actions_jit_and_vmap)"
-    r"|test_observation_normalisation\.py::test_(the_action_values_read|a_greedy_act_leaves)"
     r"|test_resume\.py::":
         "trains JAX populations (ARS, the streaming learners), compiling their programs (their "
         "equations by hand and their settings' checks stay)",
@@ -322,10 +324,9 @@ SLOW = {
     r"test_jax_task_properties\.py::test_a_step_within_the_spaces_is_finite\[(?!mountain_car)"
     r"|test_jax_tasks\.py::test_continuous_episodes_are_the_numpy_environments\[(?!mountain_car)"
     r"|test_continuous_actions\.py::test_the_plants_agree_under_continuous_actions\[(?!pendulum)"
-    r"|test_graphical\.py::test_the_family_wise_error_rate|test_verdicts\.py::test_(the_"
-    r"intervals_are_rliable_s|holm_on_the_textbook_case|table1_needs)"
-    r"|test_benchmark_outside_properties\.py::test_(a_damaged_gzip|lwrl_bench_score_refuses)"
-    r"|test_budget\.py::test_a_checkpoint_is_a_smaller_budget":
+    r"|test_graphical\.py::test_the_family_wise_error_rate"
+    r"|test_verdicts\.py::test_the_intervals_are_rliable_s"
+    r"|test_benchmark_outside_properties\.py::test_(a_damaged_gzip|lwrl_bench_score_refuses)":
         "the same check on the other tasks, or a simulation, a bootstrap or generated inputs "
         "(Mountain-Car's case, or a hand-worked one, stays)",
     r"test_benchmark_evaluation\.py::test_the_classical_cartpole_balances_every_240_s"
