@@ -88,10 +88,9 @@ def provenance_lines(out_dir: str) -> list:
     tables = {os.path.basename(path)[:-len(".csv.gz")]
               for path in glob.glob(os.path.join(out_dir, "runs", "*.csv.gz"))}
     runs = set(table.run)
-    recorded = len(runs)
     untabled = len(runs - tables)
     lines = ["## Provenance", "",
-             f"{recorded} runs have records (`runs/records/`): {len(runs & tables)} of the "
+             f"{len(runs)} runs have records (`runs/records/`): {len(runs & tables)} of the "
              f"{len(tables)} runs whose tables are here"
              + (f", and {plural(untabled, 'training')} whose tables are not kept here (their greedy "
                 "evaluations and records are what the rule reads)" if untabled else "")
@@ -99,7 +98,7 @@ def provenance_lines(out_dir: str) -> list:
              "| runs | lwrl | commit | host CPU | Python | libraries |",
              "|---|---|---|---|---|---|"]
     keys = ["lwrl_version", "lwrl_commit", "host_cpu", "python", "libraries"]
-    if recorded:
+    if runs:
         for values, part in table.fillna("").astype({k: str for k in keys}).groupby(keys):
             lines.append(f"| {part.run.nunique()} | " + " | ".join(values) + " |")
     return lines + [""]
