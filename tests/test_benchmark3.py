@@ -165,6 +165,23 @@ def test_step_sizes_are_drawn_within_four_times_the_centre_and_normalisation_is_
     assert all(halving.unsearched(task) == [] for task in rule.TASKS)
 
 
+def test_a_searchs_programs_are_its_configurations_apart_in_a_setting_that_shapes_one(monkeypatch):
+    """A rival whose search draws its step size and one choice that shapes its program (ARS's
+    variant, a streaming learner's observation normalisation) makes two programs of its 32
+    configurations; DQN, which draws its network, minibatch and buffer too, makes many; and
+    configurations apart in settings each agent may have of its own make one."""
+    rows = {row.label: row for row in rule.rows(TASK)}
+    for row in rows.values():
+        count, largest = halving.programs(TASK, row)
+        assert 1 <= count <= 32 and (count == 32) == (largest == 1), row.label
+    assert [halving.programs(TASK, rows[label])[0] for label in ("ars", "stream_q")] == [2, 2]
+    assert halving.programs(TASK, rows["dqn"])[0] > 16
+    centre = rows["dqn"].settings
+    monkeypatch.setattr(halving, "configurations", lambda task, row: [
+        dict(centre, learning_rate=rate) for rate in np.geomspace(1e-4, 1e-2, 32)])
+    assert halving.programs(TASK, rows["dqn"]) == (1, 32)
+
+
 @pytest.fixture
 def tiny(monkeypatch):
     """The paper's agent alone on Mountain-Car, a budget of 1 000 steps, 3 agents, a search

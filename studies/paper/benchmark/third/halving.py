@@ -25,11 +25,13 @@ x1/4 to x4 of the centre's, the other settings the second benchmark's ranges
 stream per task and row (`SEED`): the same on every machine, and resumable.
 """
 
+import collections
 import dataclasses
 import math
 
 import numpy as np
 
+from lwrl.runners import sweep
 from lwrl.studies.paper.benchmark import compute_plan, protocol, search
 from lwrl.studies.paper.benchmark.search import Choice
 from lwrl.studies.paper.benchmark.third import clock, rule
@@ -121,6 +123,18 @@ def rung_training(task: str, row: protocol.Row, settings: dict, rung: int,
     rung's is the whole budget, cut by the clock, `clock.trainings`)."""
     _, seeds, fraction = compute_plan.SEARCH_RUNGS[rung]
     return rule.training(task, row, settings, rule.SEARCH_SEED, seeds, fraction, plant)
+
+
+def programs(task: str, row: protocol.Row) -> tuple:
+    """`(programs, largest)`: how many batches the row's first rung of `CONFIGURATIONS`
+    makes, configurations that differ only in settings each agent may have of its own
+    (`sweep.batch_key`: one compiled program, or one compiled loop, runs them as one batch),
+    and the most configurations one of them holds. A search whose configurations shared
+    their programs could train each as one population; where each draws a network's shape,
+    a rollout's length or a minibatch of its own, there is little to share."""
+    shapes = collections.Counter(sweep.batch_key(rung_training(task, row, settings, 0))
+                                 for settings in configurations(task, row))
+    return len(shapes), max(shapes.values())
 
 
 def evaluation(training):

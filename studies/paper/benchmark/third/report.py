@@ -2,8 +2,9 @@
 "The light-weight claim judged a third time"): first every task's verdict at 1/4, 1 and 4
 times the budget and the families of the multiple-test procedure (`verdict_tables`); per
 task and row the final normalised score with its 95 % interval (`analysis.statistics.
-mean_interval`), at 1/4 of the budget too, its agents, the configuration its search chose and
-what the ledger counts of its CPU (the row's runs and its search's apart,
+mean_interval`), at 1/4 of the budget too, its agents, the configuration its search chose,
+how many programs its search's configurations make (`halving.programs`: what training each
+program's configurations as one population could share) and what the ledger counts of its CPU (the row's runs and its search's apart,
 `runners.store.compute_spent`) and the rows' curves on the fine clock (`figures`); per task and budget point the light-weight row's comparisons
 with each rival, the rows' times to the level and success shares (`judging`); the rivals the
 rule names that no learner runs and the rows whose observation normalisation is not
@@ -78,14 +79,17 @@ def task_section(runs: "study.TaskRuns", out_dir: str) -> list:
     """The lines of one task: a table of its rows and their curves on the fine clock
     (`figures.clock_curves`)."""
     lines = [f"## {runs.task}", "",
-             "| row | agents | configuration | search's final score | normalised score at 1/4 "
+             "| row | agents | configuration | search's final score | search's programs "
+             f"(of {halving.CONFIGURATIONS}; most in one) | normalised score at 1/4 "
              "| final normalised score | at 4 times the budget | CPU h (row) | CPU h (search) |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    rows = {row.label: row for row in rule.rows(runs.task)}
     for label, row in runs.rows.items():
         final = row.scores[clock.POINTS[-1]]
         search = (f"{mean_interval(row.rungs[-1][row.chosen]).text(2)}" if row.rungs
                   else "(its task's)")
-        lines.append(f"| {label} | {len(final)} | {row.chosen} | {search} | "
+        shared = "{} ({})".format(*halving.programs(runs.task, rows[label])) if row.rungs else "—"
+        lines.append(f"| {label} | {len(final)} | {row.chosen} | {search} | {shared} | "
                      f"{mean_interval(row.scores[QUARTER]).text(2)} | "
                      f"{mean_interval(final).text(2)} | {at_four(runs.task, row)} | "
                      f"{compute_spent(out_dir, set(row.own))['cpu_s'] / 3600:.3f} | "
