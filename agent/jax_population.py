@@ -473,6 +473,19 @@ class PopulationAgents(Agents):
         other.arrays = PopulationArrays(*(np.copy(values) for values in self.arrays))
         return other
 
+    def part(self, start: int, stop: int) -> "PopulationAgents":
+        """Agents `start` to `stop` of the batch as a batch of their own, with their settings,
+        seeds, state, clocks and divergence: what a run of them alone would hold (an agent's
+        numbers do not depend on the others of its batch), for runs trained as one population
+        and kept apart (`runners.sweep.populations`)."""
+        part = copy.copy(self)
+        part.settings, part.seeds = self.settings[start:stop], self.seeds[start:stop]
+        part.state = self.jax.tree.map(lambda leaf: leaf[start:stop], self.state)
+        part.clocks = self.clocks[start:stop].copy()
+        part._greedy = None
+        part.arrays = PopulationArrays(*(np.array(values[start:stop]) for values in self.arrays))
+        return part
+
     def finished(self, state, clocks) -> None:
         """After a run: the batch's new state and clocks, its weights and divergence."""
         self.state, self.clocks = state, np.asarray(clocks, dtype=np.int64)

@@ -111,8 +111,8 @@ class RunStore:
 
     @staticmethod
     def resume_file(out_dir, key: str) -> pathlib.Path:
-        """Where the run `key` of the sweep in `out_dir` keeps its state while it runs
-        (`runners.resume`: population runs)."""
+        """Where the run `key` (or the batch `batch_name`) of the sweep in `out_dir` keeps its
+        state while it runs (`runners.resume`: population runs)."""
         return pathlib.Path(out_dir) / "runs" / f"{key}.resume.npz"
 
     def finished(self, config) -> bool:
@@ -176,9 +176,15 @@ class RunStore:
             tables.append(table.assign(**missing) if missing else table)
         return pd.concat(tables, ignore_index=True)
 
-    def _claim_path(self, batch) -> pathlib.Path:
+    @staticmethod
+    def batch_name(batch) -> str:
+        """A name of the runs of `batch` together: its claim's, and the state of a batch of
+        several runs as one population (`resume_file`)."""
         digest = hashlib.sha1("\n".join(sorted(config.key for config in batch)).encode())
-        return self.directory / f"batch-{digest.hexdigest()[:12]}.claim"
+        return f"batch-{digest.hexdigest()[:12]}"
+
+    def _claim_path(self, batch) -> pathlib.Path:
+        return self.directory / f"{self.batch_name(batch)}.claim"
 
     def claim(self, batch) -> bool:
         """Claim `batch` for this process (`lwrl.outputs.claim`): True if it is ours to compute

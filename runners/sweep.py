@@ -94,6 +94,21 @@ def families(configs) -> list:
     return list(groups.values())
 
 
+def populations(queue, max_agents: int = MAX_BATCH_AGENTS) -> list:
+    """`families`' runs, those of a population learner (`Learner.population`) that run one
+    program joined: a run alone (no family, not going on from kept agents) joins the others of
+    its `batch_key` (budget included) in one batch of at most `max_agents` agents, trained as
+    one population and kept apart (`run_batch`), as a search's configurations that differ only
+    in per-agent settings; an agent's numbers do not depend on the others of its batch (the
+    learner contract). Every other run as it was, first."""
+    def joins(family) -> bool:
+        config = family[0]
+        return (len(family) == 1 and config.trained is None
+                and learners.learner(config.learner).population)
+    return ([family for family in queue if not joins(family)]
+            + batches([family[0] for family in queue if joins(family)], max_agents))
+
+
 def longest(family):
     """The run of a family (`families`) that computes the others: the one of largest budget."""
     return max(family, key=lambda config: config.budget)
@@ -146,10 +161,11 @@ def run_batch(configs, progress=None, directory=None, keep_agents: bool = False)
 
     checkpoints = {config.budget: checkpoint(config)
                    for config in configs if config is not base} if family else None
+    name = base.key if len(joined) == 1 else RunStore.batch_name(joined)
     _, results = run(base, agents=agent, seeds=[seed for config in joined for seed in config.seeds],
                      progress=progress, learn=base.learn, greedy=base.greedy, batch=joined,
                      checkpoints=checkpoints,
-                     resume=RunStore.resume_file(directory, base.key) if population else None)
+                     resume=RunStore.resume_file(directory, name) if population else None)
     cpu_s = clock.seconds() + results.earlier_compute[1]
     if results.interrupted:  # a population run keeps its state and what it spent to go on
         raise KeyboardInterrupt
@@ -157,8 +173,10 @@ def run_batch(configs, progress=None, directory=None, keep_agents: bool = False)
         RunStore(directory).record_compute(configs, *results.earlier_compute)
     starts = np.cumsum([0] + [config.agents for config in joined])
     for config, start in zip(joined, starts):
-        _finish(finished, config, directory, keep_agents, clock, shared_by, cpu_s, agent,
-                results.agents(start, start + config.agents), write=False)
+        stop = start + config.agents
+        kept = agent.part(start, stop) if keep_agents and len(joined) > 1 else agent
+        _finish(finished, config, directory, keep_agents, clock, shared_by, cpu_s, kept,
+                results.agents(start, stop), write=False)
     return [finished[config.key] for config in configs]
 
 
@@ -238,7 +256,8 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
     takes over any whose process is gone.
 
     With `keep_agents`, each run is a batch of its own (or of its family, `families`: runs
-    that differ in their budget only, computed as one) whose agents are kept beside its
+    that differ in their budget only, computed as one; or of the runs of a population learner
+    that one program runs, `populations`) whose agents are kept beside its
     table (`RunStore.agents_path`; a run is finished once both are there), for runs that
     go on with them (`RunConfig.trained`: an evaluation, `learn=False, greedy=True`), which
     read them from the same directory.
@@ -254,7 +273,7 @@ def run_sweep(configs, out_dir: str, backend: str = "local", workers: int | None
         print(line, file=sys.stderr)
     pending = [config for config in configs if not store.finished(config)]
     total, left = _agent_episodes(configs), _agent_episodes(pending)
-    queue, computed = families(pending) if keep_agents else batches(pending), 0
+    queue, computed = populations(families(pending)) if keep_agents else batches(pending), 0
     options = (str(out_dir), keep_agents)
     # the tables of a finished batch are written while the next batch computes
     with tqdm.tqdm(total=total, initial=total - left, desc=description, unit="agent-episode",

@@ -335,6 +335,8 @@ SLOW = {
         "from the committed ledgers",
     r"test_benchmark_dataset\.py::test_the_committed_dataset": "reads the committed Parquet "
         "dataset and a run table of every fifty",
+    r"test_reproduce\.py::test_runs_of_one_program_train": "compiles a JAX population's "
+        "programs for a batch of one run and of three",
     r"test_reproduce\.py::(test_a_killed_sweep_resumes|test_quick_reproduction_writes|test_fig3_"
     r"verdict_counts_both_conditions\[(?!60\.0-40-))": "a reproduction sweep; fig. 3's "
         "verdict drawn for each case (one stays)",

@@ -1,11 +1,13 @@
 """Sweeps and the paper's reproduction: resumable, complete, on each backend."""
 
 import importlib.util
+import json
 import os
 import subprocess
 import sys
 import time
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -126,6 +128,36 @@ def test_ray_backend_gives_the_local_results_of_population_runs_with_their_agent
     assert computed == 2
     pd.testing.assert_frame_equal(local, on_ray)
     assert all(RunStore.agents_file(tmp_path / "ray", config.key).exists() for config in configs)
+
+
+@pytest.mark.skipif(jax_population.missing_jax(), reason="the population learners need the jax "
+                    "extra: pip install 'lwrl[jax]'")
+def test_runs_of_one_program_train_as_one_population_and_are_kept_apart(tmp_path):
+    """With their agents kept, a population learner's runs that differ only in per-agent
+    settings (a search's configurations) train as one batch: each run's table and kept agents
+    are those of the run alone, and its records share the batch's CPU among its agents."""
+    from lwrl.agent import io as agent_io
+    configs = [RunConfig(task="mountain_car.cost_to_go", learner="dqn_jax", net_arch="8",
+                         timesteps=300, learning_starts=10, batch_size=4, buffer_size=64,
+                         agents=2, seed=seed, learning_rate=rate, task_options={"time_limit": 2.0})
+               for seed, rate in ((0, 1e-3), (10, 3e-3), (20, 1e-2))]
+    assert sweep.populations(sweep.families(configs)) == [configs]
+    joined, computed = sweep.run_sweep(configs, str(tmp_path / "joined"), keep_agents=True)
+    assert computed == 3
+    for config in configs:
+        alone, _ = sweep.run_sweep([config], str(tmp_path / config.key), keep_agents=True)
+        pd.testing.assert_frame_equal(
+            joined[joined["run"] == config.key].reset_index(drop=True), alone)
+        (kept_document, kept), (own_document, own) = (
+            agent_io.load(RunStore.agents_file(tmp_path / name, config.key))[0].saved()
+            for name in ("joined", config.key))
+        assert kept_document == own_document and kept.keys() == own.keys()
+        for name, values in own.items():
+            np.testing.assert_array_equal(kept[name], values, err_msg=name)
+        shared = pd.read_csv(RunStore.records_file(tmp_path / "joined", config.key))
+        assert (shared["cpu_shared_by"] == 6).all()
+    lines = [json.loads(line) for line in (tmp_path / "joined" / "compute.jsonl").open()]
+    assert [sorted(line["runs"]) for line in lines] == [sorted(c.key for c in configs)]
 
 
 def test_batched_runs_equal_runs_alone(tmp_path):
