@@ -126,3 +126,16 @@ def test_deep_speed_counts_what_each_learner_declares():
                               config.task_spec) == f"not counted ({sarsa.name} declares no counts)"
     cmac = dataclasses.replace(config.settings, features="cmac")
     assert deep_speed.counted(sarsa, cmac, config.task_spec) == "not counted (cmac features)"
+
+
+def test_search_populations_quick_prints_its_table(capsys):
+    """The search's populations benchmark in its smoke mode: ARS's runs alone and as one
+    population, their tables the same both ways."""
+    from benchmarks import search_populations
+    from lwrl.agent.jax_population import missing_jax
+    if missing_jax():
+        pytest.skip("the population learners need the jax extra: pip install 'lwrl[jax]'")
+    search_populations.main(["--quick"])
+    out = capsys.readouterr().out
+    row = next(line for line in out.splitlines() if line.startswith("| ars |"))
+    assert row.startswith("| ars | 2 x 2 | ") and row.endswith(" | yes |")
