@@ -146,6 +146,10 @@ def test_the_status_says_what_the_trainings_left_will_cost_from_the_ledger(tmp_p
                                                         "cpu_s": 7.0}) + "\n")
     assert progress.cpu_per_agent_step(str(tmp_path), fractions) == {
         fractions[-1].key: pytest.approx(7.0 / (20 * budget))}
+    (tmp_path / "compute.jsonl").write_text(json.dumps({"runs": [first.key, second.key],
+                                                        "cpu_s": 12.0}) + "\n")
+    assert progress.cpu_per_agent_step(str(tmp_path), [first, second]) == {  # one population
+        key: pytest.approx(12.0 / (6 * budget)) for key in (first.key, second.key)}
 
 
 def test_the_best_mean_is_chosen_a_diverged_agent_the_worst_and_the_first_on_a_tie():

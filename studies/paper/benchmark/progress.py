@@ -47,18 +47,21 @@ def _chosen(task: str, out_dir: str, plant: str, runs: dict, store: RunStore):
 
 def cpu_per_agent_step(out_dir: str, configs) -> dict:
     """`{key: CPU seconds per agent-step}` of the runs of `configs` that lines of the ledger
-    computed alone or as the longest of its family (`runners.sweep.families`): their CPU (a
-    stopped run's earlier processes' line too, `runners.resume`) over the run's agents
-    times its budget."""
+    computed alone, as the longest of its family (`runners.sweep.families`) or together with
+    runs of the same budget as one population (`runners.sweep.populations`): their CPU (a
+    stopped run's earlier processes' line too, `runners.resume`) over the agents of the runs
+    the line computed times their budget."""
     by_key = {config.key: config for config in configs}
     rates = {}
     for line in ledger_lines(out_dir, set(by_key)):
         mine = [by_key[key] for key in line["runs"]]
         given = given_on_the_way(mine)
         computed = [config for config in mine if config.key not in given]
-        if len(computed) == 1 and computed[0].budget:
-            run, = computed
-            rates[run.key] = rates.get(run.key, 0.0) + line["cpu_s"] / (run.agents * run.budget)
+        budgets = {config.budget for config in computed}
+        if len(budgets) == 1 and None not in budgets:
+            steps = sum(config.agents * config.budget for config in computed)
+            for run in computed:
+                rates[run.key] = rates.get(run.key, 0.0) + line["cpu_s"] / steps
     return rates
 
 
