@@ -24,7 +24,6 @@ Run from the repository root:
 """
 
 import argparse
-import collections
 import dataclasses
 import time
 
@@ -33,15 +32,12 @@ from lwrl.studies.paper.benchmark.third import halving, rule
 
 
 def group(task: str, label: str, count: int, budget: int) -> list:
-    """The first rung's runs of the row `label`'s largest group of configurations of one
-    program on `task`, at most `count`, cut to `budget` steps per agent."""
+    """The first rung's runs of the row `label`'s largest batch of one program on `task`
+    (`sweep.batches`, as `halving.programs` counts them), at most `count`, cut to `budget`
+    steps per agent."""
     row = {row.label: row for row in rule.rows(task)}[label]
-    groups = collections.defaultdict(list)
-    for settings in halving.configurations(task, row):
-        run = halving.rung_training(task, row, settings, 0)
-        groups[sweep.batch_key(run)].append(run)
-    return [dataclasses.replace(run, budget=budget)
-            for run in max(groups.values(), key=len)[:count]]
+    largest = max(sweep.batches(halving.first_rung(task, row)), key=len)
+    return [dataclasses.replace(run, budget=budget) for run in largest[:count]]
 
 
 def cpu_of(batches) -> tuple:

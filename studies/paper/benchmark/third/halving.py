@@ -25,7 +25,6 @@ x1/4 to x4 of the centre's, the other settings the second benchmark's ranges
 stream per task and row (`SEED`): the same on every machine, and resumable.
 """
 
-import collections
 import dataclasses
 import math
 
@@ -125,16 +124,20 @@ def rung_training(task: str, row: protocol.Row, settings: dict, rung: int,
     return rule.training(task, row, settings, rule.SEARCH_SEED, seeds, fraction, plant)
 
 
+def first_rung(task: str, row: protocol.Row) -> list:
+    """The runs of the row's first rung, one per configuration (`configurations`)."""
+    return [rung_training(task, row, settings, 0) for settings in configurations(task, row)]
+
+
 def programs(task: str, row: protocol.Row) -> tuple:
-    """`(programs, largest)`: how many batches the row's first rung of `CONFIGURATIONS`
-    makes, configurations that differ only in settings each agent may have of its own
-    (`sweep.batch_key`: one compiled program, or one compiled loop, runs them as one batch),
-    and the most configurations one of them holds. A search whose configurations shared
-    their programs could train each as one population; where each draws a network's shape,
-    a rollout's length or a minibatch of its own, there is little to share."""
-    shapes = collections.Counter(sweep.batch_key(rung_training(task, row, settings, 0))
-                                 for settings in configurations(task, row))
-    return len(shapes), max(shapes.values())
+    """`(programs, largest)`: how many batches the sweep makes of the row's first rung
+    (`sweep.batches`: runs that differ only in settings each agent may have of its own, one
+    compiled program, or one compiled loop, runs as one batch), and the most runs one of them
+    holds. A search whose configurations shared their programs trains each as one population
+    (`sweep.populations`); where each draws a network's shape, a rollout's length or a
+    minibatch of its own, there is little to share."""
+    batches = sweep.batches(first_rung(task, row))
+    return len(batches), max(map(len, batches))
 
 
 def evaluation(training):
