@@ -80,10 +80,6 @@ class DqnJaxAgents(PopulationAgents):
         """The replay buffer's capacity (`replay_capacity`)."""
         return (replay_capacity(self.settings),)
 
-    def shared(self) -> tuple:
-        """The gradient steps of a training call."""
-        return (replay_gradient_steps(self.learner.name, self.settings),)
-
     def q_values(self, params, observation):
         """Q(s, .) `(..., A)` of the network `params` at observations `(..., d)` (float32)."""
         return mlp(params, observation.astype(self.jnp.float32), self.jax.nn.relu)
@@ -174,6 +170,7 @@ LEARNER = Learner(
            "stable_baselines3.DQN, in JAX as PureJaxRL (Lu et al. 2022)",
     settings=DqnJaxSettings, make=make, load=load, memory=memory,
     unavailable=jax_unavailable("dqn_jax"), tuned=ZOO_SETS, checked=CHECKED, population=True,
+    shared=lambda settings: (replay_gradient_steps("dqn_jax", settings),),
     arithmetic=counted(arithmetic))
 """The `dqn_jax` learner as the registry holds it (`agent.LEARNERS`)."""
 DqnJaxAgents.learner = LEARNER

@@ -410,11 +410,10 @@ class PopulationAgents(Agents):
         self.shared()
 
     def shared(self) -> tuple:
-        """What else shapes the program, beside the settings the batch shares: values that
-        per-agent settings give, which the batch's agents must share (`batch_value`: a
-        minibatch's size, the gradient steps of a training call); () for a learner without
-        such. The runner compiles a program for each."""
-        return ()
+        """What else shapes the program, beside the settings the batch shares: the values
+        that per-agent settings give and the batch's agents must share (`Learner.shared`).
+        The runner compiles a program for each."""
+        return self.learner.shared(self.settings)
 
     def initial_state(self, key):
         """One agent's state, from its JAX `key`, as the learner makes it."""

@@ -146,6 +146,12 @@ class Learner:
     population: bool = False
     """True: its agents train as one jitted JAX program over the suite's JAX tasks
     (`runners.population`; `agent.jax_population.PopulationAgents`), not step by step."""
+    shared: Callable = lambda settings: ()
+    """`shared(settings)`: what a population learner's per-agent `settings` (one per agent)
+    give that shapes its program (a minibatch's size, the gradient steps of a training
+    call), which the agents of one batch must therefore share: the values, or a one-line
+    ValueError where they differ (`agent.jax_population.batch_value`). () where nothing
+    does; `runners.sweep.batch_key` batches only runs that agree on it."""
     arithmetic: Callable | None = None
     """`arithmetic(settings, task, steps=None) -> agent.arithmetic.Counts`: the multiply-adds
     and exponentials of one greedy decision and of one agent-step of learning with

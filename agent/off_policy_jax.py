@@ -160,12 +160,6 @@ class ActorCriticAgents(PopulationAgents):
         """The replay buffer's capacity (`replay_capacity`)."""
         return (replay_capacity(self.settings),)
 
-    def shared(self) -> tuple:
-        """The minibatches' size and the gradient steps of a training call."""
-        return (batch_value(self.learner.name, "share batch_size (it shapes the program)",
-                            [s.batch_size for s in self.settings]),
-                replay_gradient_steps(self.learner.name, self.settings))
-
     def program(self) -> Program:
         jax, jnp = self.jax, self.jnp
         batch_size, gradient_steps = self.shared()
@@ -195,6 +189,16 @@ class ActorCriticAgents(PopulationAgents):
                                             self.settings[0].timesteps),
                        update_due=replay_due, hyper=self.hyper(), mapped=True,
                        unchanged=("buffer",))
+
+
+def shared(learner: str):
+    """The learner's `Learner.shared`: the minibatches' size and the gradient steps of a
+    training call."""
+    def values(settings) -> tuple:
+        return (batch_value(learner, "share batch_size (it shapes the program)",
+                            [s.batch_size for s in settings]),
+                replay_gradient_steps(learner, settings))
+    return values
 
 
 def memory(settings, task, actor_outputs: int, actor_copies: int) -> int:

@@ -36,7 +36,7 @@ import numpy as np
 from lwrl.agent.jax_population import adam, adam_init, jax_unavailable, masked, polyak
 from lwrl.agent.learner_contract import Learner
 from lwrl.agent.off_policy import CHECKED, fits_continuous
-from lwrl.agent.off_policy_jax import ActorCriticAgents
+from lwrl.agent.off_policy_jax import ActorCriticAgents, shared
 from lwrl.agent.observation_normalisation import ObservationNormalisation, counted
 from lwrl.agent.off_policy_jax import memory as off_policy_memory
 from lwrl.agent.sac import SacSettings, arithmetic
@@ -156,6 +156,6 @@ LEARNER = Learner(
     fits=fits_continuous("sac_jax"), unavailable=jax_unavailable("sac_jax"),
     checked=CHECKED,
     actions="continuous",
-    population=True, arithmetic=counted(arithmetic))
+    population=True, shared=shared("sac_jax"), arithmetic=counted(arithmetic))
 """The `sac_jax` learner as the registry holds it (`agent.LEARNERS`)."""
 SacJaxAgents.learner = LEARNER

@@ -27,7 +27,7 @@ import dataclasses
 from lwrl.agent.jax_population import jax_unavailable, masked, polyak
 from lwrl.agent.learner_contract import Learner
 from lwrl.agent.off_policy import CHECKED, fits_continuous
-from lwrl.agent.off_policy_jax import ActorCriticAgents
+from lwrl.agent.off_policy_jax import ActorCriticAgents, shared
 from lwrl.agent.observation_normalisation import ObservationNormalisation, counted
 from lwrl.agent.off_policy_jax import memory as off_policy_memory
 from lwrl.agent.td3 import Td3Settings, arithmetic
@@ -109,6 +109,6 @@ LEARNER = Learner(
     fits=fits_continuous("td3_jax"), unavailable=jax_unavailable("td3_jax"),
     checked=CHECKED,
     actions="continuous",
-    population=True, arithmetic=counted(arithmetic))
+    population=True, shared=shared("td3_jax"), arithmetic=counted(arithmetic))
 """The `td3_jax` learner as the registry holds it (`agent.LEARNERS`)."""
 Td3JaxAgents.learner = LEARNER

@@ -50,9 +50,12 @@ pendulum: 4.0 us of CPU per agent-step at 1024 agents, 5.0 at 256)."""
 
 def batch_key(config) -> str:
     """What the runs of one batch share: every setting but those the metadata marks
-    `per_agent` (the learner takes them per agent; agents and seeds)."""
-    return json.dumps({field.name: value for field, value in config.flat_fields()
-                       if not field.metadata.get("per_agent")}, sort_keys=True)
+    `per_agent` (the learner takes them per agent; agents and seeds), and what of those
+    shapes a population learner's program (`Learner.shared`)."""
+    key = {field.name: value for field, value in config.flat_fields()
+           if not field.metadata.get("per_agent")}
+    key["shared"] = learners.learner(config.learner).shared([config.settings])
+    return json.dumps(key, sort_keys=True)
 
 
 def batches(configs, max_agents: int = MAX_BATCH_AGENTS) -> list:

@@ -160,6 +160,26 @@ def test_runs_of_one_program_train_as_one_population_and_are_kept_apart(tmp_path
     assert [sorted(line["runs"]) for line in lines] == [sorted(c.key for c in configs)]
 
 
+@pytest.mark.parametrize("learner, shaping", [
+    ("dqn_jax", [dict(train_freq=4), dict(train_freq=16), dict(train_freq=16, gradient_steps=4)]),
+    ("sac_jax", [dict(batch_size=64), dict(batch_size=128), dict(batch_size=64, gradient_steps=2)]),
+])
+def test_runs_whose_per_agent_settings_shape_the_program_are_not_joined(learner, shaping):
+    """Per-agent settings that give what shapes a population learner's program
+    (`Learner.shared`: the gradient steps of a training call, the minibatches' size) keep
+    runs apart: a search over them joins only the runs that agree (a batch of both would be
+    refused when its agents are made), and the step size still joins."""
+    task, actions = (("cartpole.balance", "discrete") if learner == "dqn_jax"
+                     else ("pendulum.swingup", "continuous"))
+    configs = [RunConfig(task=task, actions=actions, learner=learner, learning_rate=rate,
+                         **{"gradient_steps": -1, **chosen})
+               for chosen in shaping for rate in (1e-3, 3e-3)]
+    joined = sweep.populations(sweep.families(configs))
+    assert [[config.settings.learning_rate for config in batch] for batch in joined] == [[1e-3, 3e-3]] * 3
+    assert [batch[0] for batch in joined] == configs[::2]
+    assert sweep.batches(configs) == joined
+
+
 def test_batched_runs_equal_runs_alone(tmp_path):
     """A sweep joins runs that differ in trace, alpha, lambda, epsilon and seeds into one
     batch; each run's table equals that of the run alone."""
