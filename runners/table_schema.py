@@ -123,17 +123,12 @@ def chunk_violations(paths: list, schema: dict) -> list:
     """`table_violations` of a few files, those of one header parsed at once (`read_csvs`)."""
     fields = [field["name"] for field in schema["fields"]]
     match = schema.get("fieldsMatch", "exact")
-    groups: dict = {}
-    for path in paths:
-        text = file_bytes(path)
-        groups.setdefault(text.partition(b"\n")[0], []).append((path, text))
     tables, order, problems = [], [], []
-    for group in groups.values():
-        table = read_csvs([text for _, text in group], schema)
-        problems += [f"{path}: {line}" for path, _ in group
+    for group, table in read_groups(paths, schema):
+        problems += [f"{path}: {line}" for path in group
                      for line in field_match(list(table.columns), fields, match)]
         tables.append(table)
-        order += [path for path, _ in group]
+        order += group
     whole = pd.concat(tables, ignore_index=True)
     whole.attrs["csv"] = True
     lengths = [length for table in tables for length in table.attrs["lengths"]]
@@ -151,6 +146,17 @@ def chunk_violations(paths: list, schema: dict) -> list:
     return problems + [located(line.removeprefix("table: ")) for line in
                        violations(whole, dict(schema, fieldsMatch="partial"),
                                   within=np.repeat(np.arange(len(lengths)), lengths))]
+
+
+def read_groups(paths, schema: dict) -> list:
+    """CSV files as text (`read_csv`), those of one header line parsed at once (`read_csvs`):
+    `[(their paths, their table)]`, a pair per header, in the order each header first comes."""
+    groups: dict = {}
+    for path in paths:
+        text = file_bytes(path)
+        groups.setdefault(text.partition(b"\n")[0], []).append((path, text))
+    return [([path for path, _ in group], read_csvs([text for _, text in group], schema))
+            for group in groups.values()]
 
 
 def file_bytes(path) -> bytes:

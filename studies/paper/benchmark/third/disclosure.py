@@ -9,7 +9,7 @@ import os
 
 import pandas as pd
 
-from lwrl import outputs
+from lwrl.runners import table_schema
 from lwrl.runners.config import tuned_settings
 from lwrl.runners.store import RunStore
 from lwrl.runners.summary import plural
@@ -69,14 +69,20 @@ def prior_tuning_lines(tasks) -> list:
     return lines + [""]
 
 
+PROVENANCE = ["run", "lwrl_version", "lwrl_commit", "host_cpu", "python", "libraries"]
+"""The columns of a run's records (`runners.records`) that say where it was computed."""
+
+
 def provenance(out_dir: str) -> pd.DataFrame:
-    """Every record of the runs in `out_dir` (`runners.records`' tables), one row per agent
-    of a run."""
+    """The `PROVENANCE` of every record of the runs in `out_dir`, one row per agent of a
+    run, as text (the records read as their schema reads them, those of one header at
+    once: thousands of small files)."""
     paths = sorted(glob.glob(str(RunStore.records_file(out_dir, "*"))))
     if not paths:
-        return pd.DataFrame(columns=["run", "lwrl_version", "lwrl_commit", "host_cpu",
-                                     "python", "libraries"])
-    return pd.concat([outputs.read_table(path) for path in paths], ignore_index=True)
+        return pd.DataFrame(columns=PROVENANCE)
+    schema = table_schema.load(table_schema.SCHEMAS / "records.json")
+    return pd.concat([table[PROVENANCE] for _, table in table_schema.read_groups(paths, schema)],
+                     ignore_index=True)
 
 
 def provenance_lines(out_dir: str) -> list:
