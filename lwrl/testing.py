@@ -23,6 +23,7 @@ episodes of at most 300 steps (`STEPPED_STEPS` for a learner stepped in Python).
 import contextlib
 import dataclasses
 import functools
+import json
 import math
 import tempfile
 from pathlib import Path
@@ -156,7 +157,9 @@ def _learner_check(function):
 
 def check_learner_declaration(learner: Learner | str) -> None:
     """The learner's registry entry: its name, a title, a source, settings as a dataclass,
-    and settings to be checked with (`Learner.checked`) that are its own."""
+    settings to be checked with (`Learner.checked`) that are its own, and what shapes its
+    program (`Learner.shared`) of its default settings as a tuple of JSON values (a run's
+    batch is named by them, `runners.sweep.batch_key`)."""
     name = learner_name(learner)
     with _held(f"learner {name!r}", "check_learner_declaration"):
         declared = learners.learner(name)
@@ -168,6 +171,12 @@ def check_learner_declaration(learner: Learner | str) -> None:
         unknown = sorted(set(declared.checked) - names)
         _expect(not unknown, f"it is checked with {', '.join(unknown)}, which are not its "
                              f"settings")
+        shared = declared.shared([declared.settings()])
+        _expect(isinstance(shared, tuple), f"shared gives {shared!r}, not a tuple")
+        try:
+            json.dumps(shared)
+        except (TypeError, ValueError) as error:
+            raise AssertionError(f"shared gives {shared!r}, not JSON values: {error}") from None
 
 
 @_learner_check

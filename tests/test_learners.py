@@ -8,6 +8,7 @@ registry and learners stays here."""
 import dataclasses
 import itertools
 
+import numpy as np
 import pytest
 from conftest import learner_case
 
@@ -135,6 +136,20 @@ def test_a_broken_contract_is_one_line_naming_the_learner_the_task_and_the_check
     with pytest.raises(testing.ContractError, match="not in lwrl's registry; declare its LEARNER "
                                                     "under the entry-point group 'lwrl.learners'"):
         testing.check_learner(stranger)
+
+
+@pytest.mark.parametrize("shared, fault", [
+    (lambda settings: [4], "shared gives [4], not a tuple"),
+    (lambda settings: (np.int64(4),), "shared gives (np.int64(4),), not JSON values"),
+], ids=["a list", "numpy's integer"])
+def test_what_shapes_a_program_is_declared_as_a_tuple_of_json_values(monkeypatch, shared, fault):
+    """`Learner.shared` names a run's batch (`runners.sweep.batch_key`): a declaration whose
+    values are no tuple of JSON values is refused in one line."""
+    declared = dataclasses.replace(learners.learner("dqn_jax"), shared=shared)
+    monkeypatch.setitem(learners.LEARNERS, "dqn_jax", declared)
+    with pytest.raises(testing.ContractError) as error:
+        testing.check_learner_declaration("dqn_jax")
+    assert str(error.value).startswith(f"learner 'dqn_jax': check_learner_declaration: {fault}")
 
 
 def test_a_learner_whose_libraries_are_missing_is_configured_but_not_made(monkeypatch):
