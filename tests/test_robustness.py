@@ -25,7 +25,7 @@ from lwrl.runners.run import environment_options, make_agents, run, run_batched,
 from lwrl.studies.robustness import controller, plan, study
 from lwrl.studies.robustness.domains import ROBUSTNESS
 from lwrl.tasks.batched import BatchedEnv
-from lwrl.tasks.randomisation import check_ranges, draws
+from lwrl.tasks.randomisation import check_ranges, draws, episode_values
 from conftest import off_nominal, run_cli
 
 PLANTS = ("analytic", "mujoco")
@@ -111,6 +111,19 @@ def test_the_draws_depend_on_the_seed_and_the_episode_alone():
     untouched = [j for j, name in enumerate(parameters.names) if name not in ranges]
     np.testing.assert_array_equal(all_at_once[:, :, untouched],
                                   np.broadcast_to(rows[:, None, untouched], (3, 6, len(untouched))))
+
+
+def test_the_draws_a_process_keeps_are_each_episodes_own():
+    """`draws` keeps an integer seed's deviates for the process and extends them: asked for
+    few episodes, then more, it gives what each episode draws alone (`episode_values`)."""
+    parameters = tasks.domain("mountain_car").parameters
+    ranges = check_ranges(parameters, {"thrust": (0.0008, 0.0012), "gravity": (0.002, 0.003)})
+    rows, seeds = parameters.values(None, 2), [91_001, np.int64(91_002)]
+    few, more = draws(parameters, ranges, rows, seeds, 4), draws(parameters, ranges, rows, seeds, 9)
+    alone = [[episode_values(parameters, ranges, row, int(seed), k) for k in range(9)]
+             for row, seed in zip(rows, seeds)]
+    np.testing.assert_array_equal(more, np.array(alone))
+    np.testing.assert_array_equal(few, more[:, :4])
 
 
 @pytest.mark.parametrize("randomise, message", [
