@@ -203,8 +203,11 @@ def results_table(config: RunConfig, results) -> pd.DataFrame:
     """A run's `EpisodeResults` as a tidy table with its configuration on every row; a run
     with a budget of steps (`RunConfig.budget`) keeps the episodes it ran only, not the
     many its episode count allowed and its budget ended before."""
-    table = pd.DataFrame({"run": config.key, **config.columns(), **results.columns(config.seeds)})
-    return table if config.budget is None else table[table["steps"].notna()].reset_index(drop=True)
+    columns = results.columns(config.seeds)
+    if config.budget is not None:  # chosen before the table is made: 1 M rows for 100 agents
+        ran = ~np.isnan(columns["steps"])
+        columns = {name: values[ran] for name, values in columns.items()}
+    return pd.DataFrame({"run": config.key, **config.columns(), **columns})
 
 
 def _agent_episodes(configs) -> int:
