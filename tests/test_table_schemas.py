@@ -82,6 +82,22 @@ def test_the_run_tables_schema_has_a_field_for_every_learners_column():
                 assert fields.get(setting.name) == types[kind], (learner.name, setting.name)
 
 
+def test_the_run_tables_schema_has_a_field_for_every_physical_parameter_and_sensor():
+    """A run's table has a column per physical parameter it sets (`params.NAME`), per
+    observation noise (`observation_noise.NAME`) and per parameter drawn each episode
+    (`randomise`: `NAME`): every domain's parameters and every task's state variables are
+    numeric fields of the schema."""
+    from lwrl import tasks
+    fields = {field["name"]: field["type"] for field in
+              table_schema.load(SCHEMAS["run_table"])["fields"]}
+    for domain in tasks.DOMAINS:
+        for name in tasks.domain(domain).parameters.names:
+            assert fields.get(name) == fields.get(f"params.{name}") == "number", (domain, name)
+    for domain, task in tasks.ALL_TASKS:
+        for name in tasks.definition(domain, task).state_names:
+            assert fields.get(f"observation_noise.{name}") == "number", (domain, task, name)
+
+
 def test_the_records_schema_names_the_columns_a_run_records():
     from lwrl.runners import records
     schema = table_schema.load(SCHEMAS["records"])
