@@ -13,7 +13,7 @@ PREFIX = "acrobot.swingup-analytic-dqn_jax-64x64-lr0.001-t100"
 
 def table(run, budget, episodes, rate=0.001, learn=True, trained=""):
     """A run table of `episodes`: per agent (seed, [(steps, truncated), ...])."""
-    rows = [{"run": run, "task": "acrobot.swingup", "learning_rate": rate, "timesteps": 100,
+    rows = [{"run": run, "task": "acrobot.swingup", "learning_rate": rate,
              "episodes": 10, "agents": len(episodes), "budget": budget, "learn": learn,
              "greedy": not learn, "trained": trained, "agent": agent, "seed": seed,
              "episode": i + 1, "steps": steps, "return": -steps, "uptime_s": float("nan"),
@@ -28,7 +28,10 @@ def write(directory, name, frame):
 
 
 @pytest.fixture
-def benchmark(tmp_path):
+def benchmark(tmp_path, monkeypatch):
+    """A directory of one configuration's runs: a training of the task's whole budget (100
+    steps here), a shorter one of the same seeds, and the whole one's greedy evaluation."""
+    monkeypatch.setitem(stalled_starts.protocol.BUDGETS, "acrobot.swingup", 100)
     train = f"{PREFIX}-s0-aaaa"
     write(tmp_path, train, table(train, 100, [(0, [(40, True), (30, False), (30, True)]),
                                               (1, [(20, False), (80, True)]),
@@ -42,7 +45,7 @@ def benchmark(tmp_path):
     return tmp_path
 
 
-def test_episodes_at_the_time_limit_before_the_goal_are_counted_and_the_budgets_cut_is_not(benchmark):
+def test_time_limits_before_the_goal_are_counted_and_the_budgets_cut_is_not(benchmark):
     agents = stalled_starts.agents(str(benchmark), PREFIX)
     assert agents["seed"].tolist() == [0, 1, 2]
     assert agents["stalled"].tolist() == [1, 0, 2]

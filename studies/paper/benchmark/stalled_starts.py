@@ -33,6 +33,7 @@ from scipy import stats
 from lwrl import outputs
 from lwrl.analysis import thresholds
 from lwrl.runners import summary
+from lwrl.studies.paper.benchmark import protocol
 
 RUN_FIELDS = ("run", "episodes", "agents", "budget", "learn", "greedy", "trained")
 """The run tables' columns that say how a run was made, not with which settings."""
@@ -79,12 +80,13 @@ def agents(directory: str, prefix: str) -> pd.DataFrame:
     outcomes = {t["trained"].iloc[0]: reached(t) for t in tables if bool(t["greedy"].iloc[0])}
     rows = {}
     for training in sorted(trainings, key=lambda t: int(t["budget"].iloc[0])):
-        run, whole = training["run"].iloc[0], training["budget"].iloc[0] >= training["timesteps"].iloc[0]
+        run, budget = training["run"].iloc[0], int(training["budget"].iloc[0])
+        whole = budget >= protocol.BUDGETS.get(training["task"].iloc[0], np.inf)
         for agent, episodes in training.groupby("agent"):
             seed = int(episodes["seed"].iloc[0])
             count, steps = stalled(episodes["steps"].to_numpy(),
                                    episodes["truncated"].astype(bool).to_numpy(),
-                                   int(training["budget"].iloc[0]))
+                                   budget)
             outcome = outcomes.get(run, {}).get(int(agent)) if whole else None
             previous = rows.get(seed, {}).get("reached")
             rows[seed] = {"seed": seed, "stalled": count, "stalled_steps": steps,
@@ -104,6 +106,11 @@ def blocks(table: pd.DataFrame, share: float) -> pd.DataFrame:
     return out.reset_index(drop=True)
 
 
+def answer(reached) -> str:
+    """`yes`, `no`, or `—` where the agent was not evaluated after the whole budget."""
+    return "—" if reached is None or pd.isna(reached) else ("yes" if reached else "no")
+
+
 def lines(directories, prefix: str) -> list:
     """The report the command prints (see the module)."""
     per = {d: agents(d, prefix) for d in directories}
@@ -114,8 +121,7 @@ def lines(directories, prefix: str) -> list:
         out += [f"## {directory}", "",
                 "| seed | episodes at the time limit before the goal | their steps "
                 "| greedy episodes reach the goal after the whole budget |", "|---|---|---|---|"]
-        out += [f"| {r.seed} | {r.stalled} | {r.stalled_steps} | "
-                f"{'—' if r.reached is None or pd.isna(r.reached) else ('yes' if r.reached else 'no')} |"
+        out += [f"| {r.seed} | {r.stalled} | {r.stalled_steps} | {answer(r.reached)} |"
                 for r in table.itertuples()]
         out += [""]
     out += [f"Stalled at the start: {int((every['stalled'] > 0).sum())} of {len(every)} agents, "
