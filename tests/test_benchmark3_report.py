@@ -83,6 +83,23 @@ def test_the_report_names_every_task_and_row_a_verdict_per_task_and_the_familys_
     assert "## Provenance" in lines and "## Aggregates across tasks (rliable)" in lines
 
 
+def test_each_stage_costs_the_ledgers_cpu_of_its_runs_and_the_rest_is_named(judged):
+    """The tiny benchmark ran its task's searches and rows (stage 1; stage 3 where a row
+    still rose): every run the ledger names is a stage's, and the report's table gives each
+    stage, what no stage holds yet, and the whole."""
+    from lwrl.runners.store import ledger_lines, ledger_runs
+    from lwrl.studies.paper.benchmark.third import disclosure
+
+    runs = study.read_longer(study.read_task(TASK, judged, partial=True), judged)
+    keys = disclosure.stage_keys([runs])
+    assert keys[0] and not keys[1] and not keys[3]
+    assert set(ledger_runs(ledger_lines(judged))) == set().union(*keys)
+    lines = report_of(judged)
+    table = lines[lines.index("## What each stage cost"):]
+    names = [line.split(" | ")[0][2:] for line in table[6:12]]
+    assert names == [*disclosure.STAGES, "the runs of rows not all written yet", "all"]
+
+
 def test_the_report_is_written_again_the_same(judged):
     assert report_of(judged) == report_of(judged)
 

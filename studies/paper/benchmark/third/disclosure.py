@@ -1,7 +1,8 @@
 """What the third benchmark's report discloses beside its verdicts (docs/FINDINGS.md, the
-third benchmark's rule, "Prior tuning, disclosed" and "Provenance and schemas"): what tuned
-each row's centre before its search drew around it (`prior_tuning`), and where the runs were
-computed, read from their own records (`provenance`: `runners.records`' columns).
+third benchmark's rule, "Prior tuning, disclosed", "Provenance and schemas" and "Compute"):
+what tuned each row's centre before its search drew around it (`prior_tuning`), where the
+runs were computed, read from their own records (`provenance`: `runners.records`' columns),
+and what each of the rule's stages cost by the ledger (`stage_lines`).
 """
 
 import glob
@@ -11,7 +12,7 @@ import pandas as pd
 
 from lwrl.runners import table_schema
 from lwrl.runners.config import tuned_settings
-from lwrl.runners.store import RunStore
+from lwrl.runners.store import RunStore, compute_spent
 from lwrl.runners.summary import plural
 from lwrl.studies.paper.benchmark import protocol
 from lwrl.studies.paper.benchmark.third import rule
@@ -108,3 +109,37 @@ def provenance_lines(out_dir: str) -> list:
         for values, part in table.fillna("").astype({k: str for k in keys}).groupby(keys):
             lines.append(f"| {part.run.nunique()} | " + " | ".join(values) + " |")
     return lines + [""]
+
+
+STAGES = ("1. the four discrete tasks: searches and rows", "2. the three variants: rows",
+          "3. the rows still rising at the budget, continued to 4 times it",
+          "4. the continuous pendulum: searches and rows")
+"""The rule's stages, in the order they run (FINDINGS, "Compute")."""
+
+
+def stage_keys(held) -> list:
+    """Per stage (`STAGES`), the keys of the runs of the tasks `held` (`study.TaskRuns`) that
+    it ran: a task's rows' and searches' runs, a continued row's (`RowRuns.continued`) in
+    the third."""
+    keys = [set() for _ in STAGES]
+    for runs in held:
+        stage = 0 if runs.task in rule.STAGE_1 else 3 if runs.task == rule.TASKS[-1] else 1
+        for row in runs.rows.values():
+            keys[stage] |= (set(row.own) - set(row.continued)) | set(row.searched)
+            keys[2] |= set(row.continued)
+    return keys
+
+
+def stage_lines(held, out_dir: str) -> list:
+    """What each stage cost, the ledger's CPU of its runs (`stage_keys`), and what the
+    ledger counts beside them: the runs of rows not all written yet (the reference rows are
+    computed outside it)."""
+    spent = [compute_spent(out_dir, keys)["cpu_s"] / 3600 for keys in stage_keys(held)]
+    total = compute_spent(out_dir)["cpu_s"] / 3600
+    lines = ["## What each stage cost", "",
+             "The ledger's CPU (`compute.jsonl`) of each stage's runs, against the plan in "
+             "docs/FINDINGS.md's \"Compute\" (the second benchmark's rates).", "",
+             "| stage | CPU h |", "|---|---|"]
+    lines += [f"| {stage} | {hours:.2f} |" for stage, hours in zip(STAGES, spent)]
+    return lines + [f"| the runs of rows not all written yet | "
+                    f"{total - sum(spent):.2f} |", f"| all | {total:.2f} |", ""]

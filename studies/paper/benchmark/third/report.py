@@ -9,8 +9,9 @@ program's configurations as one population could share) and what the ledger coun
 with each rival, the rows' times to the level and success shares (`judging`); the rivals the
 rule names that no learner runs and the rows whose observation normalisation is not
 searched, named; a row whose runs are not all written named as such (`study.read_task`'s
-partial reading), and a task whose reference rows are not; then the rows' prior tuning and
-the runs' provenance (`disclosure`) and the aggregates across tasks with their figures.
+partial reading), and a task whose reference rows are not; then the rows' prior tuning,
+what each of the rule's stages cost and the runs' provenance (`disclosure`), and the
+aggregates across tasks with their figures.
 
 `lwrl bench report DIR` writes it from the directory alone, computing nothing.
 """
@@ -57,6 +58,7 @@ def write(out_dir: str, command: str, plant: str, started: float, computed=()) -
     if unfinished:
         text += ["## Not all run yet", ""] + [f"- {line}" for line in unfinished] + [""]
     text += disclosure.prior_tuning_lines([runs.task for runs in held])
+    text += disclosure.stage_lines(held, out_dir)
     text += disclosure.provenance_lines(out_dir)
     text += verdict_tables.aggregate_lines(judged, out_dir) if held else []
     path = os.path.join(out_dir, "README.md")

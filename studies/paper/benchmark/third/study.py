@@ -55,6 +55,8 @@ class RowRuns:
     """`{j: (agents,) normalised scores}` past the budget (`clock.LONGER`) of a row still
     rising at 1 (`clock.rising`), continued; `{}` for a row that is not, whose score at 4
     times the budget is its score at 1, carried; None where the stage has not run."""
+    continued: list = dataclasses.field(default_factory=list)
+    """The keys of the runs that continued it (`longer`), which `own` holds too."""
 
 
 @dataclasses.dataclass
@@ -162,6 +164,7 @@ def longer(runs: TaskRuns, evaluate) -> TaskRuns:
                 runs.task, clock.longer_trainings(row.trainings[clock.POINTS[-1]]),
                 runs.references, evaluate, f"{runs.task}: {label}: to 4 times the budget", True)
             row.own += keys
+            row.continued = keys
     return runs
 
 
