@@ -29,7 +29,7 @@ from lwrl.runners.episodes import EpisodeResults
 from lwrl.runners.population import run_population
 from lwrl.runners.stepped import run_batched, run_dm_env
 from lwrl.tasks.batched import BatchedEnv
-from lwrl.tasks.randomisation import check_ranges, draws
+from lwrl.tasks.randomisation import check_ranges, draws, kept_deviates
 
 __all__ = ["EpisodeResults", "make_agents", "memory_needed", "run", "run_batched", "run_compiled",
            "run_dm_env"]
@@ -84,6 +84,18 @@ def environment_options(configs) -> dict:
     if "randomise" in first:
         options["randomise"] = first["randomise"]
     return options
+
+
+def draw_ahead(config, seeds, batch=None) -> None:
+    """Draw the physics of every episode `config` may run (`randomise`), for `seeds` (one per
+    agent; `batch` the configurations they come from, as for `run`), into the process's keep
+    (`tasks.randomisation.kept_deviates`). A run's loops then find them drawn, so that the
+    CPU its clock measures (`runners.records`) does not depend on which run of the process
+    drew a seed's episodes first."""
+    ranges = check_ranges(tasks.domain(config.domain).parameters,
+                          environment_options(batch or [config]).get("randomise"))
+    for seed in seeds if ranges else ():
+        kept_deviates(seed, config.episodes, len(ranges))
 
 
 def drawn_values(config, options: dict, seeds, results: EpisodeResults) -> dict:

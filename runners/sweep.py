@@ -37,7 +37,7 @@ from lwrl.agent import io as agent_io
 from lwrl.agent import threads
 from lwrl.runners import records
 from lwrl.runners.config import RunConfig
-from lwrl.runners.run import make_agents, run
+from lwrl.runners.run import draw_ahead, make_agents, run
 from lwrl.runners.store import RunStore
 
 BACKENDS = ("local", "ray")
@@ -153,6 +153,8 @@ def run_batch(configs, progress=None, directory=None, keep_agents: bool = False)
     joined = [base] if family else configs
     agent = trained_agents(joined, directory) if base.trained else make_agents(*joined)
     population = directory is not None and agent.learner.population
+    seeds = [seed for config in joined for seed in config.seeds]
+    draw_ahead(base, seeds, joined)  # before the clock: the same for every run
     finished, clock = {}, records.TrainingClock()
     shared_by = sum(config.agents for config in joined)
 
@@ -165,7 +167,7 @@ def run_batch(configs, progress=None, directory=None, keep_agents: bool = False)
     checkpoints = {config.budget: checkpoint(config)
                    for config in configs if config is not base} if family else None
     name = base.key if len(joined) == 1 else RunStore.batch_name(joined)
-    _, results = run(base, agents=agent, seeds=[seed for config in joined for seed in config.seeds],
+    _, results = run(base, agents=agent, seeds=seeds,
                      progress=progress, learn=base.learn, greedy=base.greedy, batch=joined,
                      checkpoints=checkpoints,
                      resume=RunStore.resume_file(directory, name) if population else None)

@@ -126,6 +126,24 @@ def test_the_draws_a_process_keeps_are_each_episodes_own():
     np.testing.assert_array_equal(few, more[:, :4])
 
 
+def test_a_batch_draws_its_episodes_physics_before_its_clock_starts(monkeypatch):
+    """`run_batch` draws every episode's physics of its agents' seeds into the process's keep
+    before its training clock starts: what the clock measures does not depend on which run
+    of the process drew first."""
+    from lwrl.runners import records, sweep
+    from lwrl.tasks import randomisation
+
+    config = RunConfig(task="mountain_car.cost_to_go", agents=2, episodes=3, seed=93_000,
+                       randomise={"thrust": (0.0008, 0.0012)})
+    monkeypatch.setattr(randomisation, "_kept", {})
+    kept, clock = [], records.TrainingClock
+    monkeypatch.setattr(records, "TrainingClock",
+                        lambda: kept.append({key: len(v) for key, v in randomisation._kept.items()})
+                        or clock())
+    sweep.run_batch([config])
+    assert kept == [{(93_000, 1): 3, (93_001, 1): 3}]
+
+
 @pytest.mark.parametrize("randomise, message", [
     ({"pole_mas": (0.1, 0.2)}, "unknown parameter 'pole_mas'; allowed: cart_mass"),
     ({"pole_mass": (0.2, 0.1)}, r"randomise\['pole_mass'\] must be a range \(low, high\), low <= high"),
