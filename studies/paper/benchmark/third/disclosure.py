@@ -133,7 +133,7 @@ def stage_keys(held) -> list:
 def stage_lines(held, out_dir: str) -> list:
     """What each stage cost, the ledger's CPU of its runs (`stage_keys`), and what the
     ledger counts beside them: the runs of rows not all written yet (the reference rows are
-    computed outside it)."""
+    computed outside it; where none are, the sums differ by rounding alone, and it is 0)."""
     spent = [compute_spent(out_dir, keys)["cpu_s"] / 3600 for keys in stage_keys(held)]
     total = compute_spent(out_dir)["cpu_s"] / 3600
     lines = ["## What each stage cost", "",
@@ -142,4 +142,4 @@ def stage_lines(held, out_dir: str) -> list:
              "| stage | CPU h |", "|---|---|"]
     lines += [f"| {stage} | {hours:.2f} |" for stage, hours in zip(STAGES, spent)]
     return lines + [f"| the runs of rows not all written yet | "
-                    f"{total - sum(spent):.2f} |", f"| all | {total:.2f} |", ""]
+                    f"{max(total - sum(spent), 0.0):.2f} |", f"| all | {total:.2f} |", ""]
