@@ -77,26 +77,28 @@ def kept_deviates(seed, episodes: int, count: int) -> np.ndarray:
     the environment seeded with `seed`. For an integer seed they are kept for the process:
     every run of a benchmark's row, and each row of a variant, draws the same seeds'
     episodes, up to 10 000 each, at about 20 µs an episode."""
+    def drawn(first: int) -> np.ndarray:  # episodes first.. up to `episodes`
+        return np.array([_deviates(_entropy(seed), k, count) for k in range(first, episodes)]
+                        ).reshape(-1, count)
+
     if not isinstance(seed, numbers.Integral):
-        return np.array([_deviates(_entropy(seed), k, count) for k in range(episodes)]
-                        ).reshape(episodes, count)
+        return drawn(0)
     key = (int(seed), count)
     kept = _kept.get(key, np.empty((0, count)))
     if len(kept) < episodes:
-        more = [_deviates(int(seed), k, count) for k in range(len(kept), episodes)]
-        kept = np.concatenate([kept, np.array(more).reshape(-1, count)])
+        kept = np.concatenate([kept, drawn(len(kept))])
         if len(_kept) >= KEPT_SEEDS:
             _kept.clear()
         _kept[key] = kept
     return kept[:episodes]
 
 
-def placed(parameters: Parameters, ranges: dict, values: np.ndarray,
+def _placed(parameters: Parameters, ranges: dict, values: np.ndarray,
            deviates: np.ndarray) -> np.ndarray:
-    """`values` `(..., P)` with each parameter of `ranges` at `low + (high - low) * u`, u
+    """`values` `(..., P)`, in place, with each parameter of `ranges` at `low + (high - low) * u`, u
     its column of `deviates` `(..., len(ranges))`."""
     for column, (name, (low, high)) in enumerate(ranges.items()):
-        values[..., parameters.names.index(name)] = low + (high - low) * deviates[..., column]
+        values[..., parameters.position(name)] = low + (high - low) * deviates[..., column]
     return values
 
 
@@ -107,7 +109,7 @@ def episode_values(parameters: Parameters, ranges: dict, row: np.ndarray, seed,
     values = np.array(row, dtype=np.float64)
     if not ranges:
         return values
-    return placed(parameters, ranges, values, _deviates(_entropy(seed), episode, len(ranges)))
+    return _placed(parameters, ranges, values, _deviates(_entropy(seed), episode, len(ranges)))
 
 
 def draws(parameters: Parameters, ranges: dict, rows: np.ndarray, seeds,
@@ -117,5 +119,5 @@ def draws(parameters: Parameters, ranges: dict, rows: np.ndarray, seeds,
     rows = np.asarray(rows, dtype=np.float64)
     values = np.repeat(rows[:, None, :], episodes, axis=1)  # a new array, as the stack's
     for b, seed in enumerate(seeds if ranges else ()):
-        placed(parameters, ranges, values[b], kept_deviates(seed, episodes, len(ranges)))
+        _placed(parameters, ranges, values[b], kept_deviates(seed, episodes, len(ranges)))
     return values
