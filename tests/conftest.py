@@ -296,7 +296,7 @@ SLOW = {
     r"test_timed_costs\.py::test_population_agents_act": "compiles a JAX network",
     r"test_benchmark3_report\.py::test_(the_report|a_row_not_rising)": "runs a tiny third "
         "benchmark (the CPU to the level's reading on arrays stays)",
-    r"test_table_schemas\.py::test_(every_run_table|the_third_benchmarks_runs)": "reads the "
+    r"test_table_schemas\.py::test_(every_run_table|the_third_benchmarks_run_tables)": "reads the "
         "committed benchmarks' run tables against their schema",
     r"test_benchmark3\.py::test_(a_tiny_third_benchmark|the_status_of_a_directory_not_begun)":
         "a tiny third benchmark; the status of every row's trainings planned",

@@ -444,13 +444,20 @@ def test_lwrl_robustness_gives_the_stepped_learners_the_benchmarks_episodes(tmp_
     assert passed["sweep"] == {"backend": "ray", "workers": 2, "address": None}
 
 
+TAKE_OVER = "dqn_jax"
+"""The population learner the take-over is checked on: the JAX populations share one
+`take_over` (`PopulationAgents`, a copy of every leaf of the state), and DQN's state holds
+the most kinds of leaf (networks, target, optimiser, replay buffer)."""
+
+
 @pytest.mark.parametrize("name", [name for name, learner in learners.LEARNERS.items()
                                   if learner.fits(RunConfig(task="mountain_car.cost_to_go").task_spec) is None
-                                  and learner.unavailable() is None])
+                                  and learner.unavailable() is None
+                                  and (not learner.population or name == TAKE_OVER)])
 def test_every_learner_goes_on_with_its_kept_agents_in_several_cells_at_once(name, tmp_path):
     """An evaluation batch over two cells takes over the kept agents twice
     (`Agents.take_over`): each cell's greedy episodes equal those of the kept agents, loaded
-    from their file and run alone in that cell."""
+    from their file and run alone in that cell. Of the population learners, `TAKE_OVER`."""
     from lwrl.runners.config import tuned_settings
 
     task = "mountain_car.cost_to_go"
@@ -470,6 +477,22 @@ def test_every_learner_goes_on_with_its_kept_agents_in_several_cells_at_once(nam
         np.testing.assert_array_equal(rows["return"], alone.returns.ravel())
     with pytest.raises(ValueError, match="whole multiple"):
         make_agents(dataclasses.replace(trained, agents=3)).take_over(kept)
+
+
+@pytest.mark.skipif(missing_jax(), reason="the population learners need the jax extra: "
+                    "pip install 'lwrl[jax]'")
+def test_the_population_learners_share_one_take_over():
+    """Why `TAKE_OVER` alone of the population learners is checked taking over in several
+    cells: none has a `take_over` of its own."""
+    import importlib
+
+    from lwrl.agent.jax_population import PopulationAgents
+    for name, learner in learners.LEARNERS.items():
+        if learner.population:
+            module = importlib.import_module(learner.make.__module__)
+            kinds = [kind for kind in vars(module).values()
+                     if isinstance(kind, type) and issubclass(kind, PopulationAgents)]
+            assert kinds and all(kind.take_over is PopulationAgents.take_over for kind in kinds), name
 
 
 def test_diverged_kept_agents_are_taken_over_as_they_ended():

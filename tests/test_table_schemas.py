@@ -13,6 +13,7 @@ import pandas as pd
 import pytest
 
 from lwrl.runners import table_schema
+from lwrl.studies.paper.benchmark.third import rule
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 BENCHMARKS = [ROOT / "docs" / "benchmark2", ROOT / "docs" / "benchmark2" / "mujoco"]
@@ -22,6 +23,8 @@ SCHEMAS = {"run_table": table_schema.SCHEMAS / "run_table.json",
            "compute": table_schema.SCHEMAS / "compute.json", "references": REFERENCES,
            "records": table_schema.SCHEMAS / "records.json"}
 THIRD = ROOT / "docs" / "benchmark3"
+THIRD_TASKS = rule.STAGE_1
+"""The third benchmark's tasks: its variants' and continuous rows' runs are on them too."""
 FRICTIONLESS = pytest.mark.skipif(importlib.util.find_spec("frictionless") is None,
                                   reason="frictionless is not installed (pip install -e '.[dev]')")
 
@@ -49,16 +52,32 @@ def test_every_run_table_keeps_its_schema(directory):
     assert table_schema.table_violations(paths, table_schema.load(SCHEMAS["run_table"])) == []
 
 
-def test_the_third_benchmarks_runs_records_ledger_and_reference_rows_keep_their_schemas():
-    """docs/benchmark3: every run table, every run's records (those of the 100-agent rows'
-    training runs too, whose tables are not committed), the compute ledger and the reference
-    rows."""
-    paths = run_tables(THIRD)
-    records = sorted(glob.glob(str(THIRD / "runs" / "records" / "*.csv.gz")))
+def third_benchmark_files(task: str) -> tuple:
+    """`(run tables, records)` of docs/benchmark3 whose runs are on `task`, in name order."""
+    chosen = lambda found: [path for path in found
+                            if pathlib.Path(path).name.startswith(f"{task}-")]
+    return (chosen(run_tables(THIRD)),
+            chosen(sorted(glob.glob(str(THIRD / "runs" / "records" / "*.csv.gz")))))
+
+
+@pytest.mark.parametrize("task", THIRD_TASKS)
+def test_the_third_benchmarks_run_tables_and_records_keep_their_schemas(task):
+    """docs/benchmark3's run tables and every run's records (those of the 100-agent rows'
+    training runs too, whose tables are not committed), a test per task so that the suite's
+    workers share them."""
+    paths, records = third_benchmark_files(task)
     names = lambda found: {pathlib.Path(path).name for path in found}
     assert len(paths) >= 100 and names(paths) < names(records)
     assert table_schema.table_violations(paths, table_schema.load(SCHEMAS["run_table"])) == []
     assert table_schema.table_violations(records, table_schema.load(SCHEMAS["records"])) == []
+
+
+def test_the_third_benchmarks_ledger_and_reference_rows_keep_their_schemas():
+    """docs/benchmark3's compute ledger and reference rows; and every run table and record
+    is of one of `THIRD_TASKS`, checked above."""
+    found = [third_benchmark_files(task) for task in THIRD_TASKS]
+    assert sum(len(paths) + len(records) for paths, records in found) == (
+        len(run_tables(THIRD)) + len(glob.glob(str(THIRD / "runs" / "records" / "*.csv.gz"))))
     ledger = table_schema.read_jsonl(THIRD / "compute.jsonl")
     assert table_schema.violations(ledger, table_schema.load(SCHEMAS["compute"]), "compute") == []
     references = sorted(glob.glob(str(THIRD / "references" / "*.csv.gz")))
