@@ -34,6 +34,11 @@ def run_tables(directory: pathlib.Path) -> list:
     return sorted(glob.glob(str(directory / "runs" / "*.csv.gz")))
 
 
+def run_records(directory: pathlib.Path) -> list:
+    """The runs' records of a benchmark directory, in name order."""
+    return sorted(glob.glob(str(directory / "runs" / "records" / "*.csv.gz")))
+
+
 @pytest.mark.parametrize("directory", BENCHMARKS, ids=["analytic", "mujoco"])
 def test_the_ledger_configurations_and_reference_rows_keep_their_schemas(directory):
     for name in ("configs", "compute"):
@@ -56,8 +61,7 @@ def third_benchmark_files(task: str) -> tuple:
     """`(run tables, records)` of docs/benchmark3 whose runs are on `task`, in name order."""
     chosen = lambda found: [path for path in found
                             if pathlib.Path(path).name.startswith(f"{task}-")]
-    return (chosen(run_tables(THIRD)),
-            chosen(sorted(glob.glob(str(THIRD / "runs" / "records" / "*.csv.gz")))))
+    return chosen(run_tables(THIRD)), chosen(run_records(THIRD))
 
 
 @pytest.mark.parametrize("task", THIRD_TASKS)
@@ -77,7 +81,7 @@ def test_the_third_benchmarks_ledger_and_reference_rows_keep_their_schemas():
     is of one of `THIRD_TASKS`, checked above."""
     found = [third_benchmark_files(task) for task in THIRD_TASKS]
     assert sum(len(paths) + len(records) for paths, records in found) == (
-        len(run_tables(THIRD)) + len(glob.glob(str(THIRD / "runs" / "records" / "*.csv.gz"))))
+        len(run_tables(THIRD)) + len(run_records(THIRD)))
     ledger = table_schema.read_jsonl(THIRD / "compute.jsonl")
     assert table_schema.violations(ledger, table_schema.load(SCHEMAS["compute"]), "compute") == []
     references = sorted(glob.glob(str(THIRD / "references" / "*.csv.gz")))
@@ -220,7 +224,7 @@ def test_frictionless_agrees_on_a_sample_of_tables():
     cases = [(path, "run_table", None) for path in run_tables(directory)[::250]]
     cases += [(path, "references", None) for path in glob.glob(str(directory / "references" / "*"))[:1]]
     cases += [(str(directory / f"{name}.jsonl"), name, "jsonl") for name in ("configs", "compute")]
-    cases += [(path, "records", None) for path in glob.glob(str(THIRD / "runs" / "records" / "*"))[:1]]
+    cases += [(path, "records", None) for path in run_records(THIRD)[:1]]
     for path, name, form in cases:
         report = Resource(path=str(pathlib.Path(path).relative_to(ROOT)), basepath=str(ROOT),
                           format=form, schema=Schema.from_descriptor(json.loads(SCHEMAS[name].read_text()))).validate()
