@@ -127,7 +127,11 @@ def data_card(schema: dict, directory, command: str, tables: int, rows: int, sum
         "budget of environment steps; an evaluation's (`trained` names the training whose "
         "agents it evaluates, `greedy` true, `learn` false) are the agents' greedy episodes. "
         "The benchmark's report, its rule and the reference rows that normalise its scores "
-        "are beside the runs in the benchmark's directory.", "",
+        "are beside the runs in the benchmark's directory. A run on a variant of a task (the "
+        "third benchmark's `TASK+VARIANT`) names the task in `task` and carries its variant "
+        "in its own columns: its observation noise in `observation_noise.NAME`, its physics "
+        "drawn each episode in the parameter's column (`thrust`, `force`, ...), null in the "
+        "nominal task's rows.", "",
         f"- tasks: {listed['task']}", f"- plants: {listed['plant']}",
         f"- learners: {listed['learner']}", "",
         "## Loading it", "",
