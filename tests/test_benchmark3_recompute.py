@@ -5,8 +5,9 @@ trainings' records (docs/benchmark3/runs/records). Per row, its agents and seeds
 point of the clock, its normalised score at 1/4 of the budget and its final one, its search's
 final score, and at 1/4 and 1 times the budget its agents at the level 0.5, its Kaplan-Meier
 median steps and CPU seconds to it and its share of agents reaching the goal in every greedy
-episode (with the Clopper-Pearson interval); per rival, d = mean(light) - mean(rival) of the
-normalised scores at 1/4 and at 1 and the rival's score the gate quotes.
+episode (with the Clopper-Pearson interval); per rival at 1/4 and 1, d = mean(light) -
+mean(rival) of the normalised scores, the rival's score the gate quotes, the p-values of
+Welch's one-sided tests before the family's adjustment, TOST's p and the area's d.
 
 The code here is independent of the code that wrote the report: plain pandas, numpy and
 scipy on the tables, the definitions taken from docs/FINDINGS.md ("The light-weight claim
@@ -327,3 +328,49 @@ def test_the_searchs_final_scores_recompute_from_its_last_rung(rows, readme, ref
         score = normalised(search, references, diverged_as_worst=False).dropna().mean()
         cell = readme["rows"][label]["search's final score"]
         assert agrees(cell, score), (label, cell, score)
+
+
+def welch_p(x, y, shift: float, alternative: str) -> float:
+    """Welch's one-sided p-value of mean(x) + shift against mean(y) (`alternative` as
+    scipy's `ttest_ind` takes it)."""
+    return float(stats.ttest_ind(np.asarray(x) + shift, y, equal_var=False,
+                                 alternative=alternative).pvalue)
+
+
+def test_the_unadjusted_p_values_and_tost_recompute_from_the_final_scores(rows, readme):
+    """At 1/4 and 1 times the budget, each rival's p-values before the family's adjustment,
+    by Welch's one-sided t tests of d = mean(light) - mean(rival) with the rule's margin
+    0.1: "not worse" (H0: d <= -0.1), "worse" (H0: d >= 0), "better" (H0: d <= 0); and
+    TOST's p, the larger of the two one-sided p-values of |d| < 0.1."""
+    margin = 0.1
+    for name, point in AT.items():
+        light = rows[LIGHT][point][2].to_numpy()
+        for rival in RIVALS:
+            other = rows[rival][point][2].to_numpy()
+            cells = readme[name][0][rival]
+            printed = [part.split(" (")[0] for part in
+                       cells["p not worse, worse, better (adjusted)"].split(", ")]
+            expected = (welch_p(light, other, margin, "greater"), welch_p(light, other, 0, "less"),
+                        welch_p(light, other, 0, "greater"))
+            assert all(agrees(text, p) for text, p in zip(printed, expected)), (
+                name, rival, printed, expected)
+            tost = max(expected[0], welch_p(light, other, -margin, "less"))
+            assert agrees(cells["TOST p"], tost), (name, rival, cells["TOST p"], tost)
+
+
+def test_the_areas_differences_recompute_from_the_clock(rows, readme):
+    """At 1/4 and 1 times the budget, each rival's area's d: the difference of the rows'
+    mean areas under their agents' normalised-score curves, the trapezoid over the clock's
+    points to there in steps divided by the steps there (the span before the first point
+    adds nothing)."""
+    def areas(row, point):
+        points = [j for j in POINTS if j <= point]
+        steps = np.array([STEPS_AT[j] for j in points], dtype=float)
+        return np.trapezoid(scores_to(row, point), steps, axis=1) / STEPS_AT[point]
+
+    for name, point in AT.items():
+        light = areas(rows[LIGHT], point).mean()
+        for rival in RIVALS:
+            d = light - areas(rows[rival], point).mean()
+            cell = readme[name][0][rival]["area's d"]
+            assert agrees(cell, d), (name, rival, cell, d)
