@@ -15,6 +15,7 @@ from test_benchmark3 import TASK, shrink
 
 from lwrl import outputs
 from lwrl.analysis import task_verdict
+from lwrl.runners import store
 from lwrl.runners.store import RunStore
 from lwrl.studies.paper.benchmark.third import benchmark, clock, figures, judging, rule, study
 
@@ -130,17 +131,22 @@ def test_the_cpu_to_the_level_is_read_at_the_first_evaluation_at_it_censored_whe
 
 
 def test_the_report_reads_each_agents_cpu_to_the_level_from_its_runs_records(judged):
-    """The paper's agents in the tiny benchmark: each agent's CPU to the level is its record's
-    `cpu_s` in the run that ends at its first evaluation at 0.5, or at the budget's run where
-    it never reaches it."""
+    """The paper's agents in the tiny benchmark: each agent's CPU and multiply-adds to the
+    level are its record's `cpu_s` and `multiply_adds` in the run that ends at its first
+    evaluation at 0.5, or at the budget's run where it never reaches it; the row's hosts are
+    those its records name."""
     row = study.read_task(TASK, judged).rows["paper"]
-    pace = judging.pace_of(judging.curve(TASK, row, judged, clock.POINTS[-1]))
+    row_curve = judging.curve(TASK, row, judged, clock.POINTS[-1])
+    pace = judging.pace_of(row_curve)
     for agent in range(len(pace.cpu)):
         at = [j for j in clock.POINTS if row.scores[j][agent] >= 0.5]
         run = row.trainings[at[0] if at else clock.POINTS[-1]]
         record = outputs.read_table(RunStore.records_file(judged, run.key))
         assert pace.cpu[agent] == record.cpu_s[record.agent == agent].item()
+        assert pace.macs[agent] == record.multiply_adds[record.agent == agent].item() > 0
         assert pace.reached[agent] == bool(at) and pace.steps[agent] == run.budget
+        assert record.host_cpu.iloc[0] in row_curve.hosts
+    assert row_curve.hosts == (store.cpu(),)  # the tiny benchmark ran here
 
 
 def test_a_row_not_rising_stands_at_4_times_the_budget_with_its_score_and_cpu_at_1(judged):

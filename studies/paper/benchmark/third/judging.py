@@ -3,21 +3,24 @@ time", "The rule"), from the runs a directory holds, at each budget point the ve
 (`POINTS`: 1/4, 1 and 4 times the budget):
 
 - a row's **curve** to the point (`curve`): its agents' normalised scores at the clock's
-  points up to it, the steps there, and each agent's CPU seconds of training there read from
-  the runs' own records (`runners.records`; NaN where a run has none). At 4 times the budget
+  points up to it, the steps there, and each agent's CPU seconds of training and counted
+  multiply-adds there read from the runs' own records (`runners.records`; NaN where a run has
+  none), and the host CPUs those records name. At 4 times the budget
   a row still rising at 1 has its continued runs; a row that stopped rising stands at its
   score (and CPU) at 1 from there on, marked as carried;
 - the **time to the level** 0.5 (`to_level`): each agent's first evaluation at or above it,
-  its steps and its CPU read there, censored at the point's budget (and its CPU there) where
-  never (`analysis.curves.time_to_level`);
+  its steps, its CPU and its multiply-adds read there, censored at the point's budget (and
+  its CPU and multiply-adds there) where never (`analysis.curves.time_to_level`);
 - per task the **comparisons** of the light-weight row (`protocol.light`) with each of its
   rivals (`rivals`: the deep rows and the rule's new rivals the registry runs): the gate
   (`verdicts.above_random_gate`), the final normalised score's and the area's outcomes
   (`analysis.outcomes.judge`, each in a family of its own of every comparison run at that
-  point, over every task), the steps' and CPU's Kaplan-Meier medians, the steps' log-rank p
-  (none where neither row reaches the level: nothing to compare) and the ratios of
-  restricted means with their bootstrap intervals (`analysis.curves`), "faster/slower"
-  (`curves.pace`);
+  point, over every task), the Kaplan-Meier medians of the steps, CPU and multiply-adds,
+  the steps' log-rank p (none where neither row reaches the level: nothing to compare) and
+  the ratios of restricted means with their bootstrap intervals (`analysis.curves`),
+  "faster/slower" (`curves.pace`). The multiply-adds' ratio, a count that no host's speed
+  or load moves, stands beside the CPU's, which the rule reads: the rows' runs were
+  computed on more than one host CPU (the rows' tables name them);
 - the **task verdict** (`analysis.task_verdict.verdict`) from the final score's outcomes
   and the CPU ratios, once every rival's row is run at the point (`NOT_ALL_RUN` until
   then, but for "no", which the rows still to run cannot undo).
@@ -56,14 +59,17 @@ before the evaluation's cap (Mountain-Car's and the acrobot's within 1 000 steps
 @dataclasses.dataclass(frozen=True)
 class Curve:
     """A row's agents to a budget point: the steps at each of the clock's points to it, the
-    agents x points normalised scores and CPU seconds of training (NaN where not recorded),
-    the point's evaluation run, and whether the row is carried past 1 (not rising there)."""
+    agents x points normalised scores, CPU seconds of training and multiply-adds (NaN where
+    not recorded), the point's evaluation run, whether the row is carried past 1 (not rising
+    there), and the host CPUs its records name."""
 
     steps: np.ndarray
     scores: np.ndarray
     cpu: np.ndarray
+    macs: np.ndarray
     final: object
     carried: bool
+    hosts: tuple = ()
 
 
 def trainings(row, point: int) -> dict | None:
@@ -79,14 +85,16 @@ def trainings(row, point: int) -> dict | None:
                        for j in clock.LONGER if j <= point}}
 
 
-def cpu_at(out_dir: str, runs: dict) -> np.ndarray:
-    """Agents x points: each agent's CPU seconds of training at the end of each of `runs`
-    (`{j: RunConfig}`, a carried run at several points) from the runs' records, NaN where a
-    run has none."""
+def recorded_at(out_dir: str, runs: dict) -> tuple:
+    """`(cpu, macs, hosts)`: agents x points, each agent's CPU seconds of training and
+    counted multiply-adds at the end of each of `runs` (`{j: RunConfig}`, a carried run at
+    several points) from the runs' records, NaN where a run has none; and the host CPUs the
+    records name, sorted."""
     table = records.read(out_dir, list({run.key: run for run in runs.values()}.values()))
-    columns = [table[table.run == run.key].sort_values("agent").cpu_s.to_numpy(dtype=float)
-               for run in runs.values()]
-    return np.stack(columns, axis=1)
+    per_run = [table[table.run == run.key].sort_values("agent") for run in runs.values()]
+    cpu, macs = (np.stack([part[column].to_numpy(dtype=float) for part in per_run], axis=1)
+                 for column in ("cpu_s", "multiply_adds"))
+    return cpu, macs, tuple(sorted(table.host_cpu.dropna().unique()))
 
 
 def curve(task: str, row, out_dir: str, point: int) -> Curve | None:
@@ -99,9 +107,10 @@ def curve(task: str, row, out_dir: str, point: int) -> Curve | None:
     columns = [scores[j] if j in scores else at_one for j in runs]
     budget = protocol.BUDGETS[rule.split(task)[0]]
     steps = clock.budgets(budget, clock.POINTS + clock.LONGER)
+    cpu, macs, hosts = recorded_at(out_dir, runs)
     return Curve(np.array([steps[j] for j in runs], dtype=float),
                  np.stack([np.asarray(c, dtype=float) for c in columns], axis=1),
-                 cpu_at(out_dir, runs), runs[point], point > clock.POINTS[-1] and not row.longer)
+                 cpu, macs, runs[point], point > clock.POINTS[-1] and not row.longer, hosts)
 
 
 def to_level(steps, scores, cpu, level: float = curves.LEVEL) -> tuple:
@@ -116,21 +125,30 @@ def to_level(steps, scores, cpu, level: float = curves.LEVEL) -> tuple:
 
 @dataclasses.dataclass(frozen=True)
 class Pace:
-    """A row's times to the level: per agent steps, CPU and reached; the Kaplan-Meier
-    medians of steps and CPU (NaN where CPU is not recorded)."""
+    """A row's times to the level: per agent steps, CPU, multiply-adds and reached; the
+    Kaplan-Meier medians of steps, CPU and multiply-adds (NaN where not recorded)."""
 
     steps: np.ndarray
     cpu: np.ndarray
+    macs: np.ndarray
     reached: np.ndarray
     median_steps: Estimate
     median_cpu: Estimate
+    median_macs: Estimate
+
+
+def recorded_median(times, reached) -> Estimate:
+    """The Kaplan-Meier median of a recorded clock (CPU, multiply-adds); none where an agent's
+    is not recorded."""
+    return NO_ESTIMATE if np.isnan(times).any() else curves.median(times, reached)
 
 
 def pace_of(row_curve: Curve) -> Pace:
     """The times to the level of `row_curve`'s agents."""
     steps, cpu, reached = to_level(row_curve.steps, row_curve.scores, row_curve.cpu)
-    return Pace(steps, cpu, reached, curves.median(steps, reached),
-                NO_ESTIMATE if np.isnan(cpu).any() else curves.median(cpu, reached))
+    _, macs, _ = to_level(row_curve.steps, row_curve.scores, row_curve.macs)
+    return Pace(steps, cpu, macs, reached, curves.median(steps, reached),
+                recorded_median(cpu, reached), recorded_median(macs, reached))
 
 
 def _difference(x, y, axis=-1):
@@ -154,6 +172,7 @@ class Comparison:
     logrank: float = math.nan
     steps_ratio: Estimate = NO_ESTIMATE
     cpu_ratio: Estimate = NO_ESTIMATE
+    macs_ratio: Estimate = NO_ESTIMATE
     pace: str = ""
     pairs: tuple = ()
 
@@ -176,10 +195,8 @@ def compare(task: str, light: tuple, rival: tuple, label: str, random) -> Compar
     x_final, y_final = x_curve.scores[:, -1], y_curve.scores[:, -1]
     budget = x_curve.steps[-1]
     x_area, y_area = (curves.area(c.steps, c.scores, budget) for c in (x_curve, y_curve))
-    cpu, taus = NO_ESTIMATE, [float(np.max(c.cpu[:, -1])) for c in (x_curve, y_curve)]
-    if not (np.isnan(x_pace.cpu).any() or np.isnan(y_pace.cpu).any()) and min(taus) > 0:
-        cpu = curves.restricted_mean_ratio(x_pace.cpu, x_pace.reached, y_pace.cpu,
-                                           y_pace.reached, *taus)
+    cpu, macs = (recorded_ratio(x_curve, x_pace, y_curve, y_pace, clock_name)
+                 for clock_name in ("cpu", "macs"))
     return Comparison(
         task, label, True,
         gate=verdicts.above_random_gate(x_final, y_final, random,
@@ -191,7 +208,19 @@ def compare(task: str, light: tuple, rival: tuple, label: str, random) -> Compar
         if x_pace.reached.any() or y_pace.reached.any() else math.nan,
         steps_ratio=curves.restricted_mean_ratio(x_pace.steps, x_pace.reached, y_pace.steps,
                                                  y_pace.reached, budget),
-        cpu_ratio=cpu, pairs=((x_final, y_final), (x_area, y_area)))
+        cpu_ratio=cpu, macs_ratio=macs, pairs=((x_final, y_final), (x_area, y_area)))
+
+
+def recorded_ratio(x_curve: Curve, x_pace: Pace, y_curve: Curve, y_pace: Pace,
+                   clock_name: str) -> Estimate:
+    """The ratio of the rows' restricted means of a recorded clock to the level (`"cpu"`,
+    `"macs"`), each row restricted to its own clock's end at the budget; none where an
+    agent's is not recorded or a row's clock does not run."""
+    x_times, y_times = getattr(x_pace, clock_name), getattr(y_pace, clock_name)
+    taus = [float(np.max(getattr(c, clock_name)[:, -1])) for c in (x_curve, y_curve)]
+    if np.isnan(x_times).any() or np.isnan(y_times).any() or not min(taus) > 0:
+        return NO_ESTIMATE
+    return curves.restricted_mean_ratio(x_times, x_pace.reached, y_times, y_pace.reached, *taus)
 
 
 def family_size() -> int:

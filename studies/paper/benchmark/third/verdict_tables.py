@@ -22,11 +22,14 @@ EXPLAINED = [
     "\"worse\" and \"better\" (adjusted across the family); the outcome; the smallest "
     "difference the rows could detect where undecided; TOST's p (equivalence within the "
     "margin, beside, not in the outcome); the area's d and outcome (a family of its own); the "
-    "ratios of restricted mean steps and CPU to the level 0.5 (light / rival, bootstrap "
-    "intervals), the log-rank p of the steps and the pace. Then per row its agents at the "
-    "level, the Kaplan-Meier medians of steps and CPU seconds to it, and, where the task is "
-    "reached or not, the share of agents reaching it in every greedy episode "
-    "(Clopper-Pearson interval).", ""]
+    "ratios of restricted mean steps, CPU and multiply-adds to the level 0.5 (light / rival, "
+    "bootstrap intervals), the log-rank p of the steps and the pace. Then per row its agents "
+    "at the level, the Kaplan-Meier medians of steps, CPU seconds and multiply-adds to it, "
+    "where the task is reached or not the share of agents reaching it in every greedy "
+    "episode (Clopper-Pearson interval), and the host CPUs its runs' records name. The rule "
+    "reads the CPU; the multiply-adds (counted, `Learner.arithmetic`; transcendental "
+    "functions apart, in the records) are a cost no host's speed or load moves, beside it "
+    "where the rows ran on different hosts.", ""]
 """The report's words on the tables of every task and point."""
 PROFILE = (0.25, 0.5, 0.75, 1.0)
 """The normalised scores at which the report gives the performance profiles."""
@@ -77,7 +80,7 @@ def significant(estimate: Estimate) -> str:
 def comparison_row(c) -> str:
     """One comparison's cells (see `comparison_lines`)."""
     if not c.run:
-        return f"| {c.rival} | not run |" + " — |" * 11
+        return f"| {c.rival} | not run |" + " — |" * 12
     f, a = c.final, c.area
     tests = ", ".join(f"{two_digits(f.p_values[h])} ({two_digits(f.adjusted[h])})"
                       for h in HYPOTHESES)
@@ -85,33 +88,37 @@ def comparison_row(c) -> str:
             f"{c.difference.text(2)} | {tests} | **{f.outcome}** | {two_digits(f.detectable)} | "
             f"{two_digits(f.equivalence)} | {c.area_difference.text(2)} | {a.outcome} | "
             f"{c.steps_ratio.text(2)} | {two_digits(c.logrank)} | {significant(c.cpu_ratio)} | "
-            f"{c.pace} |")
+            f"{significant(c.macs_ratio)} | {c.pace} |")
 
 
 def comparison_lines(judged_task) -> list:
     """The light-weight row's comparisons on one task at one point (`EXPLAINED`)."""
     return ["| rival | gate | d | p not worse, worse, better (adjusted) | outcome | "
             "detectable | TOST p | area's d | area's outcome | steps ratio | log-rank p | "
-            "CPU ratio | pace |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+            "CPU ratio | multiply-adds ratio | pace |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
             *map(comparison_row, judged_task.comparisons), ""]
 
 
 def row_lines(judged_task, out_dir: str) -> list:
-    """Every row's time to the level 0.5 (Kaplan-Meier medians) and, where the task is
-    reached or not, its success share, at one point."""
+    """Every row's time to the level 0.5 (Kaplan-Meier medians), where the task is reached
+    or not its success share, and its records' host CPUs, at one point."""
     shares = judging.reached_or_not(judged_task.task)
     lines = ["| row | agents at 0.5 | median steps to 0.5 | median CPU s to 0.5 | "
-             "reach the task in every greedy episode |", "|---|---|---|---|---|"]
+             "median multiply-adds to 0.5 | reach the task in every greedy episode | host CPU |",
+             "|---|---|---|---|---|---|---|"]
     for label, pace in judged_task.paces.items():
         row_curve = judged_task.curves[label]
         if pace is None:
-            lines.append(f"| {label} | not run | — | — | — |")
+            lines.append(f"| {label} | not run | — | — | — | — | — |")
             continue
         share = (judging.success_share(judged_task.task, out_dir, row_curve.final).text(2)
                  if shares else "—")
         carried = " (carried)" if row_curve.carried else ""
         lines.append(f"| {label}{carried} | {int(pace.reached.sum())} of {len(pace.reached)} | "
-                     f"{pace.median_steps.text(0)} | {significant(pace.median_cpu)} | {share} |")
+                     f"{pace.median_steps.text(0)} | {significant(pace.median_cpu)} | "
+                     f"{significant(pace.median_macs)} | {share} | "
+                     f"{' + '.join(row_curve.hosts) or '—'} |")
     return lines + [""]
 
 
