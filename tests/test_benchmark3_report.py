@@ -189,7 +189,8 @@ def test_a_points_family_is_the_rules_whatever_is_run():
     for hypothesis in ("not worse", "worse", "better"):
         assert (together[0].final.adjusted[hypothesis]
                 <= alone[0].final.adjusted[hypothesis])
-    assert judging.verdict(together[-1:]) == ("not run", "no rival's row is run this far")
+    assert judging.verdict(together[-1:]) == ("not run",
+                                              "no comparison has both its rows run this far")
 
 
 def test_a_task_whose_rivals_are_not_all_run_waits_for_them_unless_it_is_shown_worse():
@@ -272,3 +273,19 @@ def test_the_provenance_counts_the_tables_here_and_the_recorded_runs_that_keep_n
                         "evaluations and records are what the rule reads); per commit, host and "
                         "libraries:")
     assert "| 2 | 0.2.0 | abc | cpu | 3.11.7 | numpy 2 |" in lines
+
+
+def test_a_task_not_continued_carries_the_rows_not_rising_and_leaves_the_rising_unrun(
+        judged, monkeypatch):
+    """A task the plan does not continue past the budget (a variant, the continuous
+    pendulum): a row still rising at 1 is not run at 4 times the budget, the others stand
+    there with their scores at 1, carried. Here the paper's row is the one rising."""
+    runs = study.read_task(TASK, judged)
+    monkeypatch.setattr(clock, "rising", lambda scores: scores is runs.rows["paper"].scores)
+    rising = {label: clock.rising(row.scores) for label, row in runs.rows.items()}
+    assert sorted(rising.values()) == [False, True]
+    study.carried(runs)
+    for label, row in runs.rows.items():
+        assert row.longer == (None if rising[label] else {}), label
+        at_four = judging.curve(TASK, row, judged, clock.VERDICTS[-1])
+        assert (at_four is None) == rising[label] and (at_four is None or at_four.carried)

@@ -257,7 +257,7 @@ def verdict(comparisons: list) -> tuple:
     against = [task_verdict.Against(c.rival, c.gate.judged, c.final.outcome, c.cpu_ratio)
                for c in comparisons if c.run]
     if not against:
-        return "not run", "no rival's row is run this far"
+        return "not run", "no comparison has both its rows run this far"
     given, why = task_verdict.verdict(against)
     missing = [c.rival for c in comparisons if not c.run]
     if not missing:

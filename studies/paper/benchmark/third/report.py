@@ -39,7 +39,9 @@ def write(out_dir: str, command: str, plant: str, started: float, computed=()) -
         try:
             runs = given[task] if task in given else study.read_task(task, out_dir, plant,
                                                                      partial=True)
-            if task not in given and task in rule.STAGE_1:
+            if task not in rule.STAGE_1:
+                runs = study.carried(runs)
+            elif task not in given:
                 runs = study.read_longer(runs, out_dir)
         except study.Unfinished as missing:
             unfinished.append(str(missing))

@@ -10,7 +10,9 @@ batches, Ray), into one directory `OUT` that records the rule's edition (`rule.E
    every point of the clock (`clock`);
 3. once every task of the rule's first stage and the variants have run, the rule's third
    stage (`longer`): on each of the first stage's tasks the rows still rising at the budget
-   continued to 4 times it (`clock.longer_trainings`), the others carried.
+   continued to 4 times it (`clock.longer_trainings`), the others carried; on the other
+   tasks, which the plan does not continue, a row not rising is carried and a rising one is
+   not run there (`carried`).
 
 Every run's per-episode table is `OUT/runs/<key>.csv.gz`, written whole by the sweep runner
 (`runners.store`); a training whose evaluation is written is not run again, so the tables
@@ -165,6 +167,15 @@ def longer(runs: TaskRuns, evaluate) -> TaskRuns:
                 runs.references, evaluate, f"{runs.task}: {label}: to 4 times the budget", True)
             row.own += keys
             row.continued = keys
+    return runs
+
+
+def carried(runs: TaskRuns) -> TaskRuns:
+    """`runs` of a task whose rows the plan does not continue past the budget (the variants,
+    the continuous pendulum: docs/FINDINGS.md, "Compute"), computing nothing: a row not rising
+    at the budget carried to 4 times it (`longer` `{}`), a rising one not run there (None)."""
+    for row in runs.rows.values():
+        row.longer = None if clock.rising(row.scores) else {}
     return runs
 
 

@@ -13,7 +13,7 @@ from lwrl.analysis import aggregates, outcomes, plots, verdicts
 from lwrl.analysis.graphical import HYPOTHESES
 from lwrl.analysis.statistics import Estimate
 from lwrl.studies.paper.benchmark import protocol
-from lwrl.studies.paper.benchmark.third import figures, judging, rule
+from lwrl.studies.paper.benchmark.third import clock, figures, judging, rule
 
 EXPLAINED = [
     "Per task and point, the light-weight row (the paper's agent; the actor-critic on the "
@@ -31,6 +31,11 @@ EXPLAINED = [
     "functions apart, in the records) are a cost no host's speed or load moves, beside it "
     "where the rows ran on different hosts.", ""]
 """The report's words on the tables of every task and point."""
+NOT_CONTINUED = (
+    "The plan continues rows past the budget on the rule's four tasks only (docs/FINDINGS.md, "
+    "\"Compute\"): here a row not rising at the budget stands at 4 times it with its score at 1, "
+    "carried; a rising one is not run this far.")
+"""The report's words at 4 times the budget on a task whose rows are not continued."""
 PROFILE = (0.25, 0.5, 0.75, 1.0)
 """The normalised scores at which the report gives the performance profiles."""
 AGGREGATED = (*rule.STAGE_1, *(t for t in rule.TASKS if rule.JOIN in t))
@@ -129,6 +134,8 @@ def task_lines(task: str, judged: dict, out_dir: str) -> list:
         judged_task = next(t for t in tasks if t.task == task)
         verdict, why = judged_task.verdict
         lines += [f"### At {name} times the budget", "", f"Verdict: **{verdict}** ({why}).", ""]
+        if judging.POINTS[name] > clock.POINTS[-1] and task not in rule.STAGE_1:
+            lines += [NOT_CONTINUED, ""]
         lines += comparison_lines(judged_task) + row_lines(judged_task, out_dir)
     return lines
 
