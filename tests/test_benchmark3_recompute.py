@@ -2,12 +2,13 @@
 Mountain-Car (`mountain_car.cost_to_go`) from the committed tables alone: the reference rows
 (docs/benchmark3/references), the rows' greedy evaluations (docs/benchmark3/runs) and their
 trainings' records (docs/benchmark3/runs/records). Per row, its agents and seeds at every
-point of the clock, its normalised score at 1/4 of the budget and its final one, its search's
-final score, and at 1/4 and 1 times the budget its agents at the level 0.5, its Kaplan-Meier
-median steps and CPU seconds to it and its share of agents reaching the goal in every greedy
-episode (with the Clopper-Pearson interval); per rival at 1/4 and 1, d = mean(light) -
-mean(rival) of the normalised scores, the rival's score the gate quotes, the p-values of
-Welch's one-sided tests before the family's adjustment, TOST's p and the area's d.
+point of the clock (past the budget, its own runs where continued, else carried), its
+normalised score at 1/4, 1 and 4 times the budget, its search's final score, and at each of
+those points its agents at the level 0.5, its Kaplan-Meier median steps and CPU seconds to
+it and its share of agents reaching the goal in every greedy episode (with the
+Clopper-Pearson interval); per rival at each point, d = mean(light) - mean(rival) of the
+normalised scores, the rival's score the gate quotes, the p-values of Welch's one-sided
+tests before the family's adjustment, TOST's p and the area's d.
 
 The code here is independent of the code that wrote the report: plain pandas, numpy and
 scipy on the tables, the definitions taken from docs/FINDINGS.md ("The light-weight claim
@@ -48,8 +49,8 @@ POINTS = tuple(range(-1, 19))
 """The fine clock's points j: an evaluation after 2^(j/3 - 6) of the budget."""
 LONGER = tuple(range(19, 25))
 """The points past the budget, to 4 times it, of a row continued there."""
-QUARTER, WHOLE = 12, 18
-"""The points at 1/4 and 1 times the budget, where each agent runs 10 greedy episodes."""
+QUARTER, WHOLE, FOUR = 12, 18, 24
+"""The points at 1/4, 1 and 4 times the budget, where each agent runs 10 greedy episodes."""
 STEPS_AT = {j: round(2.0 ** (j / 3 - 6) * BUDGET) for j in POINTS + LONGER}
 """The steps trained at each point of the clock."""
 LIGHT = protocol.LIGHT["discrete"]
@@ -71,7 +72,7 @@ NOT_SETTINGS = {"run", "trained", "agents", "episodes", "learn", "greedy", "agen
                 "episode", "steps", "return", "uptime_s", "truncated", "diverged",
                 *VARIANT_COLUMNS}
 """A run table's columns that are not its learner's or environment's settings."""
-AT = {"1/4": QUARTER, "1": WHOLE}
+AT = {"1/4": QUARTER, "1": WHOLE, "4": FOUR}
 """The report's budget points recomputed, by the name its sections give them."""
 
 
@@ -93,8 +94,9 @@ def readme_tables(lines: list) -> list:
 
 @pytest.fixture(scope="module")
 def readme() -> dict:
-    """`{"rows": {label: cells}, "1/4" | "1": ({rival: cells}, {label: cells})}`: the task's
-    table of rows, and at each point its comparisons' and its rows' tables."""
+    """`{"rows": {label: cells}, "1/4" | "1" | "4": ({rival: cells}, {label: cells}, carried)}`:
+    the task's table of rows, and at each point its comparisons' and its rows' tables (a
+    row's label without the " (carried)" the table marks, the rows so marked in `carried`)."""
     lines = (ROOT / "README.md").read_text().splitlines()
     start = lines.index(f"## {TASK}")
     end = next(i for i in range(start + 1, len(lines)) if lines[i].startswith("## "))
@@ -102,11 +104,19 @@ def readme() -> dict:
     heads = {name: section.index(f"### At {name} times the budget") for name in AT}
     found = {"rows": {row["row"]: row for row in readme_tables(section[:min(heads.values())])[0]}}
     for name, head in heads.items():
-        after = next(i for i in range(head + 1, len(section)) if section[i].startswith("### "))
+        after = next((i for i in range(head + 1, len(section)) if section[i].startswith("### ")),
+                     len(section))
         comparisons, rows = readme_tables(section[head:after])
         found[name] = ({row["rival"]: row for row in comparisons},
-                       {row["row"]: row for row in rows})
+                       {row["row"].removesuffix(CARRIED): row for row in rows},
+                       {row["row"].removesuffix(CARRIED) for row in rows
+                        if row["row"].endswith(CARRIED)})
     return found
+
+
+CARRIED = " (carried)"
+"""How the report marks a row that stopped rising at the budget, its score at 1 standing at
+4 times it."""
 
 
 def interval_of(cell: str) -> tuple:
@@ -177,7 +187,8 @@ def normalised(table: pd.DataFrame, references: tuple,
 def rows(references) -> dict:
     """`{label: {j: (evaluation table, training records, normalised scores)}}` of the task's
     rows: their greedy evaluations (seeds from `ROW_SEED`) of the nominal task at every point
-    of the clock."""
+    of the clock, and past it to 4 times the budget: a continued row's own, a carried row's
+    (no run past the budget) its point at 1 again."""
     found = {label: {} for label in ROWS}
     for path in sorted(glob.glob(str(RUNS / f"{TASK}-analytic-*-s{ROW_SEED}-*.csv.gz"))):
         table = pd.read_csv(path)
@@ -187,12 +198,18 @@ def rows(references) -> dict:
         label, point = label_of(table), point_of(record)
         assert point not in found[label], (label, point)
         found[label][point] = (table, record, normalised(table, references))
-    return found
+    return {label: {**row, **{j: row.get(j, row[WHOLE]) for j in LONGER}}
+            for label, row in found.items()}
+
+
+def carried(rows: dict) -> set:
+    """The rows with no run past the budget, their point at 1 standing for the later ones."""
+    return {label for label, row in rows.items() if row[FOUR] is row[WHOLE]}
 
 
 def scores_to(row: dict, point: int) -> np.ndarray:
     """Agents x points: a row's normalised scores at the clock's points to `point`."""
-    return np.stack([row[j][2].to_numpy() for j in POINTS if j <= point], axis=1)
+    return np.stack([row[j][2].to_numpy() for j in POINTS + LONGER if j <= point], axis=1)
 
 
 def first_at_level(row: dict, point: int) -> tuple:
@@ -202,7 +219,7 @@ def first_at_level(row: dict, point: int) -> tuple:
     at = scores >= LEVEL
     reached = at.any(axis=1)
     first = np.where(reached, at.argmax(axis=1), scores.shape[1] - 1)
-    points = [j for j in POINTS if j <= point]
+    points = [j for j in POINTS + LONGER if j <= point]
     cpu = np.stack([row[j][1].sort_values("seed").cpu_s.to_numpy() for j in points], axis=1)
     steps = np.array([STEPS_AT[points[k]] for k in first], dtype=float)
     return steps, cpu[np.arange(len(first)), first], reached
@@ -222,19 +239,25 @@ def kaplan_meier_median(times, reached) -> float:
 
 def test_each_row_runs_its_agents_at_every_point_of_the_clock(rows, readme):
     """Every row of the README's table has its greedy evaluations at all 20 points of the
-    clock (and the 6 past it where continued to 4 times the budget), one configuration (its
+    clock and the 6 past it to 4 times the budget (its own where continued, its point at 1
+    again where the README says it is carried), one configuration (its
     episodes apart, which a continued run has more of), 10 episodes at 1/4, 1 and 4 and one
     elsewhere, and its agents (100 a linear row, 20 a rival, as the table says) on seeds
     13 000 up."""
     assert list(readme["rows"]) == list(ROWS)
+    assert readme["4"][2] == carried(rows) and {
+        label for label, row in readme["rows"].items()
+        if row["at 4 times the budget"].endswith(CARRIED)} == carried(rows)
     for label, row in rows.items():
         agents = compute_plan.LIGHT_AGENTS if label in LINEAR else compute_plan.RIVAL_AGENTS
-        assert sorted(row) in (list(POINTS), list(POINTS + LONGER)), label
+        assert sorted(row) == list(POINTS + LONGER), label
         assert int(readme["rows"][label]["agents"]) == agents, label
         settings = {tuple(table[sorted(set(table.columns) - NOT_SETTINGS)].iloc[0].astype(str))
                     for table, _, _ in row.values()}
         assert len(settings) == 1, label
         for j, (table, record, scores) in row.items():
+            if j in LONGER and label in carried(rows):
+                continue  # its point at 1 again
             assert not table.learn.any() and table.greedy.all(), (label, j)
             assert set(table.episode) == set(range(1, 11 if j in (*AT.values(), LONGER[-1])
                                                     else 2)), (label, j)
@@ -245,7 +268,8 @@ def test_each_row_runs_its_agents_at_every_point_of_the_clock(rows, readme):
 def test_the_final_scores_recompute_from_the_run_tables(rows, readme):
     """Each row's mean normalised score at 1/4 of the budget and at its end (the number
     before the interval)."""
-    columns = {QUARTER: "normalised score at 1/4", WHOLE: "final normalised score"}
+    columns = {QUARTER: "normalised score at 1/4", WHOLE: "final normalised score",
+               FOUR: "at 4 times the budget"}
     for label, row in rows.items():
         for point, column in columns.items():
             cell = readme["rows"][label][column]
@@ -253,7 +277,7 @@ def test_the_final_scores_recompute_from_the_run_tables(rows, readme):
 
 
 def test_the_differences_to_each_rival_recompute_from_the_final_scores(rows, readme):
-    """At 1/4 and 1 times the budget, each rival's d = mean(light) - mean(rival) of the
+    """At 1/4, 1 and 4 times the budget, each rival's d = mean(light) - mean(rival) of the
     normalised scores there, and the rival's score a gate quotes where it does not pass."""
     for name, point in AT.items():
         comparisons = readme[name][0]
@@ -270,7 +294,7 @@ def test_the_differences_to_each_rival_recompute_from_the_final_scores(rows, rea
 
 
 def test_the_agents_at_the_level_recompute_from_the_clock(rows, readme):
-    """At 1/4 and 1 times the budget, each row's agents whose greedy normalised score is at
+    """At 1/4, 1 and 4 times the budget, each row's agents whose greedy normalised score is at
     or above 0.5 at some point of the clock to there ("k of n")."""
     for name, point in AT.items():
         for label, row in rows.items():
@@ -280,7 +304,7 @@ def test_the_agents_at_the_level_recompute_from_the_clock(rows, readme):
 
 
 def test_the_median_steps_and_cpu_to_the_level_recompute_from_the_clock_and_records(rows, readme):
-    """At 1/4 and 1 times the budget, each row's Kaplan-Meier median steps to the level and
+    """At 1/4, 1 and 4 times the budget, each row's Kaplan-Meier median steps to the level and
     median CPU seconds of training to it, read from the records of the training at each
     agent's first evaluation at the level (censored at the point where never)."""
     for name, point in AT.items():
@@ -293,7 +317,7 @@ def test_the_median_steps_and_cpu_to_the_level_recompute_from_the_clock_and_reco
 
 
 def test_the_success_shares_recompute_from_the_greedy_episodes(rows, readme):
-    """At 1/4 and 1 times the budget, each row's share of agents reaching the goal (fewer
+    """At 1/4, 1 and 4 times the budget, each row's share of agents reaching the goal (fewer
     steps than the cap) in every one of their 10 greedy episodes there, with its exact
     Clopper-Pearson 95 % interval."""
     for name, point in AT.items():
@@ -343,7 +367,7 @@ def welch_p(x, y, shift: float, alternative: str) -> float:
 
 
 def test_the_unadjusted_p_values_and_tost_recompute_from_the_final_scores(rows, readme):
-    """At 1/4 and 1 times the budget, each rival's p-values before the family's adjustment,
+    """At 1/4, 1 and 4 times the budget, each rival's p-values before the family's adjustment,
     by Welch's one-sided t tests of d = mean(light) - mean(rival) with the rule's margin
     0.1: "not worse" (H0: d <= -0.1), "worse" (H0: d >= 0), "better" (H0: d <= 0); and
     TOST's p, the larger of the two one-sided p-values of |d| < 0.1."""
@@ -364,12 +388,12 @@ def test_the_unadjusted_p_values_and_tost_recompute_from_the_final_scores(rows, 
 
 
 def test_the_areas_differences_recompute_from_the_clock(rows, readme):
-    """At 1/4 and 1 times the budget, each rival's area's d: the difference of the rows'
+    """At 1/4, 1 and 4 times the budget, each rival's area's d: the difference of the rows'
     mean areas under their agents' normalised-score curves, the trapezoid over the clock's
     points to there in steps divided by the steps there (the span before the first point
     adds nothing)."""
     def areas(row, point):
-        points = [j for j in POINTS if j <= point]
+        points = [j for j in POINTS + LONGER if j <= point]
         steps = np.array([STEPS_AT[j] for j in points], dtype=float)
         return np.trapezoid(scores_to(row, point), steps, axis=1) / STEPS_AT[point]
 
