@@ -42,7 +42,7 @@ def clock_curves(runs, figure_dir: str) -> list:
     """One task's rows (`study.TaskRuns`) on the fine clock, as `figure_dir/<task>-clock.png`
     and `.svg`; the paths."""
     import matplotlib.pyplot as plt
-    figure, axes = plt.subplots(figsize=(8, 4.5))
+    figure, axes = plt.subplots(figsize=(9.5, 4.5))
     for label, row in runs.rows.items():
         fractions, estimates = row_curve(row)
         plots.plot_estimates(axes, fractions, estimates, label, marker=".")
@@ -52,7 +52,8 @@ def clock_curves(runs, figure_dir: str) -> list:
     axes.set_xscale("log", base=2)
     axes.set_xlabel("fraction of the budget of environment steps")
     axes.set_ylabel("greedy normalised score")
-    axes.legend(fontsize="small")
+    # the legend beside the axes: inside, it hid the rows continued past the budget
+    axes.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
     axes.set_title(runs.task)
     figure.tight_layout()
     return plots.save_figure(figure, figure_dir, f"{runs.task}-clock")
