@@ -19,8 +19,9 @@ time", "The rule"), from the runs a directory holds, at each budget point the ve
   the steps' log-rank p (none where neither row reaches the level: nothing to compare) and
   the ratios of restricted means with their bootstrap intervals (`analysis.curves`),
   "faster/slower" (`curves.pace`). The multiply-adds' ratio, a count that no host's speed
-  or load moves, stands beside the CPU's, which the rule reads: the rows' runs were
-  computed on more than one host CPU (the rows' tables name them);
+  or load moves, stands beside the CPU's, which the rule reads: rows whose runs were
+  computed on different host CPUs (the rows' tables name them) compare seconds of
+  different machines;
 - the **task verdict** (`analysis.task_verdict.verdict`) from the final score's outcomes
   and the CPU ratios, once every rival's row is run at the point (`NOT_ALL_RUN` until
   then, but for "no", which the rows still to run cannot undo).
@@ -69,7 +70,7 @@ class Curve:
     macs: np.ndarray
     final: object
     carried: bool
-    hosts: tuple = ()
+    hosts: tuple
 
 
 def trainings(row, point: int) -> dict | None:
@@ -113,14 +114,15 @@ def curve(task: str, row, out_dir: str, point: int) -> Curve | None:
                  cpu, macs, runs[point], point > clock.POINTS[-1] and not row.longer, hosts)
 
 
-def to_level(steps, scores, cpu, level: float = curves.LEVEL) -> tuple:
-    """`(steps, cpu, reached)` per agent: its steps and CPU (`cpu`, agents x points, from the
-    records) at its first evaluation at or above `level`, or at the last point (censored,
-    `reached` False) where it never reaches it."""
-    scores, cpu = np.asarray(scores, dtype=float), np.asarray(cpu, dtype=float)
+def to_level(steps, scores, *recorded, level: float = curves.LEVEL) -> tuple:
+    """`(steps, *recorded, reached)` per agent: its steps and each clock of `recorded` (CPU,
+    multiply-adds: agents x points, from the records) at its first evaluation at or above
+    `level`, or at the last point (censored, `reached` False) where it never reaches it."""
+    scores = np.asarray(scores, dtype=float)
     first, reached = curves.time_to_level(np.arange(scores.shape[1]), scores, level)
-    first = first.astype(int)
-    return np.asarray(steps, dtype=float)[first], cpu[np.arange(len(cpu)), first], reached
+    first, agents = first.astype(int), np.arange(len(scores))
+    return (np.asarray(steps, dtype=float)[first],
+            *(np.asarray(times, dtype=float)[agents, first] for times in recorded), reached)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -145,8 +147,8 @@ def recorded_median(times, reached) -> Estimate:
 
 def pace_of(row_curve: Curve) -> Pace:
     """The times to the level of `row_curve`'s agents."""
-    steps, cpu, reached = to_level(row_curve.steps, row_curve.scores, row_curve.cpu)
-    _, macs, _ = to_level(row_curve.steps, row_curve.scores, row_curve.macs)
+    steps, cpu, macs, reached = to_level(row_curve.steps, row_curve.scores, row_curve.cpu,
+                                         row_curve.macs)
     return Pace(steps, cpu, macs, reached, curves.median(steps, reached),
                 recorded_median(cpu, reached), recorded_median(macs, reached))
 

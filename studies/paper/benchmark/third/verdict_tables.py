@@ -29,7 +29,7 @@ EXPLAINED = [
     "episode (Clopper-Pearson interval), and the host CPUs its runs' records name. The rule "
     "reads the CPU; the multiply-adds (counted, `Learner.arithmetic`; transcendental "
     "functions apart, in the records) are a cost no host's speed or load moves, beside it "
-    "where the rows ran on different hosts.", ""]
+    "for rows that ran on different hosts.", ""]
 """The report's words on the tables of every task and point."""
 NOT_CONTINUED = (
     "The plan continues rows past the budget on the rule's four tasks only (docs/FINDINGS.md, "
