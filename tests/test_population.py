@@ -168,6 +168,24 @@ def test_one_dqn_update_is_sb3s_train():
     assert_layers_close(updated["params"], linears(torch, model.q_net), torch)
 
 
+OFF_POLICY = dict(buffer_size=5000, train_freq=16, learning_starts=50, batch_size=16,
+                  net_arch="8")
+"""An off-policy learner's settings in `short_training`: a buffer larger than its 300 steps."""
+
+
+def short_training(name: str) -> RunConfig:
+    """Three agents of `name` learning over three Mountain-Car episodes of at most 100 steps,
+    `timesteps` 300 (PPO's rollouts of 64 steps; DQN's and SAC's learning from step 50): the
+    tests of the starts, the chunks, the replay buffer and a crowded process share its
+    compiled program."""
+    learner = learners.learner(name)
+    settings = learner.settings(timesteps=300, **({"n_steps": 64, "batch_size": 32}
+                                                  if name == "ppo_jax" else OFF_POLICY))
+    return RunConfig(task="mountain_car.cost_to_go", learner=name, agents=3, episodes=3, seed=4,
+                     plant="analytic", settings=settings, actions=learner.actions,
+                     task_options={"time_limit": 100})
+
+
 @pytest.mark.parametrize("name", ["ppo_jax", "dqn_jax"])
 def test_episodes_start_where_every_learners_start(name, monkeypatch):
     """Agent b's episode k starts where `runners.episodes.episode_starts` puts it (the
@@ -181,12 +199,7 @@ def test_episodes_start_where_every_learners_start(name, monkeypatch):
         drawn.append((list(seeds), episodes))
         return values
     monkeypatch.setattr(population, "episode_starts", starts)
-    settings = learners.learner(name).settings(
-        timesteps=100, **({"n_steps": 64, "batch_size": 64} if name == "ppo_jax" else
-                          {"buffer_size": 100}))
-    config = RunConfig(task="mountain_car.cost_to_go", learner=name, agents=3, episodes=3,
-                       seed=4, plant="analytic", settings=settings, task_options={"time_limit": 50})
-    _, results = run(config)
+    _, results = run(short_training(name))
     assert drawn == [([4, 5, 6], 3)]
     np.testing.assert_array_equal(results.steps[:, 1], 1.0)
     np.testing.assert_array_equal(results.returns[:, 1], 0.0)
@@ -198,11 +211,7 @@ def test_how_the_program_is_cut_into_chunks_changes_no_number(name, monkeypatch)
     """The runner steps the batch in compiled chunks of `CHUNK` steps (so that progress is
     reported and Ctrl-C stops between two): chunks of 7 steps give the same episodes and
     weights as the default's, an episode and a rollout crossing many chunk boundaries."""
-    settings = learners.learner(name).settings(
-        timesteps=2000, **({"n_steps": 64, "batch_size": 32} if name == "ppo_jax" else
-                           {"buffer_size": 500, "learning_starts": 50}))
-    config = RunConfig(task="pendulum.swingup", learner=name, agents=2, episodes=3, seed=3,
-                       plant="analytic", settings=settings, task_options={"time_limit": 2.0})
+    config = short_training(name)
     whole_agent, whole = run(config)
     monkeypatch.setattr(population, "CHUNK", 7)
     chunked_agent, chunked = run(config)
@@ -346,23 +355,21 @@ def test_a_batch_of_a_kind_already_made_compiles_no_initialiser():
 @pytest.mark.parametrize("name", ["dqn_jax", "sac_jax"])
 def test_a_replay_buffer_holds_what_its_agents_can_store_and_changes_no_number(name, monkeypatch):
     """An off-policy agent stores a transition only while it learns, `timesteps` (rounded up
-    to a whole `train_freq`) at most: its buffer is made that size where `buffer_size` is
-    larger, and the episodes and weights are those of a buffer of `buffer_size`."""
+    to a whole `train_freq`: 304 of `short_training`'s 300 at 16) at most: its buffer is
+    made that size where `buffer_size` is larger, and the episodes and weights are those of
+    a buffer of `buffer_size`."""
     from lwrl.agent import jax_population
-    settings = learners.learner(name).settings(timesteps=300, buffer_size=5000, train_freq=16,
-                                               learning_starts=50, batch_size=16, net_arch="8")
-    assert jax_population.replay_capacity([settings]) == 304
-    assert jax_population.replay_capacity([dataclasses.replace(settings, buffer_size=100)]) == 100
-    config = RunConfig(task="pendulum.swingup", learner=name, agents=2, episodes=3, seed=3,
-                       plant="analytic", settings=settings, task_options={"time_limit": 2.0},
-                       actions="continuous" if name == "sac_jax" else "discrete")
+    config = short_training(name)
+    assert jax_population.replay_capacity([config.settings]) == 304
+    assert jax_population.replay_capacity([dataclasses.replace(config.settings,
+                                                                buffer_size=100)]) == 100
     capped_agent, capped = run(config)
-    assert capped_agent.state["buffer"]["rewards"].shape == (2, 304)
+    assert capped_agent.state["buffer"]["rewards"].shape == (3, 304)
     module = "lwrl.agent.dqn_jax" if name == "dqn_jax" else "lwrl.agent.off_policy_jax"
     monkeypatch.setattr(f"{module}.replay_capacity", lambda s: list(s)[0].buffer_size)
     monkeypatch.setattr(jax_population, "_INITIALISERS", {})
     whole_agent, whole = run(config)
-    assert whole_agent.state["buffer"]["rewards"].shape == (2, 5000)
+    assert whole_agent.state["buffer"]["rewards"].shape == (3, 5000)
     for field in ("steps", "returns", "uptime", "truncated", "diverged_episode"):
         np.testing.assert_array_equal(getattr(capped, field), getattr(whole, field))
     np.testing.assert_array_equal(capped_agent.arrays.weights, whole_agent.arrays.weights)
@@ -403,8 +410,7 @@ def test_a_crowded_process_lets_its_compiled_programs_go_and_computes_the_same(m
     compiled program before compiling another: the run compiles afresh and its numbers are
     those of the uncrowded run."""
     from lwrl.runners import mappings
-    config = RunConfig(task="mountain_car.cost_to_go", learner="dqn_jax", agents=2, episodes=2,
-                       seed=5, plant="analytic", task_options={"time_limit": 20.0})
+    config = short_training("dqn_jax")
     kept_agent, kept = run(config)
     assert population._CHUNKS
     stale = object()

@@ -113,51 +113,61 @@ def test_ray_backend_gives_the_local_results(tmp_path):
     pd.testing.assert_frame_equal(local, on_ray)
 
 
+SEARCH = [RunConfig(task="mountain_car.cost_to_go", learner="dqn_jax", net_arch="8", timesteps=300,
+                   learning_starts=10, batch_size=4, buffer_size=64, agents=2, seed=seed,
+                   learning_rate=rate, task_options={"time_limit": 2.0})
+          for seed, rate in ((0, 1e-3), (10, 3e-3), (20, 1e-2))]
+"""A population learner's runs that differ only in per-agent settings (a search's
+configurations): one program trains them."""
+
+
+@pytest.fixture(scope="module")
+def searched(tmp_path_factory):
+    """`(directory, table, runs computed)` of a local sweep of `SEARCH` with its agents kept,
+    computed once for the tests that hold it to each run alone and to the Ray backend."""
+    directory = tmp_path_factory.mktemp("joined")
+    return (directory, *sweep.run_sweep(SEARCH, str(directory), keep_agents=True))
+
+
 @pytest.mark.skipif(importlib.util.find_spec("ray") is None or jax_population.missing_jax(),
                     reason="Ray and JAX are optional extras: pip install -e '.[ray,jax]'")
-def test_ray_backend_gives_the_local_results_of_population_runs_with_their_agents(tmp_path):
+def test_ray_backend_gives_the_local_results_of_population_runs_with_their_agents(tmp_path,
+                                                                                  searched):
     """The benchmark's deep trainings (JAX populations, their agents kept for the greedy
-    evaluations) on Ray, where they run side by side: the local tables, the agents kept."""
-    configs = [RunConfig(task="mountain_car.cost_to_go", learner="dqn_jax", net_arch="8",
-                         timesteps=400, learning_starts=10, batch_size=4, buffer_size=64,
-                         agents=2, seed=seed, task_options={"time_limit": 2.0})
-               for seed in (0, 10)]
-    local, _ = sweep.run_sweep(configs, str(tmp_path / "local"), keep_agents=True)
-    on_ray, computed = sweep.run_sweep(configs, str(tmp_path / "ray"), backend="ray",
+    evaluations; here a search's runs, trained as one program) on Ray: the local tables,
+    the agents kept."""
+    _, local, _ = searched
+    on_ray, computed = sweep.run_sweep(SEARCH, str(tmp_path / "ray"), backend="ray",
                                        keep_agents=True)
-    assert computed == 2
+    assert computed == len(SEARCH)
     pd.testing.assert_frame_equal(local, on_ray)
-    assert all(RunStore.agents_file(tmp_path / "ray", config.key).exists() for config in configs)
+    assert all(RunStore.agents_file(tmp_path / "ray", config.key).exists() for config in SEARCH)
 
 
 @pytest.mark.skipif(jax_population.missing_jax(), reason="the population learners need the jax "
                     "extra: pip install 'lwrl[jax]'")
-def test_runs_of_one_program_train_as_one_population_and_are_kept_apart(tmp_path):
+def test_runs_of_one_program_train_as_one_population_and_are_kept_apart(tmp_path, searched):
     """With their agents kept, a population learner's runs that differ only in per-agent
-    settings (a search's configurations) train as one batch: each run's table and kept agents
-    are those of the run alone, and its records share the batch's CPU among its agents."""
+    settings (`SEARCH`) train as one batch: each run's table and kept agents are those of
+    the run alone, and its records share the batch's CPU among its agents."""
     from lwrl.agent import io as agent_io
-    configs = [RunConfig(task="mountain_car.cost_to_go", learner="dqn_jax", net_arch="8",
-                         timesteps=300, learning_starts=10, batch_size=4, buffer_size=64,
-                         agents=2, seed=seed, learning_rate=rate, task_options={"time_limit": 2.0})
-               for seed, rate in ((0, 1e-3), (10, 3e-3), (20, 1e-2))]
-    assert sweep.populations(sweep.families(configs)) == [configs]
-    joined, computed = sweep.run_sweep(configs, str(tmp_path / "joined"), keep_agents=True)
+    assert sweep.populations(sweep.families(SEARCH)) == [SEARCH]
+    directory, joined, computed = searched
     assert computed == 3
-    for config in configs:
+    for config in SEARCH:
         alone, _ = sweep.run_sweep([config], str(tmp_path / config.key), keep_agents=True)
         pd.testing.assert_frame_equal(
             joined[joined["run"] == config.key].reset_index(drop=True), alone)
         (kept_document, kept), (own_document, own) = (
-            agent_io.load(RunStore.agents_file(tmp_path / name, config.key))[0].saved()
-            for name in ("joined", config.key))
+            agent_io.load(RunStore.agents_file(root, config.key))[0].saved()
+            for root in (directory, tmp_path / config.key))
         assert kept_document == own_document and kept.keys() == own.keys()
         for name, values in own.items():
             np.testing.assert_array_equal(kept[name], values, err_msg=name)
-        shared = pd.read_csv(RunStore.records_file(tmp_path / "joined", config.key))
+        shared = pd.read_csv(RunStore.records_file(directory, config.key))
         assert (shared["cpu_shared_by"] == 6).all()
-    lines = [json.loads(line) for line in (tmp_path / "joined" / "compute.jsonl").open()]
-    assert [sorted(line["runs"]) for line in lines] == [sorted(c.key for c in configs)]
+    lines = [json.loads(line) for line in (directory / "compute.jsonl").open()]
+    assert [sorted(line["runs"]) for line in lines] == [sorted(c.key for c in SEARCH)]
 
 
 @pytest.mark.parametrize("learner, shaping", [
