@@ -175,7 +175,11 @@ def tiny_continuous(monkeypatch):
 def one_small_deep_row(monkeypatch, label: str, learner: str, labels) -> None:
     """The rows `labels` only, the deep one `label` (`learner`) with a 16 x 16 network and
     minibatches of 32 learning from step 100, its search drawing the learning rate alone;
-    then `shrink`'s sizes."""
+    then `shrink`'s sizes, but one agent a search configuration and one episode a training
+    (the fixtures' 300 steps of budget end it within its first either way): the search's
+    trainings (2 configurations of one agent), the rows' and the rows' evaluations are then
+    one compiled program of the deep row (2 agents, one episode), its search's evaluations
+    another."""
     every_row = protocol.rows
 
     def rows(task):
@@ -187,6 +191,9 @@ def one_small_deep_row(monkeypatch, label: str, learner: str, labels) -> None:
     monkeypatch.setattr(search, "RANGES", {**search.RANGES, learner: (
         search.LogUniform("learning_rate", 1e-4, 3e-3),)})
     shrink(monkeypatch, 1)
+    monkeypatch.setattr(search, "AGENTS", 1)
+    monkeypatch.setattr(search, "SEEDS", (1000,))
+    monkeypatch.setattr(protocol, "SHORTEST_EPISODE", 300)
 
 
 @pytest.mark.skipif(jax_population.missing_jax(),

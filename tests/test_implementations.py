@@ -261,14 +261,21 @@ def test_a_time_limit_that_is_no_whole_number_of_steps_is_one_line(capsys, tmp_p
     assert status == 2 and len(err) == 1 and "whole number of control steps" in err[0], err
 
 
+@pytest.fixture
+def tiny_costs(monkeypatch):
+    """4 untrained agents at initialisation; costs timed over 60 steps in one episode or more
+    (not `COST_EPISODES`): the tiny studies' own 2 episodes of 30 steps, so that a population
+    learner's timed runs and its study's runs are one compiled program."""
+    monkeypatch.setattr(plan, "INIT_AGENTS", 4)
+    monkeypatch.setattr(costs, "COST_EPISODES", 1)
+    monkeypatch.setattr(costs, "timed_steps", lambda config: 60)
+
+
 @needs_both
 @pytest.mark.slow
-def test_a_tiny_study_runs_end_to_end_and_resumes(tmp_path, capsys, monkeypatch):
-    """1 task, 2 agents, 2 episodes of 30 steps, 100 steps of learning, 4 untrained agents
-    at initialisation, costs timed over 64 steps: the runs, the costs, the report and its
-    figures; the same command again computes nothing."""
-    monkeypatch.setattr(plan, "INIT_AGENTS", 4)
-    monkeypatch.setattr(costs, "timed_steps", lambda config: 64)
+def test_a_tiny_study_runs_end_to_end_and_resumes(tmp_path, capsys, tiny_costs):
+    """1 task, 2 agents, 2 episodes of 30 steps, 100 steps of learning, `tiny_costs`: the
+    runs, the costs, the report and its figures; the same command again computes nothing."""
     out = tmp_path / "study"
     argv = ["implementations", "mountain_car.cost_to_go", "--agents", "2", "--episodes", "2",
             "--time-limit", "30", "--timesteps", "100", "--out", str(out)]
@@ -287,13 +294,11 @@ def test_a_tiny_study_runs_end_to_end_and_resumes(tmp_path, capsys, monkeypatch)
 
 @needs_both
 @pytest.mark.slow
-def test_a_tiny_continuous_study_runs_end_to_end(tmp_path, capsys, monkeypatch):
+def test_a_tiny_continuous_study_runs_end_to_end(tmp_path, capsys, tiny_costs):
     """`--action-kind continuous`: SAC's and TD3's pairs on the pendulum made with continuous
-    actions, 2 agents, 2 episodes of 30 steps, 100 steps of learning, costs timed over 64
-    steps: the runs, the report's table and its sections; the continuous actor's one output
-    ranks no actions."""
-    monkeypatch.setattr(plan, "INIT_AGENTS", 4)
-    monkeypatch.setattr(costs, "timed_steps", lambda config: 64)
+    actions, 2 agents, 2 episodes of 30 steps, 100 steps of learning, `tiny_costs`: the runs,
+    the report's table and its sections; the continuous actor's one output ranks no
+    actions."""
     out = tmp_path / "study"
     argv = ["implementations", "pendulum.swingup", "--action-kind", "continuous", "--agents", "2",
             "--episodes", "2", "--time-limit", "0.6", "--timesteps", "100", "--out", str(out)]
