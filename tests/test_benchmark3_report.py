@@ -58,33 +58,42 @@ def report_of(out: str) -> list:
         return file.read().splitlines()[3:]
 
 
-def test_the_report_names_every_task_and_row_a_verdict_per_task_and_the_familys_size(judged):
-    lines = report_of(judged)
-    text = "\n".join(lines)
-    assert f"## {TASK}" in lines
+@pytest.fixture(scope="module")
+def reported(computed):
+    """`report_of(computed)` under the `two_rows` patches, written once for the module (its
+    figures beside it in `computed`), for the tests that read the report."""
+    with pytest.MonkeyPatch.context() as patch:
+        two_rows(patch)
+        return report_of(computed)
+
+
+def test_the_report_names_every_task_and_row_a_verdict_per_task_and_the_familys_size(judged,
+                                                                                       reported):
+    text = "\n".join(reported)
+    assert f"## {TASK}" in reported
     for label in ("paper", RIVAL):
-        assert any(line.startswith(f"| {label} | 3 |") for line in lines), label
+        assert any(line.startswith(f"| {label} | 3 |") for line in reported), label
     runs = study.read_longer(study.read_task(TASK, judged, partial=True), judged)
     found = judging.judge([runs], judged)
     allowed = (*task_verdict.VERDICTS, "not run", judging.NOT_ALL_RUN)
-    summary = next(line for line in lines if line.startswith(f"| {TASK} |"))
+    summary = next(line for line in reported if line.startswith(f"| {TASK} |"))
     words = [cell.strip().strip("*") for cell in summary.split("|")[2:-1]]
     assert words == [found[name][0][0].verdict[0] for name in judging.POINTS]
     assert all(word in allowed for word in words)
-    assert sum(line.startswith("Verdict: **") for line in lines) == len(judging.POINTS)
+    assert sum(line.startswith("Verdict: **") for line in reported) == len(judging.POINTS)
     # one comparison run at each point, in the rule's whole family (here the two rows' rule)
     family = judging.family_size()
     assert {size for _, size in found.values()} == {1}
     assert text.count(f"1 comparison run, of the rule's family of {family}") == len(judging.POINTS)
     assert f"start at 0.05 / {2 * family} each" in text
-    at_one = lines.index("### At 1 times the budget")
-    comparison = next(line for line in lines[at_one:] if line.startswith(f"| {RIVAL} | "))
+    at_one = reported.index("### At 1 times the budget")
+    comparison = next(line for line in reported[at_one:] if line.startswith(f"| {RIVAL} | "))
     assert found["1"][0][0].comparisons[0].final.outcome in comparison
-    assert "## The rows' centres: their prior tuning" in lines
-    assert "## Provenance" in lines and "## Aggregates across tasks (rliable)" in lines
+    assert "## The rows' centres: their prior tuning" in reported
+    assert "## Provenance" in reported and "## Aggregates across tasks (rliable)" in reported
 
 
-def test_each_stage_costs_the_ledgers_cpu_of_its_runs_and_the_rest_is_named(judged):
+def test_each_stage_costs_the_ledgers_cpu_of_its_runs_and_the_rest_is_named(judged, reported):
     """The tiny benchmark ran its task's searches and rows (stage 1; stage 3 where a row
     still rose): every run the ledger names is a stage's, and the report's table gives each
     stage, what no stage holds yet, and the whole."""
@@ -95,22 +104,21 @@ def test_each_stage_costs_the_ledgers_cpu_of_its_runs_and_the_rest_is_named(judg
     keys = disclosure.stage_keys([runs])
     assert keys[0] and not keys[1] and not keys[3]
     assert set(ledger_runs(ledger_lines(judged))) == set().union(*keys)
-    lines = report_of(judged)
-    table = lines[lines.index("## What each stage cost"):]
+    table = reported[reported.index("## What each stage cost"):]
     names = [line.split(" | ")[0][2:] for line in table[6:12]]
     assert names == [*disclosure.STAGES, "the runs of rows not all written yet", "all"]
 
 
-def test_the_report_is_written_again_the_same(judged):
-    assert report_of(judged) == report_of(judged)
+def test_the_report_is_written_again_the_same(judged, reported):
+    """Written a second time, after `reported`: the same lines."""
+    assert report_of(judged) == reported
 
 
-def test_the_report_draws_each_tasks_rows_on_the_fine_clock(judged):
+def test_the_report_draws_each_tasks_rows_on_the_fine_clock(judged, reported):
     """A curve per row over the clock's points, the figure linked under the task's table;
     a curve's points are the row's means at its points, in their order."""
-    lines = report_of(judged)
     image = f"![{TASK}-clock.png](figures/{TASK}-clock.png)"
-    assert image in lines and lines.index(image) < lines.index("### At 1 times the budget")
+    assert image in reported and reported.index(image) < reported.index("### At 1 times the budget")
     for suffix in ("png", "svg"):
         assert (pathlib.Path(judged) / "figures" / f"{TASK}-clock.{suffix}").stat().st_size > 0
     runs = study.read_task(TASK, judged, partial=True)

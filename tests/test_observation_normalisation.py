@@ -22,6 +22,16 @@ DQN = RunConfig(task="cartpole.balance", learner="dqn_jax", agents=2, episodes=2
 """A small dqn_jax run whose agents normalise their observations."""
 
 
+@pytest.fixture(scope="module")
+def trained():
+    """`(config, agents, results)` of `DQN` run for three calls of the compiled program
+    (`CHUNK` steps each, its episodes more than the budget lets run), computed once: trained
+    normalising agents, and the run a stopped one must give again."""
+    from lwrl.runners.population import CHUNK
+    config = dataclasses.replace(DQN, episodes=2000, budget=3 * CHUNK, timesteps=3 * CHUNK)
+    return config, *run(config)
+
+
 def one_agent(tree, b=0):
     """Agent b's part of a batch's pytree."""
     import jax
@@ -79,8 +89,8 @@ def test_the_default_keeps_the_run_key_and_the_other_value_changes_it(learner, d
     assert f'"normalize_observations": {str(default).lower()}' not in plain.key_json()
 
 
-def test_a_saved_and_loaded_normalising_agent_acts_as_it_did(tmp_path):
-    agents, _ = run(DQN)
+def test_a_saved_and_loaded_normalising_agent_acts_as_it_did(tmp_path, trained):
+    _, agents, _ = trained
     assert float(agents.state["observation_stats"]["count"][0]) > 0
     path = tmp_path / "agents.npz"
     io.save(path, agents)
@@ -96,11 +106,11 @@ def test_a_saved_and_loaded_normalising_agent_acts_as_it_did(tmp_path):
             agents.step(np.ones(2, bool), zeros, zeros, batch, learn=False, greedy=True))
 
 
-def test_the_action_values_read_the_states_normalised():
+def test_the_action_values_read_the_states_normalised(trained):
     """A normalising agent's values at task-unit states are its network's at the states
     normalised by its statistics."""
     from lwrl.agent import observation_normalisation
-    agents, _ = run(DQN)
+    _, agents, _ = trained
     states = np.random.default_rng(1).normal(size=(3, 4))
     tree = agents.unflatten(agents.arrays.weights[1])
     inputs = observation_normalisation.normalised(states, tree["observations"])
@@ -131,14 +141,14 @@ def test_a_bad_value_is_refused_in_one_line(learner):
                    "normalize_observations must be true or false", "'yes'")
 
 
-def test_a_stopped_normalising_run_goes_on_from_its_kept_statistics():
+def test_a_stopped_normalising_run_goes_on_from_its_kept_statistics(trained):
     """The statistics are a part of the state a stopped run keeps (`runners.resume`): going on
-    gives the numbers, the weights and the statistics of the run computed in one go."""
+    gives the numbers, the weights and the statistics of the run computed in one go
+    (`trained`)."""
     import tempfile
     from pathlib import Path
     from lwrl.runners.population import CHUNK
-    config = dataclasses.replace(DQN, episodes=2000, budget=3 * CHUNK, timesteps=3 * CHUNK)
-    whole_agents, whole = run(config)
+    config, whole_agents, whole = trained
     calls = []
 
     def stop_at_second(_):

@@ -155,8 +155,9 @@ def test_stream_q_s_first_updates_are_the_authors():
              (rng.normal(size=4), 0, 2.5, rng.normal(size=4))]
     linears, forward = torch_network(torch, params)
     torch_traces = [torch.zeros_like(p) for linear in linears for p in (linear.weight, linear.bias)]
+    learn = jax.jit(agents.learn)  # as the run's program calls it: one compilation
     for x, action, reward, next_x in steps:
-        params, traces = agents.learn(params, traces, transition(agents, x, action, reward, next_x), hyper)
+        params, traces = learn(params, traces, transition(agents, x, action, reward, next_x), hyper)
         s, s_next = torch.tensor(x, dtype=torch.float), torch.tensor(next_x, dtype=torch.float)
         q_sa = forward(s)[action]
         target = torch.tensor(reward) + 0.99 * torch.max(forward(s_next), dim=-1).values
@@ -202,10 +203,10 @@ def test_stream_ac_s_first_updates_are_the_authors(learner, actions, policy, dra
     critic_linears, critic = torch_network(torch, unbatched["critic"])
     actor_traces = [torch.zeros_like(p) for linear in actor_linears for p in (linear.weight, linear.bias)]
     critic_traces = [torch.zeros_like(p) for linear in critic_linears for p in (linear.weight, linear.bias)]
-    rng = np.random.default_rng(2)
+    rng, learn = np.random.default_rng(2), jax.jit(agents.learn)
     for _ in range(2):
         x, u, reward, next_x = rng.normal(size=2), draw(rng, agents.task), rng.normal(), rng.normal(size=2)
-        params, traces = agents.learn(params, traces, transition(agents, x, u, reward, next_x), hyper)
+        params, traces = learn(params, traces, transition(agents, x, u, reward, next_x), hyper)
         s, s_next = torch.tensor(x, dtype=torch.float), torch.tensor(next_x, dtype=torch.float)
         v_s = critic(s)
         delta = (torch.tensor(reward) + 0.99 * critic(s_next) - v_s).item()
@@ -221,15 +222,34 @@ def test_stream_ac_s_first_updates_are_the_authors(learner, actions, policy, dra
         assert_layers_match(params["critic"], critic_linears)
 
 
-def test_stream_q_learns_to_balance_the_cart_pole():
-    """Four agents, 90 episodes of at most 1000 steps, the exploration over 2000 steps: the
-    last ten episodes last at least three times as long as the first ten (about 20 steps)."""
-    config = RunConfig(task="cartpole.balance", learner="stream_q", agents=4, episodes=90,
-                       seed=0, task_options={"time_limit": 20.0}, timesteps=20_000,
-                       exploration_fraction=0.1)
-    _, results = run(config)
+@pytest.fixture(scope="module")
+def balancing():
+    """`(agents, results)` of four stream_q agents on the cart-pole, 90 episodes of at most
+    1000 steps, the exploration over 2000 steps, learning at every step (100 000 steps of
+    learning: more than 90 episodes can take); run once for the module."""
+    return run(RunConfig(task="cartpole.balance", learner="stream_q", agents=4, episodes=90,
+                         seed=0, task_options={"time_limit": 20.0}, timesteps=100_000,
+                         exploration_fraction=0.02))
+
+
+def test_stream_q_learns_to_balance_the_cart_pole(balancing):
+    """`balancing`: the last ten episodes last at least three times as long as the first ten
+    (about 20 steps)."""
+    _, results = balancing
     first, last = results.steps[:, :10].mean(), results.steps[:, -10:].mean()
     assert first < 40 and last > 3 * first, (first, last)
+
+
+def test_every_observation_enters_the_statistics_once(balancing):
+    """Over `balancing` (its episodes ended by falls and by the time limit), the observation
+    statistics take each episode's start and each step's next observation once (an
+    observation that continues an episode is not taken again when the learner acts on it),
+    and the reward statistics each step's discounted return."""
+    agents, results = balancing
+    assert results.truncated.any() and not results.truncated.all()
+    steps = results.steps.sum(axis=1)
+    np.testing.assert_array_equal(agents.state["observations"]["count"], steps + 90)
+    np.testing.assert_array_equal(agents.state["rewards"]["count"], steps)
 
 
 @pytest.mark.parametrize("setting, value, message", [
@@ -245,15 +265,3 @@ def test_bad_settings_are_refused_in_one_line(setting, value, message):
 
 def test_the_continuous_learner_refuses_a_discrete_task_in_one_line():
     assert "--action-kind continuous" in learners.learner("stream_ac").fits(task_spec("pendulum.swingup"))
-
-
-def test_every_observation_enters_the_statistics_once():
-    """Over a run, the observation statistics take each episode's start and each step's next
-    observation once (an observation that continues an episode is not taken again when the
-    learner acts on it), and the reward statistics each step's discounted return."""
-    config = RunConfig(task="cartpole.balance", learner="stream_q", agents=2, episodes=3, seed=4,
-                       task_options={"time_limit": 1.0})
-    agents, results = run(config)
-    steps = results.steps.sum(axis=1)
-    np.testing.assert_array_equal(agents.state["observations"]["count"], steps + 3)
-    np.testing.assert_array_equal(agents.state["rewards"]["count"], steps)
