@@ -12,23 +12,20 @@ import numpy as np
 import pytest
 
 from lwrl.agent import jax_population
-from lwrl.studies.paper.benchmark import (evaluation, progress, protocol, report, search, study,
-                                          timed_costs)
+from lwrl.studies.paper.benchmark import evaluation, progress, protocol, report, search, study
 
 TASK = "mountain_car.cost_to_go"
 
 
 def shrink(monkeypatch, episodes: int) -> None:
     """2 agents a row, 2 configurations of 2 agents in the search, `episodes` greedy episodes
-    an evaluation, a row's costs timed over calls of 2 episodes (a population learner's one
-    call: not 20 of the task's whole length)."""
+    an evaluation."""
     monkeypatch.setattr(protocol, "AGENTS", 2)
     monkeypatch.setattr(protocol, "SHORTEST_EPISODE", 100)
     monkeypatch.setattr(search, "CONFIGURATIONS", 2)
     monkeypatch.setattr(search, "SEEDS", (1000, 1001))
     monkeypatch.setattr(search, "AGENTS", 2)
     monkeypatch.setattr(evaluation, "EPISODES", episodes)
-    monkeypatch.setattr(timed_costs, "EPISODES_PER_CALL", 2)
 
 
 @pytest.fixture

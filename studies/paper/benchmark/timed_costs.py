@@ -78,23 +78,23 @@ def step_budget(config) -> int:
     return max(3000, getattr(settings, "learning_starts", 0) + 2000, 2 * getattr(settings, "n_steps", 0))
 
 
-def _learn(config, agent, steps: int, episodes: int) -> int:
-    """Run `agent` for about `steps` steps of learning, `episodes` episodes a call (each at
-    most the steps left), so that a call's setup is spread over many steps; the steps it
-    took. A population learner runs one call of `episodes` episodes of the task's own length
-    whatever `steps`: its program is compiled for the episodes' shape, so the warm-up's
-    call, of the same shape, leaves the timed one nothing to compile."""
+def _learn(config, agent, steps: int) -> int:
+    """Run `agent` for about `steps` steps of learning, `EPISODES_PER_CALL` episodes a call
+    (each at most the steps left), so that a call's setup is spread over many steps; the
+    steps it took. A population learner runs one call of `EPISODES_PER_CALL` episodes of
+    the task's own length whatever `steps`: its program is compiled for the episodes' shape,
+    so the warm-up's call, of the same shape, leaves the timed one nothing to compile."""
     from lwrl import tasks
     from lwrl.runners.run import run
     if agent.learner.population:
-        _, results = run(dataclasses.replace(config, episodes=episodes), agents=agent)
+        _, results = run(dataclasses.replace(config, episodes=EPISODES_PER_CALL), agents=agent)
         return int(np.nansum(results.steps))
     definition = tasks.definition(*tasks.split_name(config.task))
     taken = 0
     limit = config.task_options.get("time_limit", definition.step_limit * definition.control_timestep)
     while taken < steps:
         left = (steps - taken) * definition.control_timestep
-        episode = dataclasses.replace(config, episodes=episodes, task_options={
+        episode = dataclasses.replace(config, episodes=EPISODES_PER_CALL, task_options={
             **config.task_options, "time_limit": min(limit, max(left, definition.control_timestep))})
         _, results = run(episode, agents=agent)
         taken += int(np.nansum(results.steps))
@@ -152,10 +152,8 @@ def _controller(agents, config, c_dir: str) -> dict:
             "c_instructions_per_decision": callgrind_instructions(c_dir), "compiler": sizes["compiler"]}
 
 
-def measure_cell(config, label: str, c_dir: str | None,
-                 episodes: int = EPISODES_PER_CALL) -> dict:
-    """The costs of one (task, learner) (see the module), `episodes` episodes a call of the
-    learner (`_learn`); runs in a process of its own."""
+def measure_cell(config, label: str, c_dir: str | None) -> dict:
+    """The costs of one (task, learner) (see the module); runs in a process of its own."""
     from lwrl.agent import threads
     from lwrl.runners.run import make_agents
     threads.set_workers(1)
@@ -165,12 +163,11 @@ def measure_cell(config, label: str, c_dir: str | None,
     except ImportError:
         pass
     one = dataclasses.replace(config, agents=1, seed=1000)
-    _learn(dataclasses.replace(one, seed=2000), make_agents(dataclasses.replace(one, seed=2000)), 50,
-           episodes)  # warm-up
+    _learn(dataclasses.replace(one, seed=2000), make_agents(dataclasses.replace(one, seed=2000)), 50)  # warm-up
     agent = make_agents(one)
     steps = step_budget(config)
     start = time.process_time()
-    taken = _learn(one, agent, steps, episodes)
+    taken = _learn(one, agent, steps)
     seconds = time.process_time() - start
     costs = {"learning_steps_timed": taken, "cpu_s_per_learning_step": seconds / taken,
              "cpu_s_per_greedy_decision": _greedy_decisions(agent, one),
@@ -190,8 +187,7 @@ def measure_cell(config, label: str, c_dir: str | None,
 def measure_all(cells, out_dir: str) -> dict:
     """`{run key: costs}` of every cell, measured where `costs.json` in `out_dir` does not
     hold them yet (it is rewritten after each), each in a fresh process (a RuntimeError
-    where that process dies, killed or crashed, rather than waiting for it), at
-    `EPISODES_PER_CALL` as it is when called (the process does not inherit a change to it)."""
+    where that process dies, killed or crashed, rather than waiting for it)."""
     path = os.path.join(out_dir, "costs.json")
     costs = {}
     if os.path.isfile(path):
@@ -204,8 +200,7 @@ def measure_all(cells, out_dir: str) -> dict:
         c_dir = (os.path.join(out_dir, "controllers", f"{task}-{label}") if label in EXPORTED else None)
         with ProcessPoolExecutor(1, mp_context=context) as pool:
             try:
-                measured = pool.submit(measure_cell, config, label, c_dir,
-                                       EPISODES_PER_CALL).result()
+                measured = pool.submit(measure_cell, config, label, c_dir).result()
             except BrokenProcessPool:
                 raise RuntimeError(f"the process measuring the costs of {label} on {task} died "
                                    f"without a result; the costs measured before it are in "
