@@ -80,6 +80,7 @@ Run from the repository root (the JAX part needs the `jax` extra, the SB3 part t
     python -m benchmarks.deep_speed            # 10-20 minutes on two loaded cores for PPO
                                                # and DQN, SAC and TD3 beyond that
     python -m benchmarks.deep_speed --quick    # smoke test: tiny networks and episodes
+    python -m benchmarks.deep_speed --learners ppo ppo_jax   # these measured, all counted
 """
 
 import argparse
@@ -493,6 +494,10 @@ def parse_args(argv=None) -> argparse.Namespace:
                         metavar="CONDITION",
                         help="the JAX learners' conditions measured: one (one thread) and "
                              "both (both cores); default: both of them")
+    parser.add_argument("--learners", nargs="+", choices=learners.LEARNER_NAMES,
+                        default=list(learners.LEARNER_NAMES), metavar="LEARNER",
+                        help="the learners measured (every learner's arithmetic is counted "
+                             "all the same); default: every learner of the registry")
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if not args.seconds > 0:
@@ -522,8 +527,8 @@ def main(argv=None) -> None:
     measured: dict = {}  # (learner, agents, condition, greedy) -> Measurement
 
     # 1. The JAX learners, one subprocess per condition.
-    population = [name for name in names if learners.learner(name).population
-                  and name not in skipped]
+    timed = [name for name in names if name in args.learners and name not in skipped]
+    population = [name for name in timed if learners.learner(name).population]
     if population:
         for condition in args.conditions:
             jobs = []
@@ -537,8 +542,8 @@ def main(argv=None) -> None:
                 measured[(m.learner, m.agents, m.condition, m.greedy)] = m
 
     # 2. The others in this process: SB3's learners (one thread), the compiled ones.
-    for name in names:
-        if name in skipped or learners.learner(name).population:
+    for name in timed:
+        if learners.learner(name).population:
             continue
         sizes = workload.agents if name in FAMILY else (reference,)
         for index, agents in enumerate(sizes):
@@ -560,6 +565,9 @@ def main(argv=None) -> None:
         print(f"- {sb3} and {twin}: {settings.describe(2)}")
     for name, reason in skipped.items():
         print(f"- {name}: skipped: {reason}")
+    unlisted = [name for name in names if name not in args.learners]
+    if unlisted:
+        print(f"- not measured (not among --learners), counted only: {', '.join(unlisted)}")
 
     print("\n## CPU per agent-step\n")
     print("Median over the timed runs of CPU time (all threads) per agent-step, in µs, wall "
@@ -583,7 +591,8 @@ def main(argv=None) -> None:
             a, b = get(sb3, reference, "one", False), get(twin, reference, condition, False)
             if a is None or b is None:
                 reason = (skipped.get(sb3) or skipped.get(twin)
-                          or ("not among --conditions" if condition not in args.conditions
+                          or ("not among --learners" if {sb3, twin} - set(args.learners)
+                              else "not among --conditions" if condition not in args.conditions
                               else "missing"))
                 print(f"- {twin} at most 1/{aim} of {sb3}'s, {label}: not measured ({reason})")
                 continue

@@ -73,20 +73,33 @@ def test_mjx_plant_quick_prints_its_table(capsys):
     assert "| 4. learning run, plant mjx, stepped path |" in out and "Compiling MJX's step" in out
 
 
+MEASURED = ("ppo", "dqn", "sac", "td3", "ppo_jax", "dqn_jax", "sac_jax", "td3_jax", "ars",
+            "sarsa")
+"""The learners the smoke test of `benchmarks.deep_speed` measures: the pairs, a JAX
+population and a compiled loop outside them (each JAX learner compiles its programs, seconds
+each); every learner's arithmetic is counted all the same."""
+
+
 def test_deep_speed_quick_prints_its_tables(capsys):
     """The deep learners' cost benchmark in its smoke mode (tiny networks and episodes, 1 and
     2 agents; JAX programs from lwrl's compilation cache; the JAX learners on one thread
     only, the other condition the same code with other XLA flags): its tables, each pair's
     (SAC's and TD3's with continuous actions among them) measured at 1 and 2 agents, a row of
-    counted arithmetic for every learner of the registry, and its JAX part or SB3 part
-    skipped, saying so, where the extra is missing."""
+    counted arithmetic for every learner of the registry, the learners of `MEASURED` timed
+    and the others named as not measured, and its JAX part or SB3 part skipped, saying so,
+    where the extra is missing."""
     from benchmarks import deep_speed
     from lwrl import agent as learners
     from lwrl.agent.jax_population import missing_jax
     from lwrl.agent.stable_baselines import missing_libraries
 
-    deep_speed.main(["--quick", "--cached", "--conditions", "one"])
+    deep_speed.main(["--quick", "--cached", "--conditions", "one", "--learners", *MEASURED])
     out = capsys.readouterr().out
+    unlisted = [name for name in learners.LEARNERS if name not in MEASURED]
+    assert f"- not measured (not among --learners), counted only: {', '.join(unlisted)}" in out
+    timed = [line.split(" on ")[0].removeprefix("- ").split(" x ")[0]
+             for line in out.splitlines() if line.startswith("- ") and " agent-steps, median " in line]
+    assert set(timed) == {name for name in MEASURED if not deep_speed.skip_reason(name)}
     assert "## CPU per agent-step" in out and "## Aims, at 2 agents" in out
     assert out.count("met**") + out.count(": not measured") == 4  # 2 twins x 2 conditions
     if not (missing_jax() or missing_libraries()):
