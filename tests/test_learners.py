@@ -1,6 +1,6 @@
 """The learner contract (`agent.learner_contract`), checked for every learner of the registry on every
-task of the suite it fits (a JAX population learner on `POPULATION_TASKS`, alone and in a
-batch on `ALONE_TASK`: each case compiles its programs),
+task of the suite it fits (a learner of networks on `NETWORK_TASKS`, alone and in a batch
+on `ALONE_TASK`: each case compiles its JAX programs or builds its PyTorch models),
 through the checks lwrl ships (`lwrl.testing`): a new learner is one module and a registry
 line, and these tests hold it to the contract without an edit here; what is about lwrl's own
 registry and learners stays here."""
@@ -25,25 +25,36 @@ FITS = [(learner, task) for learner, task in itertools.product(learners.LEARNER_
 actions (`Learner.actions`)."""
 MISFITS = [(learner, task) for learner, task in itertools.product(learners.LEARNER_NAMES, tasks.TASK_NAMES)
            if (learner, task) not in FITS]
-POPULATION_TASKS = ("cartpole.balance",)
-"""The task a population learner (JAX, `Learner.population`) is checked on: each of its
-cases compiles JAX programs (seconds each), and a learner sees only the task's spec, so
-whether it keeps the contract is asked on one task, the one whose shapes a learner that
-took its sizes from anywhere but the spec would get wrong: the cart-pole's four observed
-variables and two actions (Mountain-Car has two and three, the acrobot four and three).
-Every other learner is checked on every task it fits."""
+NETWORK_TASKS = ("cartpole.balance",)
+"""The task a learner of networks (`networks`) is checked on: each of its cases compiles
+JAX programs (seconds each) or builds PyTorch models, and a learner sees only the task's
+spec, so whether it keeps the contract is asked on one task, the one whose shapes a learner
+that took its sizes from anywhere but the spec would get wrong: the cart-pole's four
+observed variables and two actions (Mountain-Car has two and three, the acrobot four and
+three). Every other learner (the compiled loop's) is checked on every task it fits."""
+
+
+def networks(name: str) -> bool:
+    """Whether learner `name` is one of networks: a JAX population (`Learner.population`) or
+    a learner whose settings choose its networks' layers (`net_arch`: Stable-Baselines3's).
+    An outside learner of neither, a table say, is checked on every task."""
+    learner = learners.learner(name)
+    return learner.population or "net_arch" in {field.name for field in
+                                                 dataclasses.fields(learner.settings)}
+
+
 PAIRS = [(learner, task) for learner, task in FITS
-         if not learners.learner(learner).population or task in POPULATION_TASKS]
+         if not networks(learner) or task in NETWORK_TASKS]
 """The (learner, task) pairs the contract's checks run on."""
 CASES = [learner_case(learner, task) for learner, task in PAIRS]
 """`PAIRS` as test cases, skipped (saying why) where the learner's libraries are not
 installed."""
-ALONE_TASK = POPULATION_TASKS[0]
-"""Where a population learner is checked alone and in a batch: a run of one agent compiles a
+ALONE_TASK = NETWORK_TASKS[0]
+"""Where a learner of networks is checked alone and in a batch: a run of one agent compiles a
 JAX program of its own, and the property (nothing crosses the batch's axis, which a batch of
 one has too) is the learner's whatever the task."""
 ALONE_CASES = [learner_case(learner, task) for learner, task in PAIRS
-               if not learners.learner(learner).population or task == ALONE_TASK]
+               if not networks(learner) or task == ALONE_TASK]
 
 
 def test_the_registry_names_each_learner_once():
