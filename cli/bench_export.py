@@ -14,14 +14,18 @@ def add_export(actions) -> None:
         description="Write every run table of the benchmark directory DIR (runs/*.csv.gz, "
                     "as `lwrl bench run` writes them) as one Parquet file, OUT/runs.parquet, "
                     "a column per field of the run tables' schema "
-                    "(runners/schemas/run_table.json) typed by it, and its data card, "
-                    "OUT/README.md: the fields with their units, the source, the licence, how "
-                    "to cite. `pandas.read_parquet('OUT/runs.parquet')` loads it.")
+                    "(runners/schemas/run_table.json) typed by it; where the runs have records "
+                    "of their costs (runs/records/*.csv.gz), those as OUT/records.parquet, "
+                    "typed by runners/schemas/records.json; and the data card, OUT/README.md: "
+                    "the fields with their units, the source, the licence, how to cite. "
+                    "`pandas.read_parquet('OUT/runs.parquet')` loads it.")
     export.add_argument("directory", metavar="DIR", help="the benchmark's directory")
     export.add_argument("--parquet", metavar="OUT", required=True,
-                        help="the dataset's directory (runs.parquet and README.md)")
+                        help="the dataset's directory (runs.parquet, records.parquet where "
+                             "the runs have records, README.md)")
     export.add_argument("--force", action="store_true",
-                        help="replace runs.parquet and README.md where OUT holds them")
+                        help="replace runs.parquet, records.parquet and README.md where OUT "
+                             "holds them")
     export.set_defaults(run=run_export)
 
 
@@ -30,7 +34,7 @@ def run_export(args) -> int:
     module, _ = output.study_modules("bench", "lwrl.studies.paper.benchmark.dataset", "pyarrow")
     output.claim_outputs(args, "parquet")
     outputs.check_directory(args.parquet, "--parquet", force=args.force,
-                            names=(module.DATA, module.CARD))
+                            names=(module.DATA, module.RECORDS, module.CARD))
     module.run_tables(args.directory)
     started = time.perf_counter()
     written = module.export(args.directory, args.parquet, shlex.join(["lwrl", *args.argv]))
