@@ -121,11 +121,26 @@ def test_bad_input_is_one_line(benchmark, tmp_path, capsys):
     assert status == 2 and len(err) == 1 and "column 'stranger' is no field" in err[0]
 
 
-def test_the_committed_dataset_is_the_committed_runs():
-    """docs/benchmark2/dataset: every run table's rows, as many as they hold."""
-    runs = pd.read_parquet(COMMITTED / "dataset" / "runs.parquet", columns=["run", "episode"])
-    counts = runs.groupby("run").size()
-    tables = sorted((COMMITTED / "runs").glob("*.csv.gz"))
-    assert set(counts.index) == {path.name.removesuffix(".csv.gz") for path in tables}
-    for path in tables[::50]:
-        assert counts[path.name.removesuffix(".csv.gz")] == len(pd.read_csv(path, usecols=["run"]))
+DATASETS = sorted(path.parent for path in COMMITTED.parent.glob("benchmark*/**/dataset/runs.parquet"))
+"""The benchmarks whose runs are committed as a dataset, as `lwrl bench export` wrote it."""
+
+
+def test_the_second_benchmark_is_committed_as_a_dataset():
+    assert COMMITTED / "dataset" in DATASETS
+
+
+@pytest.mark.parametrize("directory", DATASETS, ids=lambda path: path.parent.name)
+def test_the_committed_dataset_is_the_committed_runs(directory):
+    """A committed dataset (benchmark2's among them): every run table's rows, and every
+    record's where the runs have them, as many as they hold."""
+    directory = directory.parent
+    for table, folder in (("runs", "runs"), ("records", "runs/records")):
+        tables = sorted((directory / folder).glob("*.csv.gz"))
+        if not tables:
+            assert not (directory / "dataset" / f"{table}.parquet").exists()
+            continue
+        exported = pd.read_parquet(directory / "dataset" / f"{table}.parquet", columns=["run"])
+        counts = exported.groupby("run").size()
+        assert set(counts.index) == {path.name.removesuffix(".csv.gz") for path in tables}
+        for path in tables[::50]:
+            assert counts[path.name.removesuffix(".csv.gz")] == len(pd.read_csv(path, usecols=["run"]))
