@@ -5,6 +5,7 @@ bad input refused with exit status 2."""
 
 import dataclasses
 import json
+import pathlib
 
 import numpy as np
 import pandas as pd
@@ -307,3 +308,22 @@ def test_the_status_of_a_directory_not_begun_estimates_every_rows_trainings(tmp_
     assert sum("wait for its task's search" in line for line in rows) == len(
         rule.rows("acrobot.swingup+physics"))
     assert "ledger (" in lines[-1]
+
+
+def test_a_rows_cpu_left_is_at_the_rate_of_its_own_networks_size(monkeypatch):
+    """The continuous pendulum's TD3 row, 256 x 256, after a search whose runs were mostly
+    64 x 64: its estimate reads the 256 x 256 runs' CPU per agent-step alone."""
+    from lwrl.studies.paper.benchmark import progress as ledger
+    from lwrl.studies.paper.benchmark.third import progress
+    task = "pendulum.swingup-continuous"
+    out = str(pathlib.Path(__file__).resolve().parents[1] / "docs" / "benchmark3")
+    row = next(row for row in rule.rows(task) if row.label == "td3")
+    state = progress.row_progress(task, row, out, "analytic", None, None)
+    assert {progress.network(run) for run in state.known} >= {"64,64", "256,256"}
+    state.pending = [run for run in state.known if progress.network(run) == "256,256"][:3]
+    state.later = 0
+    rates = {"64,64": 1e-4, "256,256": 5e-3}
+    monkeypatch.setattr(ledger, "cpu_per_agent_step", lambda _, runs: {
+        run.key: rates[progress.network(run)] for run in runs if progress.network(run) in rates})
+    seconds, text = progress.left(state, out, {row.label: state}, None)
+    assert seconds == pytest.approx(5e-3 * progress.steps(state.pending)) and "its ledger's rate" in text

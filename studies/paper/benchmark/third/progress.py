@@ -8,9 +8,10 @@ estimate of the CPU of the trainings it has left.
 The estimate: the agent-steps of the trainings not yet written (a population learner's runs
 on the clock are one run, `runners.sweep.families`; a linear learner's each its own; the
 rungs not yet begun by `compute_plan.SEARCH_RUNGS`), at the CPU per agent-step the ledger
-counts for the row's trainings so far (`benchmark.progress.cpu_per_agent_step`), else for
-its learner's on the directory's other rows, else the second benchmark's committed ledger's
-(`compute_plan.rate`, with its stand-ins). Greedy evaluations are not counted; a small
+counts for the row's trainings so far of the networks the pending ones have
+(`benchmark.progress.cpu_per_agent_step`; a search's 64 x 64 runs say little of a 256 x 256
+row's cost), else for all of them, else for its learner's on the directory's other rows,
+else the second benchmark's committed ledger's (`compute_plan.rate`, with its stand-ins). Greedy evaluations are not counted; a small
 search run costs more per agent-step than a row of many agents, so the estimate errs high
 for the linear rows.
 """
@@ -150,9 +151,12 @@ def left(state: RowProgress, out_dir: str, states: dict, planned) -> tuple:
     agent_steps = steps(state.pending) + state.later
     if not agent_steps:
         return 0.0, ""
+    shapes = {network(run) for run in state.pending}
     alike = [run for other in states.values() for run in other.known
              if run.learner == state.learner]
-    rates = (progress.cpu_per_agent_step(out_dir, state.known)
+    rates = (progress.cpu_per_agent_step(out_dir, [run for run in state.known
+                                                   if network(run) in shapes])
+             or progress.cpu_per_agent_step(out_dir, state.known)
              or progress.cpu_per_agent_step(out_dir, alike))
     source = "its ledger's rate"
     if rates:
@@ -166,6 +170,13 @@ def left(state: RowProgress, out_dir: str, states: dict, planned) -> tuple:
     seconds = rate * agent_steps
     return seconds, (f"; about {progress.duration(seconds)} of CPU of trainings left "
                      f"({agent_steps / 1e6:.1f} M agent-steps at {source})")
+
+
+def network(run) -> str | None:
+    """The hidden layers of `run`'s networks (`net_arch`), None for a learner without: a
+    search's runs of one learner differ in their CPU per agent-step by their network's size
+    far more than by anything else."""
+    return getattr(run.settings, "net_arch", None)
 
 
 def planned_rates():
