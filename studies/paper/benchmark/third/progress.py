@@ -7,11 +7,12 @@ estimate of the CPU of the trainings it has left.
 
 The estimate: the agent-steps of the trainings not yet written (a population learner's runs
 on the clock are one run, `runners.sweep.families`; a linear learner's each its own; the
-rungs not yet begun by `compute_plan.SEARCH_RUNGS`), at the CPU per agent-step the ledger
-counts for the row's trainings so far of the networks the pending ones have
-(`benchmark.progress.cpu_per_agent_step`; a search's 64 x 64 runs say little of a 256 x 256
-row's cost), else for all of them, else for its learner's on the directory's other rows,
-else the second benchmark's committed ledger's (`compute_plan.rate`, with its stand-ins). Greedy evaluations are not counted; a small
+rungs not yet begun by `compute_plan.SEARCH_RUNGS`), at the CPU per agent-step that the
+records of the row's longest training so far with the pending ones' network give
+(`recorded_rate`; a search's 64 x 64 runs say little of a 256 x 256 row's cost), else that
+the ledger counts for the row's trainings so far (`benchmark.progress.cpu_per_agent_step`),
+else for its learner's on the directory's other rows, else the second benchmark's committed
+ledger's (`compute_plan.rate`, with its stand-ins). Greedy evaluations are not counted; a small
 search run costs more per agent-step than a row of many agents, so the estimate errs high
 for the linear rows.
 """
@@ -22,6 +23,7 @@ import pathlib
 import numpy as np
 
 import lwrl
+from lwrl.runners import records
 from lwrl.runners.store import RunStore
 from lwrl.runners.sweep import families, longest
 from lwrl.studies.paper.benchmark import compute_plan, progress, protocol
@@ -154,14 +156,12 @@ def left(state: RowProgress, out_dir: str, states: dict, planned) -> tuple:
     shapes = {network(run) for run in state.pending}
     alike = [run for other in states.values() for run in other.known
              if run.learner == state.learner]
-    rates = (progress.cpu_per_agent_step(out_dir, [run for run in state.known
-                                                   if network(run) in shapes])
-             or progress.cpu_per_agent_step(out_dir, state.known)
-             or progress.cpu_per_agent_step(out_dir, alike))
-    source = "its ledger's rate"
+    rate, source = recorded_rate(out_dir, [run for run in state.known if network(run) in shapes])
+    rates = None if rate else (progress.cpu_per_agent_step(out_dir, state.known)
+                               or progress.cpu_per_agent_step(out_dir, alike))
     if rates:
-        rate = float(np.mean(list(rates.values())))
-    else:
+        rate, source = float(np.mean(list(rates.values()))), "its ledger's rate"
+    elif not rate:
         try:
             rate, of = compute_plan.rate(planned, state.learner, "training")
         except ValueError:
@@ -170,6 +170,19 @@ def left(state: RowProgress, out_dir: str, states: dict, planned) -> tuple:
     seconds = rate * agent_steps
     return seconds, (f"; about {progress.duration(seconds)} of CPU of trainings left "
                      f"({agent_steps / 1e6:.1f} M agent-steps at {source})")
+
+
+def recorded_rate(out_dir: str, runs) -> tuple:
+    """`(CPU seconds per agent-step, its source)` the records of the longest of `runs` that
+    has them give (`runners.records`: every agent's share of its training's CPU over its
+    steps), or `(None, None)`: the longest, since a short run's steps are more of its cheap
+    first ones (before `learning_starts`, say)."""
+    written = [run for run in runs if RunStore.records_file(out_dir, run.key).exists()]
+    if not written:
+        return None, None
+    table = records.read(out_dir, [max(written, key=lambda run: run.budget)])
+    return (float(table["cpu_s"].sum() / table["steps"].sum()),
+            "the rate its longest recorded run of that network took")
 
 
 def network(run) -> str | None:
