@@ -43,11 +43,15 @@ CITATION = """@inproceedings{framling2008lightweight,
 """The method's paper, which lwrl's README asks to cite beside lwrl itself (`software`)."""
 
 
-def run_tables(directory, kind: str = "runs") -> list:
-    """The run tables of the benchmark directory `directory` (`kind` "runs/records": their
-    records, possibly none), or a one-line ValueError where it holds no run tables."""
-    paths = sorted(glob.glob(os.path.join(glob.escape(str(directory)), kind, "*.csv.gz")))
-    if not paths and kind == "runs":
+def tables(directory, folder: str) -> list:
+    """The tables (`*.csv.gz`) in `folder` of the benchmark directory `directory`, sorted."""
+    return sorted(glob.glob(os.path.join(glob.escape(str(directory)), folder, "*.csv.gz")))
+
+
+def run_tables(directory) -> list:
+    """The run tables of the benchmark directory `directory`, or a one-line ValueError."""
+    paths = tables(directory, "runs")
+    if not paths:
         raise ValueError(f"{directory} holds no run tables (runs/*.csv.gz): give a benchmark "
                          "directory, as `lwrl bench run TASK... --out DIR` writes it")
     return paths
@@ -108,18 +112,18 @@ def write_parquet(paths: list, name: str, data: str, summary: dict) -> tuple:
 def export(directory, out, command: str) -> list:
     """Write `out/runs.parquet`, `out/records.parquet` where the runs have records, and the
     data card `out/README.md` from the benchmark directory `directory`; the paths written."""
-    paths, recorded = run_tables(directory), run_tables(directory, "runs/records")
+    paths, recorded = run_tables(directory), tables(directory, "runs/records")
     os.makedirs(out, exist_ok=True)
     data, summary = os.path.join(out, DATA), {"task": set(), "plant": set(), "learner": set()}
     schema, rows = write_parquet(paths, "run_table.json", data, summary)
-    written, costs = [data], None
-    if not recorded and os.path.exists(os.path.join(out, RECORDS)):
-        os.remove(os.path.join(out, RECORDS))  # an earlier export's, replaced by none
+    written, costs, kept = [data], None, os.path.join(out, RECORDS)
     if recorded:
-        written.append(os.path.join(out, RECORDS))
         hosts = {"host_cpu": set(), "lwrl_commit": set()}
-        records_schema, records_rows = write_parquet(recorded, "records.json", written[-1], hosts)
-        costs = records_schema, len(recorded), records_rows, hosts, os.path.getsize(written[-1])
+        records_schema, records_rows = write_parquet(recorded, "records.json", kept, hosts)
+        written.append(kept)
+        costs = records_schema, len(recorded), records_rows, hosts, os.path.getsize(kept)
+    elif os.path.exists(kept):
+        os.remove(kept)  # an earlier export's, replaced by none
     card = os.path.join(out, CARD)
     with outputs.atomic_write(card, encoding="utf-8") as file:
         file.write(data_card(schema, directory, command, len(paths), rows, summary,

@@ -157,11 +157,11 @@ def left(state: RowProgress, out_dir: str, states: dict, planned) -> tuple:
     alike = [run for other in states.values() for run in other.known
              if run.learner == state.learner]
     rate, source = recorded_rate(out_dir, [run for run in state.known if network(run) in shapes])
-    rates = None if rate else (progress.cpu_per_agent_step(out_dir, state.known)
-                               or progress.cpu_per_agent_step(out_dir, alike))
-    if rates:
-        rate, source = float(np.mean(list(rates.values()))), "its ledger's rate"
-    elif not rate:
+    if rate is None:
+        rates = (progress.cpu_per_agent_step(out_dir, state.known)
+                 or progress.cpu_per_agent_step(out_dir, alike))
+        rate, source = float(np.mean(list(rates.values()))) if rates else None, "its ledger's rate"
+    if rate is None:
         try:
             rate, of = compute_plan.rate(planned, state.learner, "training")
         except ValueError:
